@@ -1,0 +1,72 @@
+"""Build frozen config dataclasses from TOML tables, rejecting unknown keys and bad values."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import types
+import typing
+from pathlib import Path
+from typing import Any, TypeVar
+
+from .errors import FileFormatError
+
+T = TypeVar("T")
+
+
+def _check_value(value: Any, annotation: Any, where: str, path: Path | str) -> Any:
+    origin = typing.get_origin(annotation)
+    if origin in (typing.Union, types.UnionType):
+        args = [a for a in typing.get_args(annotation) if a is not type(None)]
+        if value is None:
+            return None
+        annotation = args[0]
+        origin = typing.get_origin(annotation)
+    if annotation is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise FileFormatError(path, f"'{where}' must be a number, got {value!r}")
+        if not math.isfinite(float(value)):
+            raise FileFormatError(path, f"'{where}' must be finite, got {value!r}")
+        return float(value)
+    if annotation is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise FileFormatError(path, f"'{where}' must be an integer, got {value!r}")
+        return value
+    if annotation is bool:
+        if not isinstance(value, bool):
+            raise FileFormatError(path, f"'{where}' must be true or false, got {value!r}")
+        return value
+    if annotation is str:
+        if not isinstance(value, str):
+            raise FileFormatError(path, f"'{where}' must be a string, got {value!r}")
+        return value
+    if origin is tuple:
+        if not isinstance(value, (list, tuple)):
+            raise FileFormatError(path, f"'{where}' must be a list, got {value!r}")
+        args = typing.get_args(annotation)
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(_check_value(v, args[0], where, path) for v in value)
+        if len(args) != len(value):
+            raise FileFormatError(path, f"'{where}' must have {len(args)} entries, got {len(value)}")
+        return tuple(_check_value(v, a, where, path) for v, a in zip(value, args, strict=True))
+    return value
+
+
+def dataclass_from_table(cls: type[T], table: dict[str, Any], where: str, path: Path | str) -> T:
+    """Make ``cls`` from a TOML table; unknown keys, wrong types and NaN fail naming the file.
+
+    Missing keys take the dataclass defaults. ``where`` names the table (e.g. ``"camera"``).
+    Validation beyond types belongs in the dataclass's ``__post_init__`` raising ``ValueError``.
+    """
+    if not isinstance(table, dict):
+        raise FileFormatError(path, f"[{where}] must be a table")
+    hints = typing.get_type_hints(cls)
+    fields = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    unknown = sorted(set(table) - fields)
+    if unknown:
+        raise FileFormatError(path, f"unknown key '{where}.{unknown[0]}'")
+    kwargs = {k: _check_value(v, hints[k], f"{where}.{k}", path) for k, v in table.items()}
+    try:
+        return cls(**kwargs)
+    except (TypeError, ValueError) as exc:
+        raise FileFormatError(path, f"[{where}] {exc}") from None

@@ -1,0 +1,16 @@
+"""Gymnasium registration of the lfd-track environments (entry points are strings)."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+
+
+def register_envs() -> None:
+    """Register ``LfDTrack-v0`` and ``LfDTrack-Hardware-v0`` once (idempotent)."""
+    registry = gym.envs.registration.registry
+    if "LfDTrack-v0" not in registry:
+        # No max_episode_steps here: the env truncates itself at its step budget, which depends
+        # on the track (3x the steps the privileged driver needs, DESIGN §3.5).
+        gym.register(id="LfDTrack-v0", entry_point="lfd_track.env:LfDTrackEnv")
+    if "LfDTrack-Hardware-v0" not in registry:
+        gym.register(id="LfDTrack-Hardware-v0", entry_point="lfd_track.hardware.env:HardwareEnv")

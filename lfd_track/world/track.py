@@ -1,0 +1,339 @@
+"""Track files and track geometry: centreline, felt strips, arc length and continuous progress.
+
+A track is a centreline polyline of straight felt strips (DESIGN §3.1). Coordinates are metres,
+x to the right and y up when seen from above; loops are listed counter-clockwise.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .._data import resolve_data_file
+from ..errors import FileFormatError
+
+#: Rover body width [m]; a track narrower than this cannot be driven.
+ROVER_WIDTH_M = 0.225
+_TRACK_KEYS = {"name", "description", "closed", "width_m", "vertices", "corners"}
+
+
+@dataclass(frozen=True)
+class Corner:
+    """A named corner of the track, at a centreline vertex."""
+
+    label: str
+    vertex: int  # index into Track.vertices (driving order)
+    s_m: float  # arc length of the vertex from the start [m]
+    turn_deg: float  # turning angle at the vertex, positive = left (counter-clockwise) [deg]
+
+
+@dataclass(frozen=True)
+class Track:
+    """A track as driven: vertices in driving order, starting at the start point.
+
+    ``vertices`` has shape (V, 2) float64 [m]. For a loop the start vertex is not repeated at the
+    end; ``segment_starts``/``segment_ends`` list the driven segments (V for a loop, V-1 if open).
+    """
+
+    name: str
+    source: str
+    vertices: np.ndarray
+    closed: bool
+    width_m: float
+    corners: tuple[Corner, ...]
+    reversed: bool = False
+
+    # ---- derived geometry -------------------------------------------------------------
+    @property
+    def segment_starts(self) -> np.ndarray:
+        """(S, 2) start points of the driven segments [m]."""
+        return self.vertices if self.closed else self.vertices[:-1]
+
+    @property
+    def segment_ends(self) -> np.ndarray:
+        """(S, 2) end points of the driven segments [m]."""
+        return np.roll(self.vertices, -1, axis=0) if self.closed else self.vertices[1:]
+
+    @property
+    def segment_lengths(self) -> np.ndarray:
+        """(S,) segment lengths [m]."""
+        return np.linalg.norm(self.segment_ends - self.segment_starts, axis=1)
+
+    @property
+    def segment_s(self) -> np.ndarray:
+        """(S,) arc length at the start of each segment [m]."""
+        return np.concatenate([[0.0], np.cumsum(self.segment_lengths)[:-1]])
+
+    @property
+    def length_m(self) -> float:
+        """Centreline length: perimeter for a loop, end-to-end length if open [m]."""
+        return float(self.segment_lengths.sum())
+
+    def strip_polygons(self) -> list[np.ndarray]:
+        """Felt strips as (4, 2) rectangles [m], counter-clockwise corners.
+
+        Each strip is extended by half the width past both of its ends, except the two ends of an
+        open track, so strips overlap at corners as laid fabric does.
+        """
+        half = self.width_m / 2.0
+        polys = []
+        n = len(self.segment_starts)
+        for i, (a, b) in enumerate(zip(self.segment_starts, self.segment_ends, strict=True)):
+            d = (b - a) / np.linalg.norm(b - a)
+            nrm = np.array([-d[1], d[0]])
+            ext_a = 0.0 if (not self.closed and i == 0) else half
+            ext_b = 0.0 if (not self.closed and i == n - 1) else half
+            a2, b2 = a - d * ext_a, b + d * ext_b
+            polys.append(np.array([a2 - nrm * half, b2 - nrm * half, b2 + nrm * half, a2 + nrm * half]))
+        return polys
+
+    def bounds(self, margin_m: float = 0.0) -> tuple[float, float, float, float]:
+        """(xmin, ymin, xmax, ymax) of the felt plus ``margin_m`` [m]."""
+        pts = np.concatenate(self.strip_polygons())
+        lo, hi = pts.min(axis=0) - margin_m, pts.max(axis=0) + margin_m
+        return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
+
+    def on_felt(self, points: np.ndarray) -> np.ndarray:
+        """Whether each of ``points`` (..., 2) [m] lies on the felt; returns bool array (...)."""
+        pts = np.asarray(points, dtype=np.float64)
+        flat = pts.reshape(-1, 2)
+        a, b = self.segment_starts, self.segment_ends
+        lengths = self.segment_lengths
+        d = (b - a) / lengths[:, None]
+        half = self.width_m / 2.0
+        n = len(a)
+        ext_a = np.full(n, half)
+        ext_b = np.full(n, half)
+        if not self.closed:
+            ext_a[0] = 0.0
+            ext_b[-1] = 0.0
+        rel = flat[:, None, :] - a[None, :, :]  # (P, S, 2)
+        along = rel[..., 0] * d[None, :, 0] + rel[..., 1] * d[None, :, 1]
+        across = -rel[..., 0] * d[None, :, 1] + rel[..., 1] * d[None, :, 0]
+        inside = (
+            (along >= -ext_a[None]) & (along <= lengths[None] + ext_b[None]) & (np.abs(across) <= half)
+        )
+        return inside.any(axis=1).reshape(pts.shape[:-1])
+
+    def point_at(self, s_m: float) -> tuple[np.ndarray, float]:
+        """Centreline point (2,) [m] and heading [rad] at arc length ``s_m`` (wrapped on loops)."""
+        length = self.length_m
+        s = s_m % length if self.closed else min(max(s_m, 0.0), length)
+        seg_s = self.segment_s
+        i = int(np.searchsorted(seg_s, s, side="right") - 1)
+        i = min(max(i, 0), len(seg_s) - 1)
+        a, b = self.segment_starts[i], self.segment_ends[i]
+        d = (b - a) / self.segment_lengths[i]
+        return a + d * (s - seg_s[i]), math.atan2(d[1], d[0])
+
+    def project(self, point: np.ndarray) -> np.ndarray:
+        """Arc length of the foot of ``point`` on every segment, and distance: (S, 2) [m]."""
+        a, b = self.segment_starts, self.segment_ends
+        lengths = self.segment_lengths
+        d = (b - a) / lengths[:, None]
+        rel = np.asarray(point, dtype=np.float64)[None, :] - a
+        t = np.clip((rel * d).sum(axis=1), 0.0, lengths)
+        foot = a + d * t[:, None]
+        dist = np.linalg.norm(np.asarray(point)[None, :] - foot, axis=1)
+        return np.stack([self.segment_s + t, dist], axis=1)
+
+
+class ProgressTracker:
+    """Continuous arc-length progress of a point moving along a track.
+
+    Progress is unwrapped (it keeps growing past the perimeter on a loop). Each update only
+    considers centreline positions within ``window_m`` of the previous progress, so a pose is never
+    snapped to a far segment that happens to be close (e.g. across the 135° corner).
+    """
+
+    def __init__(self, track: Track, start_progress_m: float = 0.0, window_m: float = 0.6) -> None:
+        self.track = track
+        self.window_m = window_m
+        self.progress_m = float(start_progress_m)
+
+    def update(self, point: np.ndarray) -> float:
+        """Advance to the progress of ``point`` (2,) [m]; returns the new progress [m]."""
+        track = self.track
+        length = track.length_m
+        proj = track.project(point)  # (S, 2): s, dist
+        s_candidates = proj[:, 0]
+        dist = proj[:, 1]
+        if track.closed:
+            # Unwrap each candidate to the lap copy nearest to the current progress.
+            k = np.round((self.progress_m - s_candidates) / length)
+            s_candidates = s_candidates + k * length
+        delta = np.abs(s_candidates - self.progress_m)
+        ok = delta <= self.window_m
+        if not ok.any():
+            # Far from everywhere we could have reached: keep the nearest candidate in arc length.
+            ok = delta <= delta.min() + 1e-9
+        best = np.argmin(np.where(ok, dist, np.inf))
+        self.progress_m = float(s_candidates[best])
+        return self.progress_m
+
+
+def _fail(path: Path | str, problem: str) -> FileFormatError:
+    return FileFormatError(path, problem)
+
+
+def _segments_intersect(p1, p2, q1, q2) -> float:
+    """Minimum distance between segments p1p2 and q1q2 (0 if they cross) [m]."""
+
+    def point_seg(p, a, b):
+        ab = b - a
+        t = np.clip(np.dot(p - a, ab) / np.dot(ab, ab), 0.0, 1.0)
+        return float(np.linalg.norm(p - (a + t * ab)))
+
+    def cross(o, a, b):
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    d1, d2 = cross(q1, q2, p1), cross(q1, q2, p2)
+    d3, d4 = cross(p1, p2, q1), cross(p1, p2, q2)
+    if ((d1 > 0) != (d2 > 0)) and ((d3 > 0) != (d4 > 0)) and d1 * d2 < 0 and d3 * d4 < 0:
+        return 0.0
+    return min(point_seg(p1, q1, q2), point_seg(p2, q1, q2), point_seg(q1, p1, p2), point_seg(q2, p1, p2))
+
+
+def parse_track(data: dict, source: Path | str) -> tuple[str, np.ndarray, bool, float, dict[str, int]]:
+    """Validate a track table; return (name, vertices (V, 2), closed, width_m, label→vertex)."""
+    unknown = sorted(set(data) - _TRACK_KEYS)
+    if unknown:
+        raise _fail(source, f"unknown key '{unknown[0]}' (allowed: {', '.join(sorted(_TRACK_KEYS))})")
+    name = data.get("name", Path(str(source)).stem)
+    if not isinstance(name, str) or not name:
+        raise _fail(source, "'name' must be a non-empty string")
+    closed = data.get("closed", False)
+    if not isinstance(closed, bool):
+        raise _fail(source, "'closed' must be true or false")
+    width = data.get("width_m", 0.30)
+    if isinstance(width, bool) or not isinstance(width, (int, float)) or not math.isfinite(width):
+        raise _fail(source, f"'width_m' must be a finite number, got {width!r}")
+    if width <= 0:
+        raise _fail(source, f"'width_m' must be > 0, got {width}")
+    if width < ROVER_WIDTH_M:
+        raise _fail(source, f"'width_m' {width} m is narrower than the rover ({ROVER_WIDTH_M} m)")
+    raw = data.get("vertices")
+    if not isinstance(raw, list) or not all(
+        isinstance(v, list) and len(v) == 2 and all(isinstance(c, (int, float)) and not isinstance(c, bool) for c in v)
+        for v in raw
+    ):
+        raise _fail(source, "'vertices' must be a list of [x, y] pairs in metres")
+    vertices = np.array(raw, dtype=np.float64).reshape(-1, 2)
+    if not np.isfinite(vertices).all():
+        raise _fail(source, "'vertices' contains NaN or infinity")
+    min_vertices = 3 if closed else 2
+    if len(vertices) < min_vertices:
+        raise _fail(source, f"a {'closed' if closed else 'open'} track needs at least {min_vertices} vertices, got {len(vertices)}")
+    if closed and np.allclose(vertices[0], vertices[-1]):
+        raise _fail(source, "closed track: do not repeat the first vertex at the end")
+    starts = vertices if closed else vertices[:-1]
+    ends = np.roll(vertices, -1, axis=0) if closed else vertices[1:]
+    lengths = np.linalg.norm(ends - starts, axis=1)
+    if (lengths < 1e-6).any():
+        raise _fail(source, f"segment {int(np.argmin(lengths))} has zero length (repeated vertex)")
+    n = len(starts)
+    for i in range(n):
+        for j in range(i + 1, n):
+            adjacent = j == i + 1 or (closed and i == 0 and j == n - 1)
+            if adjacent:
+                continue
+            gap = _segments_intersect(starts[i], ends[i], starts[j], ends[j])
+            if gap < width:
+                raise _fail(
+                    source,
+                    f"self-intersecting strips: segments {i} and {j} come within {gap:.3f} m (< width {width} m)",
+                )
+    # Adjacent strips folding back on themselves also intersect.
+    for i in range(n - (0 if closed else 1)):
+        j = (i + 1) % n
+        d1 = (ends[i] - starts[i]) / lengths[i]
+        d2 = (ends[j] - starts[j]) / lengths[j]
+        if np.dot(d1, d2) < math.cos(math.radians(170)):
+            raise _fail(source, f"self-intersecting strips: the track folds back at vertex {(i + 1) % len(vertices)}")
+    corners = data.get("corners", {})
+    if not isinstance(corners, dict):
+        raise _fail(source, "'corners' must be a table of label = vertex index")
+    label_to_vertex: dict[str, int] = {}
+    for label, idx in corners.items():
+        if isinstance(idx, bool) or not isinstance(idx, int) or not 0 <= idx < len(vertices):
+            raise _fail(source, f"corner '{label}' must name a vertex index 0..{len(vertices) - 1}, got {idx!r}")
+        if not closed and idx in (0, len(vertices) - 1):
+            raise _fail(source, f"corner '{label}' is an end vertex of an open track")
+        label_to_vertex[str(label)] = idx
+    if len(set(label_to_vertex.values())) != len(label_to_vertex):
+        raise _fail(source, "two corners name the same vertex")
+    return name, vertices, closed, float(width), label_to_vertex
+
+
+def _turn_deg(vertices: np.ndarray, idx: int, closed: bool) -> float:
+    n = len(vertices)
+    if not closed and idx in (0, n - 1):
+        return 0.0
+    a, b, c = vertices[(idx - 1) % n], vertices[idx], vertices[(idx + 1) % n]
+    d1, d2 = b - a, c - b
+    return math.degrees(math.atan2(d1[0] * d2[1] - d1[1] * d2[0], float(np.dot(d1, d2))))
+
+
+def build_track(
+    name: str,
+    vertices: np.ndarray,
+    closed: bool,
+    width_m: float,
+    label_to_vertex: dict[str, int],
+    *,
+    reverse: bool = False,
+    start_corner: str | None = None,
+    source: str = "<memory>",
+) -> Track:
+    """Make a Track in driving order from file-order geometry."""
+    verts = np.asarray(vertices, dtype=np.float64)
+    index = np.arange(len(verts))
+    if reverse:
+        verts = verts[::-1].copy()
+        index = index[::-1].copy()
+    if start_corner is not None:
+        if not closed:
+            raise ValueError(f"{source}: start_corner is only for closed tracks")
+        if start_corner not in label_to_vertex:
+            raise ValueError(f"{source}: unknown start corner '{start_corner}' (corners: {', '.join(label_to_vertex)})")
+        pos = int(np.nonzero(index == label_to_vertex[start_corner])[0][0])
+        verts = np.roll(verts, -pos, axis=0)
+        index = np.roll(index, -pos)
+    track = Track(name=name, source=source, vertices=verts, closed=closed, width_m=width_m, corners=(), reversed=reverse)
+    seg_s = np.concatenate([track.segment_s, [track.length_m]])
+    corners = []
+    for label, file_idx in label_to_vertex.items():
+        drive_idx = int(np.nonzero(index == file_idx)[0][0])
+        s = float(seg_s[drive_idx])
+        if closed and drive_idx == 0:
+            s = track.length_m  # the start corner is met at the end of the lap
+        corners.append(Corner(label, drive_idx, s, _turn_deg(verts, drive_idx, closed)))
+    corners.sort(key=lambda c: c.s_m)
+    return Track(
+        name=name, source=source, vertices=verts, closed=closed, width_m=width_m,
+        corners=tuple(corners), reversed=reverse,
+    )
+
+
+def load_track(name_or_path: str | Path, *, reverse: bool = False, start_corner: str | None = None) -> Track:
+    """Load a shipped track by name (``"testing"``) or a track TOML file, in driving order.
+
+    Raises FileFormatError (one line naming the file and the problem) for malformed files.
+    """
+    path = resolve_data_file("tracks", name_or_path)
+    try:
+        with open(path, "rb") as fh:
+            data = tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise FileFormatError(path, f"not valid TOML ({exc})") from None
+    except OSError as exc:
+        raise FileFormatError(path, f"cannot read ({exc.strerror})") from None
+    name, vertices, closed, width, corners = parse_track(data, path)
+    try:
+        return build_track(name, vertices, closed, width, corners, reverse=reverse, start_corner=start_corner, source=str(path))
+    except ValueError as exc:
+        raise FileFormatError(path, str(exc).split(": ", 1)[-1]) from None
