@@ -293,8 +293,10 @@ def build_track(
     verts = np.asarray(vertices, dtype=np.float64)
     index = np.arange(len(verts))
     if reverse:
-        verts = verts[::-1].copy()
-        index = index[::-1].copy()
+        # A reversed loop keeps its file start vertex first; an open track starts at its far end.
+        shift = 1 if closed else 0
+        verts = np.roll(verts[::-1], shift, axis=0)
+        index = np.roll(index[::-1], shift)
     if start_corner is not None:
         if not closed:
             raise ValueError(f"{source}: start_corner is only for closed tracks")

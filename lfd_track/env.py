@@ -1,0 +1,238 @@
+"""The simulated felt-track world as a Gymnasium environment: ``LfDTrack-v0``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from .commands import Command
+from .presets import Preset, load_preset
+from .render.camera import CameraModel, CameraRenderer, safe_box_floor_polygon
+from .render.texture import GroundTexture, build_ground
+from .render.topdown import draw_topdown
+from .world.episode import OFF_TRACK, EpisodeTracker, reference_step_count
+from .world.rover import Rover
+from .world.track import Track, load_track
+
+#: Step budget per episode as a multiple of the commands an ideal driver needs (DESIGN §3.5).
+BUDGET_FACTOR = 3.0
+
+
+class LfDTrackEnv(gym.Env):
+    """A tracked rover with a phone camera on a light-blue felt trail laid on brown carpet.
+
+    ## Description
+    The world of the paper *Learning from Demonstration for Encapsulated Evolution of Robotic
+    Controllers*: a Rover 5 tank chassis (pymunk, skid-steer treads) drives on felt strips; a phone
+    camera 0.31 m above the floor, pitched 30° down, sees 0.25–1.84 m ahead. The agent sees only the
+    camera image and chooses one of the paper's three discrete commands, each held for one control
+    period (0.4 s by default).
+
+    ## Action Space
+    ``Discrete(3)``:
+
+    | Num | Action  | Effect (paper calibration)                  |
+    |-----|---------|---------------------------------------------|
+    | 0   | forward | both treads forward, ≈ 0.10 m per command   |
+    | 1   | left    | pivot counter-clockwise, ≈ 23° per command  |
+    | 2   | right   | pivot clockwise, ≈ 23° per command          |
+
+    ## Observation Space
+    ``Box(0, 255, (480, 640, 3), uint8)``: the phone camera's RGB frame (rows top to bottom).
+
+    | Property     | Value                                                         |
+    |--------------|---------------------------------------------------------------|
+    | resolution   | 640 × 480, vertical FOV 41°, horizontal ≈ 53°                |
+    | mount        | 0.31 m above the pivot centre, pitched 30° down               |
+    | floor seen   | bottom row ≈ 0.25 m ahead, top row ≈ 1.84 m ahead            |
+    | effects      | auto-exposure with lag, white-balance jitter, noise, vignette |
+
+    ## Rewards
+    Progress in metres along the centreline since the last step (negative when going back), and
+    −1 on failure.
+
+    ## Starting State
+    On the centreline at the start, facing the driving direction: for a loop on its start corner
+    (``start_corner``, default the file's first vertex — corner 4 of the testing track), for an
+    open track ``episode.start_offset_m`` from its first end. Textures, lighting, exposure and motor
+    asymmetry are drawn from the seed.
+
+    ## Episode End
+    Terminated on success (every corner negotiated and the end reached: open track within 0.40 m
+    of the far end; loop back across the start) or failure (``"reversed"``: progress fell more than
+    0.30 m below its maximum; ``"off_track"``: both treads completely off the felt). Truncated after
+    ``max_steps`` commands (default 3× the commands an ideal driver needs, pivots included).
+
+    ## Info
+    ``pose`` (x, y, theta), ``progress_m``, ``lap_fraction``, ``corners_reached`` and
+    ``corners_negotiated`` (labels in the order met), ``on_felt`` (left, right tread),
+    ``failure`` (None, ``"reversed"`` or ``"off_track"``), ``failed_corner``, ``success``,
+    ``safe_box_on_felt``, ``step``, ``max_steps``.
+
+    ## Arguments
+    ``gym.make("LfDTrack-v0", track="testing", reverse=False, start_corner=None, preset="paper",
+    render_mode=None, max_steps=None)``
+
+    * ``track``: shipped track name (``testing``, ``training``, ``sbend``) or a path to a TOML file.
+    * ``reverse``: drive the track against its file order (testing: clockwise; training:
+      direction 2).
+    * ``start_corner``: label of the corner to start on (loops only).
+    * ``preset``: ``paper`` (default), ``randomized`` or a path to a preset TOML file.
+    * ``render_mode``: ``"rgb_array"`` returns a top-down picture (track, rover, camera footprint,
+      trajectory).
+    * ``max_steps``: override the step budget.
+
+    ## Version History
+    * v0: initial release.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    def __init__(
+        self,
+        track: str | Path = "testing",
+        reverse: bool = False,
+        start_corner: str | None = None,
+        preset: str | Path | Preset = "paper",
+        render_mode: str | None = None,
+        max_steps: int | None = None,
+    ) -> None:
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None")
+        self.render_mode = render_mode
+        self.track: Track = load_track(track, reverse=reverse, start_corner=start_corner)
+        self.base_preset: Preset = preset if isinstance(preset, Preset) else load_preset(preset)
+        self.preset = self.base_preset
+        cam = self.preset.camera
+        self.observation_space = spaces.Box(0, 255, (cam.height_px, cam.width_px, 3), np.uint8)
+        self.action_space = spaces.Discrete(3)
+        rover_cfg = self.preset.rover
+        ideal = reference_step_count(
+            self.track,
+            rover_cfg.forward_speed_mps * rover_cfg.control_period_s,
+            rover_cfg.pivot_rate_radps * rover_cfg.control_period_s,
+        )
+        self.max_steps = int(max_steps) if max_steps is not None else int(BUDGET_FACTOR * ideal)
+        self.episode = EpisodeTracker(self.track, self.preset.episode)
+        self._ground: GroundTexture | None = None
+        self._rover: Rover | None = None
+        self._renderer: CameraRenderer | None = None
+        self._camera_model: CameraModel | None = None
+        self._physics_rng: np.random.Generator | None = None
+        self._sensor_rng: np.random.Generator | None = None
+        self._trajectory: list[np.ndarray] = []
+        self._steps = 0
+        self._last_pose = np.zeros(3)
+        self._frame: np.ndarray | None = None
+
+    # ------------------------------------------------------------------------------------
+    def _build_world(self, world_rng: np.random.Generator) -> None:
+        preset = self.preset
+        self._ground = build_ground(self.track, preset.appearance, preset.lighting, world_rng)
+        self._rover = Rover(preset.rover)
+        self._renderer = CameraRenderer(preset.camera, preset.sensor)
+        self._camera_model = CameraModel(preset.camera)
+
+    def _tread_on_felt(self) -> tuple[bool, bool]:
+        on = self.track.on_felt(self._rover.tread_points())  # (2, K)
+        return bool(on[0].any()), bool(on[1].any())
+
+    def _safe_box_on_felt(self, pose: np.ndarray) -> bool:
+        polygon = safe_box_floor_polygon(self._camera_model, pose)
+        return bool(self.track.on_felt(polygon).all())
+
+    def _info(self) -> dict[str, Any]:
+        st = self.episode.state
+        pose = self._last_pose
+        return {
+            "pose": (float(pose[0]), float(pose[1]), float(pose[2])),
+            "progress_m": st.progress_m,
+            "lap_fraction": self.episode.lap_fraction(),
+            "corners_reached": list(st.corners_reached),
+            "corners_negotiated": list(st.corners_negotiated),
+            "on_felt": st.on_felt,
+            "failure": st.failure,
+            "failed_corner": self.episode.failed_corner,
+            "success": st.success,
+            "safe_box_on_felt": self._safe_box_on_felt(pose),
+            "step": self._steps,
+            "max_steps": self.max_steps,
+        }
+
+    # ------------------------------------------------------------------------------------
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Start an episode. ``options`` may hold ``pose`` (x, y, theta) to start elsewhere."""
+        super().reset(seed=seed)
+        # Independent streams so that, e.g., changing sensor noise never changes the physics.
+        world_rng, physics_rng, sensor_rng = self.np_random.spawn(3)
+        rebuild = self._ground is None or seed is not None or self.base_preset.randomized
+        if rebuild:
+            self.preset = self.base_preset.sample(world_rng)
+            self._build_world(world_rng)
+        self._physics_rng, self._sensor_rng = physics_rng, sensor_rng
+        pose = self.episode.start_pose()
+        if options and "pose" in options:
+            pose = np.asarray(options["pose"], dtype=np.float64).reshape(3)
+        self._rover.reset(tuple(pose), physics_rng)
+        self._renderer.reset(sensor_rng)
+        self._last_pose = self._rover.pose.copy()
+        self._steps = 0
+        self.episode.reset(self._last_pose, self._tread_on_felt())
+        self._trajectory = [self._last_pose[:2].copy()]
+        self._frame = self._renderer.render(self._ground, self._last_pose, sensor_rng)
+        return self._frame, self._info()
+
+    def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        if self._rover is None:
+            raise RuntimeError("call reset() before step()")
+        if not self.action_space.contains(action):
+            raise ValueError(f"invalid action {action!r}: expected 0 (forward), 1 (left) or 2 (right)")
+        before = self.episode.state.progress_m
+        previous_pose = self._last_pose
+        self._rover.step(int(Command(int(action))), self._physics_rng)
+        self._last_pose = self._rover.pose.copy()
+        self._steps += 1
+        st = self.episode.update(self._last_pose, self._tread_on_felt())
+        self._trajectory.append(self._last_pose[:2].copy())
+        motion = self._last_pose - previous_pose
+        self._frame = self._renderer.render(self._ground, self._last_pose, self._sensor_rng, motion)
+        reward = st.progress_m - before
+        if st.failure is not None:
+            reward -= 1.0
+        terminated = st.failure is not None or st.success
+        truncated = not terminated and self._steps >= self.max_steps
+        return self._frame, float(reward), terminated, truncated, self._info()
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode != "rgb_array":
+            return None
+        if self._rover is None:
+            return draw_topdown(self.track)
+        return draw_topdown(
+            self.track,
+            pose=self._last_pose,
+            trajectory=np.asarray(self._trajectory),
+            footprint=self._camera_model.footprint(self._last_pose),
+        )
+
+    # Convenience for drivers, demonstrators and tests (privileged state, not an observation).
+    @property
+    def rover_pose(self) -> np.ndarray:
+        """Current (x, y, theta) of the rover [m, m, rad]."""
+        return self._last_pose.copy()
+
+    @property
+    def camera_frame(self) -> np.ndarray | None:
+        """The latest rendered camera frame (same array as the last observation)."""
+        return self._frame
+
+    @property
+    def off_track(self) -> bool:
+        """Whether the episode ended with both treads off the felt."""
+        return self.episode.state.failure == OFF_TRACK
