@@ -1,0 +1,595 @@
+"""Demonstration datasets on disk: an append-only, crash-safe record log (``.lfdemo``).
+
+A demonstration is the sequence of *cases* a demonstrator recorded: the command it gave, the 40
+road values computed at that moment with the record-time library, and the 40 x 5 x bins region
+histograms those values came from (kept so the values can be recomputed with another library).
+
+File layout (all integers little-endian)::
+
+    magic      8 bytes  b"\\x89LFDEMO\\n"   (binary-safe, catches text-mode transfers)
+    record*    kind u8 | length u32 | crc32 u32 | payload[length]
+
+The CRC-32 covers kind, length and payload. Records, in order:
+
+- ``H`` header, once, first: UTF-8 JSON ``{"format", "schema", "bins", "n_values", "n_channels",
+  "metadata"}``.
+- ``C`` case, one per ``append``: ``step i64 | command u8 | learned u8 | phase_len u16 |
+  x, y, theta, progress_m f64 | phase utf-8 | road_values 40 f64 | histograms 40*5*bins f32``.
+- ``F`` footer, once, last, written by ``close``: UTF-8 JSON of the final metadata (the
+  record-time road library snapshot, counts).
+
+Why a log rather than ``.npz``: each case is one ``write`` of one record on an unbuffered file
+(and by default ``fsync``-ed), so a killed recorder loses at most the case being written, and
+appending stays O(1) per case where rewriting an archive per case would be O(N^2).
+
+Loading reads records until end of file. A record cut short at the end of the file, or a
+complete last record whose CRC fails (a filesystem may extend a file before the data lands), is a
+*torn tail*: it is dropped and reported (``metadata["complete"] = False``,
+``metadata["torn_tail_bytes"]``). A file without a footer is likewise ``complete = False`` but every
+case in it is returned. Anything else — bad magic, unknown schema, a truncated or corrupt header,
+a corrupt record with data after it, a length no record of its kind can have, data after the
+footer, values out of range — raises :class:`lfd_track.errors.FileFormatError` with one line
+naming the file and the problem.
+
+JSON metadata must be JSON-friendly (no NaN); tuples come back as lists.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import struct
+import zlib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..atomic import atomic_write_bytes
+from ..commands import Command
+from ..errors import FileFormatError
+
+SCHEMA_VERSION = 1
+"""Version of the record layout; bumped on any incompatible change."""
+FILE_EXTENSION = ".lfdemo"
+FORMAT_NAME = "lfd-track demonstration"
+N_VALUES = 40  # 8 x 5 image regions
+N_CHANNELS = 5  # R, G, B, H, S histograms per region
+DEFAULT_BINS = 32
+
+_MAGIC = b"\x89LFDEMO\n"
+_FRAME = struct.Struct("<BII")  # kind, payload length, crc32
+_CASE_FIXED = struct.Struct("<qBBH4d")  # step, command, learned, phase length, x, y, theta, s
+_KIND_HEADER = ord("H")
+_KIND_CASE = ord("C")
+_KIND_FOOTER = ord("F")
+_MAX_JSON_BYTES = 1 << 28  # generous bound for header/footer (a road library is ~1 MB of JSON)
+_MAX_PHASE_BYTES = 255
+_VALUE_TOLERANCE = 1e-6  # road values are correlations; allow float rounding past +-1
+# Keys the loader derives; stored metadata never overrides them.
+_DERIVED_KEYS = ("complete", "n_cases", "counts", "torn_tail_bytes", "schema_version", "bins")
+
+
+@dataclass(frozen=True, eq=False)
+class Demonstration:
+    """A loaded demonstration; arrays are read-only, one row per recorded case."""
+
+    commands: np.ndarray
+    """(N,) int8 — 0 forward, 1 left, 2 right."""
+    road_values: np.ndarray
+    """(N, 40) float64 — record-time road values, row-major from the top-left region."""
+    histograms: np.ndarray
+    """(N, 40, 5, bins) float32 — region histograms (R, G, B, H, S) the values came from."""
+    poses: np.ndarray
+    """(N, 3) float64 — (x [m], y [m], theta [rad]) when known (simulation), else NaN."""
+    progress_m: np.ndarray
+    """(N,) float64 — progress along the driven centreline [m]; NaN on hardware."""
+    phases: np.ndarray
+    """(N,) str — phase label, e.g. "library_only", "drive", "turnaround"."""
+    learned: np.ndarray
+    """(N,) bool — whether the road library learned from this frame."""
+    steps: np.ndarray
+    """(N,) int64 — the recorder's step index of each case."""
+    metadata: dict[str, Any] = field(default_factory=dict)
+    """File-level metadata: header metadata, footer metadata and derived keys (see module doc)."""
+
+    @property
+    def n_cases(self) -> int:
+        """Number of recorded cases."""
+        return int(self.commands.shape[0])
+
+    @property
+    def bins(self) -> int:
+        """Histogram bins per channel."""
+        return int(self.histograms.shape[-1])
+
+    @property
+    def command_counts(self) -> dict[str, int]:
+        """Cases per command, keyed by lower-case command name (forward, left, right)."""
+        counts = np.bincount(self.commands.astype(np.int64), minlength=len(Command))
+        return {c.name.lower(): int(counts[c]) for c in Command}
+
+
+# --------------------------------------------------------------------------- encoding
+
+
+def _frame(kind: int, payload: bytes) -> bytes:
+    head = struct.pack("<BI", kind, len(payload))
+    crc = zlib.crc32(payload, zlib.crc32(head))
+    return _FRAME.pack(kind, len(payload), crc) + payload
+
+
+def _json_bytes(obj: Any, what: str) -> bytes:
+    try:
+        text = json.dumps(obj, allow_nan=False, sort_keys=True, separators=(",", ":"))
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{what} is not JSON-friendly: {exc}") from None
+    return text.encode("utf-8")
+
+
+def _header_record(metadata: Mapping[str, Any], bins: int) -> bytes:
+    from .. import __version__
+
+    meta = dict(metadata)
+    meta.setdefault("created_by", f"lfd-track {__version__}")
+    header = {
+        "format": FORMAT_NAME,
+        "schema": SCHEMA_VERSION,
+        "bins": bins,
+        "n_values": N_VALUES,
+        "n_channels": N_CHANNELS,
+        "metadata": meta,
+    }
+    return _frame(_KIND_HEADER, _json_bytes(header, "demonstration metadata"))
+
+
+def _footer_record(final_metadata: Mapping[str, Any], counts: dict[str, int], n: int) -> bytes:
+    footer = dict(final_metadata)
+    footer["n_cases"] = n
+    footer["counts"] = counts
+    return _frame(_KIND_FOOTER, _json_bytes(footer, "final metadata"))
+
+
+def _case_record(
+    bins: int,
+    step: int,
+    command: int,
+    road_values: np.ndarray,
+    histograms: np.ndarray,
+    pose: Any,
+    progress_m: float | None,
+    phase: str,
+    learned: bool,
+) -> bytes:
+    """Validate one case and encode it as a ``C`` record (raises ValueError on bad input)."""
+    if int(command) not in (0, 1, 2) or int(command) != command:
+        raise ValueError(f"command must be 0, 1 or 2, got {command!r}")
+    values = np.asarray(road_values, dtype=np.float64)
+    if values.shape != (N_VALUES,):
+        raise ValueError(f"road_values must have shape ({N_VALUES},), got {values.shape}")
+    problem = _road_value_problem(values)
+    if problem:
+        raise ValueError(problem)
+    hists = np.asarray(histograms)
+    if hists.shape != (N_VALUES, N_CHANNELS, bins):
+        raise ValueError(
+            f"region_histograms must have shape ({N_VALUES}, {N_CHANNELS}, {bins}), "
+            f"got {hists.shape}"
+        )
+    hists = hists.astype("<f4", copy=False)
+    if not np.isfinite(hists).all():
+        raise ValueError("region_histograms contain NaN or infinity")
+    xyt = (math.nan,) * 3 if pose is None else tuple(float(v) for v in pose)
+    if len(xyt) != 3:
+        raise ValueError(f"pose must be (x, y, theta), got {pose!r}")
+    s = math.nan if progress_m is None else float(progress_m)
+    phase_bytes = str(phase).encode("utf-8")
+    if not phase_bytes or len(phase_bytes) > _MAX_PHASE_BYTES:
+        raise ValueError(f"phase label must be 1..{_MAX_PHASE_BYTES} UTF-8 bytes, got {phase!r}")
+    fixed = _CASE_FIXED.pack(
+        int(step), int(command), 1 if learned else 0, len(phase_bytes), *xyt, s
+    )
+    payload = b"".join(
+        (fixed, phase_bytes, values.astype("<f8", copy=False).tobytes(), hists.tobytes())
+    )
+    return _frame(_KIND_CASE, payload)
+
+
+def _road_value_problem(values: np.ndarray) -> str:
+    if not np.isfinite(values).all():
+        return "road values contain NaN or infinity"
+    worst = float(np.max(np.abs(values))) if values.size else 0.0
+    if worst > 1.0 + _VALUE_TOLERANCE:
+        return f"road value {worst:.6g} outside [-1, 1]"
+    return ""
+
+
+def _max_case_length(bins: int) -> int:
+    return _CASE_FIXED.size + _MAX_PHASE_BYTES + 8 * N_VALUES + 4 * N_VALUES * N_CHANNELS * bins
+
+
+def _counts(commands: list[int] | np.ndarray) -> dict[str, int]:
+    counts = np.bincount(np.asarray(commands, dtype=np.int64), minlength=len(Command))
+    return {c.name.lower(): int(counts[c]) for c in Command}
+
+
+def _check_bins(bins: int) -> int:
+    if isinstance(bins, bool) or int(bins) != bins or not 1 <= int(bins) <= 256:
+        raise ValueError(f"bins must be an integer in 1..256, got {bins!r}")
+    return int(bins)
+
+
+# --------------------------------------------------------------------------- writing
+
+
+class DemonstrationWriter:
+    """Record a demonstration case by case into a crash-safe ``.lfdemo`` log.
+
+    Use as a context manager. Leaving the ``with`` block normally writes the footer; leaving it
+    through an exception closes the file without one, so it loads as ``complete = False`` with
+    every case appended so far.
+
+    Args:
+        path: file to create.
+        metadata: JSON-friendly file metadata (track name, seed, demonstrator config, ...).
+        bins: histogram bins per channel.
+        fsync: ``fsync`` after every case, so cases also survive a power cut (a killed process
+            loses nothing already appended either way, because writes are unbuffered).
+        overwrite: replace an existing file instead of refusing.
+    """
+
+    def __init__(
+        self,
+        path: str | Path,
+        metadata: Mapping[str, Any],
+        bins: int = DEFAULT_BINS,
+        *,
+        fsync: bool = True,
+        overwrite: bool = False,
+    ) -> None:
+        self.path = Path(path)
+        self.bins = _check_bins(bins)
+        self._fsync = fsync
+        self._commands: list[int] = []
+        header = _header_record(metadata, self.bins)
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        # Unbuffered: each record reaches the kernel in one write() call, so SIGKILL cannot
+        # leave a record half in a user-space buffer.
+        self._file = open(self.path, "wb" if overwrite else "xb", buffering=0)  # noqa: SIM115
+        try:
+            self._write(_MAGIC + header)
+            self._sync_directory()
+        except BaseException:
+            self._file.close()
+            raise
+
+    @property
+    def n_cases(self) -> int:
+        """Cases appended so far."""
+        return len(self._commands)
+
+    @property
+    def closed(self) -> bool:
+        """True once ``close`` ran (or the file was abandoned after an error)."""
+        return self._file.closed
+
+    def append(
+        self,
+        command: int,
+        road_values: np.ndarray,
+        region_histograms: np.ndarray,
+        *,
+        pose: tuple[float, float, float] | np.ndarray | None = None,
+        progress_m: float | None = None,
+        phase: str = "drive",
+        learned: bool = False,
+        step: int | None = None,
+    ) -> None:
+        """Append one case and make it durable before returning.
+
+        Args:
+            command: 0 forward, 1 left, 2 right.
+            road_values: (40,) float — values in [-1, 1], stored as float64.
+            region_histograms: (40, 5, bins) float — stored as float32.
+            pose: (x [m], y [m], theta [rad]) if known, else None (stored as NaN).
+            progress_m: progress along the centreline [m], None if unknown (stored as NaN).
+            phase: phase label, e.g. "library_only", "drive", "turnaround".
+            learned: whether the road library learned from this frame.
+            step: recorder step index; defaults to the number of cases appended before.
+        """
+        if self._file.closed:
+            raise ValueError(f"{self.path}: demonstration writer is closed")
+        index = len(self._commands) if step is None else int(step)
+        record = _case_record(
+            self.bins,
+            index,
+            command,
+            road_values,
+            region_histograms,
+            pose,
+            progress_m,
+            phase,
+            learned,
+        )
+        self._write(record)
+        self._commands.append(int(command))
+
+    def close(self, final_metadata: Mapping[str, Any] | None = None) -> None:
+        """Write the footer (final metadata, e.g. the road library snapshot, plus counts)."""
+        if self._file.closed:
+            return
+        try:
+            footer = _footer_record(final_metadata or {}, _counts(self._commands), self.n_cases)
+            self._write(footer)
+        finally:
+            self._file.close()
+
+    def abandon(self) -> None:
+        """Close without a footer: the file will load as an interrupted recording."""
+        if not self._file.closed:
+            self._file.close()
+
+    def _write(self, data: bytes) -> None:
+        view = memoryview(data)
+        while view:  # a raw write may be partial (signals, pipes); finish the record
+            written = self._file.write(view)
+            view = view[written:]
+        if self._fsync:
+            os.fsync(self._file.fileno())
+
+    def _sync_directory(self) -> None:
+        # Make the new directory entry durable too, or a power cut could lose the whole file.
+        if not self._fsync or os.name != "posix":
+            return
+        fd = os.open(self.path.parent, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+    def __enter__(self) -> DemonstrationWriter:
+        return self
+
+    def __exit__(self, exc_type: object, exc: object, tb: object) -> None:
+        if exc_type is None:
+            self.close()
+        else:
+            self.abandon()
+
+
+def save_demonstration(path: str | Path, demonstration: Demonstration) -> None:
+    """Write ``demonstration`` as a complete ``.lfdemo`` file atomically (convert or copy)."""
+    demo = demonstration
+    bins = _check_bins(demo.bins)
+    # Everything goes in the header; the loader merges header and footer, so the view is the same.
+    meta = {k: v for k, v in demo.metadata.items() if k not in _DERIVED_KEYS}
+    parts = [_MAGIC, _header_record(meta, bins)]
+    for i in range(demo.n_cases):
+        parts.append(
+            _case_record(
+                bins,
+                int(demo.steps[i]),
+                int(demo.commands[i]),
+                demo.road_values[i],
+                demo.histograms[i],
+                demo.poses[i],
+                float(demo.progress_m[i]),
+                str(demo.phases[i]),
+                bool(demo.learned[i]),
+            )
+        )
+    parts.append(_footer_record({}, _counts(demo.commands), demo.n_cases))
+    atomic_write_bytes(path, b"".join(parts))
+
+
+# --------------------------------------------------------------------------- reading
+
+
+def load_demonstration(path: str | Path) -> Demonstration:
+    """Load a ``.lfdemo`` file, keeping every intact case of an interrupted recording.
+
+    The returned metadata is the header metadata updated with the footer's (e.g. the
+    ``"road_library"`` snapshot passed to ``close``), plus derived keys ``schema_version``,
+    ``bins``, ``n_cases``, ``counts``, ``complete`` and ``torn_tail_bytes``.
+
+    Raises:
+        FileFormatError: one line naming the file and the problem.
+    """
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise FileFormatError(path, f"cannot read demonstration: {exc.strerror or exc}") from None
+    return _parse(path, memoryview(data))
+
+
+def _fail(path: Path, problem: str) -> FileFormatError:
+    return FileFormatError(path, problem)
+
+
+def _parse(path: Path, data: memoryview) -> Demonstration:
+    size = len(data)
+    if size == 0:
+        raise _fail(path, "empty file (the recording never wrote its header)")
+    if size < len(_MAGIC) or bytes(data[: len(_MAGIC)]) != _MAGIC:
+        if bytes(data[: len(_MAGIC)]) == _MAGIC[:size]:
+            raise _fail(path, "truncated header")
+        raise _fail(path, f"not a demonstration file (bad magic; expected a {FILE_EXTENSION} log)")
+    offset = len(_MAGIC)
+
+    # Header: must be whole and intact, or nothing in the file can be interpreted.
+    if size - offset < _FRAME.size:
+        raise _fail(path, "truncated header")
+    kind, length, crc = _FRAME.unpack_from(data, offset)
+    if kind != _KIND_HEADER:
+        raise _fail(path, "first record is not a header")
+    if length > _MAX_JSON_BYTES:
+        raise _fail(path, f"header length {length} is not plausible (corrupt file)")
+    end = offset + _FRAME.size + length
+    if end > size:
+        raise _fail(path, "truncated header")
+    payload = data[offset + _FRAME.size : end]
+    if not _crc_ok(kind, payload, crc):
+        raise _fail(path, "header record is corrupt (CRC mismatch)")
+    header = _parse_json(path, payload, "header")
+    bins, user_meta = _check_header(path, header)
+    offset = end
+
+    max_case = _max_case_length(bins)
+    cases: list[tuple[Any, ...]] = []
+    footer: dict[str, Any] | None = None
+    torn = 0
+    while offset < size:
+        start = offset
+        if footer is not None:
+            raise _fail(path, f"data after the footer at byte {start}")
+        if size - offset < _FRAME.size:
+            torn = size - start
+            break
+        kind, length, crc = _FRAME.unpack_from(data, offset)
+        limit = {_KIND_CASE: max_case, _KIND_FOOTER: _MAX_JSON_BYTES}.get(kind)
+        if limit is None or length > limit:
+            if not any(data[start:]):  # zero fill a filesystem left past the last write
+                torn = size - start
+                break
+            if limit is None:
+                raise _fail(path, f"unknown record kind {kind} at byte {start} (corrupt file)")
+            raise _fail(path, f"record at byte {start} has impossible length {length} (corrupt)")
+        end = offset + _FRAME.size + length
+        if end > size:
+            torn = size - start
+            break
+        payload = data[offset + _FRAME.size : end]
+        if not _crc_ok(kind, payload, crc):
+            if end == size:  # a last record whose bytes never fully landed
+                torn = size - start
+                break
+            raise _fail(path, f"record at byte {start} is corrupt (CRC mismatch)")
+        if kind == _KIND_CASE:
+            cases.append(_decode_case(path, payload, bins, len(cases)))
+        else:
+            footer = _parse_json(path, payload, "footer")
+        offset = end
+
+    return _assemble(path, cases, bins, user_meta, footer, torn)
+
+
+def _crc_ok(kind: int, payload: memoryview, crc: int) -> bool:
+    head = struct.pack("<BI", kind, len(payload))
+    return zlib.crc32(payload, zlib.crc32(head)) == crc
+
+
+def _parse_json(path: Path, payload: memoryview, what: str) -> dict[str, Any]:
+    try:
+        obj = json.loads(bytes(payload).decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise _fail(path, f"{what} is not valid JSON: {exc}") from None
+    if not isinstance(obj, dict):
+        raise _fail(path, f"{what} must be a JSON object")
+    return obj
+
+
+def _check_header(path: Path, header: dict[str, Any]) -> tuple[int, dict[str, Any]]:
+    if header.get("format") != FORMAT_NAME:
+        raise _fail(path, f"header format is {header.get('format')!r}, expected {FORMAT_NAME!r}")
+    schema = header.get("schema")
+    if schema != SCHEMA_VERSION:
+        raise _fail(
+            path, f"unsupported schema version {schema!r} (this lfd-track reads {SCHEMA_VERSION})"
+        )
+    if header.get("n_values") != N_VALUES or header.get("n_channels") != N_CHANNELS:
+        raise _fail(
+            path,
+            f"header declares {header.get('n_values')!r} values x {header.get('n_channels')!r} "
+            f"channels, expected {N_VALUES} x {N_CHANNELS}",
+        )
+    bins = header.get("bins")
+    if not isinstance(bins, int) or isinstance(bins, bool) or not 1 <= bins <= 256:
+        raise _fail(path, f"header bins must be an integer in 1..256, got {bins!r}")
+    meta = header.get("metadata")
+    if not isinstance(meta, dict):
+        raise _fail(path, "header metadata must be a JSON object")
+    return bins, meta
+
+
+def _decode_case(path: Path, payload: memoryview, bins: int, index: int) -> tuple[Any, ...]:
+    where = f"case {index}"
+    if len(payload) < _CASE_FIXED.size:
+        raise _fail(path, f"{where}: record too short")
+    step, command, learned, phase_len, x, y, theta, s = _CASE_FIXED.unpack_from(payload, 0)
+    expected = _CASE_FIXED.size + phase_len + 8 * N_VALUES + 4 * N_VALUES * N_CHANNELS * bins
+    if len(payload) != expected:
+        raise _fail(
+            path, f"{where}: record is {len(payload)} bytes, expected {expected} for {bins} bins"
+        )
+    if command not in (0, 1, 2):
+        raise _fail(path, f"{where}: command {command} is not 0, 1 or 2")
+    if learned not in (0, 1):
+        raise _fail(path, f"{where}: learned flag {learned} is not 0 or 1")
+    pos = _CASE_FIXED.size
+    try:
+        phase = bytes(payload[pos : pos + phase_len]).decode("utf-8")
+    except UnicodeDecodeError:
+        raise _fail(path, f"{where}: phase label is not UTF-8") from None
+    pos += phase_len
+    values = np.frombuffer(payload, dtype="<f8", count=N_VALUES, offset=pos)
+    pos += 8 * N_VALUES
+    hists = np.frombuffer(payload, dtype="<f4", count=N_VALUES * N_CHANNELS * bins, offset=pos)
+    problem = _road_value_problem(values)
+    if problem:
+        raise _fail(path, f"{where}: {problem}")
+    if not np.isfinite(hists).all():
+        raise _fail(path, f"{where}: region histograms contain NaN or infinity")
+    return step, command, bool(learned), (x, y, theta), s, phase, values, hists
+
+
+def _assemble(
+    path: Path,
+    cases: list[tuple[Any, ...]],
+    bins: int,
+    user_meta: dict[str, Any],
+    footer: dict[str, Any] | None,
+    torn: int,
+) -> Demonstration:
+    n = len(cases)
+    commands = np.array([c[1] for c in cases], dtype=np.int8)
+    if footer is not None and footer.get("n_cases") != n:
+        raise _fail(path, f"footer says {footer.get('n_cases')!r} cases but the file holds {n}")
+    meta = {k: v for k, v in user_meta.items() if k not in _DERIVED_KEYS}
+    if footer is not None:
+        # Footer keys (e.g. the end-of-recording road library) join the header's; footer wins.
+        meta.update((k, v) for k, v in footer.items() if k not in _DERIVED_KEYS)
+    meta.update(
+        schema_version=SCHEMA_VERSION,
+        bins=bins,
+        n_cases=n,
+        counts=_counts(commands),
+        complete=footer is not None,
+        torn_tail_bytes=torn,
+    )
+    arrays = {
+        "commands": commands,
+        "road_values": (
+            np.stack([c[6] for c in cases]).astype(np.float64)
+            if n
+            else np.zeros((0, N_VALUES), np.float64)
+        ),
+        "histograms": (
+            np.stack([c[7] for c in cases])
+            .astype(np.float32)
+            .reshape(n, N_VALUES, N_CHANNELS, bins)
+            if n
+            else np.zeros((0, N_VALUES, N_CHANNELS, bins), np.float32)
+        ),
+        "poses": np.array([c[3] for c in cases], dtype=np.float64).reshape(n, 3),
+        "progress_m": np.array([c[4] for c in cases], dtype=np.float64),
+        "phases": np.array([c[5] for c in cases], dtype=str),
+        "learned": np.array([c[2] for c in cases], dtype=bool),
+        "steps": np.array([c[0] for c in cases], dtype=np.int64),
+    }
+    for arr in arrays.values():
+        arr.flags.writeable = False
+    return Demonstration(metadata=meta, **arrays)
