@@ -1,0 +1,336 @@
+"""Demonstration file format: round trip, crash safety and rejection of damaged files."""
+
+from __future__ import annotations
+
+import os
+import signal
+import struct
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lfd_track.demo.dataset import (
+    SCHEMA_VERSION,
+    Demonstration,
+    DemonstrationWriter,
+    load_demonstration,
+    save_demonstration,
+)
+from lfd_track.errors import FileFormatError
+
+BINS = 8
+MAGIC_LEN = 8
+FRAME_LEN = 9  # kind u8, length u32, crc u32
+
+
+def _case(rng: np.random.Generator, bins: int = BINS):
+    values = rng.uniform(-1.0, 1.0, 40)
+    values[0] = 1.0  # exact bounds must pass validation
+    values[1] = -1.0
+    hists = rng.random((40, 5, bins)).astype(np.float32)
+    return int(rng.integers(0, 3)), values, hists
+
+
+def _record(path: Path, n: int, *, seed: int = 0, bins: int = BINS, close: bool = True):
+    """Write ``n`` random cases; return what was written, for comparison."""
+    rng = np.random.default_rng(seed)
+    written = []
+    meta = {"track": "training", "seed": seed, "demonstrator": {"dead_band_deg": 15.0}}
+    writer = DemonstrationWriter(path, meta, bins=bins, fsync=False)
+    for i in range(n):
+        command, values, hists = _case(rng, bins)
+        known = i % 2 == 0
+        pose = tuple(rng.normal(size=3)) if known else None
+        progress = float(rng.uniform(0, 5)) if known else None
+        phase = ("library_only", "drive", "turnaround")[i % 3]
+        learned = bool(i % 4)
+        writer.append(
+            command, values, hists, pose=pose, progress_m=progress, phase=phase, learned=learned
+        )
+        written.append((command, values, hists, pose, progress, phase, learned))
+    if close:
+        writer.close({"road_library": {"types": [[0.25, 0.5]], "bins": bins}})
+    else:
+        writer.abandon()
+    return written
+
+
+def _assert_cases_equal(demo: Demonstration, written: list) -> None:
+    assert demo.n_cases == len(written)
+    for i, (command, values, hists, pose, progress, phase, learned) in enumerate(written):
+        assert demo.commands[i] == command
+        # Bit-identical, not approximately equal.
+        assert demo.road_values[i].tobytes() == values.astype(np.float64).tobytes()
+        assert demo.histograms[i].tobytes() == hists.tobytes()
+        if pose is None:
+            assert np.isnan(demo.poses[i]).all() and np.isnan(demo.progress_m[i])
+        else:
+            assert demo.poses[i].tobytes() == np.array(pose).tobytes()
+            assert demo.progress_m[i] == progress
+        assert demo.phases[i] == phase
+        assert demo.learned[i] == learned
+        assert demo.steps[i] == i
+
+
+def test_round_trip_is_bit_identical(tmp_path: Path) -> None:
+    path = tmp_path / "demo.lfdemo"
+    written = _record(path, 7)
+    demo = load_demonstration(path)
+    _assert_cases_equal(demo, written)
+    assert demo.commands.dtype == np.int8
+    assert demo.road_values.dtype == np.float64 and demo.road_values.shape == (7, 40)
+    assert demo.histograms.dtype == np.float32 and demo.histograms.shape == (7, 40, 5, BINS)
+    assert demo.poses.shape == (7, 3) and demo.learned.dtype == bool
+    meta = demo.metadata
+    assert meta["complete"] is True and meta["torn_tail_bytes"] == 0
+    assert meta["track"] == "training" and meta["demonstrator"] == {"dead_band_deg": 15.0}
+    assert meta["road_library"] == {"types": [[0.25, 0.5]], "bins": BINS}
+    assert meta["schema_version"] == SCHEMA_VERSION and meta["bins"] == BINS
+    expected = {
+        name: sum(1 for w in written if w[0] == c)
+        for c, name in enumerate(("forward", "left", "right"))
+    }
+    assert meta["counts"] == expected == demo.command_counts
+    assert meta["n_cases"] == 7 and meta["created_by"].startswith("lfd-track")
+    with pytest.raises(ValueError):
+        demo.road_values[0, 0] = 0.5  # loaded arrays are read-only
+
+
+def test_same_input_gives_same_bytes_and_save_round_trips(tmp_path: Path) -> None:
+    a, b = tmp_path / "a.lfdemo", tmp_path / "b.lfdemo"
+    written = _record(a, 5, seed=3)
+    _record(b, 5, seed=3)
+    assert a.read_bytes() == b.read_bytes()
+
+    copy = tmp_path / "sub" / "copy.lfdemo"
+    save_demonstration(copy, load_demonstration(a))
+    again = load_demonstration(copy)
+    _assert_cases_equal(again, written)
+    assert again.metadata == load_demonstration(a).metadata
+
+
+def test_empty_demonstration_round_trips(tmp_path: Path) -> None:
+    path = tmp_path / "empty.lfdemo"
+    with DemonstrationWriter(path, {}, bins=4, fsync=False):
+        pass
+    demo = load_demonstration(path)
+    assert demo.n_cases == 0 and demo.histograms.shape == (0, 40, 5, 4)
+    assert demo.metadata["complete"] is True
+
+
+def test_writer_refuses_to_overwrite_and_rejects_bad_cases(tmp_path: Path) -> None:
+    path = tmp_path / "demo.lfdemo"
+    rng = np.random.default_rng(1)
+    _, values, hists = _case(rng)
+    with DemonstrationWriter(path, {}, bins=BINS, fsync=False) as writer:
+        with pytest.raises(ValueError, match="command"):
+            writer.append(3, values, hists)
+        with pytest.raises(ValueError, match="outside"):
+            writer.append(0, values * 1.5, hists)
+        with pytest.raises(ValueError, match="shape"):
+            writer.append(0, values[:39], hists)
+        with pytest.raises(ValueError, match="shape"):
+            writer.append(0, values, hists[..., :4])
+        with pytest.raises(ValueError, match="NaN"):
+            writer.append(0, np.full(40, np.nan), hists)
+        writer.append(0, values, hists)
+    assert load_demonstration(path).n_cases == 1  # rejected cases left no trace
+    with pytest.raises(FileExistsError):
+        DemonstrationWriter(path, {}, bins=BINS)
+    with pytest.raises(ValueError, match="JSON"):
+        DemonstrationWriter(tmp_path / "other.lfdemo", {"bad": float("nan")}, bins=BINS)
+
+
+def test_exception_inside_with_leaves_an_incomplete_but_readable_file(tmp_path: Path) -> None:
+    path = tmp_path / "demo.lfdemo"
+    rng = np.random.default_rng(2)
+    with pytest.raises(RuntimeError), DemonstrationWriter(path, {}, bins=BINS, fsync=False) as w:
+        for _ in range(3):
+            w.append(*_case(rng))
+        raise RuntimeError("demonstrator crashed")
+    demo = load_demonstration(path)
+    assert demo.n_cases == 3 and demo.metadata["complete"] is False
+
+
+_RECORDER = textwrap.dedent(
+    """
+    import sys
+    import numpy as np
+    from lfd_track.demo.dataset import DemonstrationWriter
+
+    rng = np.random.default_rng(5)
+    with DemonstrationWriter(sys.argv[1], {"track": "training"}, bins=32) as writer:
+        i = 0
+        while True:
+            values = rng.uniform(-1.0, 1.0, 40)
+            hists = rng.random((40, 5, 32)).astype(np.float32)
+            writer.append(i % 3, values, hists, pose=(i, 0.0, 0.0), progress_m=0.1 * i)
+            print(i, flush=True)
+            i += 1
+    """
+)
+
+
+def test_sigkill_mid_recording_keeps_every_reported_case(tmp_path: Path) -> None:
+    path = tmp_path / "killed.lfdemo"
+    script = tmp_path / "recorder.py"
+    script.write_text(_RECORDER)
+    root = Path(__file__).resolve().parents[2]
+    env = {**os.environ, "PYTHONPATH": str(root)}
+    proc = subprocess.Popen(
+        [sys.executable, str(script), str(path)], stdout=subprocess.PIPE, text=True, env=env
+    )
+    k = 12
+    try:
+        reported = -1
+        assert proc.stdout is not None
+        for line in proc.stdout:  # blocks on the child's output: no sleeps needed
+            reported = int(line)
+            if reported + 1 >= k:
+                break
+        proc.send_signal(signal.SIGKILL)
+    finally:
+        proc.kill()
+        proc.wait()
+    assert proc.returncode == -signal.SIGKILL
+    assert reported + 1 >= k
+
+    demo = load_demonstration(path)
+    assert demo.n_cases >= k
+    assert demo.metadata["complete"] is False
+    # Every case is intact: replay the recorder's random stream and compare bit for bit.
+    rng = np.random.default_rng(5)
+    for i in range(demo.n_cases):
+        values = rng.uniform(-1.0, 1.0, 40)
+        hists = rng.random((40, 5, 32)).astype(np.float32)
+        assert demo.road_values[i].tobytes() == values.tobytes()
+        assert demo.histograms[i].tobytes() == hists.tobytes()
+        assert demo.commands[i] == i % 3 and demo.poses[i, 0] == i
+
+
+def _one_line_error(path: Path, match: str) -> None:
+    with pytest.raises(FileFormatError) as info:
+        load_demonstration(path)
+    message = str(info.value)
+    assert "\n" not in message
+    assert message.startswith(f"{path}: ")
+    assert match in message
+
+
+def _case_offsets(data: bytes) -> list[int]:
+    """Start of every record after the magic."""
+    offsets, pos = [], MAGIC_LEN
+    while pos < len(data):
+        offsets.append(pos)
+        (length,) = struct.unpack_from("<I", data, pos + 1)
+        pos += FRAME_LEN + length
+    return offsets
+
+
+def test_torn_last_record_is_dropped_and_reported(tmp_path: Path) -> None:
+    path = tmp_path / "demo.lfdemo"
+    written = _record(path, 4, close=False)
+    data = path.read_bytes()
+    last = _case_offsets(data)[-1]
+    for cut in (last + 3, last + FRAME_LEN + 100, len(data) - 1):
+        path.write_bytes(data[:cut])
+        demo = load_demonstration(path)
+        _assert_cases_equal(demo, written[:3])
+        assert demo.metadata["complete"] is False
+        assert demo.metadata["torn_tail_bytes"] == cut - last
+    # A whole-length last record whose bytes never landed (zero fill) is torn too.
+    zeroed = bytearray(data)
+    zeroed[last + FRAME_LEN :] = bytes(len(data) - last - FRAME_LEN)
+    path.write_bytes(bytes(zeroed))
+    assert load_demonstration(path).n_cases == 3
+    path.write_bytes(data + bytes(50))
+    assert load_demonstration(path).n_cases == 4
+
+
+def test_damaged_files_are_rejected_with_one_line(tmp_path: Path) -> None:
+    good = tmp_path / "good.lfdemo"
+    _record(good, 4)
+    data = good.read_bytes()
+    offsets = _case_offsets(data)
+    bad = tmp_path / "bad.lfdemo"
+
+    bad.write_bytes(b"")
+    _one_line_error(bad, "empty file")
+    bad.write_bytes(data[:5])
+    _one_line_error(bad, "truncated header")
+    bad.write_bytes(data[: offsets[1] - 10])
+    _one_line_error(bad, "truncated header")
+    bad.write_bytes(b"PK\x03\x04 this is a zip, not a demonstration" * 4)
+    _one_line_error(bad, "bad magic")
+    bad.write_bytes(bytes(range(256)) * 8)
+    _one_line_error(bad, "bad magic")
+
+    # Mid-file corruption: flip one histogram byte of the second case.
+    corrupt = bytearray(data)
+    corrupt[offsets[2] + 2000] ^= 0xFF
+    bad.write_bytes(bytes(corrupt))
+    _one_line_error(bad, "CRC mismatch")
+
+    # Corrupt header.
+    corrupt = bytearray(data)
+    corrupt[MAGIC_LEN + FRAME_LEN + 3] ^= 0x01
+    bad.write_bytes(bytes(corrupt))
+    _one_line_error(bad, "header record is corrupt")
+
+    # Corrupt length field in the middle (a huge length is not a torn tail).
+    corrupt = bytearray(data)
+    corrupt[offsets[2] + 1 : offsets[2] + 5] = struct.pack("<I", 0x7FFFFFFF)
+    bad.write_bytes(bytes(corrupt))
+    _one_line_error(bad, "impossible length")
+
+    bad.write_bytes(data + data[offsets[1] : offsets[2]])
+    _one_line_error(bad, "after the footer")
+
+
+def _rewrite_header(data: bytes, edit) -> bytes:
+    """Replace the header JSON with ``edit(header)`` and a valid CRC (a well-formed wrong file)."""
+    import json
+    import zlib
+
+    (length,) = struct.unpack_from("<I", data, MAGIC_LEN + 1)
+    start = MAGIC_LEN + FRAME_LEN
+    header = json.loads(data[start : start + length])
+    payload = json.dumps(edit(header)).encode()
+    head = struct.pack("<BI", ord("H"), len(payload))
+    frame = struct.pack("<BII", ord("H"), len(payload), zlib.crc32(payload, zlib.crc32(head)))
+    return data[:MAGIC_LEN] + frame + payload + data[start + length :]
+
+
+def _with_case_byte(data: bytes, offset: int, value: int) -> bytes:
+    """Set one payload byte of the record at ``offset`` and fix its CRC."""
+    import zlib
+
+    (length,) = struct.unpack_from("<I", data, offset + 1)
+    payload = bytearray(data[offset + FRAME_LEN : offset + FRAME_LEN + length])
+    payload[8] = value  # the command byte, after the int64 step
+    head = struct.pack("<BI", data[offset], length)
+    crc = zlib.crc32(bytes(payload), zlib.crc32(head))
+    frame = struct.pack("<BII", data[offset], length, crc)
+    return data[:offset] + frame + bytes(payload) + data[offset + FRAME_LEN + length :]
+
+
+def test_wrong_schema_or_values_are_rejected(tmp_path: Path) -> None:
+    good = tmp_path / "good.lfdemo"
+    _record(good, 3)
+    data = good.read_bytes()
+    bad = tmp_path / "bad.lfdemo"
+
+    bad.write_bytes(_rewrite_header(data, lambda h: {**h, "schema": 99}))
+    _one_line_error(bad, "unsupported schema version 99")
+    bad.write_bytes(_rewrite_header(data, lambda h: {**h, "bins": 16}))
+    _one_line_error(bad, "expected")  # case records are sized for 8 bins
+    bad.write_bytes(_rewrite_header(data, lambda h: {**h, "n_values": 41}))
+    _one_line_error(bad, "41 values")
+
+    offsets = _case_offsets(data)
+    bad.write_bytes(_with_case_byte(data, offsets[2], 7))
+    _one_line_error(bad, "case 1: command 7")
