@@ -1,0 +1,377 @@
+"""The library of known road types (paper §4.2.1, Algorithm 1) and road values (§4.2.2, Alg. 2).
+
+Structure: an ordered list of road *types*, each an ordered list of *examples* (models: five
+normalised histograms, see :mod:`lfd_track.vision.histograms`). Order is insertion order; new
+types and examples are appended, so a lower index is always older.
+
+Usage statistics follow DESIGN §4. Every road-value frame counts 40 region comparisons for every
+type and every example present; each region *selects* its most similar example (the first in
+order on a tie) and that example's type. A type's counters are its own, kept since the type
+entered the library (they survive the eviction of its examples). Selection frequency =
+selections / comparisons. Eviction removes the lowest frequency; a type or example never compared
+yet is protected (evicted only when nothing else is left, among its peers the oldest); equal
+frequencies evict the oldest.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from .grid import N_REGIONS, safe_box_slices
+from .histograms import (
+    N_CHANNELS,
+    GridHistogrammer,
+    centred_unit,
+    check_bins,
+    check_frame,
+    patch_histograms,
+    similarity_matrix,
+)
+
+LIBRARY_FORMAT_VERSION = 1
+
+
+@dataclass(frozen=True)
+class LearnOutcome:
+    """What one step of Algorithm 1 did to the library."""
+
+    type_index: int
+    """Index (after the update) of the type the new model now belongs to."""
+    new_type: bool
+    """True when the model started a new road type."""
+    similarity: float | None
+    """Best similarity of the new model to the library before the update (None if it was empty)."""
+    best_type: int | None
+    """Index of the best-matching type before the update (None if the library was empty)."""
+    evicted_type: int | None = None
+    """Index (before the update) of the road type removed to make room, if any."""
+    evicted_example: int | None = None
+    """Index within the matched type (before the update) of the example removed, if any."""
+
+
+@dataclass
+class _Example:
+    model: np.ndarray  # (5, bins) float32
+    selections: int = 0
+    comparisons: int = 0
+
+
+@dataclass
+class _RoadType:
+    examples: list[_Example] = field(default_factory=list)
+    selections: int = 0
+    comparisons: int = 0
+
+
+def _least_used(items: list[_Example] | list[_RoadType]) -> int:
+    """Index of the least-used item: compared ones first, lowest frequency, then the oldest."""
+
+    def key(indexed: tuple[int, _Example | _RoadType]) -> tuple[bool, float, int]:
+        i, item = indexed
+        if item.comparisons == 0:
+            return (True, 0.0, i)
+        return (False, item.selections / item.comparisons, i)
+
+    return min(enumerate(items), key=key)[0]
+
+
+class RoadLibrary:
+    """Road types learned from the safe box; turns frames into 40 road values.
+
+    Args:
+        bins: histogram bins per channel (1..256; the paper does not say, 32 by default).
+        similarity_threshold: a new model joins the best type only if similarity > this (strict).
+        max_types: most road types kept (the paper's 10).
+        max_examples: most examples per type (the paper's 10).
+    """
+
+    def __init__(
+        self,
+        bins: int = 32,
+        similarity_threshold: float = 0.75,
+        max_types: int = 10,
+        max_examples: int = 10,
+    ) -> None:
+        self.bins = check_bins(bins)
+        if not math.isfinite(similarity_threshold) or not -1.0 <= similarity_threshold <= 1.0:
+            raise ValueError(f"similarity_threshold must be in [-1, 1], got {similarity_threshold}")
+        for name, value in (("max_types", max_types), ("max_examples", max_examples)):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+                raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        self.similarity_threshold = float(similarity_threshold)
+        self.max_types = int(max_types)
+        self.max_examples = int(max_examples)
+        self._types: list[_RoadType] = []
+        self._grid = GridHistogrammer(self.bins)
+        self._cache: tuple[tuple[np.ndarray, np.ndarray], np.ndarray] | None = None
+
+    # ----------------------------------------------------------------------------- inspection
+    @property
+    def n_types(self) -> int:
+        """Number of road types."""
+        return len(self._types)
+
+    @property
+    def n_models(self) -> int:
+        """Number of stored models (examples over all types)."""
+        return sum(len(t.examples) for t in self._types)
+
+    def type_sizes(self) -> list[int]:
+        """Number of examples of each type, in order."""
+        return [len(t.examples) for t in self._types]
+
+    def models(self) -> np.ndarray:
+        """All stored models in library order (type by type), (n_models, 5, bins) float32."""
+        if not self._types:
+            return np.zeros((0, N_CHANNELS, self.bins), dtype=np.float32)
+        return np.stack([e.model for t in self._types for e in t.examples])
+
+    def type_statistics(self) -> list[tuple[int, int]]:
+        """``(selections, comparisons)`` of each type, in order."""
+        return [(t.selections, t.comparisons) for t in self._types]
+
+    def example_statistics(self, type_index: int) -> list[tuple[int, int]]:
+        """``(selections, comparisons)`` of each example of one type, in order."""
+        return [(e.selections, e.comparisons) for e in self._types[type_index].examples]
+
+    # ----------------------------------------------------------------------------- histograms
+    def safe_box_model(self, frame: np.ndarray) -> np.ndarray:
+        """Model of the safe box of an RGB uint8 (480, 640, 3) frame, (5, bins) float32."""
+        check_frame(frame)
+        rows, cols = safe_box_slices()
+        return patch_histograms(frame[rows, cols], self.bins)
+
+    def region_histograms(self, frame: np.ndarray) -> np.ndarray:
+        """Normalised histograms of the 8 x 5 regions, (40, 5, bins) float32, row-major."""
+        return self._grid.histograms(frame)
+
+    # ----------------------------------------------------------------------------- Algorithm 1
+    def learn(self, frame: np.ndarray) -> LearnOutcome:
+        """Algorithm 1 on the safe box of an RGB uint8 (480, 640, 3) frame."""
+        return self.learn_model(self.safe_box_model(frame))
+
+    def learn_model(self, model: np.ndarray) -> LearnOutcome:
+        """Algorithm 1 with a precomputed model, (5, bins) float (stored as float32).
+
+        The model joins the type of its most similar example (first in order on a tie) when that
+        similarity is > ``similarity_threshold``; the type's least-used example is evicted first
+        if it is full. Otherwise it starts a new type, appended after evicting the least-used type
+        if the library is full. Learning does not change usage statistics.
+        """
+        model = self._check_model(model)
+        similarity: float | None = None
+        best_type: int | None = None
+        if self._types:
+            prepared, owners = self._stacked()
+            sims = similarity_matrix(centred_unit(model[None]), prepared)[0]
+            best = int(np.argmax(sims))  # first maximum = first in library order
+            similarity = float(sims[best])
+            best_type = int(owners[best])
+        if (
+            best_type is not None
+            and similarity is not None
+            and (
+                similarity > self.similarity_threshold  # strict, as in the paper
+            )
+        ):
+            road_type = self._types[best_type]
+            evicted_example = None
+            if len(road_type.examples) >= self.max_examples:
+                evicted_example = _least_used(road_type.examples)
+                del road_type.examples[evicted_example]
+            road_type.examples.append(_Example(model))
+            self._cache = None
+            return LearnOutcome(
+                type_index=best_type,
+                new_type=False,
+                similarity=similarity,
+                best_type=best_type,
+                evicted_example=evicted_example,
+            )
+        evicted_type = None
+        if len(self._types) >= self.max_types:
+            evicted_type = _least_used(self._types)
+            del self._types[evicted_type]
+        self._types.append(_RoadType(examples=[_Example(model)]))
+        self._cache = None
+        return LearnOutcome(
+            type_index=len(self._types) - 1,
+            new_type=True,
+            similarity=similarity,
+            best_type=best_type,
+            evicted_type=evicted_type,
+        )
+
+    # ----------------------------------------------------------------------------- Algorithm 2
+    def road_values(self, frame: np.ndarray, *, update_statistics: bool = True) -> np.ndarray:
+        """Algorithm 2: best similarity of each region to any stored model, (40,) float64.
+
+        ``frame``: RGB uint8 (480, 640, 3). Regions are 80 x 96 px, row-major from the top-left.
+        Values lie in [-1, 1]; an empty library gives all zeros.
+        """
+        return self.road_values_from_histograms(
+            self.region_histograms(frame), update_statistics=update_statistics
+        )
+
+    def road_values_from_histograms(
+        self, hists: np.ndarray, *, update_statistics: bool = True
+    ) -> np.ndarray:
+        """Algorithm 2 from region histograms, (40, 5, bins) → (40,) float64.
+
+        With ``update_statistics=False`` the library is left untouched (e.g. to recompute the
+        values of recorded frames against a finished library).
+        """
+        hists = np.asarray(hists)
+        if hists.shape != (N_REGIONS, N_CHANNELS, self.bins):
+            raise ValueError(
+                f"region histograms must have shape ({N_REGIONS}, {N_CHANNELS}, {self.bins}),"
+                f" got {hists.shape}"
+            )
+        if not self._types:
+            return np.zeros(N_REGIONS, dtype=np.float64)
+        prepared, owners = self._stacked()
+        sims = similarity_matrix(centred_unit(hists), prepared)  # (40, n_models)
+        best = np.argmax(sims, axis=1)  # first maximum wins a tie, as the strict '>' loop does
+        values = sims[np.arange(N_REGIONS), best]
+        if update_statistics:
+            self._count_selections(best, len(owners))
+        return values
+
+    def _count_selections(self, best: np.ndarray, n_models: int) -> None:
+        per_model = np.bincount(best, minlength=n_models)
+        k = 0
+        for t in self._types:
+            t.comparisons += N_REGIONS
+            for e in t.examples:
+                e.comparisons += N_REGIONS
+                e.selections += int(per_model[k])
+                t.selections += int(per_model[k])
+                k += 1
+
+    # ----------------------------------------------------------------------------- internals
+    def _check_model(self, model: np.ndarray) -> np.ndarray:
+        model = np.asarray(model)
+        if model.shape != (N_CHANNELS, self.bins):
+            raise ValueError(
+                f"model must have shape ({N_CHANNELS}, {self.bins}), got {model.shape}"
+            )
+        if not np.all(np.isfinite(model)):
+            raise ValueError("model contains NaN or infinite values")
+        return np.array(model, dtype=np.float32, copy=True)
+
+    def _stacked(self) -> tuple[tuple[np.ndarray, np.ndarray], np.ndarray]:
+        """Prepared models (see ``centred_unit``) and the owning type index of each, cached."""
+        if self._cache is None:
+            owners = np.array(
+                [i for i, t in enumerate(self._types) for _ in t.examples], dtype=np.intp
+            )
+            self._cache = (centred_unit(self.models()), owners)
+        return self._cache
+
+    # ----------------------------------------------------------------------------- persistence
+    def to_dict(self) -> dict[str, Any]:
+        """Lossless JSON-friendly snapshot: settings, structure, models and usage counters.
+
+        Models are float32; each value is written as the Python float of that float32, which
+        reads back to the identical float32.
+        """
+        return {
+            "version": LIBRARY_FORMAT_VERSION,
+            "bins": self.bins,
+            "similarity_threshold": self.similarity_threshold,
+            "max_types": self.max_types,
+            "max_examples": self.max_examples,
+            "types": [
+                {
+                    "selections": t.selections,
+                    "comparisons": t.comparisons,
+                    "examples": [
+                        {
+                            "selections": e.selections,
+                            "comparisons": e.comparisons,
+                            "model": e.model.astype(np.float64).tolist(),
+                        }
+                        for e in t.examples
+                    ],
+                }
+                for t in self._types
+            ],
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> RoadLibrary:
+        """Rebuild a library from :meth:`to_dict` output; ``ValueError`` names what is wrong."""
+        if not isinstance(data, dict):
+            raise ValueError("road library must be a JSON object")
+        expected = {"version", "bins", "similarity_threshold", "max_types", "max_examples", "types"}
+        missing = sorted(expected - set(data))
+        if missing:
+            raise ValueError(f"road library is missing key '{missing[0]}'")
+        unknown = sorted(set(data) - expected)
+        if unknown:
+            raise ValueError(f"road library has unknown key '{unknown[0]}'")
+        if data["version"] != LIBRARY_FORMAT_VERSION:
+            raise ValueError(
+                f"road library version {data['version']!r} is not supported"
+                f" (expected {LIBRARY_FORMAT_VERSION})"
+            )
+        threshold = data["similarity_threshold"]
+        if isinstance(threshold, bool) or not isinstance(threshold, (int, float)):
+            raise ValueError("road library similarity_threshold must be a number")
+        library = cls(
+            bins=data["bins"],
+            similarity_threshold=float(threshold),
+            max_types=data["max_types"],
+            max_examples=data["max_examples"],
+        )
+        types = data["types"]
+        if not isinstance(types, list) or len(types) > library.max_types:
+            raise ValueError(f"road library 'types' must be a list of at most {library.max_types}")
+        for i, t in enumerate(types):
+            where = f"road library type {i}"
+            if not isinstance(t, dict) or set(t) != {"selections", "comparisons", "examples"}:
+                raise ValueError(f"{where} must have exactly selections, comparisons, examples")
+            examples = t["examples"]
+            if not isinstance(examples, list) or not 1 <= len(examples) <= library.max_examples:
+                raise ValueError(f"{where} must have 1..{library.max_examples} examples")
+            road_type = _RoadType(
+                selections=_count(t["selections"], where),
+                comparisons=_count(t["comparisons"], where),
+            )
+            for j, e in enumerate(examples):
+                ewhere = f"{where} example {j}"
+                if not isinstance(e, dict) or set(e) != {"selections", "comparisons", "model"}:
+                    raise ValueError(f"{ewhere} must have exactly selections, comparisons, model")
+                try:
+                    model = np.asarray(e["model"], dtype=np.float64)
+                except (TypeError, ValueError):
+                    raise ValueError(f"{ewhere} model must be numbers") from None
+                try:
+                    model = library._check_model(model)
+                except ValueError as exc:
+                    raise ValueError(f"{ewhere}: {exc}") from None
+                road_type.examples.append(
+                    _Example(
+                        model=model,
+                        selections=_count(e["selections"], ewhere),
+                        comparisons=_count(e["comparisons"], ewhere),
+                    )
+                )
+            library._types.append(road_type)
+        return library
+
+    def __repr__(self) -> str:
+        return (
+            f"RoadLibrary(bins={self.bins}, types={self.n_types}, models={self.n_models},"
+            f" threshold={self.similarity_threshold})"
+        )
+
+
+def _count(value: Any, where: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise ValueError(f"{where}: counters must be non-negative integers, got {value!r}")
+    return value
