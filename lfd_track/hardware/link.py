@@ -1,0 +1,509 @@
+"""Serial link from the host to the robot board, speaking the wire protocol of DESIGN §8.
+
+``RobotLink`` wraps ``serial.serial_for_url`` (``/dev/rfcomm0`` for an HC-05/06, a pty path,
+``socket://host:port``, ``loop://``). Every request is one frame with a fresh sequence number and
+waits for the board's reply with the same number. A drive command is a *lease*: the board stops the
+motors when no valid drive frame arrived for its watchdog period (300 ms by default), so the host
+must keep re-sending the current command. ``RobotLink`` does that from a background keep-alive
+thread at ``keepalive_period_s`` (default 0.1 s, i.e. 10 Hz), but only until the lease the caller
+asked for expires: if the program driving the robot hangs, the keep-alive stops refreshing and
+sends stop, rather than driving on blindly.
+
+Link loss (a serial exception, ``max_consecutive_failures`` requests in a row without a valid
+reply, or more than ``max_corrupt_replies`` undecodable replies in a row) raises ``LinkError``.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import serial
+
+from ..commands import Command
+from ..errors import LfdTrackError
+from . import protocol
+from .protocol import Frame, FrameError, FrameParser
+
+STOP = "S"
+
+
+class LinkError(LfdTrackError):
+    """The serial link to the robot board failed or was lost."""
+
+
+@dataclass(frozen=True)
+class Ack:
+    """The board's answer to one request: what it actually did, not what was asked.
+
+    ``state`` is the motor state the board reports (``F``/``L``/``R``/``S``); a request the board
+    refused (a NAK, e.g. while e-stopped) has ``rejected`` set to the reason and ``state`` set to
+    the last state the board reported (``S`` when refused for an e-stop).
+    """
+
+    seq: int
+    requested: str  # what the host sent: a drive letter, or the frame type for other requests
+    state: str
+    flags: str = ""
+    rejected: str | None = None
+    rtt_ms: float = 0.0  # round-trip time [ms]
+
+    @property
+    def accepted(self) -> bool:
+        """True if the board acknowledged the request (no NAK)."""
+        return self.rejected is None
+
+
+@dataclass
+class LinkStats:
+    """Counters of one link (read them through ``RobotLink.stats()``, which returns a copy)."""
+
+    sent: int = 0  # request frames written
+    acks: int = 0  # valid acks received for the request waited on
+    naks: int = 0  # requests the board refused
+    missed: int = 0  # requests with no valid reply before the ack timeout
+    corrupt: int = 0  # reply lines that failed to decode (bad CRC, bad framing, too long)
+    stale: int = 0  # valid replies for an older sequence number
+    consecutive_failures: int = 0  # requests in a row without a valid reply
+    watchdog_stops: int = 0  # ``$W`` frames: the board's watchdog stopped the motors
+    boots: int = 0  # ``$B`` frames: the board (re)started
+    keepalives: int = 0  # drive frames re-sent by the keep-alive thread
+    rtt_ms: float = 0.0  # round-trip time of the last acknowledged request [ms]
+    max_rtt_ms: float = 0.0  # worst round-trip time seen [ms]
+
+    def as_dict(self) -> dict[str, Any]:
+        """Plain dict copy (for ``info["link"]``)."""
+        return dict(self.__dict__)
+
+
+def _letter(command: Command | int | str) -> str:
+    if isinstance(command, str):
+        letter = command.upper()
+        if letter not in protocol.DRIVE_ARGS:
+            raise ValueError(f"drive command must be one of F, L, R, S, got {command!r}")
+        return letter
+    return Command(int(command)).letter
+
+
+@dataclass
+class _Lease:
+    """What the keep-alive thread re-sends and until when (monotonic seconds)."""
+
+    letter: str = STOP
+    until: float = 0.0
+    events: list[str] = field(default_factory=list)
+
+
+class RobotLink:
+    """Host end of the serial link to the robot board; a context manager.
+
+    ``url`` is anything ``serial.serial_for_url`` accepts. Use ``with RobotLink(url) as link:``
+    (connects, and on exit stops the motors and closes the port).
+    """
+
+    def __init__(
+        self,
+        url: str,
+        *,
+        baudrate: int = 115200,
+        ack_timeout_s: float = 0.1,
+        max_consecutive_failures: int = 3,
+        max_corrupt_replies: int = 8,
+        boot_wait_s: float = 0.0,
+        connect_timeout_s: float = 3.0,
+        keepalive_period_s: float = 0.1,
+        watchdog_ms: int | None = None,
+        port_factory: Callable[[], Any] | None = None,
+    ) -> None:
+        """Configure the link; nothing is opened until ``connect()``.
+
+        ``boot_wait_s``: how long ``connect()`` waits for the board's boot frame first (a USB
+        Arduino resets when the port opens; a Bluetooth module does not, so 0 skips the wait).
+        ``connect_timeout_s``: how long ``connect()`` keeps pinging before giving up.
+        ``watchdog_ms``: if set, ``connect()`` sets the board's watchdog period.
+        ``port_factory``: returns an already open serial-like object (tests, custom transports).
+        """
+        if keepalive_period_s <= 0 or keepalive_period_s > 0.2:
+            raise ValueError("keepalive_period_s must be in (0, 0.2]: the lease is re-sent >= 5 Hz")
+        if max_consecutive_failures < 1 or max_corrupt_replies < 1:
+            raise ValueError("failure bounds must be >= 1")
+        self.url = url
+        self.baudrate = baudrate
+        self.ack_timeout_s = ack_timeout_s
+        self.max_consecutive_failures = max_consecutive_failures
+        self.max_corrupt_replies = max_corrupt_replies
+        self.boot_wait_s = boot_wait_s
+        self.connect_timeout_s = connect_timeout_s
+        self.keepalive_period_s = keepalive_period_s
+        self.watchdog_ms = watchdog_ms
+        self._port_factory = port_factory
+        self._port: Any = None
+        self._parser = FrameParser()
+        self._io_lock = threading.RLock()  # one request/reply exchange at a time
+        self._lease = _Lease()
+        self._lease_lock = threading.Lock()
+        self._stats = LinkStats()
+        self._seq = 0
+        self._state = STOP
+        self._corrupt_run = 0
+        self._failure: LinkError | None = None  # first fatal error; sticky until close()
+        self._last_drive_sent = 0.0
+        self._stop_event = threading.Event()
+        self._thread: threading.Thread | None = None
+        self.firmware_version: str | None = None
+
+    # ------------------------------------------------------------------ lifecycle
+    def __enter__(self) -> RobotLink:
+        self.connect()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @property
+    def is_open(self) -> bool:
+        """True between a successful open and ``close()``."""
+        return self._port is not None
+
+    @property
+    def failure(self) -> LinkError | None:
+        """The error that ended the link, if any (also raised by the next request)."""
+        return self._failure
+
+    @property
+    def state(self) -> str:
+        """Last motor state the board reported (``F``/``L``/``R``/``S``)."""
+        return self._state
+
+    def stats(self) -> LinkStats:
+        """A copy of the link counters."""
+        with self._io_lock:
+            return LinkStats(**self._stats.__dict__)
+
+    def open(self) -> None:
+        """Open the serial port (no traffic); ``connect()`` calls this."""
+        if self._port is not None:
+            return
+        try:
+            if self._port_factory is not None:
+                self._port = self._port_factory()
+            else:
+                # A short read timeout keeps reply waits responsive; the ack deadline is ours.
+                self._port = serial.serial_for_url(
+                    self.url, baudrate=self.baudrate, timeout=0.01, write_timeout=1.0
+                )
+        except (serial.SerialException, OSError, ValueError) as exc:
+            raise LinkError(f"{self.url}: cannot open serial link ({exc})") from None
+        self._failure = None
+
+    def connect(self) -> RobotLink:
+        """Open the port, wait for the boot frame (``boot_wait_s``), ping, set the watchdog.
+
+        Starts the keep-alive thread. Raises ``LinkError`` if the board never answers a ping
+        within ``connect_timeout_s``.
+        """
+        self.open()
+        if self.boot_wait_s > 0:
+            deadline = time.monotonic() + self.boot_wait_s
+            with self._io_lock:
+                while self._stats.boots == 0 and time.monotonic() < deadline:
+                    self._read_frames(min(deadline, time.monotonic() + 0.02))
+        deadline = time.monotonic() + self.connect_timeout_s
+        while True:
+            try:
+                with self._io_lock:
+                    ack = self._request(protocol.PING, (), count_failure=False)
+                if ack is not None:
+                    self._stats.consecutive_failures = 0
+                    break
+            except LinkError:
+                self.close()
+                raise
+            if time.monotonic() >= deadline:
+                self.close()
+                raise LinkError(
+                    f"{self.url}: no answer from the robot board within "
+                    f"{self.connect_timeout_s:g} s (is the firmware running and the baud rate "
+                    f"{self.baudrate}?)"
+                )
+        if self.watchdog_ms is not None:
+            self.set_watchdog_ms(self.watchdog_ms)
+        self._start_keepalive()
+        return self
+
+    def close(self) -> None:
+        """Stop the motors (best effort), stop the keep-alive thread and close the port."""
+        if self._port is None:
+            return
+        self.stop()
+        self._stop_event.set()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout=2.0)
+        self._thread = None
+        with self._io_lock:
+            try:
+                self._port.close()
+            except Exception:  # noqa: BLE001 - closing a broken port must not raise
+                pass
+            self._port = None
+
+    # ------------------------------------------------------------------ requests
+    def drive(self, command: Command | int | str, *, lease_s: float | None = None) -> Ack:
+        """Send a drive command and return what the board acknowledged.
+
+        ``command``: a ``Command`` (or its int) or a letter ``F``/``L``/``R``/``S``.
+        ``lease_s``: how long the keep-alive thread keeps re-sending this command (default:
+        until the next request; pass a bound so a hung caller cannot keep the robot moving).
+        Raises ``LinkError`` on link loss.
+        """
+        letter = _letter(command)
+        now = time.monotonic()
+        with self._lease_lock:
+            self._lease.letter = letter
+            self._lease.until = float("inf") if lease_s is None else now + lease_s
+        if letter == STOP:
+            with self._lease_lock:
+                self._lease.until = 0.0
+        return self._drive_now(letter)
+
+    def ping(self) -> Ack:
+        """Ping the board (never starts motion); returns its ack with the round-trip time."""
+        return self._checked(protocol.PING, ())
+
+    def estop(self) -> Ack:
+        """Latch the board's emergency stop (motors off until ``clear_estop()`` and a new drive)."""
+        with self._lease_lock:
+            self._lease.letter, self._lease.until = STOP, 0.0
+        return self._checked(protocol.ESTOP, ())
+
+    def clear_estop(self) -> Ack:
+        """Clear a latched e-stop; the motors stay off until the next drive command."""
+        return self._checked(protocol.CLEAR, ())
+
+    def set_watchdog_ms(self, ms: int) -> Ack:
+        """Set the board's motor watchdog period [ms] (50..2000)."""
+        if not protocol.WATCHDOG_MIN_MS <= int(ms) <= protocol.WATCHDOG_MAX_MS:
+            raise ValueError(
+                f"watchdog period must be {protocol.WATCHDOG_MIN_MS}..{protocol.WATCHDOG_MAX_MS} "
+                f"ms, got {ms}"
+            )
+        ack = self._checked(protocol.SET_WATCHDOG, (str(int(ms)),))
+        if ack.accepted:
+            self.watchdog_ms = int(ms)
+        return ack
+
+    def stop(self) -> bool:
+        """Stop the motors, best effort: never raises. True if the board acknowledged ``S``."""
+        with self._lease_lock:
+            self._lease.letter, self._lease.until = STOP, 0.0
+        if self._port is None:
+            return False
+        try:
+            with self._io_lock:
+                for _ in range(2):  # one retry: stopping matters more than latency
+                    ack = self._request(protocol.DRIVE, (STOP,), count_failure=False)
+                    if ack is not None:
+                        return ack.accepted or ack.rejected == protocol.REASON_ESTOP
+        except BaseException:  # noqa: BLE001 - best effort, including KeyboardInterrupt mid-write
+            pass
+        return False
+
+    def poll(self) -> None:
+        """Read pending board messages (``$W``, ``$B``) without sending; raises on link loss."""
+        self._raise_if_failed()
+        with self._io_lock:
+            self._read_frames(time.monotonic())
+
+    def lease_letter(self) -> str:
+        """The command the keep-alive thread is currently refreshing (``S`` when none)."""
+        with self._lease_lock:
+            if time.monotonic() >= self._lease.until:
+                return STOP
+            return self._lease.letter
+
+    # ------------------------------------------------------------------ internals
+    def _raise_if_failed(self) -> None:
+        if self._failure is not None:
+            raise self._failure
+        if self._port is None:
+            raise LinkError(f"{self.url}: link is not connected")
+
+    def _checked(self, frame_type: str, args: tuple[str, ...]) -> Ack:
+        """One request with retries until acknowledged or the failure bound is reached."""
+        self._raise_if_failed()
+        with self._io_lock:
+            while True:
+                ack = self._request(frame_type, args, count_failure=True)
+                if ack is not None:
+                    return ack
+
+    def _drive_now(self, letter: str) -> Ack:
+        ack = self._checked(protocol.DRIVE, (letter,))
+        return ack
+
+    def _next_seq(self) -> int:
+        self._seq = self._seq % (protocol.SEQ_MODULO - 1) + 1  # 1..65535; 0 is the board's
+        return self._seq
+
+    def _fail(self, message: str) -> LinkError:
+        if self._failure is None:
+            self._failure = LinkError(f"{self.url}: {message}")
+        return self._failure
+
+    def _write(self, data: bytes) -> None:
+        try:
+            self._port.write(data)
+            self._port.flush()
+        except (serial.SerialException, OSError, ValueError, AttributeError, TypeError) as exc:
+            raise self._fail(f"serial link lost while sending ({exc})") from None
+
+    def _read_frames(self, deadline: float) -> list[Frame]:
+        """Read until at least one valid frame arrived or ``deadline`` passed; handle events.
+
+        Returns the valid frames read (possibly none). Updates corrupt/event counters.
+        """
+        frames: list[Frame] = []
+        while True:
+            try:
+                waiting = self._port.in_waiting
+                data = self._port.read(max(1, min(int(waiting), 256)))
+            except (serial.SerialException, OSError, ValueError, AttributeError, TypeError) as exc:
+                raise self._fail(f"serial link lost while reading ({exc})") from None
+            if data:
+                for item in self._parser.feed(bytes(data)):
+                    if isinstance(item, FrameError):
+                        self._stats.corrupt += 1
+                        self._corrupt_run += 1
+                        if self._corrupt_run > self.max_corrupt_replies:
+                            raise self._fail(
+                                f"{self._corrupt_run} corrupt replies in a row from the board "
+                                f"(last: {item.reason}); check the baud rate and the wiring"
+                            )
+                        continue
+                    self._corrupt_run = 0
+                    if item.type == protocol.BOOT:
+                        self._stats.boots += 1
+                        self._state = STOP  # a fresh board has its motors off
+                        if item.args:
+                            self.firmware_version = item.args[0]
+                    elif item.type == protocol.WATCHDOG_STOP:
+                        self._stats.watchdog_stops += 1
+                        self._state = STOP
+                    else:
+                        frames.append(item)
+            if frames or time.monotonic() >= deadline:
+                return frames
+            if not data and not getattr(self._port, "timeout", None):
+                time.sleep(0.001)  # a non-blocking port: do not spin at full speed
+
+    def _request(
+        self, frame_type: str, args: tuple[str, ...], *, count_failure: bool
+    ) -> Ack | None:
+        """Send one frame and wait for its reply; None if no valid reply came in time.
+
+        With ``count_failure`` a missed reply counts towards the link-loss bound and raises
+        ``LinkError`` when it is reached.
+        """
+        if self._port is None:
+            raise self._fail("link is not connected")
+        seq = self._next_seq()
+        data = protocol.encode_frame(frame_type, seq, *args)
+        sent_at = time.monotonic()
+        self._write(data)
+        self._stats.sent += 1
+        if frame_type == protocol.DRIVE:
+            self._last_drive_sent = sent_at
+        deadline = sent_at + self.ack_timeout_s
+        corrupt_before = self._stats.corrupt
+        requested = args[0] if frame_type == protocol.DRIVE else frame_type
+        resend = False
+        while not resend and time.monotonic() < deadline:
+            for frame in self._read_frames(deadline):
+                if frame.seq != seq or frame.type not in (protocol.ACK, protocol.NAK):
+                    self._stats.stale += 1  # an older reply, or one the host did not ask for
+                    continue
+                rtt_ms = (time.monotonic() - sent_at) * 1000.0
+                if frame.type == protocol.ACK:
+                    self._stats.acks += 1
+                    self._stats.consecutive_failures = 0
+                    self._stats.rtt_ms = rtt_ms
+                    self._stats.max_rtt_ms = max(self._stats.max_rtt_ms, rtt_ms)
+                    state = frame.args[0] if frame.args else self._state
+                    flags = frame.args[1] if len(frame.args) > 1 else ""
+                    self._state = state
+                    return Ack(seq, requested, state, flags, None, rtt_ms)
+                reason = frame.args[0] if frame.args else "?"
+                if reason in (protocol.REASON_CRC, protocol.REASON_FRAME):
+                    # Our frame was damaged on the way: resend. Counts as a failure so a link
+                    # that damages everything still ends in LinkError.
+                    self._stats.naks += 1
+                    resend = True
+                    break
+                self._stats.naks += 1
+                self._stats.consecutive_failures = 0
+                if reason == protocol.REASON_ESTOP:
+                    self._state = STOP
+                return Ack(seq, requested, self._state, "", reason, rtt_ms)
+            if self._stats.corrupt > corrupt_before:
+                resend = True  # the reply was damaged: resend now rather than wait it out
+        self._stats.missed += 1
+        if count_failure:
+            self._stats.consecutive_failures += 1
+            if self._stats.consecutive_failures >= self.max_consecutive_failures:
+                raise self._fail(
+                    f"no valid reply from the robot board to {self._stats.consecutive_failures} "
+                    f"requests in a row (link lost?)"
+                )
+        return None
+
+    # ------------------------------------------------------------------ keep-alive
+    def _start_keepalive(self) -> None:
+        if self._thread is not None:
+            return
+        self._stop_event.clear()
+        self._thread = threading.Thread(
+            target=self._keepalive_loop, name=f"lfd-track keep-alive {self.url}", daemon=True
+        )
+        self._thread.start()
+
+    def keepalive(self) -> Ack | None:
+        """Re-send the leased drive command if it is due; send stop once when the lease ends.
+
+        Called by the background thread every ``keepalive_period_s``; safe to call from a control
+        loop too. Returns the ack if a frame was sent.
+        """
+        if self._failure is not None or self._port is None:
+            return None
+        with self._lease_lock:
+            letter, until = self._lease.letter, self._lease.until
+            expired = letter != STOP and time.monotonic() >= until
+            if expired:
+                self._lease.letter = STOP
+        if expired:
+            self.stop()
+            return None
+        if letter == STOP:
+            return None
+        with self._io_lock:
+            if time.monotonic() - self._last_drive_sent < self.keepalive_period_s * 0.9:
+                return None  # a drive went out recently anyway
+            ack = self._checked(protocol.DRIVE, (letter,))
+            self._stats.keepalives += 1
+            return ack
+
+    def _keepalive_loop(self) -> None:
+        while not self._stop_event.wait(self.keepalive_period_s / 2):
+            try:
+                self.keepalive()
+            except LinkError:
+                # Recorded in self._failure; the caller sees it on its next request. Try to stop
+                # the motors in case only the replies are lost.
+                self.stop()
+                return
+            except Exception as exc:  # noqa: BLE001 - the thread must not die silently
+                self._fail(f"keep-alive failed ({exc!r})")
+                self.stop()
+                return

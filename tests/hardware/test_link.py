@@ -1,0 +1,319 @@
+"""RobotLink against a fake board served on loopback (``socket://127.0.0.1:PORT``).
+
+``FakeBoard`` speaks the wire protocol from a thread and can be told to misbehave: stop acking,
+corrupt its replies, or drop the connection. ``test_hardware_env.py`` reuses it.
+"""
+
+from __future__ import annotations
+
+import socket
+import threading
+import time
+
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from lfd_track.commands import Command
+from lfd_track.errors import LfdTrackError
+from lfd_track.hardware import protocol
+from lfd_track.hardware.link import LinkError, RobotLink
+
+WAIT_S = 5.0  # upper bound for event waits; never reached when the code works
+
+
+class FakeBoard:
+    """A threaded TCP server that behaves like the robot firmware, with fault injection.
+
+    ``mode``: ``"ok"``, ``"silent"`` (reads but never replies), ``"corrupt"`` (replies with a bad
+    CRC) or ``"disconnect"`` (closes the connection on the next frame). ``fault_after``: the number
+    of frames answered normally before ``mode`` applies. Every frame received is recorded with its
+    arrival time in ``received``.
+    """
+
+    def __init__(
+        self,
+        *,
+        mode: str = "ok",
+        fault_after: int = 0,
+        boot: bool = True,
+        on_frame=None,
+    ) -> None:
+        self.mode = mode
+        self.fault_after = fault_after
+        self.boot = boot
+        self.on_frame = on_frame
+        self.received: list[tuple[float, protocol.Frame]] = []
+        self.state = "S"
+        self.estopped = False
+        self.watchdog_ms = 300
+        self.changed = threading.Condition()
+        self._server = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
+        self._server.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        self._server.bind(("127.0.0.1", 0))
+        self._server.listen(1)
+        self._closed = threading.Event()
+        self._conn: socket.socket | None = None
+        self._thread = threading.Thread(target=self._serve, daemon=True)
+
+    @property
+    def url(self) -> str:
+        return f"socket://127.0.0.1:{self._server.getsockname()[1]}"
+
+    def __enter__(self) -> FakeBoard:
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._closed.set()
+        for sock in (self._server, self._conn):
+            try:
+                if sock is not None:
+                    sock.close()
+            except OSError:
+                pass
+        self._thread.join(timeout=WAIT_S)
+
+    def drives(self) -> list[str]:
+        """Drive letters received so far, in order."""
+        with self.changed:
+            return [f.args[0] for _, f in self.received if f.type == protocol.DRIVE and f.args]
+
+    def wait_for(self, predicate, timeout_s: float = WAIT_S) -> bool:
+        """Wait until ``predicate(self)`` holds (woken by every received frame)."""
+        with self.changed:
+            return self.changed.wait_for(lambda: predicate(self), timeout=timeout_s)
+
+    def _reply(self, conn: socket.socket, frame_type: str, seq: int, *args: str) -> None:
+        data = protocol.encode_frame(frame_type, seq, *args)
+        if self.mode == "corrupt" and self._faulty():
+            data = data[:-3] + (b"0" if data[-3:-2] != b"0" else b"1") + data[-2:]
+        conn.sendall(data)
+
+    def _faulty(self) -> bool:
+        return len(self.received) > self.fault_after
+
+    def _handle(self, conn: socket.socket, frame: protocol.Frame) -> bool:
+        with self.changed:
+            self.received.append((time.monotonic(), frame))
+            self.changed.notify_all()
+        if self.on_frame is not None:
+            self.on_frame(self, frame)
+        if self._faulty() and self.mode == "disconnect":
+            return False
+        if self._faulty() and self.mode == "silent":
+            return True
+        if frame.type == protocol.DRIVE:
+            if self.estopped:
+                self._reply(conn, protocol.NAK, frame.seq, protocol.REASON_ESTOP)
+                return True
+            self.state = frame.args[0]
+        elif frame.type == protocol.ESTOP:
+            self.estopped, self.state = True, "S"
+        elif frame.type == protocol.CLEAR:
+            self.estopped = False
+        elif frame.type == protocol.SET_WATCHDOG:
+            ms = int(frame.args[0])
+            if not protocol.WATCHDOG_MIN_MS <= ms <= protocol.WATCHDOG_MAX_MS:
+                self._reply(conn, protocol.NAK, frame.seq, protocol.REASON_ARG)
+                return True
+            self.watchdog_ms = ms
+        self._reply(conn, protocol.ACK, frame.seq, self.state, "E" if self.estopped else "0")
+        return True
+
+    def _serve(self) -> None:
+        try:
+            conn, _ = self._server.accept()
+        except OSError:
+            return
+        self._conn = conn
+        parser = protocol.FrameParser()
+        try:
+            if self.boot:
+                # Like a real bootloader, announce a moment after the port opens (pyserial drops
+                # input that arrives while it is still opening the port).
+                self._closed.wait(0.05)
+                conn.sendall(protocol.encode_frame(protocol.BOOT, 0, "fake-1"))
+            while not self._closed.is_set():
+                data = conn.recv(256)
+                if not data:
+                    return
+                for item in parser.feed(data):
+                    if isinstance(item, protocol.FrameError):
+                        self._reply(conn, protocol.NAK, 0, item.reason)
+                    elif not self._handle(conn, item):
+                        conn.shutdown(socket.SHUT_RDWR)
+                        conn.close()
+                        return
+        except OSError:
+            return
+
+
+def make_link(board: FakeBoard, **kwargs) -> RobotLink:
+    kwargs.setdefault("boot_wait_s", 1.0)
+    return RobotLink(board.url, **kwargs)
+
+
+def test_connect_reads_boot_version_and_pings() -> None:
+    with FakeBoard() as board, make_link(board) as link:
+        assert link.firmware_version == "fake-1"
+        assert [f.type for _, f in board.received][:1] == [protocol.PING]
+        ack = link.ping()
+        assert ack.accepted and ack.requested == protocol.PING
+        assert link.stats().rtt_ms > 0
+
+
+def test_drive_returns_what_the_board_acknowledged() -> None:
+    with FakeBoard() as board, make_link(board) as link:
+        ack = link.drive(Command.LEFT)
+        assert (ack.requested, ack.state, ack.accepted) == ("L", "L", True)
+        assert link.drive("S").state == "S"
+        seqs = [f.seq for _, f in board.received]
+        assert seqs == sorted(seqs) and len(set(seqs)) == len(seqs)
+
+
+def test_estop_latches_and_drive_is_refused_until_cleared() -> None:
+    with FakeBoard() as board, make_link(board) as link:
+        link.drive(Command.FORWARD)
+        assert link.estop().accepted
+        refused = link.drive(Command.FORWARD)
+        assert refused.rejected == protocol.REASON_ESTOP and refused.state == "S"
+        assert link.clear_estop().accepted
+        assert link.drive(Command.FORWARD).state == "F"
+
+
+def test_set_watchdog_validates_range() -> None:
+    with FakeBoard() as board, make_link(board) as link:
+        assert link.set_watchdog_ms(250).accepted
+        assert board.watchdog_ms == 250
+        with pytest.raises(ValueError):
+            link.set_watchdog_ms(10)
+
+
+def test_close_stops_the_motors() -> None:
+    with FakeBoard() as board:
+        with make_link(board) as link:
+            link.drive(Command.FORWARD)
+        assert board.drives()[-1] == "S"
+        assert board.state == "S"
+
+
+def test_keepalive_refreshes_the_lease_faster_than_the_watchdog() -> None:
+    with FakeBoard() as board, make_link(board, keepalive_period_s=0.1) as link:
+        link.drive(Command.FORWARD, lease_s=10.0)
+        assert board.wait_for(lambda b: b.drives().count("F") >= 8)
+        times = [t for t, f in board.received if f.type == protocol.DRIVE and f.args == ("F",)]
+        gaps = [b - a for a, b in zip(times, times[1:], strict=False)]
+        # The board stops the motors after 300 ms without a drive frame.
+        assert max(gaps) < 0.3
+        assert link.stats().keepalives >= 7
+
+
+def test_expired_lease_sends_stop() -> None:
+    with FakeBoard() as board, make_link(board) as link:
+        link.drive(Command.RIGHT, lease_s=0.3)
+        assert board.wait_for(lambda b: b.drives()[-1:] == ["S"])
+        assert link.lease_letter() == "S"
+
+
+@pytest.mark.parametrize("mode", ["silent", "corrupt", "disconnect"])
+def test_board_faults_raise_link_error(mode: str) -> None:
+    with FakeBoard(mode=mode, fault_after=2) as board:
+        link = make_link(board)
+        link.connect()
+        try:
+            with pytest.raises(LinkError) as info:
+                for _ in range(20):
+                    link.drive(Command.FORWARD)
+            assert isinstance(info.value, LfdTrackError)
+            assert board.url in str(info.value)
+            assert link.failure is info.value
+            with pytest.raises(LinkError):
+                link.ping()  # the failure is sticky
+        finally:
+            link.close()
+        if mode != "disconnect":
+            # The board still hears us: close() (and the failure path) sent stop.
+            assert board.drives()[-1] == "S"
+
+
+def test_unreachable_port_is_a_clear_error() -> None:
+    sock = socket.socket()
+    sock.bind(("127.0.0.1", 0))
+    port = sock.getsockname()[1]
+    sock.close()  # nothing listens there now
+    with pytest.raises(LinkError, match="cannot open serial link"):
+        RobotLink(f"socket://127.0.0.1:{port}").connect()
+
+
+def test_board_that_never_answers_fails_connect() -> None:
+    with FakeBoard(mode="silent", boot=False) as board:
+        link = RobotLink(board.url, connect_timeout_s=0.3)
+        with pytest.raises(LinkError, match="no answer"):
+            link.connect()
+        assert not link.is_open
+
+
+class ScriptedPort:
+    """A serial-like object whose replies are fixed bytes (for fuzzing the reply handling)."""
+
+    timeout = 0
+
+    def __init__(self, replies: bytes) -> None:
+        self._replies = bytearray(replies)
+        self.written = bytearray()
+
+    @property
+    def in_waiting(self) -> int:
+        return len(self._replies)
+
+    def read(self, n: int) -> bytes:
+        out = bytes(self._replies[:n])
+        del self._replies[:n]
+        return out
+
+    def write(self, data: bytes) -> int:
+        self.written += data
+        return len(data)
+
+    def flush(self) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.binary(max_size=400))
+def test_reply_handling_never_crashes_on_random_bytes(noise: bytes) -> None:
+    port = ScriptedPort(noise)
+    link = RobotLink(
+        "scripted", ack_timeout_s=0.002, max_consecutive_failures=2, port_factory=lambda: port
+    )
+    link.open()
+    try:
+        ack = link.drive(Command.FORWARD)
+        assert ack.requested == "F"  # random bytes cannot forge a CRC-checked ack for seq 1..
+    except LinkError:
+        pass
+    assert link._parser.buffered <= protocol.MAX_LINE_BYTES + 1
+    link.close()
+    assert b"$D," in bytes(port.written)
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.binary(max_size=200), st.binary(max_size=50))
+def test_valid_ack_is_found_among_noise(before: bytes, after: bytes) -> None:
+    ack = protocol.encode_frame(protocol.ACK, 1, "F", "0")
+    port = ScriptedPort(before + ack + after)
+    link = RobotLink("scripted", ack_timeout_s=0.002, port_factory=lambda: port)
+    link.open()
+    try:
+        reply = link.drive(Command.FORWARD)
+    except LinkError as exc:
+        # Only an implausibly long run of broken lines may hide the ack.
+        assert "corrupt replies" in str(exc)
+    else:
+        assert (reply.seq, reply.state, reply.accepted) == (1, "F", True)
+    assert link._parser.buffered <= protocol.MAX_LINE_BYTES + 1
+    link.close()
