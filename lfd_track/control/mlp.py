@@ -1,0 +1,81 @@
+"""The paper's 40-5-3 sigmoid MLP (§4.2.3) as a flat weight vector, batched over a population.
+
+Weight order (no biases, the paper's 215 weights): the 5 x 40 input-to-hidden matrix row-major
+(row = hidden node), then the 3 x 5 hidden-to-output matrix row-major (row = output node).
+With ``bias=True`` the 5 hidden biases and then the 3 output biases follow (223 weights), so a
+bias-free vector is a prefix of the bias layout.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+N_INPUTS = 40
+N_HIDDEN = 5
+N_OUTPUTS = 3
+LAYER_SIZES = (N_INPUTS, N_HIDDEN, N_OUTPUTS)
+
+_W1 = N_HIDDEN * N_INPUTS
+_W2 = N_OUTPUTS * N_HIDDEN
+
+
+def n_weights(bias: bool = False) -> int:
+    """Length of a weight vector: 215 without biases, 223 with."""
+    return _W1 + _W2 + (N_HIDDEN + N_OUTPUTS if bias else 0)
+
+
+def sigmoid(x: np.ndarray) -> np.ndarray:
+    """Logistic function, written with tanh so large negative inputs do not overflow."""
+    return 0.5 * (1.0 + np.tanh(0.5 * x))
+
+
+def mlp_forward(weights: np.ndarray, inputs: np.ndarray, *, bias: bool | None = None) -> np.ndarray:
+    """Outputs of one network or a population of networks on a batch of inputs.
+
+    ``weights``: (W,) or (P, W) float, W = 215 (or 223 with biases; inferred from W when ``bias``
+    is None). ``inputs``: (N, 40) or (40,). Returns float64 (N, 3), (P, N, 3), or without the N
+    axis when ``inputs`` is 1-D. Sigmoid on hidden and output nodes.
+    """
+    w = np.asarray(weights, dtype=np.float64)
+    x = np.asarray(inputs, dtype=np.float64)
+    if bias is None:
+        bias = w.shape[-1] == n_weights(True)
+    if w.ndim not in (1, 2) or w.shape[-1] != n_weights(bias):
+        raise ValueError(
+            f"weights must have shape ({n_weights(bias)},) or (P, {n_weights(bias)}), got {w.shape}"
+        )
+    single_input = x.ndim == 1
+    x2 = x[None, :] if single_input else x
+    if x2.ndim != 2 or x2.shape[1] != N_INPUTS:
+        raise ValueError(f"inputs must have shape (N, {N_INPUTS}), got {x.shape}")
+    single_net = w.ndim == 1
+    w2 = w[None, :] if single_net else w
+    p = w2.shape[0]
+    w_ih = w2[:, :_W1].reshape(p, N_HIDDEN, N_INPUTS)
+    w_ho = w2[:, _W1 : _W1 + _W2].reshape(p, N_OUTPUTS, N_HIDDEN)
+    pre_hidden = np.einsum("ni,phi->pnh", x2, w_ih)
+    if bias:
+        pre_hidden += w2[:, None, _W1 + _W2 : _W1 + _W2 + N_HIDDEN]
+    hidden = sigmoid(pre_hidden)
+    pre_out = np.matmul(hidden, w_ho.transpose(0, 2, 1))
+    if bias:
+        pre_out += w2[:, None, _W1 + _W2 + N_HIDDEN :]
+    out = sigmoid(pre_out)
+    if single_input:
+        out = out[:, 0]
+    return out[0] if single_net else out
+
+
+def select_action(outputs: np.ndarray, previous: int | None = None) -> int:
+    """Index of the largest of the 3 outputs (0 forward, 1 left, 2 right).
+
+    An exact tie for the largest output sends no new command, so ``previous`` is returned (the
+    paper, §4.2.3); with no previous command the first tied index is taken.
+    """
+    out = np.asarray(outputs, dtype=np.float64).reshape(-1)
+    if out.shape != (N_OUTPUTS,):
+        raise ValueError(f"outputs must have {N_OUTPUTS} values, got {out.shape}")
+    best = int(np.argmax(out))
+    if previous is not None and np.count_nonzero(out == out[best]) > 1:
+        return int(previous)
+    return best

@@ -1,0 +1,225 @@
+"""The paper's generational GA (§4.2.4, Table 1) evolving MLP weights on the imitation fitness.
+
+Fitness is minimised (lower is better, 0 perfect; see :func:`imitation_fitness`). The operators
+are pure functions vectorised over the population; all randomness comes from the generator
+passed in, so the same seed gives the same bytes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..control.mlp import n_weights
+from .fitness import imitation_fitness
+
+
+@dataclass(frozen=True)
+class GAConfig:
+    """GA settings; defaults are the paper's Table 1."""
+
+    population_size: int = 40
+    """Individuals per generation."""
+    generations: int = 200
+    """Number of generations bred and evaluated."""
+    tournament_size: int = 3
+    """Contestants per tournament (drawn with replacement); the lowest fitness wins."""
+    mutation_rate: float = 0.2
+    """Probability that each weight of a child is mutated."""
+    mutation_delta: float = 0.1
+    """A mutated weight moves by a uniform draw from [-delta, delta]."""
+    init_range: float = 1.0
+    """Initial weights are uniform in [-init_range, init_range]."""
+    elitism: int = 0
+    """Best individuals copied unchanged into the next generation (0 in the paper)."""
+    bias: bool = False
+    """Give hidden and output nodes biases (223 weights instead of the paper's 215)."""
+    threshold: float = 0.4
+    """Output-difference threshold of the fitness (Algorithm 3)."""
+
+    def __post_init__(self) -> None:
+        for name in ("population_size", "generations", "tournament_size", "elitism"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int):
+                raise ValueError(f"{name} must be an integer, got {value!r}")
+        if self.population_size < 1:
+            raise ValueError("population_size must be at least 1")
+        if self.generations < 1:
+            raise ValueError("generations must be at least 1")
+        if self.tournament_size < 1:
+            raise ValueError("tournament_size must be at least 1")
+        if not 0 <= self.elitism < self.population_size:
+            raise ValueError("elitism must be in 0..population_size-1")
+        if not 0.0 <= self.mutation_rate <= 1.0:
+            raise ValueError("mutation_rate must be in [0, 1]")
+        if not (self.mutation_delta >= 0 and np.isfinite(self.mutation_delta)):
+            raise ValueError("mutation_delta must be a finite non-negative number")
+        if not (self.init_range >= 0 and np.isfinite(self.init_range)):
+            raise ValueError("init_range must be a finite non-negative number")
+        if not (self.threshold > 0 and np.isfinite(self.threshold)):
+            raise ValueError("threshold must be a finite positive number")
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict of the fields (JSON-friendly)."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> GAConfig:
+        """Inverse of :meth:`to_dict`; unknown keys or bad values raise ``ValueError``."""
+        if not isinstance(data, dict):
+            raise ValueError("GA config must be an object")
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(data) - names)
+        if unknown:
+            raise ValueError(f"unknown GA config key '{unknown[0]}'")
+        try:
+            return cls(**data)
+        except TypeError as exc:
+            raise ValueError(str(exc)) from None
+
+
+@dataclass(frozen=True)
+class EvolutionResult:
+    """Outcome of :func:`evolve`."""
+
+    best_weights: np.ndarray
+    """The best individual ever evaluated, (W,) float64."""
+    best_fitness: float
+    """Its fitness (lower is better)."""
+    best_generation: int
+    """Generation (1-based) in which it was evaluated."""
+    best_history: np.ndarray
+    """Best fitness of each generation, (generations,) float64."""
+    mean_history: np.ndarray
+    """Mean fitness of each generation, (generations,) float64."""
+    config: GAConfig
+    """The settings used."""
+    rng_state: dict[str, Any]
+    """``rng.bit_generator.state`` when the run started: restoring it repeats the run."""
+
+
+# ------------------------------------------------------------------------------------ operators
+def tournament_select(
+    fitness: np.ndarray, n: int, tournament_size: int, rng: np.random.Generator
+) -> np.ndarray:
+    """Indices of ``n`` tournament winners, (n,) intp.
+
+    Each tournament draws ``tournament_size`` contestants uniformly with replacement; the lowest
+    fitness wins and a tie goes to the contestant drawn first (so equal fitnesses, as in the
+    first generation, make selection uniformly random). ``fitness``: (P,).
+    """
+    fitness = np.asarray(fitness, dtype=np.float64)
+    contestants = rng.integers(0, fitness.shape[0], size=(n, tournament_size))
+    winner = np.argmin(fitness[contestants], axis=1)  # first minimum = first drawn
+    return contestants[np.arange(n), winner]
+
+
+def uniform_crossover(
+    first: np.ndarray, second: np.ndarray, rng: np.random.Generator
+) -> np.ndarray:
+    """One child per parent pair, each gene from either parent with probability 1/2.
+
+    ``first``, ``second``: (n, W). Returns (n, W).
+    """
+    take_first = rng.random(first.shape) < 0.5
+    return np.where(take_first, first, second)
+
+
+def mutate(
+    population: np.ndarray, rate: float, delta: float, rng: np.random.Generator
+) -> np.ndarray:
+    """Add a uniform [-delta, delta] step to each gene with probability ``rate``; shape (n, W)."""
+    hit = rng.random(population.shape) < rate
+    step = rng.uniform(-delta, delta, size=population.shape)
+    return population + np.where(hit, step, 0.0)
+
+
+def initial_population(config: GAConfig, rng: np.random.Generator) -> np.ndarray:
+    """Uniform random weights in [-init_range, init_range], (population_size, W) float64."""
+    shape = (config.population_size, n_weights(config.bias))
+    return rng.uniform(-config.init_range, config.init_range, size=shape)
+
+
+def next_generation(
+    population: np.ndarray, fitness: np.ndarray, config: GAConfig, rng: np.random.Generator
+) -> np.ndarray:
+    """Breed a full replacement generation, (P, W) → (P, W).
+
+    The ``elitism`` best (lowest fitness, earliest index on ties) are copied first; every other
+    slot gets one child of two tournament winners: uniform crossover, then mutation.
+    """
+    p = population.shape[0]
+    n_children = p - config.elitism
+    first = tournament_select(fitness, n_children, config.tournament_size, rng)
+    second = tournament_select(fitness, n_children, config.tournament_size, rng)
+    children = uniform_crossover(population[first], population[second], rng)
+    children = mutate(children, config.mutation_rate, config.mutation_delta, rng)
+    if config.elitism == 0:
+        return children
+    elite = np.argsort(fitness, kind="stable")[: config.elitism]
+    return np.concatenate([population[elite], children])
+
+
+# ------------------------------------------------------------------------------------ the GA
+def evolve(
+    inputs: np.ndarray,
+    actions: np.ndarray,
+    config: GAConfig | None = None,
+    rng: np.random.Generator | None = None,
+    progress: Callable[[int, float, float], None] | None = None,
+) -> EvolutionResult:
+    """Evolve MLP weights that imitate ``actions`` from ``inputs``.
+
+    ``inputs``: (N, 40) road values; ``actions``: (N,) commands 0/1/2. ``rng`` is required for
+    reproducibility (a fresh unseeded generator is used if None). ``progress(generation,
+    best_fitness, mean_fitness)`` is called after each generation is evaluated.
+
+    Order of operations (as the paper describes):
+
+    1. Draw the initial population; every fitness is 0 (not evaluated), so the first round of
+       tournaments is uniformly random.
+    2. For each of ``generations`` generations: draw all first-parent tournaments, then all
+       second-parent tournaments, then the crossover masks, then the mutation masks and steps
+       (see :func:`next_generation`); replace the whole population; evaluate it in one batch.
+    3. Return the best individual ever evaluated (the earliest on ties).
+    """
+    config = config or GAConfig()
+    rng = rng if rng is not None else np.random.default_rng()
+    rng_state = rng.bit_generator.state
+    inputs = np.asarray(inputs, dtype=np.float64)
+    actions = np.asarray(actions)
+    # Fail on bad data before spending any time.
+    imitation_fitness(np.zeros((1, n_weights(config.bias))), inputs, actions, config.threshold)
+
+    population = initial_population(config, rng)
+    fitness = np.zeros(config.population_size)
+    best_history = np.empty(config.generations)
+    mean_history = np.empty(config.generations)
+    best_weights = population[0].copy()
+    best_fitness = np.inf
+    best_generation = 0
+    for generation in range(1, config.generations + 1):
+        population = next_generation(population, fitness, config, rng)
+        fitness = imitation_fitness(population, inputs, actions, config.threshold, bias=config.bias)
+        i = int(np.argmin(fitness))
+        best_history[generation - 1] = fitness[i]
+        mean_history[generation - 1] = fitness.mean()
+        if fitness[i] < best_fitness:
+            best_fitness = float(fitness[i])
+            best_weights = population[i].copy()
+            best_generation = generation
+        if progress is not None:
+            progress(generation, float(fitness[i]), float(mean_history[generation - 1]))
+    return EvolutionResult(
+        best_weights=best_weights,
+        best_fitness=best_fitness,
+        best_generation=best_generation,
+        best_history=best_history,
+        mean_history=mean_history,
+        config=config,
+        rng_state=rng_state,
+    )
