@@ -32,7 +32,9 @@ class DriverConfig:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.lookahead_m) and self.lookahead_m > 0):
-            raise ValueError(f"driver lookahead_m must be a finite number > 0, got {self.lookahead_m!r}")
+            raise ValueError(
+                f"driver lookahead_m must be a finite number > 0, got {self.lookahead_m!r}"
+            )
         if not (math.isfinite(self.dead_band_deg) and 0 <= self.dead_band_deg < 90):
             raise ValueError(f"driver dead_band_deg must be in [0, 90), got {self.dead_band_deg!r}")
 

@@ -66,9 +66,19 @@ class RoverConfig:
 
     def __post_init__(self) -> None:
         positive = (
-            "body_width_m", "body_length_m", "mass_kg", "tread_width_m", "forward_speed_mps",
-            "pivot_rate_radps", "control_period_s", "physics_dt_s", "drive_gain_npmps",
-            "traction_coeff", "lateral_stiffness_npmps", "lateral_friction_coeff", "gravity_mps2",
+            "body_width_m",
+            "body_length_m",
+            "mass_kg",
+            "tread_width_m",
+            "forward_speed_mps",
+            "pivot_rate_radps",
+            "control_period_s",
+            "physics_dt_s",
+            "drive_gain_npmps",
+            "traction_coeff",
+            "lateral_stiffness_npmps",
+            "lateral_friction_coeff",
+            "gravity_mps2",
         )
         for name in positive:
             value = getattr(self, name)
@@ -336,7 +346,11 @@ class Rover:
         outer = 0.5 * cfg.body_width_m
         inner = outer - cfg.tread_width_m
         xs = np.linspace(-half_len, half_len, n_along) if n_along > 1 else np.zeros(1)
-        ys = np.linspace(inner, outer, n_across) if n_across > 1 else np.full(1, 0.5 * (inner + outer))
+        ys = (
+            np.linspace(inner, outer, n_across)
+            if n_across > 1
+            else np.full(1, 0.5 * (inner + outer))
+        )
         gx, gy = np.meshgrid(xs, ys, indexing="ij")
         left = np.stack([gx.ravel(), gy.ravel()], axis=1)
         right = left * np.array([1.0, -1.0])
