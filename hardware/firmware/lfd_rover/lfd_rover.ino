@@ -1,0 +1,393 @@
+// lfd_rover: drive firmware for the tracked rover (DFRobot Romeo, ATmega328P at 16 MHz).
+//
+// Speaks the line-framed wire protocol of lfd_track/hardware/protocol.py (DESIGN section 8):
+//
+//   host -> board  $<type>,<seq>[,<arg>]*<CRC>\n
+//     D,<seq>,F|L|R|S  drive forward / spin left / spin right / stop (renews the motor lease)
+//     H,<seq>          ping (never changes the motors, does not renew the lease)
+//     E,<seq>          emergency stop: motors off, latched until C
+//     C,<seq>          clear the e-stop; motors stay off until the next drive frame
+//     T,<seq>,<ms>     set the lease (software watchdog) period, 50..2000 ms
+//   board -> host
+//     $A,<seq>,<state>,<flags>*CRC   ack; state = F/L/R/S (drive now applied) or X (e-stopped)
+//     $N,<seq>,<reason>*CRC          reject; reason = CRC FRAME ARG ESTOP TYPE LONG
+//     $B,0,<version>*CRC             sent once after every reset
+//     $W,0,S*CRC                     the lease ran out and the motors were stopped
+//
+// CRC is CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF) over the bytes between '$' and '*',
+// written as 4 upper-case hex digits; lower-case digits are accepted on input.
+//
+// Ack flags, a decimal bitfield:
+//   bit 0 (1)  e-stop latched
+//   bit 1 (2)  the lease ran out and stopped the motors since the last accepted drive frame
+//
+// NAK seq: the frame's own seq when its second field is a valid seq (0..65535), else 0. For CRC
+// failures this seq is only a hint, since the bytes it was read from failed the check.
+//
+// Framing: bytes outside a frame are ignored; '$' always starts a new frame (resynchronises);
+// a line longer than 31 bytes ('$' up to, not including, the newline; one trailing '\r' is
+// allowed and stripped) is rejected as LONG once its newline arrives. The receive buffer is a
+// fixed 33 bytes.
+//
+// Safety: a drive frame is a lease. Motors stop when no accepted drive frame arrived within the
+// lease period (default 300 ms); they are off at reset until the first drive frame; a ping never
+// starts motion; drive frames (stop included) are refused with ESTOP while the e-stop is
+// latched, and clearing it leaves the motors off. The AVR hardware watchdog (250 ms) resets the
+// board if the main loop ever hangs. None of this replaces the physical motor-power switch.
+
+#include <avr/wdt.h>
+#include <util/crc16.h>
+
+static const char FIRMWARE_VERSION[] = "1.0";
+static const unsigned long SERIAL_BAUD = 9600;  // HC-05/06 factory default
+
+// DFRobot Romeo motor driver pins.
+static const uint8_t PIN_LEFT_PWM = 5;    // E1: left tread speed (Timer0 OC0B)
+static const uint8_t PIN_LEFT_DIR = 4;    // M1: left tread direction
+static const uint8_t PIN_RIGHT_PWM = 6;   // E2: right tread speed (Timer0 OC0A)
+static const uint8_t PIN_RIGHT_DIR = 7;   // M2: right tread direction
+
+// Direction level that drives a tread forward. LOW matches DFRobot's own Romeo example
+// ("advance" writes M1/M2 LOW); if a tread runs backward on your chassis, swap its motor leads.
+static const uint8_t DIR_FORWARD = LOW;
+static const uint8_t DIR_BACKWARD = HIGH;
+
+// Fixed PWM duty for every drive command (0..255, about 78 %): the paper's rover has discrete
+// commands only, and a fixed duty keeps the demonstrations and the learned controller alike.
+static const uint8_t DRIVE_DUTY = 200;
+
+static const uint16_t LEASE_DEFAULT_MS = 300;
+static const uint16_t LEASE_MIN_MS = 50;
+static const uint16_t LEASE_MAX_MS = 2000;
+
+static const uint8_t MAX_LINE_BYTES = 31;
+// One extra byte lets a trailing '\r' in, which is stripped before the length check.
+static const uint8_t RX_CAPACITY = MAX_LINE_BYTES + 1;
+
+static const uint8_t FLAG_ESTOP = 1;
+static const uint8_t FLAG_LEASE_EXPIRED = 2;
+
+static const char STATE_ESTOP = 'X';
+
+// Receive state: one frame in progress at most.
+static char rx_buf[RX_CAPACITY + 1];
+static uint8_t rx_len = 0;
+static bool rx_in_frame = false;
+static bool rx_overflow = false;
+
+// Drive state.
+static char drive_state = 'S';
+static bool estop_latched = false;
+static bool lease_expired = false;
+static uint16_t lease_ms = LEASE_DEFAULT_MS;
+static unsigned long last_drive_ms = 0;
+static uint8_t left_dir_now = DIR_FORWARD;
+static uint8_t right_dir_now = DIR_FORWARD;
+
+// The watchdog stays enabled across a watchdog reset (at the shortest timeout), so it must be
+// turned off before the C runtime and Arduino init() run, or the board would reset forever.
+void disable_watchdog_early(void) __attribute__((naked, used, section(".init3")));
+void disable_watchdog_early(void) {
+  MCUSR = 0;
+  wdt_disable();
+}
+
+static void set_motors(char command) {
+  uint8_t left_duty = DRIVE_DUTY;
+  uint8_t right_duty = DRIVE_DUTY;
+  uint8_t left_dir = DIR_FORWARD;
+  uint8_t right_dir = DIR_FORWARD;
+  switch (command) {
+    case 'F':
+      break;
+    case 'L':  // spin left on the spot: left tread back, right tread forward
+      left_dir = DIR_BACKWARD;
+      break;
+    case 'R':
+      right_dir = DIR_BACKWARD;
+      break;
+    default:  // 'S' and anything unexpected: both off
+      left_duty = 0;
+      right_duty = 0;
+      break;
+  }
+  // A tread whose direction changes is switched off first, so it never reverses at full duty
+  // for the instant between the two writes. Unchanged values are rewritten as-is (a renewed
+  // lease must not glitch the outputs).
+  if (left_dir != left_dir_now) analogWrite(PIN_LEFT_PWM, 0);
+  if (right_dir != right_dir_now) analogWrite(PIN_RIGHT_PWM, 0);
+  digitalWrite(PIN_LEFT_DIR, left_dir);
+  digitalWrite(PIN_RIGHT_DIR, right_dir);
+  left_dir_now = left_dir;
+  right_dir_now = right_dir;
+  analogWrite(PIN_LEFT_PWM, left_duty);
+  analogWrite(PIN_RIGHT_PWM, right_duty);
+}
+
+static uint16_t crc16_update(uint16_t crc, const char *text, uint8_t len) {
+  for (uint8_t i = 0; i < len; i++) {
+    crc = _crc_xmodem_update(crc, (uint8_t)text[i]);
+  }
+  return crc;
+}
+
+static void write_hex4(uint16_t value) {
+  static const char digits[] = "0123456789ABCDEF";
+  for (int8_t shift = 12; shift >= 0; shift -= 4) {
+    Serial.write(digits[(value >> shift) & 0xF]);
+  }
+}
+
+// Sends "$<body>*<CRC>\n".
+static void send_frame(const char *body) {
+  uint8_t len = strlen(body);
+  Serial.write('$');
+  Serial.write((const uint8_t *)body, len);
+  Serial.write('*');
+  write_hex4(crc16_update(0xFFFF, body, len));
+  Serial.write('\n');
+}
+
+static char current_state() { return estop_latched ? STATE_ESTOP : drive_state; }
+
+static uint8_t current_flags() {
+  return (estop_latched ? FLAG_ESTOP : 0) | (lease_expired ? FLAG_LEASE_EXPIRED : 0);
+}
+
+static void send_ack(uint16_t seq) {
+  char body[24];
+  snprintf(body, sizeof body, "A,%u,%c,%u", seq, current_state(), current_flags());
+  send_frame(body);
+}
+
+static void send_nak(uint16_t seq, const char *reason) {
+  char body[24];
+  snprintf(body, sizeof body, "N,%u,%s", seq, reason);
+  send_frame(body);
+}
+
+static int hex_value(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  return -1;
+}
+
+static bool is_letter(char c) { return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z'); }
+
+// Parses a decimal field of 1..max_digits digits; false if it is anything else.
+static bool parse_decimal(const char *text, uint8_t len, uint8_t max_digits, uint32_t *out) {
+  if (len == 0 || len > max_digits) return false;
+  uint32_t value = 0;
+  for (uint8_t i = 0; i < len; i++) {
+    if (text[i] < '0' || text[i] > '9') return false;
+    value = value * 10 + (uint8_t)(text[i] - '0');
+  }
+  *out = value;
+  return true;
+}
+
+// Best-effort seq of a line for a NAK: the second comma-separated field of the body, or 0.
+static uint16_t guess_seq(const char *body, uint8_t len) {
+  uint8_t start = 0;
+  while (start < len && body[start] != ',') start++;
+  if (start >= len) return 0;
+  start++;
+  uint8_t end = start;
+  while (end < len && body[end] != ',' && body[end] != '*') end++;
+  uint32_t seq;
+  if (parse_decimal(body + start, end - start, 5, &seq) && seq <= 0xFFFF) return (uint16_t)seq;
+  return 0;
+}
+
+static void apply_drive(uint16_t seq, char command) {
+  if (estop_latched) {
+    send_nak(seq, "ESTOP");
+    return;
+  }
+  drive_state = command;
+  last_drive_ms = millis();
+  lease_expired = false;
+  set_motors(command);
+  send_ack(seq);
+}
+
+// Handles one complete line held in rx_buf (starting with '$', newline removed).
+static void handle_line() {
+  if (rx_overflow) {
+    send_nak(guess_seq(rx_buf + 1, rx_len - 1), "LONG");
+    return;
+  }
+  uint8_t len = rx_len;
+  if (len > 0 && rx_buf[len - 1] == '\r') len--;
+  const char *body = rx_buf + 1;
+  uint8_t body_span = len - 1;  // bytes after '$'
+  if (len > MAX_LINE_BYTES) {
+    send_nak(guess_seq(body, body_span), "LONG");
+    return;
+  }
+
+  // Exactly one '*', followed by exactly 4 hex digits.
+  uint8_t star = 0;
+  uint8_t stars = 0;
+  for (uint8_t i = 0; i < body_span; i++) {
+    if (body[i] == '*') {
+      star = i;
+      stars++;
+    }
+  }
+  uint16_t seq_hint = guess_seq(body, body_span);
+  if (stars != 1 || body_span - star - 1 != 4) {
+    send_nak(seq_hint, "FRAME");
+    return;
+  }
+  uint16_t received_crc = 0;
+  for (uint8_t i = star + 1; i < body_span; i++) {
+    int digit = hex_value(body[i]);
+    if (digit < 0) {
+      send_nak(seq_hint, "FRAME");
+      return;
+    }
+    received_crc = (received_crc << 4) | (uint8_t)digit;
+  }
+  if (crc16_update(0xFFFF, body, star) != received_crc) {
+    send_nak(seq_hint, "CRC");
+    return;
+  }
+
+  // Split the checked body into fields: type, seq, args.
+  const uint8_t MAX_FIELDS = 4;
+  const char *field[MAX_FIELDS];
+  uint8_t field_len[MAX_FIELDS];
+  uint8_t fields = 0;
+  uint8_t start = 0;
+  for (uint8_t i = 0; i <= star; i++) {
+    if ((uint8_t)body[i] >= 0x80) {  // the wire format is ASCII only
+      send_nak(seq_hint, "FRAME");
+      return;
+    }
+    if (i == star || body[i] == ',') {
+      if (fields < MAX_FIELDS) {
+        field[fields] = body + start;
+        field_len[fields] = i - start;
+      }
+      fields++;
+      start = i + 1;
+    }
+  }
+  uint32_t seq32;
+  if (fields < 2 || field_len[0] != 1 || !is_letter(field[0][0]) ||
+      !parse_decimal(field[1], field_len[1], 5, &seq32) || seq32 > 0xFFFF) {
+    send_nak(seq_hint, "FRAME");
+    return;
+  }
+  uint16_t seq = (uint16_t)seq32;
+  uint8_t args = fields - 2;
+  char type = field[0][0];
+
+  switch (type) {
+    case 'D': {
+      char command = args == 1 && field_len[2] == 1 ? field[2][0] : 0;
+      if (command != 'F' && command != 'L' && command != 'R' && command != 'S') {
+        send_nak(seq, "ARG");
+        return;
+      }
+      apply_drive(seq, command);
+      return;
+    }
+    case 'H':
+      if (args != 0) {
+        send_nak(seq, "ARG");
+        return;
+      }
+      send_ack(seq);
+      return;
+    case 'E':
+      if (args != 0) {
+        send_nak(seq, "ARG");
+        return;
+      }
+      estop_latched = true;
+      drive_state = 'S';
+      set_motors('S');
+      send_ack(seq);
+      return;
+    case 'C':
+      if (args != 0) {
+        send_nak(seq, "ARG");
+        return;
+      }
+      estop_latched = false;  // motors were stopped when it latched and stay stopped
+      send_ack(seq);
+      return;
+    case 'T': {
+      uint32_t period;
+      if (args != 1 || !parse_decimal(field[2], field_len[2], 4, &period) ||
+          period < LEASE_MIN_MS || period > LEASE_MAX_MS) {
+        send_nak(seq, "ARG");
+        return;
+      }
+      lease_ms = (uint16_t)period;
+      send_ack(seq);
+      return;
+    }
+    default:
+      send_nak(seq, "TYPE");
+      return;
+  }
+}
+
+static void receive_byte(char c) {
+  if (c == '$') {  // always resynchronise on '$'
+    rx_buf[0] = c;
+    rx_len = 1;
+    rx_in_frame = true;
+    rx_overflow = false;
+  } else if (!rx_in_frame) {
+    // noise between frames is ignored
+  } else if (c == '\n') {
+    rx_buf[rx_len] = '\0';
+    handle_line();
+    rx_len = 0;
+    rx_in_frame = false;
+    rx_overflow = false;
+  } else if (rx_overflow) {
+    // drop the rest of an over-long line
+  } else if (rx_len >= RX_CAPACITY) {
+    rx_overflow = true;
+  } else {
+    rx_buf[rx_len++] = c;
+  }
+}
+
+static void check_lease() {
+  if (drive_state == 'S') return;
+  if (millis() - last_drive_ms >= lease_ms) {
+    drive_state = 'S';
+    lease_expired = true;
+    set_motors('S');
+    send_frame("W,0,S");
+  }
+}
+
+void setup() {
+  // Motors off before anything else, including before the serial link is up.
+  pinMode(PIN_LEFT_DIR, OUTPUT);
+  pinMode(PIN_RIGHT_DIR, OUTPUT);
+  pinMode(PIN_LEFT_PWM, OUTPUT);
+  pinMode(PIN_RIGHT_PWM, OUTPUT);
+  set_motors('S');
+  Serial.begin(SERIAL_BAUD);
+  wdt_enable(WDTO_250MS);
+  char body[16];
+  snprintf(body, sizeof body, "B,0,%s", FIRMWARE_VERSION);
+  send_frame(body);
+}
+
+void loop() {
+  wdt_reset();
+  while (Serial.available() > 0) {
+    receive_byte((char)Serial.read());
+  }
+  check_lease();
+}
