@@ -25,8 +25,14 @@ def n_weights(bias: bool = False) -> int:
 
 
 def sigmoid(x: np.ndarray) -> np.ndarray:
-    """Logistic function, written with tanh so large negative inputs do not overflow."""
-    return 0.5 * (1.0 + np.tanh(0.5 * x))
+    """Logistic function 1 / (1 + exp(-x)), float64.
+
+    exp(-x) overflows to inf for x < -709, which correctly gives 0; the warning is silenced.
+    """
+    with np.errstate(over="ignore"):
+        e = np.exp(-np.asarray(x, dtype=np.float64))
+    e += 1.0
+    return np.reciprocal(e, out=e)
 
 
 def mlp_forward(weights: np.ndarray, inputs: np.ndarray, *, bias: bool | None = None) -> np.ndarray:
@@ -53,7 +59,9 @@ def mlp_forward(weights: np.ndarray, inputs: np.ndarray, *, bias: bool | None = 
     p = w2.shape[0]
     w_ih = w2[:, :_W1].reshape(p, N_HIDDEN, N_INPUTS)
     w_ho = w2[:, _W1 : _W1 + _W2].reshape(p, N_OUTPUTS, N_HIDDEN)
-    pre_hidden = np.einsum("ni,phi->pnh", x2, w_ih)
+    # One BLAS product for the whole population: (N, 40) @ (40, P*5).
+    pre_hidden = (x2 @ w_ih.reshape(p * N_HIDDEN, N_INPUTS).T).reshape(-1, p, N_HIDDEN)
+    pre_hidden = pre_hidden.transpose(1, 0, 2)
     if bias:
         pre_hidden += w2[:, None, _W1 + _W2 : _W1 + _W2 + N_HIDDEN]
     hidden = sigmoid(pre_hidden)
