@@ -1,0 +1,330 @@
+"""The rover's phone camera: pinhole geometry over the floor plane and a fast frame renderer.
+
+Geometry (DESIGN §3.4): the camera sits ``height_m`` above the floor, ``forward_offset_m`` ahead
+of the rover's pivot centre, pitched ``pitch_deg`` down, with a vertical field of view of
+``vfov_deg``, square pixels and the principal point at the image centre. Pixel coordinates are
+OpenCV's: (u, v) with u to the right and v down, integer values at pixel centres.
+
+Rendering is one ground-plane homography (``cv2.warpPerspective``, linear interpolation) from the
+ground texture, followed by the phone's image pipeline: auto-exposure that adapts with a lag,
+white-balance jitter, vignetting, sensor noise, and optionally motion blur and JPEG compression.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from .texture import GroundTexture
+
+#: The "safe box" (DESIGN §3.4): 50 × 50 px at the bottom centre, x 295–344, y 430–479.
+SAFE_BOX = (slice(430, 480), slice(295, 345))
+#: Rec. 601 luma weights of R, G, B, used to meter brightness.
+_LUMA = np.array([0.299, 0.587, 0.114])
+
+
+@dataclass(frozen=True)
+class CameraConfig:
+    """Pinhole camera mounted on the rover (TOML table ``[camera]``)."""
+
+    width_px: int = 640
+    """Image width [px]."""
+    height_px: int = 480
+    """Image height [px]."""
+    height_m: float = 0.31
+    """Height of the optical centre above the floor [m]."""
+    pitch_deg: float = 30.0
+    """Downward tilt of the optical axis below horizontal [deg]."""
+    vfov_deg: float = 41.0
+    """Vertical field of view [deg]; the horizontal one follows from square pixels."""
+    forward_offset_m: float = 0.0
+    """Optical centre's distance ahead of the rover's pivot centre [m]."""
+
+    def __post_init__(self) -> None:
+        if self.width_px < 2 or self.height_px < 2:
+            raise ValueError(f"image size must be at least 2 × 2 px, got {self.width_px} × {self.height_px}")
+        if self.height_m <= 0:
+            raise ValueError(f"height_m must be > 0, got {self.height_m}")
+        if not 0.0 < self.vfov_deg < 170.0:
+            raise ValueError(f"vfov_deg must be in (0, 170), got {self.vfov_deg}")
+        if self.pitch_deg - self.vfov_deg / 2.0 <= 0.5:
+            raise ValueError(
+                f"pitch_deg {self.pitch_deg} with vfov_deg {self.vfov_deg} puts the horizon in view "
+                "(pitch must exceed half the vertical field of view)"
+            )
+        if self.pitch_deg + self.vfov_deg / 2.0 >= 90.0:
+            raise ValueError("pitch_deg + vfov_deg / 2 must stay below 90 (the camera would look backwards)")
+
+
+@dataclass(frozen=True)
+class SensorConfig:
+    """The phone's image pipeline (TOML table ``[sensor]``)."""
+
+    exposure_target: float = 118.0
+    """Mean luma (0–255) the auto-exposure steers towards."""
+    exposure_lag_frames: float = 1.5
+    """Time constant of the auto-exposure [frames]; 0 adapts instantly."""
+    exposure_min_gain: float = 0.4
+    """Smallest exposure gain the camera can reach (relative to the texture)."""
+    exposure_max_gain: float = 3.0
+    """Largest exposure gain the camera can reach."""
+    white_balance_cast: float = 0.03
+    """Std of the per-episode colour cast (per-channel gain), relative."""
+    white_balance_jitter: float = 0.015
+    """Std of the per-frame white-balance jitter (per-channel gain), relative."""
+    noise_std: float = 3.0
+    """Std of the additive sensor noise [8-bit levels]."""
+    noise_pool_frames: int = 4
+    """Noise frames drawn at reset; each frame uses one at a random offset."""
+    vignetting: float = 0.25
+    """Brightness lost in the image corners, relative (0 = none)."""
+    motion_blur: bool = False
+    """Blur along the image motion of the last pose change (needs ``motion`` in ``render``)."""
+    motion_blur_fraction: float = 0.08
+    """Blur length as a fraction of the image displacement of the last pose change."""
+    jpeg_quality: int = 0
+    """JPEG round trip at this quality (1–100); 0 turns compression off."""
+
+    def __post_init__(self) -> None:
+        if not 0.0 < self.exposure_target < 255.0:
+            raise ValueError(f"exposure_target must be in (0, 255), got {self.exposure_target}")
+        if self.exposure_lag_frames < 0:
+            raise ValueError(f"exposure_lag_frames must be >= 0, got {self.exposure_lag_frames}")
+        if not 0.0 < self.exposure_min_gain <= self.exposure_max_gain:
+            raise ValueError("need 0 < exposure_min_gain <= exposure_max_gain")
+        for name in ("white_balance_cast", "white_balance_jitter", "noise_std", "motion_blur_fraction"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if not 0.0 <= self.vignetting < 1.0:
+            raise ValueError(f"vignetting must be in [0, 1), got {self.vignetting}")
+        if self.noise_pool_frames < 1:
+            raise ValueError(f"noise_pool_frames must be >= 1, got {self.noise_pool_frames}")
+        if not 0 <= self.jpeg_quality <= 100:
+            raise ValueError(f"jpeg_quality must be in 0..100 (0 = off), got {self.jpeg_quality}")
+
+
+class CameraModel:
+    """Pure pinhole geometry between floor points [m] and image pixels; no rendering."""
+
+    def __init__(self, config: CameraConfig | None = None) -> None:
+        self.config = config or CameraConfig()
+        c = self.config
+        self.focal_px = (c.height_px / 2.0) / math.tan(math.radians(c.vfov_deg) / 2.0)
+        self.cx = (c.width_px - 1) / 2.0
+        self.cy = (c.height_px - 1) / 2.0
+        self.K = np.array([[self.focal_px, 0.0, self.cx], [0.0, self.focal_px, self.cy], [0.0, 0.0, 1.0]])
+        self.K_inv = np.linalg.inv(self.K)
+        # Rover frame: x forward, y left, z up. Camera rows: image right, image down, optical axis.
+        p = math.radians(c.pitch_deg)
+        self._R_rover = np.array(
+            [
+                [0.0, -1.0, 0.0],
+                [-math.sin(p), 0.0, -math.cos(p)],
+                [math.cos(p), 0.0, -math.sin(p)],
+            ]
+        )
+
+    @property
+    def hfov_deg(self) -> float:
+        """Horizontal field of view [deg]."""
+        return math.degrees(2.0 * math.atan((self.config.width_px / 2.0) / self.focal_px))
+
+    def _extrinsics(self, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """World→camera rotation (3, 3) and camera centre (3,) in world coordinates [m]."""
+        x, y, theta = (float(v) for v in pose)
+        ct, st = math.cos(theta), math.sin(theta)
+        world_from_rover = np.array([[ct, -st, 0.0], [st, ct, 0.0], [0.0, 0.0, 1.0]])
+        R = self._R_rover @ world_from_rover.T
+        off = self.config.forward_offset_m
+        centre = np.array([x + off * ct, y + off * st, self.config.height_m])
+        return R, centre
+
+    def image_from_world(self, pose: np.ndarray) -> np.ndarray:
+        """(3, 3) homography from floor points (x, y, 1) [m] to pixels (u, v, 1) for ``pose`` (3,)."""
+        R, centre = self._extrinsics(pose)
+        return self.K @ np.column_stack([R[:, 0], R[:, 1], -R @ centre])
+
+    def project(self, points_world: np.ndarray, pose: np.ndarray) -> np.ndarray:
+        """Floor points (N, 2) [m] → pixel coordinates (N, 2) float64 (u right, v down).
+
+        Points behind the camera give NaN. Points outside the image still get coordinates.
+        """
+        pts = np.asarray(points_world, dtype=np.float64).reshape(-1, 2)
+        hom = np.column_stack([pts, np.ones(len(pts))]) @ self.image_from_world(pose).T
+        with np.errstate(divide="ignore", invalid="ignore"):
+            uv = hom[:, :2] / hom[:, 2:3]
+        uv[hom[:, 2] <= 1e-12] = np.nan
+        return uv
+
+    def floor_points(self, pixels: np.ndarray, pose: np.ndarray) -> np.ndarray:
+        """Pixels (N, 2) (u, v) → the floor points (N, 2) [m] they see; NaN above the horizon."""
+        px = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
+        R, centre = self._extrinsics(pose)
+        rays = (np.column_stack([px, np.ones(len(px))]) @ self.K_inv.T) @ R  # world directions
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = -centre[2] / rays[:, 2]
+        out = centre[None, :2] + t[:, None] * rays[:, :2]
+        out[~(rays[:, 2] < -1e-12)] = np.nan
+        return out
+
+    def footprint(self, pose: np.ndarray) -> np.ndarray:
+        """(4, 2) floor polygon [m] seen by the image: top-left, top-right, bottom-right, bottom-left."""
+        w, h = self.config.width_px, self.config.height_px
+        corners = np.array([[-0.5, -0.5], [w - 0.5, -0.5], [w - 0.5, h - 0.5], [-0.5, h - 0.5]])
+        return self.floor_points(corners, pose)
+
+    def safe_box_floor_polygon(self, pose: np.ndarray) -> np.ndarray:
+        """(4, 2) floor polygon [m] of the safe box (outer pixel edges), same corner order."""
+        rows, cols = SAFE_BOX
+        u0, u1 = cols.start - 0.5, cols.stop - 0.5
+        v0, v1 = rows.start - 0.5, rows.stop - 0.5
+        return self.floor_points(np.array([[u0, v0], [u1, v0], [u1, v1], [u0, v1]]), pose)
+
+    def homography(self, pose: np.ndarray, ground: GroundTexture) -> np.ndarray:
+        """(3, 3) homography from texel coordinates (col, row, 1) of ``ground`` to image pixels.
+
+        ``cv2.warpPerspective(ground.rgba, H, size)`` renders the view; the renderer passes the
+        inverse with ``cv2.WARP_INVERSE_MAP`` instead, which is the same picture.
+        """
+        return self.image_from_world(pose) @ ground.world_from_texture()
+
+
+def safe_box_floor_polygon(pose: np.ndarray, config: CameraConfig | None = None) -> np.ndarray:
+    """(4, 2) floor polygon [m] of the safe box for a rover at ``pose`` (x, y, theta)."""
+    return CameraModel(config).safe_box_floor_polygon(pose)
+
+
+def _vignette(config: CameraConfig, strength: float) -> np.ndarray:
+    """(H, W, 3) uint8 gain map, 255 = no loss; a smooth cos⁴-like radial falloff."""
+    w, h = config.width_px, config.height_px
+    u = (np.arange(w) - (w - 1) / 2.0) / ((w - 1) / 2.0)
+    v = (np.arange(h) - (h - 1) / 2.0) / ((w - 1) / 2.0)
+    r2 = (u[None, :] ** 2 + v[:, None] ** 2) / (1.0 + ((h - 1) / (w - 1)) ** 2)  # 1 at the corners
+    gain = 1.0 - strength * r2 * (0.6 + 0.4 * r2)
+    g8 = np.rint(gain * 255.0).astype(np.uint8)
+    return np.repeat(g8[:, :, None], 3, axis=2)
+
+
+class CameraRenderer:
+    """Renders camera frames from a ground texture, with the phone's image pipeline.
+
+    Holds the auto-exposure state across frames; ``reset`` starts a new episode. All randomness
+    comes from the generators passed to ``reset`` and ``render``.
+    """
+
+    def __init__(self, camera: CameraConfig | None = None, sensor: SensorConfig | None = None) -> None:
+        self.camera = camera or CameraConfig()
+        self.sensor = sensor or SensorConfig()
+        self.model = CameraModel(self.camera)
+        self._vignette = _vignette(self.camera, self.sensor.vignetting) if self.sensor.vignetting > 0 else None
+        self._mean_vignette = (
+            float(self._vignette[..., 0].mean()) / 255.0 if self._vignette is not None else 1.0
+        )
+        self._pad = 16
+        self._noise_up: np.ndarray | None = None
+        self._noise_down: np.ndarray | None = None
+        self._cast = np.ones(3)
+        self._gain: float | None = None
+
+    @property
+    def exposure_gain(self) -> float | None:
+        """Current auto-exposure gain (None before the first frame of an episode)."""
+        return self._gain
+
+    def reset(self, rng: np.random.Generator) -> None:
+        """Start an episode: draw the colour cast and the noise pool, forget the exposure."""
+        s = self.sensor
+        self._cast = 1.0 + s.white_balance_cast * rng.standard_normal(3)
+        self._gain = None  # settles on the first frame, as a camera does before recording
+        if s.noise_std > 0:
+            h, w = self.camera.height_px + self._pad, self.camera.width_px + self._pad
+            noise = rng.normal(0.0, s.noise_std, size=(s.noise_pool_frames, h, w, 3))
+            noise = np.clip(np.rint(noise), -255, 255).astype(np.int16)
+            # Split into two saturating uint8 adds, much faster than signed arithmetic per frame.
+            self._noise_up = np.clip(noise, 0, 255).astype(np.uint8)
+            self._noise_down = np.clip(-noise, 0, 255).astype(np.uint8)
+        else:
+            self._noise_up = self._noise_down = None
+
+    def _motion_kernel(self, pose: np.ndarray, motion: np.ndarray) -> np.ndarray | None:
+        """Line kernel along the image displacement of the floor under the image centre."""
+        centre_px = np.array([[self.model.cx, self.model.cy]])
+        floor = self.model.floor_points(centre_px, pose)
+        before = self.model.project(floor, np.asarray(pose, dtype=np.float64) - np.asarray(motion))
+        disp = (centre_px - before)[0]
+        if not np.all(np.isfinite(disp)):
+            return None
+        length = float(np.hypot(*disp)) * self.sensor.motion_blur_fraction
+        if length < 1.0:
+            return None
+        size = int(math.ceil(length)) | 1
+        kernel = np.zeros((size, size), dtype=np.float32)
+        c = size // 2
+        direction = disp / np.hypot(*disp)
+        a = np.rint(np.array([c, c]) - direction * length / 2.0).astype(int)
+        b = np.rint(np.array([c, c]) + direction * length / 2.0).astype(int)
+        cv2.line(kernel, (int(a[0]), int(a[1])), (int(b[0]), int(b[1])), 1.0, 1, cv2.LINE_AA)
+        return kernel / kernel.sum()
+
+    def render(
+        self,
+        ground: GroundTexture,
+        pose: np.ndarray,
+        rng: np.random.Generator,
+        motion: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """Render the camera frame for a rover at ``pose`` (x [m], y [m], theta [rad]).
+
+        ``motion`` (3,) is the pose change over the last step (dx, dy, dtheta), used only for
+        motion blur. Returns (H, W, 3) uint8 RGB. Draws from ``rng``: white-balance jitter and
+        the noise frame and offset.
+        """
+        s, c = self.sensor, self.camera
+        if self._noise_up is None and s.noise_std > 0:
+            self.reset(rng)
+        tex_from_img = np.linalg.inv(self.model.homography(pose, ground))
+        raw = cv2.warpPerspective(
+            ground.rgba,
+            tex_from_img,
+            (c.width_px, c.height_px),
+            flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+            borderMode=cv2.BORDER_REFLECT,
+        )
+        if s.motion_blur and motion is not None:
+            kernel = self._motion_kernel(pose, motion)
+            if kernel is not None:
+                raw = cv2.filter2D(raw, -1, kernel, borderType=cv2.BORDER_REFLECT)
+
+        # Auto-exposure: this frame uses the gain set from earlier frames; the meter then moves
+        # the gain towards the target with the configured lag (in log space, like EV steps).
+        means = cv2.mean(raw)
+        luma = max(float(_LUMA @ np.array(means[:3])) * self._mean_vignette, 1e-3)
+        wanted = float(np.clip(s.exposure_target / luma, s.exposure_min_gain, s.exposure_max_gain))
+        if self._gain is None:
+            self._gain = wanted
+        gain = self._gain
+        rate = 1.0 if s.exposure_lag_frames == 0 else 1.0 - math.exp(-1.0 / s.exposure_lag_frames)
+        self._gain = math.exp(math.log(gain) + rate * (math.log(wanted) - math.log(gain)))
+
+        # Exposure × white balance as one diagonal colour matrix (OpenCV's fast 3-channel path;
+        # the 4-channel one is ten times slower, hence dropping the felt channel first).
+        wb = self._cast * (1.0 + s.white_balance_jitter * rng.standard_normal(3))
+        frame = cv2.transform(cv2.cvtColor(raw, cv2.COLOR_RGBA2RGB), np.diag(gain * wb).astype(np.float32))
+        if self._vignette is not None:
+            frame = cv2.multiply(frame, self._vignette, scale=1.0 / 255.0)
+        if self._noise_up is not None and self._noise_down is not None:
+            k = int(rng.integers(s.noise_pool_frames))
+            dy, dx = (int(v) for v in rng.integers(self._pad + 1, size=2))
+            view = (k, slice(dy, dy + c.height_px), slice(dx, dx + c.width_px))
+            cv2.add(frame, self._noise_up[view], dst=frame)
+            cv2.subtract(frame, self._noise_down[view], dst=frame)
+        if s.jpeg_quality > 0:
+            ok, buf = cv2.imencode(
+                ".jpg", np.ascontiguousarray(frame[..., ::-1]), [cv2.IMWRITE_JPEG_QUALITY, s.jpeg_quality]
+            )
+            if ok:
+                frame = np.ascontiguousarray(cv2.imdecode(buf, cv2.IMREAD_COLOR)[..., ::-1])
+        return frame
