@@ -45,18 +45,22 @@ class CameraConfig:
 
     def __post_init__(self) -> None:
         if self.width_px < 2 or self.height_px < 2:
-            raise ValueError(f"image size must be at least 2 × 2 px, got {self.width_px} × {self.height_px}")
+            raise ValueError(
+                f"image size must be at least 2 × 2 px, got {self.width_px} × {self.height_px}"
+            )
         if self.height_m <= 0:
             raise ValueError(f"height_m must be > 0, got {self.height_m}")
         if not 0.0 < self.vfov_deg < 170.0:
             raise ValueError(f"vfov_deg must be in (0, 170), got {self.vfov_deg}")
         if self.pitch_deg - self.vfov_deg / 2.0 <= 0.5:
             raise ValueError(
-                f"pitch_deg {self.pitch_deg} with vfov_deg {self.vfov_deg} puts the horizon in view "
+                f"pitch_deg {self.pitch_deg} with vfov_deg {self.vfov_deg} shows the horizon "
                 "(pitch must exceed half the vertical field of view)"
             )
         if self.pitch_deg + self.vfov_deg / 2.0 >= 90.0:
-            raise ValueError("pitch_deg + vfov_deg / 2 must stay below 90 (the camera would look backwards)")
+            raise ValueError(
+                "pitch_deg + vfov_deg / 2 must stay below 90 (the camera would look backwards)"
+            )
 
 
 @dataclass(frozen=True)
@@ -95,7 +99,12 @@ class SensorConfig:
             raise ValueError(f"exposure_lag_frames must be >= 0, got {self.exposure_lag_frames}")
         if not 0.0 < self.exposure_min_gain <= self.exposure_max_gain:
             raise ValueError("need 0 < exposure_min_gain <= exposure_max_gain")
-        for name in ("white_balance_cast", "white_balance_jitter", "noise_std", "motion_blur_fraction"):
+        for name in (
+            "white_balance_cast",
+            "white_balance_jitter",
+            "noise_std",
+            "motion_blur_fraction",
+        ):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
         if not 0.0 <= self.vignetting < 1.0:
@@ -115,7 +124,9 @@ class CameraModel:
         self.focal_px = (c.height_px / 2.0) / math.tan(math.radians(c.vfov_deg) / 2.0)
         self.cx = (c.width_px - 1) / 2.0
         self.cy = (c.height_px - 1) / 2.0
-        self.K = np.array([[self.focal_px, 0.0, self.cx], [0.0, self.focal_px, self.cy], [0.0, 0.0, 1.0]])
+        self.K = np.array(
+            [[self.focal_px, 0.0, self.cx], [0.0, self.focal_px, self.cy], [0.0, 0.0, 1.0]]
+        )
         self.K_inv = np.linalg.inv(self.K)
         # Rover frame: x forward, y left, z up. Camera rows: image right, image down, optical axis.
         p = math.radians(c.pitch_deg)
@@ -143,7 +154,7 @@ class CameraModel:
         return R, centre
 
     def image_from_world(self, pose: np.ndarray) -> np.ndarray:
-        """(3, 3) homography from floor points (x, y, 1) [m] to pixels (u, v, 1) for ``pose`` (3,)."""
+        """(3, 3) homography: floor points (x, y, 1) [m] → pixels (u, v, 1) for ``pose`` (3,)."""
         R, centre = self._extrinsics(pose)
         return self.K @ np.column_stack([R[:, 0], R[:, 1], -R @ centre])
 
@@ -171,7 +182,7 @@ class CameraModel:
         return out
 
     def footprint(self, pose: np.ndarray) -> np.ndarray:
-        """(4, 2) floor polygon [m] seen by the image: top-left, top-right, bottom-right, bottom-left."""
+        """(4, 2) floor polygon [m] seen by the image corners: TL, TR, BR, BL on screen."""
         w, h = self.config.width_px, self.config.height_px
         corners = np.array([[-0.5, -0.5], [w - 0.5, -0.5], [w - 0.5, h - 0.5], [-0.5, h - 0.5]])
         return self.floor_points(corners, pose)
@@ -215,11 +226,15 @@ class CameraRenderer:
     comes from the generators passed to ``reset`` and ``render``.
     """
 
-    def __init__(self, camera: CameraConfig | None = None, sensor: SensorConfig | None = None) -> None:
+    def __init__(
+        self, camera: CameraConfig | None = None, sensor: SensorConfig | None = None
+    ) -> None:
         self.camera = camera or CameraConfig()
         self.sensor = sensor or SensorConfig()
         self.model = CameraModel(self.camera)
-        self._vignette = _vignette(self.camera, self.sensor.vignetting) if self.sensor.vignetting > 0 else None
+        self._vignette = (
+            _vignette(self.camera, self.sensor.vignetting) if self.sensor.vignetting > 0 else None
+        )
         self._mean_vignette = (
             float(self._vignette[..., 0].mean()) / 255.0 if self._vignette is not None else 1.0
         )
@@ -312,7 +327,9 @@ class CameraRenderer:
         # Exposure × white balance as one diagonal colour matrix (OpenCV's fast 3-channel path;
         # the 4-channel one is ten times slower, hence dropping the felt channel first).
         wb = self._cast * (1.0 + s.white_balance_jitter * rng.standard_normal(3))
-        frame = cv2.transform(cv2.cvtColor(raw, cv2.COLOR_RGBA2RGB), np.diag(gain * wb).astype(np.float32))
+        frame = cv2.transform(
+            cv2.cvtColor(raw, cv2.COLOR_RGBA2RGB), np.diag(gain * wb).astype(np.float32)
+        )
         if self._vignette is not None:
             frame = cv2.multiply(frame, self._vignette, scale=1.0 / 255.0)
         if self._noise_up is not None and self._noise_down is not None:
@@ -323,7 +340,9 @@ class CameraRenderer:
             cv2.subtract(frame, self._noise_down[view], dst=frame)
         if s.jpeg_quality > 0:
             ok, buf = cv2.imencode(
-                ".jpg", np.ascontiguousarray(frame[..., ::-1]), [cv2.IMWRITE_JPEG_QUALITY, s.jpeg_quality]
+                ".jpg",
+                np.ascontiguousarray(frame[..., ::-1]),
+                [cv2.IMWRITE_JPEG_QUALITY, s.jpeg_quality],
             )
             if ok:
                 frame = np.ascontiguousarray(cv2.imdecode(buf, cv2.IMREAD_COLOR)[..., ::-1])

@@ -116,14 +116,24 @@ class LightingConfig:
         if self.pool_count < 0:
             raise ValueError(f"pool_count must be >= 0, got {self.pool_count}")
         if self.shadow_count < 1:
-            raise ValueError(f"shadow_count must be >= 1 (a shadow band must cross the track), got {self.shadow_count}")
+            raise ValueError(
+                f"shadow_count must be >= 1 (a band must cross the track), got {self.shadow_count}"
+            )
         if not 0.0 <= self.shadow_darkness < 1.0:
             raise ValueError(f"shadow_darkness must be in [0, 1), got {self.shadow_darkness}")
-        for name in ("pool_radius_m", "shadow_width_m", "shadow_softness_m", "grid_m", "max_illumination"):
+        for name in (
+            "pool_radius_m",
+            "shadow_width_m",
+            "shadow_softness_m",
+            "grid_m",
+            "max_illumination",
+        ):
             if getattr(self, name) <= 0:
                 raise ValueError(f"{name} must be > 0, got {getattr(self, name)}")
         if not 0.0 <= self.shadow_min_crossing_deg <= 90.0:
-            raise ValueError(f"shadow_min_crossing_deg must be in [0, 90], got {self.shadow_min_crossing_deg}")
+            raise ValueError(
+                f"shadow_min_crossing_deg must be in [0, 90], got {self.shadow_min_crossing_deg}"
+            )
 
 
 @dataclass(frozen=True)
@@ -221,7 +231,9 @@ def _smoothstep(x: np.ndarray) -> np.ndarray:
     return x * x * (3.0 - 2.0 * x)
 
 
-def _shadow_bands(track: Track, lighting: LightingConfig, rng: np.random.Generator) -> tuple[ShadowBand, ...]:
+def _shadow_bands(
+    track: Track, lighting: LightingConfig, rng: np.random.Generator
+) -> tuple[ShadowBand, ...]:
     """Draw shadow bands, each crossing a random point of the centreline at an angle to it."""
     bands = []
     min_cross = math.radians(lighting.shadow_min_crossing_deg)
@@ -281,7 +293,7 @@ def build_ground(
     if h * w * 4 > MAX_TEXTURE_BYTES:
         raise ValueError(
             f"ground texture for track '{track.name}' would take {h * w * 4 / 2**20:.0f} MB "
-            f"(> {MAX_TEXTURE_BYTES / 2**20:.0f} MB): raise appearance.metres_per_px or lower margin_m"
+            f"(> {MAX_TEXTURE_BYTES / 2**20:.0f} MB): raise metres_per_px or lower margin_m"
         )
     origin = (xmin, ymax)
     shape = (h, w)
@@ -312,7 +324,9 @@ def build_ground(
     # Carpet: loops (blobs about one loop wide) with fine fibre grain, slow wear patches.
     pile_px = appearance.carpet_pile_scale_m / mpp
     k_pile = appearance.carpet_pile_strength
-    carpet_shade = cv2.addWeighted(_value_noise(rng, shape, pile_px), 0.75 * k_pile, fine, 0.45 * k_pile, 1.0)
+    carpet_shade = cv2.addWeighted(
+        _value_noise(rng, shape, pile_px), 0.75 * k_pile, fine, 0.45 * k_pile, 1.0
+    )
     carpet_shade = cv2.addWeighted(
         carpet_shade, 1.0, _value_noise(rng, shape, 0.25 / mpp), appearance.carpet_patchiness, 0.0
     )
@@ -324,7 +338,11 @@ def build_ground(
     )
     k_fibre = appearance.felt_fibre_strength
     felt_shade = cv2.addWeighted(
-        streaks, 0.6 * k_fibre * math.sqrt(fibre_px), cv2.GaussianBlur(fine, (0, 0), 0.7), 0.5 * k_fibre, 1.0
+        streaks,
+        0.6 * k_fibre * math.sqrt(fibre_px),
+        cv2.GaussianBlur(fine, (0, 0), 0.7),
+        0.5 * k_fibre,
+        1.0,
     )
     slow_px = appearance.felt_nonuniformity_scale_m / mpp
     felt_shade = cv2.addWeighted(
@@ -332,7 +350,9 @@ def build_ground(
     )
 
     bands = _shadow_bands(track, lighting, rng)
-    light, light_step = _illumination(track, lighting, bands, origin, ((w - 1) * mpp, (h - 1) * mpp), rng)
+    light, light_step = _illumination(
+        track, lighting, bands, origin, ((w - 1) * mpp, (h - 1) * mpp), rng
+    )
     # Texel (c, r) sits at coarse position (c, r) * mpp / step: an exact affine upsampling.
     inv_scale = mpp / light_step
     light_full = cv2.warpAffine(
@@ -350,12 +370,16 @@ def build_ground(
     felt_lit = cv2.multiply(cv2.multiply(felt_shade, light_full), coverage)
     flecks = _value_noise(rng, shape, pile_px * 0.7)
     tint = _value_noise(rng, shape, 2.0 * slow_px)
-    planes = cv2.merge([carpet_lit, cv2.multiply(carpet_lit, flecks), felt_lit, cv2.multiply(felt_lit, tint)])
+    planes = cv2.merge(
+        [carpet_lit, cv2.multiply(carpet_lit, flecks), felt_lit, cv2.multiply(felt_lit, tint)]
+    )
     carpet_rgb = np.array(appearance.carpet_rgb, dtype=np.float64)
     felt_rgb = np.array(appearance.felt_rgb, dtype=np.float64)
     # Heathered yarn: fibres vary from redder to duller; felt dye varies in saturation.
     fleck_dir = np.array([1.0, 0.55, 0.2])
-    tint_dir = (felt_rgb - felt_rgb.mean()) / max(float(np.abs(felt_rgb - felt_rgb.mean()).max()), 1.0)
+    tint_dir = (felt_rgb - felt_rgb.mean()) / max(
+        float(np.abs(felt_rgb - felt_rgb.mean()).max()), 1.0
+    )
     colour = np.column_stack(
         [
             carpet_rgb,
