@@ -1,0 +1,73 @@
+import numpy as np
+import pytest
+
+from lfd_track.control.mlp import mlp_forward
+from lfd_track.learning.fitness import imitation_fitness
+
+
+def literal_algorithm_3(weights, inputs, actions, threshold=0.4):
+    """Algorithm 3 transcribed line by line: per network, per training case."""
+    counts = {a: int(np.sum(actions == a)) for a in range(3)}
+    result = []
+    for w in weights:
+        fitness = 0.0
+        for x, expected in zip(inputs, actions, strict=True):
+            actual = mlp_forward(w, x)
+            winning = actual[expected]
+            others = [i for i in range(3) if i != expected]
+            difference1 = winning - actual[others[0]]
+            difference2 = winning - actual[others[1]]
+            for difference in (difference1, difference2):
+                if difference >= threshold:
+                    fitness += 0.5 / counts[expected]
+                else:
+                    fitness += 0.5 * (difference / threshold) / counts[expected]
+        result.append(1 - fitness / 3)
+    return np.array(result)
+
+
+@pytest.mark.parametrize("scale", [1.0, 8.0])
+def test_matches_literal_transcription(scale):
+    rng = np.random.default_rng(3)
+    w = rng.uniform(-scale, scale, (12, 215))
+    x = rng.uniform(-1, 1, (57, 40))
+    actions = rng.choice(3, size=57, p=[0.8, 0.1, 0.1])
+    ours = imitation_fitness(w, x, actions)
+    np.testing.assert_allclose(ours, literal_algorithm_3(w, x, actions), atol=1e-12, rtol=0)
+    # Large weights push some differences past the threshold and others strongly negative.
+    out = mlp_forward(w, x)
+    diffs = out[:, np.arange(57), actions][..., None] - out
+    if scale > 1:
+        assert (diffs >= 0.4).any() and (diffs < -0.4).any()
+
+
+def test_categories_weigh_equally_regardless_of_size():
+    rng = np.random.default_rng(4)
+    w = rng.uniform(-2, 2, (5, 215))
+    x = rng.uniform(-1, 1, (9, 40))
+    actions = np.array([0, 0, 0, 1, 1, 2, 2, 2, 2])
+    base = imitation_fitness(w, x, actions)
+    # Repeating every forward case 10 times (the paper's 10:1 ratio) changes nothing.
+    x_many = np.concatenate([np.repeat(x[:3], 10, axis=0), x[3:]])
+    a_many = np.concatenate([np.repeat(actions[:3], 10), actions[3:]])
+    np.testing.assert_allclose(imitation_fitness(w, x_many, a_many), base, atol=1e-12)
+
+
+def test_bounds_and_direction():
+    # A perfect separation on every case gives 0; the mirror image gives the worst value.
+    x = np.zeros((3, 40))
+    actions = np.array([0, 1, 2])
+    w = np.zeros((1, 215))
+    f = imitation_fitness(w, x, actions)  # all outputs equal: every difference 0
+    assert f[0] == pytest.approx(1.0)
+    x1 = np.ones((3, 40))
+    w_perfect = np.zeros((1, 215))
+    w_perfect[0, :200] = 1.0  # hidden nodes saturate near 1
+    w_perfect[0, 200:205] = 10.0  # output 0 high, outputs 1 and 2 at 0.5
+    f_fwd = imitation_fitness(w_perfect, x1[:1], np.array([0]))
+    assert f_fwd[0] == pytest.approx(1 - 1 / 3)  # one category present: at most 1/3 earned
+
+
+def test_rejects_bad_actions():
+    with pytest.raises(ValueError, match="actions"):
+        imitation_fitness(np.zeros((1, 215)), np.zeros((2, 40)), np.array([0, 3]))
