@@ -106,6 +106,7 @@ class _LatestFrameSource(FrameSource):
         self._error: str | None = None  # last reader problem, for the timeout message
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self._old_thread: threading.Thread | None = None
 
     @property
     def frames_received(self) -> int:
@@ -115,22 +116,34 @@ class _LatestFrameSource(FrameSource):
     def open(self) -> None:
         if self._thread is not None:
             return
-        self._stop.clear()
+        if self._reader_alive():
+            # A reader from before close() still finishing a blocking read: it owns the stream
+            # until it returns (at most the read/open timeout).
+            self._old_thread.join()
+        self._stop = threading.Event()
         self._connect()
         self._frame_time = time.monotonic()  # the timeout clock starts at open
         self._thread = threading.Thread(
-            target=self._run, name=f"lfd-track camera {self.name}", daemon=True
+            target=self._run, args=(self._stop,), name=f"lfd-track camera {self.name}", daemon=True
         )
         self._thread.start()
 
     def close(self) -> None:
+        """Stop the reader; it releases the stream itself once its current read returns.
+
+        A stalled stream can block the reader for up to the read (or reconnect) timeout; close()
+        waits only briefly for it, so stopping the robot never waits on the camera.
+        """
         self._stop.set()
         thread, self._thread = self._thread, None
         if thread is not None:
-            thread.join(timeout=self.read_timeout_s + self.open_timeout_s + 1.0)
-        self._disconnect()
+            thread.join(timeout=0.5)
+            self._old_thread = thread
         with self._cond:
             self._cond.notify_all()
+
+    def _reader_alive(self) -> bool:
+        return self._old_thread is not None and self._old_thread.is_alive()
 
     def read(self, timeout_s: float = 1.0) -> np.ndarray:
         if self._thread is None:
@@ -162,25 +175,30 @@ class _LatestFrameSource(FrameSource):
             self._error = None
             self._cond.notify_all()
 
-    def _run(self) -> None:
-        while not self._stop.is_set():
-            try:
-                frame = self._grab()
-            except Exception as exc:  # noqa: BLE001 - report through read()'s timeout message
-                frame = None
-                self._error = str(exc) or type(exc).__name__
-            if frame is not None:
-                self._publish(frame)
-            elif not self._stop.is_set():
+    def _run(self, stop: threading.Event) -> None:
+        """Reader thread: owns the stream from open() until it sees ``stop`` and releases it."""
+        try:
+            while not stop.is_set():
+                try:
+                    frame = self._grab()
+                except Exception as exc:  # noqa: BLE001 - reported through read()'s timeout
+                    frame = None
+                    self._error = str(exc) or type(exc).__name__
+                if frame is not None:
+                    if not stop.is_set():
+                        self._publish(frame)
+                    continue
                 # The stream ended or stalled past its read timeout: reconnect (a phone app that
                 # restarted serves again), without spinning while the phone is away.
                 self._disconnect()
-                if self._stop.wait(0.2):
+                if stop.wait(0.2):
                     break
                 try:
                     self._connect()
                 except CameraError as exc:
                     self._error = str(exc)
+        finally:
+            self._disconnect()
 
     @abstractmethod
     def _connect(self) -> None: ...
@@ -270,7 +288,7 @@ class SnapshotSource(_LatestFrameSource):
     def _grab(self) -> np.ndarray | None:
         wait_s = self._last_poll + self.poll_period_s - time.monotonic()
         if wait_s > 0 and self._stop.wait(wait_s):
-            return None
+            return None  # closing
         self._last_poll = time.monotonic()
         return self._fetch(self.read_timeout_s)
 

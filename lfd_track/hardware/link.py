@@ -29,6 +29,10 @@ from . import protocol
 from .protocol import Frame, FrameError, FrameParser
 
 STOP = "S"
+ESTOPPED = "X"  # ack state while the board's e-stop is latched
+DEFAULT_BAUD = 9600  # the firmware's UART rate (HC-05/06 factory default)
+FLAG_ESTOP = 1  # ack flags are a decimal bitfield
+FLAG_LEASE_EXPIRED = 2  # the watchdog stopped the motors since the last accepted drive frame
 
 
 class LinkError(LfdTrackError):
@@ -39,9 +43,10 @@ class LinkError(LfdTrackError):
 class Ack:
     """The board's answer to one request: what it actually did, not what was asked.
 
-    ``state`` is the motor state the board reports (``F``/``L``/``R``/``S``); a request the board
-    refused (a NAK, e.g. while e-stopped) has ``rejected`` set to the reason and ``state`` set to
-    the last state the board reported (``S`` when refused for an e-stop).
+    ``state`` is the motor state the board reports (``F``/``L``/``R``/``S``, or ``X`` while its
+    e-stop is latched); ``flags`` is its decimal bitfield (``FLAG_ESTOP``, ``FLAG_LEASE_EXPIRED``).
+    A request the board refused (a NAK) has ``rejected`` set to the reason and ``state`` set to
+    the last state the board reported (``X`` when refused for an e-stop).
     """
 
     seq: int
@@ -55,6 +60,24 @@ class Ack:
     def accepted(self) -> bool:
         """True if the board acknowledged the request (no NAK)."""
         return self.rejected is None
+
+    @property
+    def moving(self) -> bool:
+        """True if the board reports its motors running."""
+        return self.state in ("F", "L", "R")
+
+    def _flag(self, bit: int) -> bool:
+        return self.flags.isdigit() and bool(int(self.flags) & bit)
+
+    @property
+    def estopped(self) -> bool:
+        """True if the board's e-stop is latched."""
+        return self.state == ESTOPPED or self._flag(FLAG_ESTOP) or self.rejected == "ESTOP"
+
+    @property
+    def lease_expired(self) -> bool:
+        """True if the board's watchdog stopped the motors since its last accepted drive."""
+        return self._flag(FLAG_LEASE_EXPIRED)
 
 
 @dataclass
@@ -108,7 +131,7 @@ class RobotLink:
         self,
         url: str,
         *,
-        baudrate: int = 115200,
+        baudrate: int = DEFAULT_BAUD,
         ack_timeout_s: float = 0.1,
         max_consecutive_failures: int = 3,
         max_corrupt_replies: int = 8,
@@ -445,7 +468,7 @@ class RobotLink:
                 self._stats.naks += 1
                 self._stats.consecutive_failures = 0
                 if reason == protocol.REASON_ESTOP:
-                    self._state = STOP
+                    self._state = ESTOPPED
                 return Ack(seq, requested, self._state, "", reason, rtt_ms)
             if self._stats.corrupt > corrupt_before:
                 resend = True  # the reply was damaged: resend now rather than wait it out

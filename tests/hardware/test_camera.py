@@ -93,7 +93,10 @@ class MjpegServer:
                         data = server._jpeg(server.frames_sent)
                         self.wfile.write(
                             b"--" + BOUNDARY + b"\r\nContent-Type: image/jpeg\r\n"
-                            b"Content-Length: " + str(len(data)).encode() + b"\r\n\r\n" + data
+                            b"Content-Length: "
+                            + str(len(data)).encode()
+                            + b"\r\n\r\n"
+                            + data
                             + b"\r\n"
                         )
                         self.wfile.flush()

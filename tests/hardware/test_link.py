@@ -109,16 +109,17 @@ class FakeBoard:
                 return True
             self.state = frame.args[0]
         elif frame.type == protocol.ESTOP:
-            self.estopped, self.state = True, "S"
+            self.estopped, self.state = True, "X"
         elif frame.type == protocol.CLEAR:
             self.estopped = False
+            self.state = "S"
         elif frame.type == protocol.SET_WATCHDOG:
             ms = int(frame.args[0])
             if not protocol.WATCHDOG_MIN_MS <= ms <= protocol.WATCHDOG_MAX_MS:
                 self._reply(conn, protocol.NAK, frame.seq, protocol.REASON_ARG)
                 return True
             self.watchdog_ms = ms
-        self._reply(conn, protocol.ACK, frame.seq, self.state, "E" if self.estopped else "0")
+        self._reply(conn, protocol.ACK, frame.seq, self.state, "1" if self.estopped else "0")
         return True
 
     def _serve(self) -> None:
@@ -175,10 +176,14 @@ def test_drive_returns_what_the_board_acknowledged() -> None:
 def test_estop_latches_and_drive_is_refused_until_cleared() -> None:
     with FakeBoard() as board, make_link(board) as link:
         link.drive(Command.FORWARD)
-        assert link.estop().accepted
+        stopped = link.estop()
+        assert stopped.accepted and stopped.estopped and not stopped.moving
         refused = link.drive(Command.FORWARD)
-        assert refused.rejected == protocol.REASON_ESTOP and refused.state == "S"
-        assert link.clear_estop().accepted
+        assert refused.rejected == protocol.REASON_ESTOP and refused.state == "X"
+        assert refused.estopped and not refused.accepted
+        assert link.stop()  # stop is "done" when the board is e-stopped
+        cleared = link.clear_estop()
+        assert cleared.accepted and not cleared.estopped and cleared.state == "S"
         assert link.drive(Command.FORWARD).state == "F"
 
 
