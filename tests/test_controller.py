@@ -1,0 +1,129 @@
+import json
+
+import numpy as np
+import pytest
+
+from lfd_track.controller import Controller
+from lfd_track.errors import FileFormatError
+from lfd_track.learning.ga import GAConfig, evolve
+from lfd_track.vision.road_library import RoadLibrary
+from lfd_track.vision.synthetic import synthetic_frames
+
+
+@pytest.fixture(scope="module")
+def trained():
+    frames = synthetic_frames(np.random.default_rng(5), 14)
+    library = RoadLibrary()
+    values, actions = [], []
+    for i, frame in enumerate(frames):
+        library.learn(frame)
+        values.append(library.road_values(frame))
+        actions.append(i % 3)
+    result = evolve(
+        np.array(values), np.array(actions), GAConfig(generations=20), np.random.default_rng(2)
+    )
+    return Controller.from_evolution(library, result, seed=2), frames
+
+
+def test_saved_and_loaded_controller_acts_identically(trained, tmp_path):
+    controller, frames = trained
+    path = tmp_path / "ctrl.json"
+    controller.save(path)
+    loaded = Controller.load(path)
+    assert loaded.weights.tobytes() == controller.weights.tobytes()
+    assert loaded.ga_config == controller.ga_config and loaded.seed == 2
+    assert loaded.fitness_history == controller.fitness_history
+    assert loaded.library.to_dict() == controller.library.to_dict()
+    controller.reset()
+    acts = [controller.act(f) for f in frames]
+    outs = controller.last_outputs
+    acts_loaded = [loaded.act(f) for f in frames]
+    assert acts == acts_loaded
+    np.testing.assert_array_equal(outs, loaded.last_outputs)
+    assert len(set(acts)) > 1  # the comparison means something
+    data = json.loads(path.read_text())
+    assert data["schema_version"] == 1 and data["layer_sizes"] == [40, 5, 3]
+    assert data["bias"] is False and len(data["weights"]) == 215
+
+
+def test_act_uses_road_values_mlp_and_tie_rule(trained):
+    controller, frames = trained
+    lib = RoadLibrary.from_dict(controller.library.to_dict())
+    tie = Controller(lib, np.zeros(215))  # all outputs 0.5: every step is a tie
+    assert tie.act(frames[0]) == 0  # nothing to keep yet: first index
+    tie._previous = 2
+    assert tie.act(frames[0]) == 2
+    tie.reset()
+    assert tie.act(frames[1]) == 0
+
+
+def test_learn_option_grows_the_library(trained):
+    controller, frames = trained
+    lib = RoadLibrary()
+    learning = Controller(lib, controller.weights, learn=True)
+    learning.act(frames[0])
+    assert lib.n_models == 1
+
+
+def _saved(trained, tmp_path):
+    path = tmp_path / "c.json"
+    trained[0].save(path)
+    return path, json.loads(path.read_text())
+
+
+def _expect_one_line_error(path, match):
+    with pytest.raises(FileFormatError, match=match) as info:
+        Controller.load(path)
+    message = str(info.value)
+    assert message.startswith(str(path) + ": ") and "\n" not in message
+    return message
+
+
+def test_truncated_file_fails_clearly(trained, tmp_path):
+    path, _ = _saved(trained, tmp_path)
+    text = path.read_text()
+    path.write_text(text[: len(text) // 2])
+    _expect_one_line_error(path, "not valid JSON")
+
+
+@pytest.mark.parametrize(
+    "edit, match",
+    [
+        (lambda d: d["weights"].pop(), "expected 215 weights.*got 214"),
+        (lambda d: d.update(schema_version=2), "schema version 2 is not supported"),
+        (lambda d: d.pop("road_library"), "missing key 'road_library'"),
+        (lambda d: d.update(extra=1), "unknown key 'extra'"),
+        (lambda d: d.update(layer_sizes=[40, 6, 3]), "layer_sizes"),
+        (lambda d: d["weights"].__setitem__(3, "x"), "weights"),
+        (lambda d: d["road_library"].pop("bins"), "road library is missing key 'bins'"),
+        (lambda d: d["ga_config"].update(mutation_rate=3.0), "mutation_rate"),
+        (lambda d: d.update(format="something"), "not a controller file"),
+    ],
+)
+def test_edited_file_fails_clearly(trained, tmp_path, edit, match):
+    path, data = _saved(trained, tmp_path)
+    edit(data)
+    path.write_text(json.dumps(data))
+    _expect_one_line_error(path, match)
+
+
+def test_nan_weight_fails_clearly(trained, tmp_path):
+    path, _ = _saved(trained, tmp_path)
+    text = path.read_text()
+    data = json.loads(text)
+    first = json.dumps(data["weights"][0])
+    path.write_text(text.replace(f'"weights":[{first}', '"weights":[NaN', 1))
+    _expect_one_line_error(path, "non-finite number NaN")
+
+
+def test_missing_file_fails_clearly(tmp_path):
+    _expect_one_line_error(tmp_path / "nope.json", "file not found")
+
+
+def test_constructor_checks_weights(trained):
+    lib = trained[0].library
+    with pytest.raises(ValueError, match="215"):
+        Controller(lib, np.zeros(10))
+    with pytest.raises(ValueError, match="NaN"):
+        Controller(lib, np.full(215, np.nan))
+    assert Controller(lib, np.zeros(223), bias=True).bias
