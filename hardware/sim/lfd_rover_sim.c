@@ -16,7 +16,9 @@
  *   left_pwm/right_pwm: duty 0..255 on D5 (E1, OC0B) / D6 (E2, OC0A): the compare value
  *   while the pin is driven by Timer0 PWM, else 255/0 for a plain high/low output, 0 when the
  *   pin is not an output. left_dir/right_dir: level of D4 (M1) / D7 (M2), 0 unless an output.
- * - SIGUSR1 resets the simulated board (like pressing its reset button); SIGTERM or SIGINT
+ * - SIGUSR1 resets the simulated board (like pressing its reset button). Host bytes are held
+ *   back for 2 ms of simulated time after boot and after every reset, so none is lost while the
+ *   firmware is still starting; they are delivered, in order, afterwards. SIGTERM or SIGINT
  *   stops the simulation cleanly, as does the exit of the process that started it.
  */
 #define _GNU_SOURCE
@@ -53,6 +55,9 @@ enum { COM0A1 = 7, COM0A0 = 6, COM0B1 = 5, COM0B0 = 4 };
 
 /* Simulated time is run in slices of this length between pty polls and throttle checks. */
 #define SLICE_US 200
+/* Host bytes are held back this long after a reset, until the firmware has certainly opened its
+ * UART (setup() takes ~0.2 ms); earlier bytes would be dropped by the disabled receiver. */
+#define INPUT_HOLD_AFTER_RESET_US 2000
 /* If the simulation falls further than this behind the wall clock, the debt is forgiven. */
 #define MAX_LAG_NS (20 * 1000 * 1000LL)
 #define RING_SIZE 4096
@@ -77,6 +82,7 @@ typedef struct {
 	FILE *log;
 	motors_t motors;
 	uint64_t sim_cycles; /* monotonic across resets */
+	uint64_t input_hold_until; /* sim_cycles before which host bytes are not injected */
 	avr_cycle_count_t last_cycle;
 } harness_t;
 
@@ -224,7 +230,7 @@ static void pump_pty(harness_t *h) {
 			ring_push(&h->to_board, buf, (size_t)n);
 	}
 	/* Hand bytes to the UART only while its receive FIFO has room (XOFF clear). */
-	while (h->to_board.len > 0 && !h->uart_xoff) {
+	while (h->to_board.len > 0 && !h->uart_xoff && h->sim_cycles >= h->input_hold_until) {
 		const uint8_t *p;
 		ring_peek(&h->to_board, &p);
 		avr_raise_irq(h->uart_in, *p);
@@ -356,6 +362,8 @@ int main(int argc, char **argv) {
 	fclose(announce);
 
 	const avr_cycle_count_t slice = (avr_cycle_count_t)freq / 1000000 * SLICE_US;
+	const uint64_t hold_cycles = (uint64_t)freq / 1000000 * INPUT_HOLD_AFTER_RESET_US;
+	h.input_hold_until = hold_cycles;
 	int64_t wall_origin_ns = now_ns();
 	int exit_code = 0;
 	unsigned slices = 0;
@@ -369,6 +377,7 @@ int main(int argc, char **argv) {
 			h.uart_xoff = 0;
 			h.to_board.len = 0;
 			advance_clock(&h);
+			h.input_hold_until = h.sim_cycles + hold_cycles;
 			fprintf(h.log, "# reset %llu\n", (unsigned long long)sim_time_us(&h));
 			fflush(h.log);
 		}

@@ -238,11 +238,25 @@ class SimulatedBoard:
             raise SimavrError(f"unexpected first line from the simavr harness: {line!r}")
         return line[len("PTY ") :]
 
-    def reset(self) -> None:
-        """Reset the simulated board, as its reset button would; it re-sends its boot frame."""
+    def reset(self, timeout_s: float = 5.0) -> None:
+        """Reset the simulated board, as its reset button would, and return once it has happened.
+
+        The firmware then boots again (motors off, boot frame sent). Host bytes written after
+        this returns are not lost to the reboot: the harness holds host input back for 2 ms of
+        simulated time after a reset, until the firmware's UART is listening.
+        """
         if self._proc is None or self._proc.poll() is not None:
             raise SimavrError("the simulated board is not running")
+        resets_before = self._count_resets()
         self._proc.send_signal(signal.SIGUSR1)
+        deadline = time.monotonic() + timeout_s
+        while self._count_resets() == resets_before:
+            if time.monotonic() > deadline or self._proc.poll() is not None:
+                raise SimavrError(f"the simulated board did not reset within {timeout_s} s")
+            time.sleep(0.001)  # polling the log file, which has no change notification
+
+    def _count_resets(self) -> int:
+        return self.log_path.read_text().count("\n# reset ")
 
     def motor_log(self, since_reset: bool = False) -> list[MotorSample]:
         """Motor-output changes so far, oldest first, with simulated time in seconds.
