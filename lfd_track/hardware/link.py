@@ -280,17 +280,31 @@ class RobotLink:
         ``command``: a ``Command`` (or its int) or a letter ``F``/``L``/``R``/``S``.
         ``lease_s``: how long the keep-alive thread keeps re-sending this command (default:
         until the next request; pass a bound so a hung caller cannot keep the robot moving).
-        Raises ``LinkError`` on link loss.
+        ``lease_s=0`` sends the frame once and leaves the stop to the board's watchdog (used by
+        the watchdog self-test). Raises ``LinkError`` on link loss.
         """
         letter = _letter(command)
         now = time.monotonic()
         with self._lease_lock:
-            self._lease.letter = letter
-            self._lease.until = float("inf") if lease_s is None else now + lease_s
-        if letter == STOP:
-            with self._lease_lock:
-                self._lease.until = 0.0
+            if letter == STOP or (lease_s is not None and lease_s <= 0):
+                self._lease.letter, self._lease.until = STOP, 0.0  # nothing to refresh
+            else:
+                self._lease.letter = letter
+                self._lease.until = float("inf") if lease_s is None else now + lease_s
         return self._drive_now(letter)
+
+    def wait_for_watchdog_stop(self, timeout_s: float) -> float | None:
+        """Wait for the board's ``$W`` (its watchdog stopped the motors); seconds waited or None."""
+        self._raise_if_failed()
+        start = time.monotonic()
+        before = self._stats.watchdog_stops
+        deadline = start + timeout_s
+        while time.monotonic() < deadline:
+            with self._io_lock:
+                self._read_frames(min(deadline, time.monotonic() + 0.01))
+                if self._stats.watchdog_stops > before:
+                    return time.monotonic() - start
+        return None
 
     def ping(self) -> Ack:
         """Ping the board (never starts motion); returns its ack with the round-trip time."""
@@ -353,6 +367,13 @@ class RobotLink:
             raise self._failure
         if self._port is None:
             raise LinkError(f"{self.url}: link is not connected")
+
+    def request(self, frame_type: str, *args: str) -> Ack:
+        """Send any frame (diagnostics, e.g. an out-of-range value) and return the board's answer.
+
+        Retries until a reply arrives or the failure bound is reached (then ``LinkError``).
+        """
+        return self._checked(frame_type, tuple(args))
 
     def _checked(self, frame_type: str, args: tuple[str, ...]) -> Ack:
         """One request with retries until acknowledged or the failure bound is reached."""

@@ -254,3 +254,84 @@ def test_end_to_end_on_the_simulated_firmware(simulated_board, tmp_path: Path) -
     states = _motor_states(simulated_board.motor_log()[max(log_start - 1, 0) :])
     assert states == _runs(["S", *sent, "S"])
     assert len(set(sent)) >= 2  # the log check covers more than one kind of command
+
+
+# ------------------------------------------------------------------------------------ CLI
+def _run_cli(*argv: str) -> int:
+    from lfd_track.hardware.cli import main
+
+    return main(["hardware", *argv])
+
+
+def test_cli_check_runs_the_motionless_self_test(capsys) -> None:
+    with FakeBoard() as board:
+        code = _run_cli("check", "--serial", board.url, "--pings", "5", "--boot-wait", "0.3")
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "firmware version: fake-1" in out and "round trip over 5" in out and "OK:" in out
+    assert board.state == "S" and not board.estopped  # e-stop cleared, motors off
+
+
+def test_cli_drive_runs_a_controller_file(tmp_path: Path, capsys) -> None:
+    _, _, controller = _closed_loop_parts(tmp_path)
+    path = tmp_path / "controller.json"
+    with FakeBoard() as board, MjpegServer() as server:
+        code = _run_cli(
+            "drive", str(path), "--camera", server.url, "--serial", board.url,
+            "--steps", "3", "--period", "0.1", "--boot-wait", "0.3",
+        )  # fmt: skip
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert out.count("step ") == 3 and board.drives()[-1] == "S"
+
+
+def test_cli_user_errors_are_one_line(tmp_path: Path, capsys) -> None:
+    code = _run_cli(
+        "drive", str(tmp_path / "missing.json"), "--camera", "x.avi", "--serial", "loop://",
+    )  # fmt: skip
+    err = capsys.readouterr().err
+    assert code == 1
+    assert err.count("\n") == 1 and "missing.json" in err and "Traceback" not in err
+    code = _run_cli("check", "--serial", "socket://127.0.0.1:1")
+    err = capsys.readouterr().err
+    assert code == 1 and err.count("\n") == 1 and "cannot open serial link" in err
+
+
+def test_teleop_records_a_demonstration(tmp_path: Path) -> None:
+    from lfd_track.commands import Command
+    from lfd_track.demo.dataset import load_demonstration
+    from lfd_track.hardware.teleop import DemonstrationRecorder, run_teleop
+
+    class ScriptedKeys:
+        def __init__(self, keys):
+            self.keys = list(keys)
+
+        def poll(self, timeout_s):
+            return self.keys.pop(0) if self.keys else "q"
+
+    keys = ScriptedKeys(["w", "\x1b[D", "d", " ", "p", "w", "x", "q", "w"])
+    out = tmp_path / "demo.lfdemo"
+    with FakeBoard() as board, MjpegServer() as server:
+        env = make_env(board, server, between_steps="stop")
+        try:
+            obs, _ = env.reset()
+            with DemonstrationRecorder(out, library_only=1) as recorder:
+                sent = run_teleop(env, obs, keys, recorder, say=lambda _: None)
+                assert recorder.learning is False  # "p" paused library learning
+        finally:
+            env.close()
+    assert sent == 4
+    demo = load_demonstration(out)
+    assert demo.metadata["complete"]
+    assert demo.commands.tolist() == [Command.LEFT, Command.RIGHT, Command.FORWARD]
+    assert demo.learned.tolist() == [True, True, False]
+    assert demo.road_values.shape == (3, 40)
+    assert _runs(board.drives()) == ["S", "F", "S", "L", "S", "R", "S", "F", "S"]
+
+
+@pytest.mark.simavr
+def test_cli_check_with_lease_test_on_the_simulated_firmware(simulated_board, capsys) -> None:
+    code = _run_cli("check", "--serial", simulated_board.serial_url, "--pings", "3", "--lease-test")
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "lease watchdog stopped the motors" in out and "OK:" in out

@@ -1,0 +1,299 @@
+"""``lfd-track hardware …``: simulated board, link check, autonomous drive, tele-operated demo.
+
+``add_hardware_parser(subparsers)`` adds the ``hardware`` command to the main CLI. Each
+subcommand's handler is stored as ``func`` on the parsed namespace, takes the namespace and
+returns the exit code; user errors (bad URL, lost link, bad controller file) print one line to
+stderr and return 1, Ctrl-C stops the motors and returns 130. ``python -m lfd_track.hardware.cli``
+runs the same commands stand-alone.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import threading
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from ..errors import LfdTrackError
+
+EXIT_OK = 0
+EXIT_ERROR = 1
+EXIT_INTERRUPTED = 130
+
+
+def _fail(message: str) -> int:
+    print(f"lfd-track hardware: {message}", file=sys.stderr)
+    return EXIT_ERROR
+
+
+def _guarded(handler: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
+    """Turn user-caused errors into one line and an exit code (never a traceback)."""
+
+    def run(args: argparse.Namespace) -> int:
+        try:
+            return handler(args)
+        except KeyboardInterrupt:
+            print("interrupted: motors stopped", file=sys.stderr)
+            return EXIT_INTERRUPTED
+        except (LfdTrackError, OSError, ValueError) as exc:
+            return _fail(str(exc))
+
+    return run
+
+
+# ---------------------------------------------------------------------------------------- sim
+def _cmd_sim(args: argparse.Namespace) -> int:
+    from .simavr import FIRMWARE_BAUD, SimavrError, SimulatedBoard
+
+    try:
+        board = SimulatedBoard(build_dir=args.build_dir).start()
+    except SimavrError as exc:
+        return _fail(str(exc))
+    try:
+        print(f"simulated board running; serial URL: {board.serial_url} (baud {FIRMWARE_BAUD})")
+        print("motor log:", board.log_path)
+        print("press Ctrl-C to stop", flush=True)
+        try:
+            threading.Event().wait()  # until Ctrl-C
+        except KeyboardInterrupt:
+            print("stopping the simulated board")
+    finally:
+        board.close()
+    return EXIT_OK
+
+
+# -------------------------------------------------------------------------------------- check
+def _cmd_check(args: argparse.Namespace) -> int:
+    from . import protocol
+    from .link import RobotLink
+
+    link = RobotLink(args.serial, baudrate=args.baud, boot_wait_s=args.boot_wait)
+    with link:
+        version = link.firmware_version or "unknown (no boot frame seen; reset the board to see it)"
+        print(f"connected to {args.serial}; firmware version: {version}")
+        rtts = [link.ping().rtt_ms for _ in range(args.pings)]
+        stats = link.stats()
+        print(
+            f"ping round trip over {args.pings}: min {min(rtts):.1f} ms, median "
+            f"{statistics.median(rtts):.1f} ms, max {max(rtts):.1f} ms; missed {stats.missed}"
+        )
+        problems = []
+        # Safety checks that never move the robot: a ping does not start motion, the e-stop
+        # latches and refuses drives, clearing it leaves the motors off, bad periods are refused.
+        if link.ping().moving:
+            problems.append("the board reports moving motors after a ping")
+        if not link.estop().estopped:
+            problems.append("e-stop was not latched")
+        refused = link.drive("F")
+        if refused.accepted or refused.rejected != protocol.REASON_ESTOP:
+            problems.append("a drive frame was accepted while the e-stop was latched")
+        cleared = link.clear_estop()
+        if cleared.estopped or cleared.moving:
+            problems.append("clearing the e-stop restarted the motors or did not clear")
+        try:
+            bad = link.request(protocol.SET_WATCHDOG, "10")  # below the 50 ms minimum
+            if bad.accepted:
+                problems.append("the board accepted a 10 ms watchdog period")
+        finally:
+            link.set_watchdog_ms(args.watchdog_ms)
+        if args.lease_test:
+            problems += _lease_test(link, args.watchdog_ms)
+        for problem in problems:
+            print(f"FAIL: {problem}")
+        if not problems:
+            print(
+                "OK: ping, e-stop latch, e-stop clear, watchdog range"
+                + (", lease watchdog" if args.lease_test else "")
+            )
+    return EXIT_OK if not problems else EXIT_ERROR
+
+
+def _lease_test(link: Any, watchdog_ms: int) -> list[str]:
+    """Drive forward once without refreshing and time the board's watchdog stop (``$W``).
+
+    This moves the motors for one watchdog period: the operator must lift the robot first.
+    """
+    ack = link.drive("F", lease_s=0)  # sent once; the board must stop on its own
+    if not ack.moving:
+        link.stop()
+        return [f"the board did not start the motors for the lease test (state {ack.state})"]
+    waited = link.wait_for_watchdog_stop(timeout_s=watchdog_ms / 1000 * 2 + 0.5)
+    link.stop()
+    if waited is None:
+        return [f"no watchdog stop within {watchdog_ms * 2 + 500} ms of the last drive frame"]
+    print(f"lease watchdog stopped the motors {waited * 1000:.0f} ms after the drive frame")
+    if waited * 1000 > watchdog_ms + 150:
+        return [f"watchdog stop after {waited * 1000:.0f} ms (period {watchdog_ms} ms)"]
+    return []
+
+
+# -------------------------------------------------------------------------------------- drive
+def _make_env(args: argparse.Namespace, **kwargs: Any) -> Any:
+    from .env import HardwareEnv
+
+    return HardwareEnv(
+        camera_url=args.camera,
+        serial_url=args.serial,
+        watchdog_ms=args.watchdog_ms,
+        control_period_s=args.period,
+        link_options={"baudrate": args.baud, "boot_wait_s": args.boot_wait},
+        **kwargs,
+    )
+
+
+def _cmd_drive(args: argparse.Namespace) -> int:
+    from ..controller import Controller
+
+    controller = Controller.load(args.controller)
+    env = _make_env(args)
+    try:
+        obs, _ = env.reset()
+        controller.reset()
+        step = 0
+        while args.steps is None or step < args.steps:
+            action = controller.act(obs)
+            obs, _, terminated, _, info = env.step(action)
+            step += 1
+            print(
+                f"step {step}: {info['command']} (board {info['board_state']}, "
+                f"rtt {info['link']['rtt_ms']:.0f} ms)",
+                flush=True,
+            )
+            if terminated:
+                return _fail(f"stopped after {step} steps: {info['error']}")
+        print(f"done: {step} steps; motors stopped")
+        return EXIT_OK
+    finally:
+        env.close()
+
+
+# --------------------------------------------------------------------------------------- demo
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from .teleop import DemonstrationRecorder, TerminalKeys, run_teleop
+
+    env = _make_env(args, between_steps="stop")
+    try:
+        obs, _ = env.reset()
+        meta = {"camera": args.camera, "control_period_s": args.period}
+        with (
+            DemonstrationRecorder(
+                args.out, bins=args.bins, library_only=args.library_only, metadata=meta
+            ) as recorder,
+            TerminalKeys() as keys,
+        ):
+            print(
+                "w/up forward, a/left left, d/right right, space stop, p pause learning, q quit",
+                flush=True,
+            )
+            sent = run_teleop(env, obs, keys, recorder)
+        print(f"{sent} commands, {recorder.n_cases} cases recorded to {args.out}")
+        return EXIT_OK
+    finally:
+        env.close()
+
+
+# ------------------------------------------------------------------------------------- parser
+def _add_link_options(parser: argparse.ArgumentParser) -> None:
+    from .link import DEFAULT_BAUD
+
+    parser.add_argument(
+        "--serial",
+        required=True,
+        metavar="URL",
+        help="serial port or pyserial URL: /dev/rfcomm0, /dev/pts/N, socket://host:port",
+    )
+    parser.add_argument(
+        "--baud", type=int, default=DEFAULT_BAUD, help="baud rate (default %(default)s)"
+    )
+    parser.add_argument(
+        "--boot-wait",
+        type=float,
+        default=0.0,
+        metavar="S",
+        help="seconds to wait for the board's boot frame (a USB Arduino resets on open; try 2)",
+    )
+    parser.add_argument(
+        "--watchdog-ms", type=int, default=300, help="board motor watchdog [ms] (default 300)"
+    )
+
+
+def _add_camera_options(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--camera",
+        required=True,
+        metavar="URL",
+        help="phone stream (http://PHONE:8080/video), snapshot URL (…/shot.jpg) or video file",
+    )
+    parser.add_argument(
+        "--period", type=float, default=0.4, metavar="S", help="control period [s] (default 0.4)"
+    )
+
+
+def add_hardware_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Add ``hardware`` with subcommands ``sim``, ``check``, ``drive``, ``demo``.
+
+    Each leaf parser sets ``func`` (namespace → exit code).
+    """
+    hardware = subparsers.add_parser(
+        "hardware",
+        help="run on the real robot (or its firmware in simavr)",
+        description="Real-robot backend: simulated board, link check, autonomous drive, demo.",
+    )
+    commands = hardware.add_subparsers(dest="hardware_command", metavar="COMMAND")
+    commands.required = True
+
+    sim = commands.add_parser(
+        "sim", help="run the firmware in simavr and print its serial URL (until Ctrl-C)"
+    )
+    sim.add_argument("--build-dir", default=None, help="build folder (default hardware/build)")
+    sim.set_defaults(func=_guarded(_cmd_sim))
+
+    check = commands.add_parser(
+        "check",
+        help="firmware version, round-trip time and safety self-test (no motion by default)",
+    )
+    _add_link_options(check)
+    check.add_argument("--pings", type=int, default=20, help="pings to time (default 20)")
+    check.add_argument(
+        "--lease-test",
+        action="store_true",
+        help="also time the motor watchdog: runs the motors for one watchdog period, "
+        "LIFT THE ROBOT so its tracks spin freely first",
+    )
+    check.set_defaults(func=_guarded(_cmd_check))
+
+    drive = commands.add_parser("drive", help="drive autonomously with a controller file")
+    drive.add_argument("controller", metavar="CONTROLLER.json", help="controller file")
+    _add_camera_options(drive)
+    _add_link_options(drive)
+    drive.add_argument("--steps", type=int, default=None, help="stop after N commands")
+    drive.set_defaults(func=_guarded(_cmd_drive))
+
+    demo = commands.add_parser("demo", help="drive with the keyboard and record a demonstration")
+    _add_camera_options(demo)
+    _add_link_options(demo)
+    demo.add_argument("--out", required=True, metavar="FILE", help="demonstration file (.lfdemo)")
+    demo.add_argument("--bins", type=int, default=32, help="histogram bins (default 32)")
+    demo.add_argument(
+        "--library-only",
+        type=int,
+        default=10,
+        metavar="N",
+        help="first N commands only build the road library (default 10)",
+    )
+    demo.set_defaults(func=_guarded(_cmd_demo))
+    return hardware
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Stand-alone entry point: ``python -m lfd_track.hardware.cli hardware …``."""
+    parser = argparse.ArgumentParser(prog="lfd-track")
+    add_hardware_parser(parser.add_subparsers(dest="command", required=True))
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

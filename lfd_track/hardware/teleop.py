@@ -1,0 +1,210 @@
+"""Keyboard tele-operation of the real robot, recording a demonstration as it drives.
+
+The paper's human used a remote with discrete forward/left/right buttons (§4.2): every press is
+one command. Here a key press (``w``/``a``/``d`` or the arrow keys) is one command held for one
+control period, then the robot stops (the env runs with ``between_steps="stop"``, so releasing
+the key stops the robot at once instead of after a lease); holding a key down repeats it. Space
+stops, ``p`` pauses/resumes road-library learning (for moments the safe box is off the felt,
+DESIGN §6), ``q`` quits.
+
+Each command is recorded with the road values of the frame it was given on, computed with the
+record-time library, in the format of ``lfd_track.demo.dataset`` (one ``.lfdemo`` file).
+"""
+
+from __future__ import annotations
+
+import os
+import select
+import sys
+import termios
+import tty
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+
+from ..commands import Command
+
+QUIT = "quit"
+STOP = "stop"
+TOGGLE_LEARNING = "toggle_learning"
+
+KEYMAP: Mapping[str, Command | str] = {
+    "w": Command.FORWARD,
+    "\x1b[A": Command.FORWARD,  # up arrow
+    "a": Command.LEFT,
+    "\x1b[D": Command.LEFT,  # left arrow
+    "d": Command.RIGHT,
+    "\x1b[C": Command.RIGHT,  # right arrow
+    " ": STOP,
+    "s": STOP,
+    "p": TOGGLE_LEARNING,
+    "q": QUIT,
+    "\x03": QUIT,  # Ctrl-C arrives as a byte in cbreak mode only if ISIG is off; kept for safety
+}
+
+LIBRARY_ONLY_COMMANDS = 10  # first commands only build the library (DESIGN §6)
+
+
+class KeySource(Protocol):
+    """Anything that yields key presses: ``poll(timeout_s)`` → the latest key or None."""
+
+    def poll(self, timeout_s: float) -> str | None: ...
+
+
+class TerminalKeys:
+    """Key presses from the controlling terminal in cbreak mode (a context manager).
+
+    ``poll`` returns the *latest* key pressed since the last call (auto-repeat queues many while
+    a command runs; only the newest one reflects what the operator wants now).
+    """
+
+    def __init__(self, stream: Any = None) -> None:
+        self._stream = stream if stream is not None else sys.stdin
+        self._saved: list[Any] | None = None
+
+    def __enter__(self) -> TerminalKeys:
+        fd = self._stream.fileno()
+        if not os.isatty(fd):
+            raise OSError("keyboard tele-operation needs an interactive terminal")
+        self._saved = termios.tcgetattr(fd)
+        tty.setcbreak(fd)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._saved is not None:
+            termios.tcsetattr(self._stream.fileno(), termios.TCSADRAIN, self._saved)
+            self._saved = None
+
+    def poll(self, timeout_s: float) -> str | None:
+        fd = self._stream.fileno()
+        ready, _, _ = select.select([fd], [], [], max(timeout_s, 0.0))
+        if not ready:
+            return None
+        data = b""
+        while select.select([fd], [], [], 0)[0]:
+            chunk = os.read(fd, 64)
+            if not chunk:
+                break
+            data += chunk
+        return _last_key(data.decode("utf-8", "replace"))
+
+
+def _last_key(text: str) -> str | None:
+    """The last complete key in ``text`` (arrow keys are 3-character escape sequences)."""
+    keys: list[str] = []
+    i = 0
+    while i < len(text):
+        if text[i] == "\x1b" and text[i + 1 : i + 2] == "[" and i + 2 < len(text):
+            keys.append(text[i : i + 3])
+            i += 3
+        else:
+            keys.append(text[i].lower())
+            i += 1
+    return keys[-1] if keys else None
+
+
+class DemonstrationRecorder:
+    """Adapter from tele-operated (frame, command) pairs to a demonstration file.
+
+    The library learns from each frame (unless paused) as the paper's robot did while a careful
+    human drove; the first ``library_only`` commands only build the library. Everything else is
+    written through ``lfd_track.demo.dataset.DemonstrationWriter``.
+    """
+
+    def __init__(
+        self,
+        path: str | Path,
+        *,
+        bins: int = 32,
+        library_only: int = LIBRARY_ONLY_COMMANDS,
+        metadata: Mapping[str, Any] | None = None,
+        overwrite: bool = False,
+    ) -> None:
+        from ..demo.dataset import DemonstrationWriter
+        from ..vision.road_library import RoadLibrary
+
+        self.library = RoadLibrary(bins=bins)
+        self.library_only = int(library_only)
+        self.learning = True
+        self.commands_seen = 0
+        meta = {"source": "hardware teleop", **dict(metadata or {})}
+        self._writer = DemonstrationWriter(path, meta, bins, overwrite=overwrite)
+
+    @property
+    def n_cases(self) -> int:
+        """Cases written so far."""
+        return self._writer.n_cases
+
+    def record(self, frame: np.ndarray, command: Command) -> bool:
+        """Learn from ``frame`` (RGB uint8 (480, 640, 3)), record ``command``; True if written."""
+        learned = False
+        if self.learning:
+            self.library.learn(frame)
+            learned = True
+        self.commands_seen += 1
+        if self.commands_seen <= self.library_only:
+            return False
+        histograms = self.library.region_histograms(frame)
+        values = self.library.road_values_from_histograms(histograms)
+        self._writer.append(
+            int(command), values, histograms, phase="drive", learned=learned, step=None
+        )
+        return True
+
+    def close(self) -> None:
+        """Write the footer with the record-time library snapshot."""
+        self._writer.close({"road_library": self.library.to_dict()})
+
+    def __enter__(self) -> DemonstrationRecorder:
+        return self
+
+    def __exit__(self, exc_type: object, *exc: object) -> None:
+        # Even after an error the file keeps every case so far; the footer marks a clean end.
+        self.close()
+
+
+def run_teleop(
+    env: Any,
+    observation: np.ndarray,
+    keys: KeySource,
+    recorder: DemonstrationRecorder | None,
+    *,
+    max_commands: int | None = None,
+    say: Callable[[str], None] = print,
+) -> int:
+    """Drive ``env`` (a reset ``HardwareEnv``) from ``keys``, recording each command.
+
+    ``observation``: the frame ``env.reset()`` returned, RGB uint8 (480, 640, 3).
+
+    Returns the number of commands sent. Stops the robot and returns on ``q``, at
+    ``max_commands``, or when the episode ends (its failure is reported through ``say``).
+    """
+    obs = observation
+    sent = 0
+    while max_commands is None or sent < max_commands:
+        key = keys.poll(0.1)
+        if key is None:
+            continue
+        action = KEYMAP.get(key)
+        if action == QUIT:
+            break
+        if action == STOP:
+            env.unwrapped.link.stop()
+            continue
+        if action == TOGGLE_LEARNING and recorder is not None:
+            recorder.learning = not recorder.learning
+            say(f"library learning {'on' if recorder.learning else 'paused'}")
+            continue
+        if not isinstance(action, Command):
+            continue
+        if recorder is not None:
+            recorder.record(obs, action)
+        obs, _, terminated, _, info = env.step(int(action))
+        sent += 1
+        if terminated:
+            say(f"stopped: {info.get('error', info['failure'])}")
+            break
+    env.unwrapped.link.stop()
+    return sent
