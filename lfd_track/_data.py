@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from .errors import LfdTrackError
+
 _PACKAGE_DIR = Path(__file__).resolve().parent
 
 
@@ -19,18 +21,26 @@ def data_dir(name: str) -> Path:
     raise FileNotFoundError(f"lfd_track data folder '{name}' not found next to {_PACKAGE_DIR}")
 
 
+_WHAT = {"tracks": "track", "envs": "preset"}
+
+
+class UnknownDataError(LfdTrackError, FileNotFoundError):
+    """A track or preset name that is not shipped, or a path that does not exist."""
+
+
 def resolve_data_file(kind: str, name_or_path: str | Path) -> Path:
     """Resolve a shipped data file by short name (``"testing"``) or a path to a ``.toml`` file."""
+    what = _WHAT.get(kind, kind)
     text = str(name_or_path)
     path = Path(text)
     if path.suffix == ".toml" or path.is_file() or "/" in text or "\\" in text:
         if not path.is_file():
-            raise FileNotFoundError(f"{path}: no such {kind[:-1]} file")
+            raise UnknownDataError(f"{path}: no such {what} file")
         return path
     shipped = data_dir(kind) / f"{text}.toml"
     if not shipped.is_file():
         known = sorted(p.stem for p in data_dir(kind).glob("*.toml"))
-        raise FileNotFoundError(
-            f"unknown {kind[:-1]} '{text}' (shipped: {', '.join(known)}; or give a path to a .toml file)"
+        raise UnknownDataError(
+            f"unknown {what} '{text}' (shipped: {', '.join(known)}; or a path to a .toml file)"
         )
     return shipped

@@ -11,7 +11,7 @@ from gymnasium import spaces
 
 from .commands import Command
 from .presets import Preset, load_preset
-from .render.camera import CameraModel, CameraRenderer, safe_box_floor_polygon
+from .render.camera import CameraModel, CameraRenderer
 from .render.texture import GroundTexture, build_ground
 from .render.topdown import draw_topdown
 from .world.episode import OFF_TRACK, EpisodeTracker, reference_step_count
@@ -142,7 +142,7 @@ class LfDTrackEnv(gym.Env):
         return bool(on[0].any()), bool(on[1].any())
 
     def _safe_box_on_felt(self, pose: np.ndarray) -> bool:
-        polygon = safe_box_floor_polygon(self._camera_model, pose)
+        polygon = self._camera_model.safe_box_floor_polygon(pose)
         return bool(self.track.on_felt(polygon).all())
 
     def _info(self) -> dict[str, Any]:

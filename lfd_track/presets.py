@@ -136,10 +136,7 @@ def _parse_ranges(table: Any, path: Path) -> tuple[Range, ...]:
 
 def load_preset(name_or_path: str | Path = "paper") -> Preset:
     """Load a shipped preset by name (``"paper"``, ``"randomized"``) or a preset TOML file."""
-    try:
-        path = resolve_data_file("envs", name_or_path)
-    except FileNotFoundError as exc:
-        raise FileFormatError(name_or_path, str(exc).split(": ", 1)[-1]) from None
+    path = resolve_data_file("envs", name_or_path)
     try:
         with open(path, "rb") as fh:
             data = tomllib.load(fh)

@@ -29,7 +29,7 @@ class EpisodeRules:
     corner_margin_m: float = 0.30  # reached / negotiated this far before / after a corner [m]
     reverse_margin_m: float = 0.30  # progress this far below its maximum means reversed [m]
     end_margin_m: float = 0.40  # open track: success within this distance of the far end [m]
-    start_offset_m: float = 0.0  # open track: start this far along the centreline [m]
+    start_offset_m: float = 0.15  # open track: start this far along the centreline [m]
 
 
 @dataclass

@@ -145,33 +145,76 @@ class Track:
 class ProgressTracker:
     """Continuous arc-length progress of a point moving along a track.
 
-    Progress is unwrapped (it keeps growing past the perimeter on a loop). Each update only
-    considers centreline positions within ``window_m`` of the previous progress, so a pose is never
-    snapped to a far segment that happens to be close (e.g. across the 135° corner).
+    Each segment owns the zone between the bisectors of its two end vertices; inside it a point's
+    progress interpolates between those bisectors along the line at the point's lateral offset, so
+    progress equals the arc length on the centreline and is continuous everywhere near the track,
+    also on the inside of sharp corners (plain closest-point projection jumps there).
+
+    Progress is unwrapped (it keeps growing past the perimeter on a loop). After the first update,
+    each update only considers positions within ``window_m`` of the previous progress, so a pose is
+    never snapped to a far segment that happens to be close (e.g. across the 135° corner).
     """
 
     def __init__(self, track: Track, start_progress_m: float = 0.0, window_m: float = 0.6) -> None:
         self.track = track
         self.window_m = window_m
         self.progress_m = float(start_progress_m)
+        self._first = True
+        a, b = track.segment_starts, track.segment_ends
+        self._a = a
+        self._len = track.segment_lengths
+        self._dir = (b - a) / self._len[:, None]
+        self._s0 = track.segment_s
+        n = len(a)
+        turns = np.zeros(len(track.vertices))
+        verts = track.vertices
+        m = len(verts)
+        for i in range(m):
+            if not track.closed and i in (0, m - 1):
+                continue
+            d1, d2 = verts[i] - verts[(i - 1) % m], verts[(i + 1) % m] - verts[i]
+            turns[i] = math.atan2(d1[0] * d2[1] - d1[1] * d2[0], float(np.dot(d1, d2)))
+        start_idx = np.arange(n)
+        end_idx = (start_idx + 1) % m
+        self._tan0 = np.tan(turns[start_idx] / 2.0)
+        self._tan1 = np.tan(turns[end_idx] / 2.0)
+
+    def candidates(self, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Progress on every segment's zone (S,) [m] and a closeness cost (S,) [m]."""
+        rel = np.asarray(point, dtype=np.float64)[None, :] - self._a
+        along = rel[:, 0] * self._dir[:, 0] + rel[:, 1] * self._dir[:, 1]
+        lateral = -rel[:, 0] * self._dir[:, 1] + rel[:, 1] * self._dir[:, 0]  # left positive
+        a0 = lateral * self._tan0
+        a1 = self._len - lateral * self._tan1
+        span = np.maximum(a1 - a0, 1e-6)
+        u = (along - a0) / span
+        inside = (u >= 0.0) & (u <= 1.0) & (a1 - a0 > 1e-6)
+        u_clipped = np.clip(u, 0.0, 1.0)
+        s = self._s0 + u_clipped * self._len
+        outside_by = np.where(inside, 0.0, np.abs(u - u_clipped) * span)
+        cost = np.abs(lateral) + outside_by
+        return s, cost
 
     def update(self, point: np.ndarray) -> float:
         """Advance to the progress of ``point`` (2,) [m]; returns the new progress [m]."""
         track = self.track
         length = track.length_m
-        proj = track.project(point)  # (S, 2): s, dist
-        s_candidates = proj[:, 0]
-        dist = proj[:, 1]
+        s_candidates, cost = self.candidates(point)
         if track.closed:
             # Unwrap each candidate to the lap copy nearest to the current progress.
             k = np.round((self.progress_m - s_candidates) / length)
             s_candidates = s_candidates + k * length
-        delta = np.abs(s_candidates - self.progress_m)
-        ok = delta <= self.window_m
-        if not ok.any():
-            # Far from everywhere we could have reached: keep the nearest candidate in arc length.
-            ok = delta <= delta.min() + 1e-9
-        best = np.argmin(np.where(ok, dist, np.inf))
+        if self._first:
+            # First fix: the globally closest zone (ties go to the earliest segment).
+            self._first = False
+            best = int(np.argmin(cost))
+        else:
+            delta = np.abs(s_candidates - self.progress_m)
+            ok = delta <= self.window_m
+            if not ok.any():
+                # Far from everywhere we could have reached: keep the nearest in arc length.
+                ok = delta <= delta.min() + 1e-9
+            best = int(np.argmin(np.where(ok, cost, np.inf)))
         self.progress_m = float(s_candidates[best])
         return self.progress_m
 

@@ -81,7 +81,22 @@ def test_progress_never_snaps_across_the_sharp_corner():
     s = track.length_m - 0.35
     point, heading = track.point_at(s)
     tracker = ProgressTracker(track, start_progress_m=s)
-    assert tracker.update(point + np.array([0.0, -0.05])) == pytest.approx(s, abs=0.1)
+    progress = tracker.update(point + np.array([0.0, -0.05]))
+    assert s - 0.05 < progress < track.length_m  # still before corner 4, not on the first straight
+
+
+def test_progress_is_continuous_off_the_centreline_inside_sharp_corners():
+    track = load_track("testing")
+    # Sweep a line 0.12 m inside the centreline through corner 4 (the 135° corner).
+    tracker = ProgressTracker(track, start_progress_m=track.length_m - 0.6)
+    last = None
+    for s in np.arange(track.length_m - 0.6, track.length_m + 0.6, 0.01):
+        point, heading = track.point_at(s)
+        inside = point + 0.12 * np.array([-math.sin(heading), math.cos(heading)])
+        progress = tracker.update(inside)
+        assert last is None or 0.0 <= progress - last < 0.05
+        last = progress
+    assert last > track.length_m + 0.3
 
 
 def _write(tmp_path, text):
@@ -119,7 +134,7 @@ def test_bad_track_files_are_rejected_with_one_line(tmp_path, text, problem):
 
 
 def test_unknown_track_name():
-    with pytest.raises(FileNotFoundError, match="unknown track 'nowhere'"):
+    with pytest.raises(FileNotFoundError, match="unknown track 'nowhere' \\(shipped: sbend, testing, training"):
         load_track("nowhere")
 
 
