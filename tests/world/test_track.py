@@ -87,16 +87,16 @@ def test_progress_never_snaps_across_the_sharp_corner():
 
 def test_progress_is_continuous_off_the_centreline_inside_sharp_corners():
     track = load_track("testing")
-    # Sweep a line 0.12 m inside the centreline through corner 4 (the 135° corner).
+    # Cut the inside of corner 4 (the 135° corner) along a straight chord.
+    start, _ = track.point_at(track.length_m - 0.6)
+    end, _ = track.point_at(track.length_m + 0.6)
     tracker = ProgressTracker(track, start_progress_m=track.length_m - 0.6)
     last = None
-    for s in np.arange(track.length_m - 0.6, track.length_m + 0.6, 0.01):
-        point, heading = track.point_at(s)
-        inside = point + 0.12 * np.array([-math.sin(heading), math.cos(heading)])
-        progress = tracker.update(inside)
+    for f in np.linspace(0.0, 1.0, 121):
+        progress = tracker.update(start + f * (end - start))
         assert last is None or 0.0 <= progress - last < 0.05
         last = progress
-    assert last > track.length_m + 0.3
+    assert last == pytest.approx(track.length_m + 0.6)
 
 
 def _write(tmp_path, text):
