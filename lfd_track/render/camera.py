@@ -79,6 +79,8 @@ class SensorConfig:
     """Std of the per-episode colour cast (per-channel gain), relative."""
     white_balance_jitter: float = 0.015
     """Std of the per-frame white-balance jitter (per-channel gain), relative."""
+    highlight_knee: float = 0.7
+    """Fraction of full scale where the tone curve starts to roll off (1 = hard clipping)."""
     noise_std: float = 3.0
     """Std of the additive sensor noise [8-bit levels]."""
     noise_pool_frames: int = 4
@@ -107,6 +109,8 @@ class SensorConfig:
         ):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if not 0.0 < self.highlight_knee <= 1.0:
+            raise ValueError(f"highlight_knee must be in (0, 1], got {self.highlight_knee}")
         if not 0.0 <= self.vignetting < 1.0:
             raise ValueError(f"vignetting must be in [0, 1), got {self.vignetting}")
         if self.noise_pool_frames < 1:
@@ -264,6 +268,18 @@ class CameraRenderer:
         else:
             self._noise_up = self._noise_down = None
 
+    def _tone_lut(self, gains: np.ndarray) -> np.ndarray:
+        """(256, 1, 3) uint8 table: level × per-channel gain, with a soft highlight shoulder."""
+        levels = np.arange(256.0)[:, None] * np.asarray(gains, dtype=np.float64)[None, :]
+        knee = 255.0 * self.sensor.highlight_knee
+        span = 255.0 - knee
+        if span > 0:
+            # Above the knee the curve bends smoothly (slope 1 at the knee) towards 255, as phone
+            # tone curves do, so bright felt keeps some gradation instead of clipping flat.
+            over = levels > knee
+            levels[over] = knee + span * -np.expm1(-(levels[over] - knee) / span)
+        return np.clip(np.rint(levels), 0, 255).astype(np.uint8).reshape(256, 1, 3)
+
     def _motion_kernel(self, pose: np.ndarray, motion: np.ndarray) -> np.ndarray | None:
         """Line kernel along the image displacement of the floor under the image centre."""
         centre_px = np.array([[self.model.cx, self.model.cy]])
@@ -324,12 +340,9 @@ class CameraRenderer:
         rate = 1.0 if s.exposure_lag_frames == 0 else 1.0 - math.exp(-1.0 / s.exposure_lag_frames)
         self._gain = math.exp(math.log(gain) + rate * (math.log(wanted) - math.log(gain)))
 
-        # Exposure × white balance as one diagonal colour matrix (OpenCV's fast 3-channel path;
-        # the 4-channel one is ten times slower, hence dropping the felt channel first).
+        # Exposure × white balance × the phone's tone curve as one per-channel lookup table.
         wb = self._cast * (1.0 + s.white_balance_jitter * rng.standard_normal(3))
-        frame = cv2.transform(
-            cv2.cvtColor(raw, cv2.COLOR_RGBA2RGB), np.diag(gain * wb).astype(np.float32)
-        )
+        frame = cv2.LUT(cv2.cvtColor(raw, cv2.COLOR_RGBA2RGB), self._tone_lut(gain * wb))
         if self._vignette is not None:
             frame = cv2.multiply(frame, self._vignette, scale=1.0 / 255.0)
         if self._noise_up is not None and self._noise_down is not None:

@@ -43,13 +43,13 @@ class AppearanceConfig:
     """Size of one carpet loop [m]."""
     carpet_fleck_strength: float = 0.10
     """Per-channel colour variation of the carpet fibres (heathered yarn), relative."""
-    carpet_patchiness: float = 0.06
+    carpet_patchiness: float = 0.04
     """Slow brightness variation of the carpet over tens of centimetres (wear, pile direction)."""
     felt_fibre_strength: float = 0.07
     """Relative brightness contrast of the felt's fibres."""
     felt_fibre_length_m: float = 0.012
     """Typical length of a visible felt fibre streak [m]."""
-    felt_nonuniformity: float = 0.05
+    felt_nonuniformity: float = 0.04
     """Slow relative brightness variation of the felt (dye and thickness), std."""
     felt_tint_variation: float = 0.025
     """Slow per-channel colour variation of the felt (dye lots), std, relative."""
@@ -344,6 +344,7 @@ def build_ground(
         0.5 * k_fibre,
         1.0,
     )
+    del streaks, fine  # full-size temporaries: keep the build's peak memory down
     slow_px = appearance.felt_nonuniformity_scale_m / mpp
     felt_shade = cv2.addWeighted(
         felt_shade, 1.0, _value_noise(rng, shape, slow_px), appearance.felt_nonuniformity, 0.0
@@ -362,17 +363,19 @@ def build_ground(
         flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
         borderMode=cv2.BORDER_REPLICATE,
     )
-
-    # Colour: carpet_rgb·(1 + flecks·w) on the carpet, felt_rgb·(1 + tint·u) on the felt, blended
-    # by coverage and lit. Written as four shared planes and one 3×4 colour matrix, so the
-    # per-channel work is a single OpenCV pass.
-    carpet_lit = cv2.multiply(cv2.multiply(carpet_shade, light_full), 1.0 - coverage)
-    felt_lit = cv2.multiply(cv2.multiply(felt_shade, light_full), coverage)
+    # Lit carpet and felt, each weighted by its coverage (in place, same reason as above).
+    carpet_lit, felt_lit = carpet_shade, felt_shade
+    carpet_lit *= light_full
+    felt_lit *= light_full
+    del light_full
+    felt_lit *= coverage
+    carpet_lit -= carpet_lit * coverage
     flecks = _value_noise(rng, shape, pile_px * 0.7)
     tint = _value_noise(rng, shape, 2.0 * slow_px)
-    planes = cv2.merge(
-        [carpet_lit, cv2.multiply(carpet_lit, flecks), felt_lit, cv2.multiply(felt_lit, tint)]
-    )
+
+    # Colour: carpet_rgb·(1 + flecks·w) on the carpet, felt_rgb·(1 + tint·u) on the felt. Written
+    # as four shared planes and one 3×4 colour matrix, so the per-channel work is a single OpenCV
+    # pass; done in bands of rows so the 4-plane temporaries stay small.
     carpet_rgb = np.array(appearance.carpet_rgb, dtype=np.float64)
     felt_rgb = np.array(appearance.felt_rgb, dtype=np.float64)
     # Heathered yarn: fibres vary from redder to duller; felt dye varies in saturation.
@@ -388,9 +391,14 @@ def build_ground(
             felt_rgb * appearance.felt_tint_variation * (0.5 + tint_dir),
         ]
     ).astype(np.float32)
-    rgb = cv2.convertScaleAbs(cv2.transform(planes, colour))  # rounds and saturates to uint8
-    alpha = cv2.convertScaleAbs(coverage, alpha=255.0)
-    rgba = cv2.merge([rgb[..., 0], rgb[..., 1], rgb[..., 2], alpha])
+    rgba = np.empty((h, w, 4), dtype=np.uint8)
+    band_rows = 256
+    for r0 in range(0, h, band_rows):
+        rows = slice(r0, min(r0 + band_rows, h))
+        cl, fl = carpet_lit[rows], felt_lit[rows]
+        planes = cv2.merge([cl, cl * flecks[rows], fl, fl * tint[rows]])
+        rgba[rows, :, :3] = cv2.convertScaleAbs(cv2.transform(planes, colour))  # round, saturate
+        rgba[rows, :, 3] = cv2.convertScaleAbs(coverage[rows], alpha=255.0)
     return GroundTexture(
         rgba=rgba,
         origin_xy=(float(origin[0]), float(origin[1])),
