@@ -118,8 +118,7 @@ def test_safe_box_floor_polygon_is_on_the_felt_on_a_straight(track):
     assert poly.shape == (4, 2)
     assert track.on_felt(poly).all()
     assert poly[:, 0].min() == pytest.approx(1.5 + 0.256, abs=0.01)
-    # Turned 90° on the straight, the box swings over the carpet beside the strip? Not yet:
-    # at 0.26–0.29 m it is just past the strip's half-width of 0.15 m.
+    # Turned 90° on the 0.30 m strip, the box (0.26–0.29 m ahead) lies on the carpet beside it.
     assert not track.on_felt(safe_box_floor_polygon(np.array([1.5, 0.0, math.pi / 2]))).any()
 
 
@@ -243,3 +242,17 @@ def test_sensor_config_validates():
         SensorConfig(jpeg_quality=101)
     with pytest.raises(ValueError, match="vignetting"):
         SensorConfig(vignetting=1.0)
+
+
+def test_highlight_shoulder_keeps_bright_felt_from_clipping(ground):
+    def box(knee):
+        sensor = SensorConfig(
+            exposure_target=150.0, highlight_knee=knee, noise_std=0.0, vignetting=0.0
+        )
+        return render_sequence(ground, [STRAIGHT], 0, sensor)[0][SAFE_BOX]
+
+    hard, soft = box(1.0), box(0.7)
+    assert (hard == 255).mean() > 0.3  # overexposed felt clips flat with a linear curve
+    assert (soft == 255).mean() < 0.05
+    # ...and keeps its fibre texture in the shoulder, where clipping flattens it.
+    assert hard[..., 2].std() < 0.5 < 1.0 < soft[..., 2].std()
