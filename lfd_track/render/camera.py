@@ -24,6 +24,8 @@ from .texture import GroundTexture
 SAFE_BOX = (slice(430, 480), slice(295, 345))
 #: Rec. 601 luma weights of R, G, B, used to meter brightness.
 _LUMA = np.array([0.299, 0.587, 0.114])
+#: Samples (columns, rows) the auto-exposure meter reads per frame.
+_METER_GRID = (80, 60)
 
 
 @dataclass(frozen=True)
@@ -247,11 +249,17 @@ class CameraRenderer:
         self._noise_down: np.ndarray | None = None
         self._cast = np.ones(3)
         self._gain: float | None = None
+        self._last_raw: np.ndarray | None = None
 
     @property
     def exposure_gain(self) -> float | None:
         """Current auto-exposure gain (None before the first frame of an episode)."""
         return self._gain
+
+    @property
+    def last_felt_coverage(self) -> np.ndarray | None:
+        """(H, W) uint8 felt coverage (255 = felt) in the last frame: ground truth for tests."""
+        return None if self._last_raw is None else self._last_raw[..., 3]
 
     def reset(self, rng: np.random.Generator) -> None:
         """Start an episode: draw the colour cast and the noise pool, forget the exposure."""
@@ -324,6 +332,7 @@ class CameraRenderer:
             flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
             borderMode=cv2.BORDER_REFLECT,
         )
+        self._last_raw = raw
         if s.motion_blur and motion is not None:
             kernel = self._motion_kernel(pose, motion)
             if kernel is not None:
@@ -331,7 +340,8 @@ class CameraRenderer:
 
         # Auto-exposure: this frame uses the gain set from earlier frames; the meter then moves
         # the gain towards the target with the configured lag (in log space, like EV steps).
-        means = cv2.mean(raw)
+        # The meter reads a coarse 80 × 60 grid of samples, like a phone's AE statistics.
+        means = cv2.mean(cv2.resize(raw, _METER_GRID, interpolation=cv2.INTER_NEAREST))
         luma = max(float(_LUMA @ np.array(means[:3])) * self._mean_vignette, 1e-3)
         wanted = float(np.clip(s.exposure_target / luma, s.exposure_min_gain, s.exposure_max_gain))
         if self._gain is None:

@@ -256,3 +256,20 @@ def test_highlight_shoulder_keeps_bright_felt_from_clipping(ground):
     assert (soft == 255).mean() < 0.05
     # ...and keeps its fibre texture in the shoulder, where clipping flattens it.
     assert hard[..., 2].std() < 0.5 < 1.0 < soft[..., 2].std()
+
+
+def test_felt_coverage_of_the_last_frame_matches_the_geometry(track, ground):
+    renderer = CameraRenderer()
+    assert renderer.last_felt_coverage is None
+    rng = np.random.default_rng(0)
+    renderer.reset(rng)
+    pose = np.array([2.6, 0.05, 0.3])
+    renderer.render(ground, pose, rng)
+    cover = renderer.last_felt_coverage
+    assert cover.shape == (480, 640)
+    us, vs = np.meshgrid(np.arange(4, 640, 24), np.arange(4, 480, 24))
+    pixels = np.column_stack([us.ravel(), vs.ravel()])
+    on = track.on_felt(CameraModel().floor_points(pixels.astype(float), pose))
+    seen = cover[pixels[:, 1], pixels[:, 0]] >= 128
+    assert 0.1 < on.mean() < 0.9
+    assert (seen == on).mean() > 0.97  # all but the odd sample on a frayed edge
