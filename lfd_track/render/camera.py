@@ -268,8 +268,8 @@ class CameraRenderer:
         self._gain = None  # settles on the first frame, as a camera does before recording
         if s.noise_std > 0:
             h, w = self.camera.height_px + self._pad, self.camera.width_px + self._pad
-            noise = rng.normal(0.0, s.noise_std, size=(s.noise_pool_frames, h, w, 3))
-            noise = np.clip(np.rint(noise), -255, 255).astype(np.int16)
+            noise = rng.standard_normal((s.noise_pool_frames, h, w, 3), dtype=np.float32)
+            noise = np.rint(noise * np.float32(s.noise_std))
             # Split into two saturating uint8 adds, much faster than signed arithmetic per frame.
             self._noise_up = np.clip(noise, 0, 255).astype(np.uint8)
             self._noise_down = np.clip(-noise, 0, 255).astype(np.uint8)
