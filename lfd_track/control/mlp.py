@@ -59,13 +59,14 @@ def mlp_forward(weights: np.ndarray, inputs: np.ndarray, *, bias: bool | None = 
     p = w2.shape[0]
     w_ih = w2[:, :_W1].reshape(p, N_HIDDEN, N_INPUTS)
     w_ho = w2[:, _W1 : _W1 + _W2].reshape(p, N_OUTPUTS, N_HIDDEN)
-    # One BLAS product for the whole population: (N, 40) @ (40, P*5).
-    pre_hidden = (x2 @ w_ih.reshape(p * N_HIDDEN, N_INPUTS).T).reshape(-1, p, N_HIDDEN)
-    pre_hidden = pre_hidden.transpose(1, 0, 2)
+    # Batched (P, N, 40) @ (P, 40, 5) products: many small GEMMs, which OpenBLAS runs on the
+    # calling thread. One big (N, 40) @ (40, P*5) GEMM is no faster alone but gets multi-threaded
+    # and stalls several-fold when other processes load the cores.
+    pre_hidden = np.matmul(x2, np.ascontiguousarray(w_ih.transpose(0, 2, 1)))
     if bias:
         pre_hidden += w2[:, None, _W1 + _W2 : _W1 + _W2 + N_HIDDEN]
     hidden = sigmoid(pre_hidden)
-    pre_out = np.matmul(hidden, w_ho.transpose(0, 2, 1))
+    pre_out = np.matmul(hidden, np.ascontiguousarray(w_ho.transpose(0, 2, 1)))
     if bias:
         pre_out += w2[:, None, _W1 + _W2 + N_HIDDEN :]
     out = sigmoid(pre_out)

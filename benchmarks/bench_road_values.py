@@ -1,0 +1,156 @@
+"""Road values per 640x480 frame with a full library (10 types x 10 examples): vectorised
+``RoadLibrary.road_values`` against the naive per-region ``cv2.calcHist`` + per-pair
+``cv2.compareHist`` loop, measured in the same run.
+
+Run: ``.venv/bin/python benchmarks/bench_road_values.py`` — prints a table and writes
+``benchmarks/results/bench_road_values.json``.
+"""
+
+from __future__ import annotations
+
+import json
+import platform
+import time
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from lfd_track.vision.histograms import patch_histograms
+from lfd_track.vision.road_library import RoadLibrary
+from lfd_track.vision.synthetic import synthetic_frames
+
+RESULTS = Path(__file__).resolve().parent / "results" / "bench_road_values.json"
+CHANNELS = [(0, 256), (1, 256), (2, 256), (0, 180), (1, 256)]  # plane, range: R G B H S
+
+
+def rendered_frames(n: int, seed: int) -> list[np.ndarray]:
+    """Frames from the simulated camera if the renderer is installed, else []."""
+    try:
+        from lfd_track.render.camera import CameraRenderer
+        from lfd_track.render.texture import AppearanceConfig, LightingConfig, build_ground
+        from lfd_track.world.track import load_track
+    except ImportError:
+        return []
+    rng = np.random.default_rng(seed)
+    ground = build_ground(load_track("testing"), AppearanceConfig(), LightingConfig(), rng)
+    renderer = CameraRenderer()
+    renderer.reset(rng)
+    return [
+        renderer.render(ground, np.array([0.3 + 0.3 * i, 0.0, rng.uniform(-0.5, 0.5)]), rng)
+        for i in range(n)
+    ]
+
+
+def full_library(frames: list[np.ndarray], bins: int, rng: np.random.Generator) -> RoadLibrary:
+    """10 types x 10 examples from random 50 x 50 patches of the frames."""
+    types = []
+    for _ in range(10):
+        examples = []
+        for _ in range(10):
+            frame = frames[int(rng.integers(len(frames)))]
+            y, x = int(rng.integers(0, 430)), int(rng.integers(0, 590))
+            model = patch_histograms(frame[y : y + 50, x : x + 50], bins)
+            examples.append({"selections": 0, "comparisons": 0, "model": model.tolist()})
+        types.append({"selections": 0, "comparisons": 0, "examples": examples})
+    return RoadLibrary.from_dict(
+        {
+            "version": 1,
+            "bins": bins,
+            "similarity_threshold": 0.75,
+            "max_types": 10,
+            "max_examples": 10,
+            "types": types,
+        }
+    )
+
+
+def naive_road_values(frame: np.ndarray, models: list[list[np.ndarray]], bins: int) -> np.ndarray:
+    """Algorithm 2 the direct way: OpenCV per region, per type, per example, per channel."""
+    hsv = cv2.cvtColor(frame, cv2.COLOR_RGB2HSV)
+    values = np.empty(40)
+    for region in range(40):
+        row, col = divmod(region, 8)
+        rows, cols = slice(row * 96, (row + 1) * 96), slice(col * 80, (col + 1) * 80)
+        hists = []
+        for c, (plane, upper) in enumerate(CHANNELS):
+            image = frame if c < 3 else hsv
+            hist = cv2.calcHist([image[rows, cols]], [plane], None, [bins], [0, upper])
+            hists.append(cv2.normalize(hist, None, 0, 1, cv2.NORM_MINMAX))
+        best = -np.inf
+        for examples in models:
+            for example in examples:
+                corr = 0.0
+                for c in range(5):
+                    corr += cv2.compareHist(hists[c], example[c], cv2.HISTCMP_CORREL)
+                corr /= 5
+                if corr > best:
+                    best = corr
+        values[region] = best
+    return values
+
+
+def timed(fn, repeats: int) -> float:
+    best = np.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def main() -> None:
+    rng = np.random.default_rng(0)
+    frames = synthetic_frames(rng, 8) + rendered_frames(4, seed=1)
+    rows = []
+    for bins in (16, 32, 256):
+        library = full_library(frames, bins, rng)
+        data = library.to_dict()["types"]
+        models = [[np.asarray(e["model"], np.float32) for e in t["examples"]] for t in data]
+        max_diff = max(
+            float(
+                np.abs(
+                    library.road_values(f, update_statistics=False)
+                    - naive_road_values(f, models, bins)
+                ).max()
+            )
+            for f in frames
+        )
+        naive_s = timed(lambda m=models, b=bins: [naive_road_values(f, m, b) for f in frames], 3)
+        fast_s = timed(lambda lib=library: [lib.road_values(f) for f in frames], 10)
+        rows.append(
+            {
+                "bins": bins,
+                "frames": len(frames),
+                "naive_ms_per_frame": 1e3 * naive_s / len(frames),
+                "vectorised_ms_per_frame": 1e3 * fast_s / len(frames),
+                "speedup": naive_s / fast_s,
+                "max_abs_difference": max_diff,
+            }
+        )
+    print(f"{'bins':>5} {'naive ms':>10} {'ours ms':>9} {'speedup':>8} {'max |diff|':>11}")
+    for r in rows:
+        print(
+            f"{r['bins']:>5} {r['naive_ms_per_frame']:>10.2f} {r['vectorised_ms_per_frame']:>9.2f}"
+            f" {r['speedup']:>7.1f}x {r['max_abs_difference']:>11.1e}"
+        )
+    result = {
+        "benchmark": "road_values_full_library",
+        "library": "10 types x 10 examples",
+        "frame": "640x480 RGB",
+        "target": "speedup >= 10 at equal values (1e-6)",
+        "machine": {
+            "python": platform.python_version(),
+            "processor": platform.machine(),
+            "opencv": cv2.__version__,
+            "numpy": np.__version__,
+        },
+        "rows": rows,
+    }
+    RESULTS.parent.mkdir(parents=True, exist_ok=True)
+    RESULTS.write_text(json.dumps(result, indent=2) + "\n")
+    print(f"wrote {RESULTS}")
+
+
+if __name__ == "__main__":
+    main()
