@@ -1,0 +1,210 @@
+"""The paper protocol on the simulated world (DESIGN §7).
+
+One *repetition* is a fresh demonstration (new seed) → evolution → autonomous trials: by default 3
+runs in each direction on the training track and 3 counter-clockwise + 3 clockwise laps on the
+testing track, starting at corner 4. Repetitions run in a process pool; every random draw comes
+from the repetition's own seed (spawned from the benchmark seed), so results are identical for a
+given seed whatever the number of workers.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import time
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..controller import Controller
+from ..demo.dataset import load_demonstration
+from ..demo.demonstrator import HumanConfig, run_demonstration
+from ..env import LfDTrackEnv
+from ..learning.ga import GAConfig, evolve
+from ..vision.road_library import RoadLibrary
+from .tables import TrialOutcome
+
+#: (track, reverse, direction name in the tables), in the order trials are run.
+DIRECTIONS: tuple[tuple[str, bool, str], ...] = (
+    ("training", False, "direction_1"),
+    ("training", True, "direction_2"),
+    ("testing", False, "ccw"),
+    ("testing", True, "cw"),
+)
+
+
+@dataclass(frozen=True)
+class BenchmarkConfig:
+    """What one benchmark run does."""
+
+    repetitions: int = 10  # fresh demonstration + evolution each (the paper's totals: 10)
+    seed: int = 0  # benchmark seed; repetition seeds are spawned from it
+    trials_per_direction: int = 3  # autonomous runs per direction per repetition
+    preset: str = "paper"  # environment preset for demonstration and trials
+    human: HumanConfig = HumanConfig()
+    ga: GAConfig = GAConfig()
+    keep_learning: bool = False  # let the road library keep learning during autonomous runs
+
+    def __post_init__(self) -> None:
+        if self.repetitions < 1:
+            raise ValueError(f"repetitions must be >= 1, got {self.repetitions}")
+        if self.trials_per_direction < 1:
+            raise ValueError(f"trials per direction must be >= 1, got {self.trials_per_direction}")
+
+
+@dataclass
+class RepetitionResult:
+    """Everything one repetition produced."""
+
+    index: int
+    outcomes: list[TrialOutcome]
+    demo: dict[str, Any]
+    fitness_best: list[float]
+    fitness_mean: list[float]
+    training_accuracy: float
+    timing_s: dict[str, float] = field(default_factory=dict)
+
+
+def repetition_seeds(seed: int, repetitions: int) -> list[int]:
+    """One independent 63-bit seed per repetition, spawned from the benchmark seed."""
+    children = np.random.SeedSequence(seed).spawn(repetitions)
+    return [int(c.generate_state(1, dtype=np.uint64)[0] >> np.uint64(1)) for c in children]
+
+
+def run_trial(
+    env: LfDTrackEnv, controller: Controller, *, seed: int | None
+) -> tuple[dict[str, Any], np.ndarray, int]:
+    """Drive one autonomous episode; returns (last info, trajectory (N, 2), steps)."""
+    obs, info = env.reset(seed=seed)
+    controller.reset()
+    trajectory = [info["pose"][:2]]
+    steps = 0
+    while True:
+        obs, _, terminated, truncated, info = env.step(controller.act(obs))
+        trajectory.append(info["pose"][:2])
+        steps += 1
+        if terminated or truncated:
+            return info, np.asarray(trajectory, dtype=np.float32), steps
+
+
+def run_repetition(index: int, seed: int, config: BenchmarkConfig, work_dir: str) -> RepetitionResult:
+    """Demonstrate, evolve and test once; artefacts go to ``work_dir/rep_<index>/``."""
+    import cv2
+
+    cv2.setNumThreads(1)  # one repetition per core; OpenCV's own threads would only contend
+    rng = np.random.default_rng(seed)
+    demo_seed, ga_seed, trial_seed = (int(x) for x in rng.integers(0, 2**62, size=3))
+    rep_dir = Path(work_dir) / f"rep_{index:02d}"
+    rep_dir.mkdir(parents=True, exist_ok=True)
+    timing: dict[str, float] = {}
+
+    t0 = time.perf_counter()
+    demo_path = rep_dir / "demonstration.lfdemo"
+    summary = run_demonstration(
+        demo_path, seed=demo_seed, preset=config.preset, human=config.human, fsync=False,
+        overwrite=True,
+    )
+    demo = load_demonstration(demo_path)
+    timing["demonstration"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    result = evolve(demo.road_values, demo.commands, config.ga, np.random.default_rng(ga_seed))
+    library = RoadLibrary.from_dict(demo.metadata["road_library"])
+    controller = Controller.from_evolution(library, result, seed=ga_seed)
+    controller.learn = config.keep_learning
+    controller.save(rep_dir / "controller.json")
+    from ..control.mlp import mlp_forward
+
+    predicted = mlp_forward(result.best_weights, demo.road_values).argmax(axis=1)
+    accuracy = float((predicted == demo.commands).mean())
+    timing["evolution"] = time.perf_counter() - t0
+
+    t0 = time.perf_counter()
+    outcomes: list[TrialOutcome] = []
+    trial_rng = np.random.default_rng(trial_seed)
+    for track, reverse, direction in DIRECTIONS:
+        env = LfDTrackEnv(track=track, reverse=reverse, preset=config.preset)
+        corner_order = tuple(c.label for c in env.track.corners)
+        env_seed = int(trial_rng.integers(0, 2**62))
+        for trial in range(config.trials_per_direction):
+            # The floor is built once per direction (seeded); later trials redraw the rover,
+            # exposure and noise from the env's own stream.
+            info, trajectory, steps = run_trial(env, controller, seed=env_seed if trial == 0 else None)
+            failure = info["failure"]
+            if not info["success"] and failure is None:
+                failure = "timeout"
+            outcomes.append(
+                TrialOutcome(
+                    track=track,
+                    direction=direction,
+                    corner_order=corner_order,
+                    corners_reached=tuple(info["corners_reached"]),
+                    corners_negotiated=tuple(info["corners_negotiated"]),
+                    failure=failure,
+                    success=bool(info["success"]),
+                    repetition=index,
+                    trial=trial,
+                    steps=steps,
+                    trajectory=trajectory,
+                )
+            )
+        env.close()
+    timing["trials"] = time.perf_counter() - t0
+    return RepetitionResult(
+        index=index,
+        outcomes=outcomes,
+        demo={
+            "cases": summary.n_cases,
+            "counts": summary.counts,
+            "turnarounds": list(summary.turnarounds),
+            "library_models": summary.library_models,
+            "library_types": summary.library_types,
+            "learned_off_felt": summary.learned_off_felt,
+        },
+        fitness_best=result.best_history.tolist(),
+        fitness_mean=result.mean_history.tolist(),
+        training_accuracy=accuracy,
+        timing_s=timing,
+    )
+
+
+def _run_packed(args: tuple[int, int, BenchmarkConfig, str]) -> RepetitionResult:
+    return run_repetition(*args)
+
+
+def run_benchmark(
+    config: BenchmarkConfig,
+    work_dir: str | Path,
+    *,
+    workers: int = 1,
+    progress: Callable[[RepetitionResult], None] | None = None,
+) -> list[RepetitionResult]:
+    """Run every repetition (in ``workers`` processes) and return them in repetition order."""
+    seeds = repetition_seeds(config.seed, config.repetitions)
+    jobs = [(i, s, config, str(work_dir)) for i, s in enumerate(seeds)]
+    results: list[RepetitionResult] = []
+    if workers <= 1:
+        for job in jobs:
+            results.append(_run_packed(job))
+            if progress:
+                progress(results[-1])
+    else:
+        # Spawned workers start clean (no inherited OpenCV/pymunk state).
+        import multiprocessing
+
+        ctx = multiprocessing.get_context("spawn" if os.name != "posix" else "forkserver")
+        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+            for result in pool.map(_run_packed, jobs):
+                results.append(result)
+                if progress:
+                    progress(result)
+    return sorted(results, key=lambda r: r.index)
+
+
+def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
+    """JSON-friendly form of a benchmark config (stored in results.json)."""
+    return dataclasses.asdict(config)

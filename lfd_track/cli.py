@@ -1,0 +1,308 @@
+"""The ``lfd-track`` command: demonstrate, evolve, drive, run the paper benchmark, and hardware.
+
+User errors (bad files, unknown tracks, bad flags) print one line to stderr and exit 1 (2 for bad
+usage); nothing already saved is overwritten by a half-written file (every output is written
+atomically or, for demonstrations, crash-safely).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any, NoReturn
+
+from .errors import LfdTrackError
+
+EXIT_OK, EXIT_ERROR, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message} (see --help)\n")
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
+# --------------------------------------------------------------------------------- demo
+def _cmd_demo(args: argparse.Namespace) -> int:
+    from .demo.demonstrator import HumanConfig, run_demonstration
+    from .progress import ProgressBar
+
+    out = Path(args.out)
+    if out.exists() and not args.force:
+        raise LfdTrackError(f"{out}: already exists (use --force to replace it)")
+    human = HumanConfig(careful=not args.careless)
+    # Record next to the target, then move it into place: an old file is never half-replaced.
+    tmp = out.with_name(f".{out.name}.recording")
+    with ProgressBar(200, "demonstrating", enabled=not args.quiet) as bar:
+        summary = run_demonstration(
+            tmp, seed=args.seed, track=args.track, preset=args.preset, human=human,
+            overwrite=True, progress=lambda n: bar.update(n),
+        )
+    tmp.replace(out)
+    print(
+        f"{out}: {summary.n_cases} cases ({summary.counts['forward']} forward, "
+        f"{summary.counts['left']} left, {summary.counts['right']} right), "
+        f"turn-arounds {', '.join(summary.turnarounds)}, library {summary.library_models} models "
+        f"in {summary.library_types} types"
+    )
+    return EXIT_OK
+
+
+# --------------------------------------------------------------------------------- evolve
+def _cmd_evolve(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from .control.mlp import mlp_forward
+    from .controller import Controller
+    from .demo.dataset import load_demonstration
+    from .learning.ga import GAConfig, evolve
+    from .plots import fitness_plot, write_png
+    from .progress import ProgressBar
+    from .vision.road_library import RoadLibrary
+
+    demo = load_demonstration(args.demo)
+    if demo.n_cases == 0:
+        raise LfdTrackError(f"{args.demo}: the demonstration holds no cases")
+    library_dict = demo.metadata.get("road_library")
+    if not isinstance(library_dict, dict):
+        raise LfdTrackError(f"{args.demo}: no road library stored (recording was interrupted?)")
+    try:
+        library = RoadLibrary.from_dict(library_dict)
+    except (ValueError, KeyError, TypeError) as exc:
+        raise LfdTrackError(f"{args.demo}: bad road library ({exc})") from None
+    config = GAConfig(generations=args.generations, elitism=args.elitism)
+    with ProgressBar(config.generations, "evolving", enabled=not args.quiet) as bar:
+        result = evolve(
+            demo.road_values, demo.commands, config, np.random.default_rng(args.seed),
+            progress=lambda g, best, mean: bar.update(g, f"best {best:.4f}"),
+        )
+    controller = Controller.from_evolution(library, result, seed=args.seed)
+    controller.save(args.out)
+    accuracy = float((mlp_forward(result.best_weights, demo.road_values).argmax(1) == demo.commands).mean())
+    png = Path(args.out).with_suffix(".fitness.png")
+    write_png(
+        str(png),
+        fitness_plot([("best", result.best_history, (200, 30, 30)), ("mean", result.mean_history, (30, 80, 200))]),
+    )
+    print(
+        f"{args.out}: best fitness {result.best_fitness:.4f} (generation {result.best_generation}), "
+        f"training accuracy {accuracy:.1%} on {demo.n_cases} cases; fitness curve {png}"
+    )
+    return EXIT_OK
+
+
+# --------------------------------------------------------------------------------- drive
+def _cmd_drive(args: argparse.Namespace) -> int:
+    import numpy as np
+
+    from .controller import Controller
+    from .env import LfDTrackEnv
+    from .plots import trajectory_map, write_png
+    from .video import DriveVideo
+
+    controller = Controller.load(args.controller)
+    env = LfDTrackEnv(track=args.track, reverse=args.reverse, preset=args.preset)
+    laps: list[dict[str, Any]] = []
+    trajectories = []
+    video = DriveVideo(args.video, env) if args.video else None
+    try:
+        for lap in range(args.laps):
+            obs, info = env.reset(seed=args.seed if lap == 0 else None)
+            controller.reset()
+            trajectory = [info["pose"][:2]]
+            steps = 0
+            while True:
+                if controller.learn:
+                    controller.library.learn(obs)
+                values = controller.library.road_values(obs)
+                action = controller.act_on_values(values)
+                if video:
+                    video.add(obs, values, info)
+                obs, _, terminated, truncated, info = env.step(action)
+                trajectory.append(info["pose"][:2])
+                steps += 1
+                if terminated or truncated:
+                    break
+            failure = info["failure"] or (None if info["success"] else "timeout")
+            laps.append(
+                {
+                    "lap": lap + 1,
+                    "success": info["success"],
+                    "failure": failure,
+                    "failed_corner": info["failed_corner"] or (None if info["success"] else _first_missing(env, info)),
+                    "corners_reached": info["corners_reached"],
+                    "corners_negotiated": info["corners_negotiated"],
+                    "steps": steps,
+                    "progress_m": round(info["progress_m"], 3),
+                }
+            )
+            trajectories.append((np.asarray(trajectory), info["success"], failure))
+    finally:
+        if video:
+            video.close()
+    if args.plot:
+        picture = trajectory_map(env.track, [t for t, _, _ in trajectories], [(s, f) for _, s, f in trajectories])
+        write_png(args.plot, picture)
+    if args.json:
+        print(json.dumps({"track": args.track, "reverse": args.reverse, "laps": laps}, indent=2))
+    else:
+        order = [c.label for c in env.track.corners]
+        print(f"{args.track} ({'reversed' if args.reverse else 'file order'}), corners met in order {' '.join(order)}:")
+        for lap in laps:
+            outcome = "success" if lap["success"] else f"{lap['failure']} at corner {lap['failed_corner']}"
+            print(f"  lap {lap['lap']}: {outcome}; negotiated {' '.join(lap['corners_negotiated']) or '-'} ({lap['steps']} steps)")
+        print(f"  {sum(lap['success'] for lap in laps)}/{len(laps)} successful")
+    return EXIT_OK
+
+
+def _first_missing(env: Any, info: dict[str, Any]) -> str | None:
+    for corner in env.track.corners:
+        if corner.label not in info["corners_negotiated"]:
+            return corner.label
+    return None
+
+
+# --------------------------------------------------------------------------------- benchmark
+def _cmd_benchmark(args: argparse.Namespace) -> int:
+    from .benchmark.report import write_benchmark_outputs
+    from .benchmark.runner import BenchmarkConfig, run_benchmark
+    from .demo.demonstrator import HumanConfig
+    from .progress import ProgressBar
+
+    repetitions = 1 if args.quick and args.repetitions is None else (args.repetitions or 10)
+    trials = args.trials or (1 if args.quick else 3)
+    config = BenchmarkConfig(
+        repetitions=repetitions,
+        seed=args.seed,
+        trials_per_direction=trials,
+        preset=args.preset,
+        human=HumanConfig(careful=not args.careless),
+    )
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    work = out / "repetitions"
+    start = time.perf_counter()
+    with ProgressBar(config.repetitions, "repetitions", enabled=not args.quiet) as bar:
+        done = 0
+
+        def tick(result: Any) -> None:
+            nonlocal done
+            done += 1
+            wins = sum(o.success for o in result.outcomes)
+            bar.update(done, f"rep {result.index}: {wins}/{len(result.outcomes)} trials succeeded")
+
+        reps = run_benchmark(config, work, workers=args.workers, progress=tick)
+    wall = time.perf_counter() - start
+    text = write_benchmark_outputs(out, config, reps, wall_s=wall, workers=args.workers)
+    print(text)
+    print(f"\nreport: {out / 'report.md'}\nresults: {out / 'results.json'}\nplots: {out / 'trajectories.png'}, {out / 'fitness.png'}")
+    return EXIT_OK
+
+
+# --------------------------------------------------------------------------------- parser
+def build_parser() -> argparse.ArgumentParser:
+    """The ``lfd-track`` argument parser."""
+    parser = _Parser(
+        prog="lfd-track",
+        description="Learning from demonstration with encapsulated evolution on a felt-track rover.",
+    )
+    parser.add_argument("--quiet", "-q", action="store_true", help="no progress bars")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+
+    demo = sub.add_parser("demo", help="record a scripted human demonstration in the simulator",
+                          description="Drive the paper's demonstration protocol with the scripted human and record every case.")
+    demo.add_argument("--track", default="training", help="open track to demonstrate on (default: training)")
+    demo.add_argument("--seed", type=_seed, default=0, help="seed of the human and the world")
+    demo.add_argument("--preset", default="paper", help="environment preset name or TOML path")
+    demo.add_argument("--careless", action="store_true", help="keep learning the road library while the safe box is off the felt (the paper's warning)")
+    demo.add_argument("--force", action="store_true", help="replace an existing output file")
+    demo.add_argument("--out", required=True, help="demonstration file to write (.lfdemo)")
+    demo.set_defaults(func=_cmd_demo)
+
+    evo = sub.add_parser("evolve", help="evolve a controller from a demonstration",
+                         description="Run the paper's GA (Table 1) on a demonstration; writes the controller JSON and a fitness-curve PNG beside it.")
+    evo.add_argument("demo", help="demonstration file (.lfdemo)")
+    evo.add_argument("--seed", type=_seed, default=0, help="GA seed")
+    evo.add_argument("--generations", type=_positive_int, default=200, help="generations (paper: 200)")
+    evo.add_argument("--elitism", type=int, default=0, help="copies of the best kept each generation (paper: 0)")
+    evo.add_argument("--out", required=True, help="controller file to write (.json)")
+    evo.set_defaults(func=_cmd_evolve)
+
+    drive = sub.add_parser("drive", help="drive a controller autonomously in the simulator",
+                           description="Run a saved controller for N laps and report per-lap corner outcomes.")
+    drive.add_argument("controller", help="controller file (.json)")
+    drive.add_argument("--track", default="testing", help="track name or TOML path (default: testing)")
+    drive.add_argument("--reverse", action="store_true", help="drive against the file order (testing: clockwise)")
+    drive.add_argument("--laps", type=_positive_int, default=1, help="episodes to run")
+    drive.add_argument("--seed", type=_seed, default=0, help="world seed")
+    drive.add_argument("--preset", default="paper", help="environment preset name or TOML path")
+    drive.add_argument("--video", help="write an MP4: camera view with road values beside the top-down view")
+    drive.add_argument("--plot", help="write a PNG of the trajectories coloured by outcome")
+    drive.add_argument("--json", action="store_true", help="print the outcomes as JSON")
+    drive.set_defaults(func=_cmd_drive)
+
+    bench = sub.add_parser("benchmark", help="reproduce the paper's Tables 2 and 3",
+                           description="The paper protocol: per repetition a fresh demonstration, evolution, then 3 runs each way on the training track and 3 laps each way on the testing track.")
+    bench.add_argument("--repetitions", type=_positive_int, default=None, help="repetitions (default 10; 1 with --quick)")
+    bench.add_argument("--trials", type=_positive_int, default=None, help="runs per direction per repetition (default 3; 1 with --quick)")
+    bench.add_argument("--seed", type=_seed, default=0, help="benchmark seed")
+    bench.add_argument("--workers", type=_positive_int, default=1, help="parallel processes")
+    bench.add_argument("--preset", default="paper", help="environment preset name or TOML path")
+    bench.add_argument("--careless", action="store_true", help="demonstrator keeps learning while the safe box is off the felt")
+    bench.add_argument("--quick", action="store_true", help="one repetition, one run per direction (a smoke test)")
+    bench.add_argument("--out", required=True, help="output folder (results.json, report.md, plots)")
+    bench.set_defaults(func=_cmd_benchmark)
+
+    try:
+        from .hardware.cli import add_hardware_parser
+    except ImportError:  # pragma: no cover - the hardware extra is part of the package
+        pass
+    else:
+        add_hardware_parser(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``lfd-track`` console script."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        print("lfd-track: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except (LfdTrackError, OSError, ValueError) as exc:
+        message = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        print(f"lfd-track {args.command}: {message}", file=sys.stderr)
+        return EXIT_ERROR
+
+
+if __name__ == "__main__":
+    sys.exit(main())
