@@ -132,7 +132,7 @@ class RobotLink:
         url: str,
         *,
         baudrate: int = DEFAULT_BAUD,
-        ack_timeout_s: float = 0.1,
+        ack_timeout_s: float = 0.15,
         max_consecutive_failures: int = 3,
         max_corrupt_replies: int = 8,
         boot_wait_s: float = 0.0,
