@@ -1,0 +1,148 @@
+"""The lfd-track command: demo → evolve → drive, the quick benchmark, and user errors."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from lfd_track.cli import main
+
+
+def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "lfd_track.cli", "--quiet", *args],
+        capture_output=True, text=True, cwd=cwd, timeout=600,
+    )
+
+
+@pytest.fixture(scope="module")
+def controller_file(tmp_path_factory):
+    work = tmp_path_factory.mktemp("pipeline")
+    demo = work / "demo.lfdemo"
+    assert main(["--quiet", "demo", "--seed", "1", "--out", str(demo)]) == 0
+    controller = work / "controller.json"
+    assert main(["--quiet", "evolve", str(demo), "--seed", "1", "--out", str(controller)]) == 0
+    assert controller.with_suffix(".fitness.png").is_file()
+    return controller
+
+
+def test_drive_reports_per_lap_corner_outcomes_as_json(controller_file, capsys, tmp_path):
+    plot = tmp_path / "laps.png"
+    code = main(["--quiet", "drive", str(controller_file), "--track", "training", "--laps", "2",
+                 "--seed", "3", "--json", "--plot", str(plot)])
+    assert code == 0
+    report = json.loads(capsys.readouterr().out)
+    assert len(report["laps"]) == 2
+    for lap in report["laps"]:
+        assert set(lap) >= {"success", "failure", "corners_reached", "corners_negotiated", "steps"}
+        assert lap["success"] == (lap["failure"] is None)
+    assert plot.stat().st_size > 1000
+
+
+def test_drive_video_shows_camera_and_top_down(controller_file, tmp_path):
+    import cv2
+
+    video = tmp_path / "drive.mp4"
+    code = main(["--quiet", "drive", str(controller_file), "--track", "training", "--laps", "1",
+                 "--seed", "2", "--video", str(video)])
+    assert code == 0
+    cap = cv2.VideoCapture(str(video))
+    ok, frame = cap.read()
+    assert ok
+    assert frame.shape[0] == 480 and frame.shape[1] > 640  # camera view plus the top-down view
+    assert cap.get(cv2.CAP_PROP_FRAME_COUNT) >= 5
+    cap.release()
+
+
+def test_quick_benchmark_writes_results_report_and_plots(tmp_path):
+    out = tmp_path / "bench"
+    proc = run_cli("benchmark", "--quick", "--seed", "4", "--out", str(out))
+    assert proc.returncode == 0, proc.stderr
+    assert "Table 2" in proc.stdout and "Table 3" in proc.stdout
+    results = json.loads((out / "results.json").read_text())
+    assert results["schema"] == 1 and results["repetitions"] == 1 and results["seed"] == 4
+    for key in ("direction_1", "direction_2"):
+        section = results["training_track"][key]
+        assert section["trials"] == 1 and set(section["corners"]) == {"1", "2"}
+    for key in ("cw", "ccw"):
+        section = results["testing_track"][key]
+        assert section["laps"] == 1 and set(section["corners"]) == {"1", "2", "3", "4"}
+    assert results["paper"]["testing_track"]["cw"]["corners"]["2"] == {"reached": 30, "failures": 7}
+    assert "timing_s" in results
+    for name in ("report.md", "trajectories.png", "fitness.png"):
+        assert (out / name).stat().st_size > 500
+    assert (out / "repetitions" / "rep_00" / "controller.json").is_file()
+
+
+def _without_timing(path: Path) -> dict:
+    data = json.loads(path.read_text())
+    data.pop("timing_s")
+    return data
+
+
+def test_benchmark_is_identical_with_one_or_two_workers(tmp_path):
+    one, two = tmp_path / "one", tmp_path / "two"
+    args = ["benchmark", "--repetitions", "2", "--trials", "1", "--seed", "9"]
+    assert run_cli(*args, "--workers", "1", "--out", str(one)).returncode == 0
+    assert run_cli(*args, "--workers", "2", "--out", str(two)).returncode == 0
+    assert _without_timing(one / "results.json") == _without_timing(two / "results.json")
+
+
+@pytest.mark.parametrize(
+    ("args", "expected"),
+    [
+        (["evolve", "MISSING.lfdemo", "--out", "c.json"], "MISSING.lfdemo"),
+        (["drive", "MISSING.json"], "MISSING.json"),
+        (["drive", "CONTROLLER", "--track", "moon"], "unknown track 'moon'"),
+        (["benchmark", "--repetitions", "-3", "--out", "b"], "must be at least 1"),
+        (["demo", "--track", "nowhere", "--out", "d.lfdemo"], "unknown track 'nowhere'"),
+    ],
+)
+def test_user_errors_are_one_line_without_traceback(tmp_path, controller_file, args, expected):
+    args = [str(controller_file) if a == "CONTROLLER" else a for a in args]
+    proc = run_cli(*args, cwd=tmp_path)
+    assert proc.returncode != 0
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1, proc.stderr
+    assert expected in lines[0]
+    assert "Traceback" not in proc.stderr
+    assert not (tmp_path / "c.json").exists() and not (tmp_path / "b" / "results.json").exists()
+
+
+def test_truncated_demonstration_and_wrong_schema_controller(tmp_path, controller_file):
+    demo = tmp_path / "cut.lfdemo"
+    demo.write_bytes(b"LFDEMO\x00\x01garbage")
+    proc = run_cli("evolve", str(demo), "--out", str(tmp_path / "c.json"))
+    assert proc.returncode == 1 and len(proc.stderr.strip().splitlines()) == 1
+    assert str(demo) in proc.stderr and not (tmp_path / "c.json").exists()
+
+    data = json.loads(controller_file.read_text())
+    data["schema_version"] = 99
+    bad = tmp_path / "future.json"
+    bad.write_text(json.dumps(data))
+    proc = run_cli("drive", str(bad))
+    assert proc.returncode == 1 and len(proc.stderr.strip().splitlines()) == 1
+    assert str(bad) in proc.stderr
+
+    truncated = tmp_path / "truncated.json"
+    truncated.write_text(controller_file.read_text()[:500])
+    proc = run_cli("drive", str(truncated))
+    assert proc.returncode == 1 and str(truncated) in proc.stderr
+
+
+def test_demo_refuses_to_overwrite_and_leaves_the_old_file(tmp_path):
+    existing = tmp_path / "keep.lfdemo"
+    existing.write_bytes(b"precious")
+    proc = run_cli("demo", "--out", str(existing))
+    assert proc.returncode == 1 and "already exists" in proc.stderr
+    assert existing.read_bytes() == b"precious"
+
+
+def test_every_subcommand_has_help():
+    for sub in (["demo"], ["evolve"], ["drive"], ["benchmark"], ["hardware"], ["hardware", "check"]):
+        proc = run_cli(*sub, "--help")
+        assert proc.returncode == 0 and "usage:" in proc.stdout
