@@ -81,6 +81,8 @@ class SensorConfig:
     """Std of the per-episode colour cast (per-channel gain), relative."""
     white_balance_jitter: float = 0.015
     """Std of the per-frame white-balance jitter (per-channel gain), relative."""
+    white_balance_pool: int = 8
+    """Jittered white balances drawn at reset; each frame picks one of them at random."""
     highlight_knee: float = 0.7
     """Fraction of full scale where the tone curve starts to roll off (1 = hard clipping)."""
     noise_std: float = 3.0
@@ -115,6 +117,8 @@ class SensorConfig:
             raise ValueError(f"highlight_knee must be in (0, 1], got {self.highlight_knee}")
         if not 0.0 <= self.vignetting < 1.0:
             raise ValueError(f"vignetting must be in [0, 1), got {self.vignetting}")
+        if self.white_balance_pool < 1:
+            raise ValueError(f"white_balance_pool must be >= 1, got {self.white_balance_pool}")
         if self.noise_pool_frames < 1:
             raise ValueError(f"noise_pool_frames must be >= 1, got {self.noise_pool_frames}")
         if not 0 <= self.jpeg_quality <= 100:
@@ -215,14 +219,16 @@ def safe_box_floor_polygon(pose: np.ndarray, config: CameraConfig | None = None)
 
 
 def _vignette(config: CameraConfig, strength: float) -> np.ndarray:
-    """(H, W, 3) uint8 gain map, 255 = no loss; a smooth cos⁴-like radial falloff."""
+    """(H, W) float64 brightness factor, 1 at the centre; a smooth cos⁴-like radial falloff."""
     w, h = config.width_px, config.height_px
     u = (np.arange(w) - (w - 1) / 2.0) / ((w - 1) / 2.0)
     v = (np.arange(h) - (h - 1) / 2.0) / ((w - 1) / 2.0)
     r2 = (u[None, :] ** 2 + v[:, None] ** 2) / (1.0 + ((h - 1) / (w - 1)) ** 2)  # 1 at the corners
-    gain = 1.0 - strength * r2 * (0.6 + 0.4 * r2)
-    g8 = np.rint(gain * 255.0).astype(np.uint8)
-    return np.repeat(g8[:, :, None], 3, axis=2)
+    return 1.0 - strength * r2 * (0.6 + 0.4 * r2)
+
+
+#: Fixed-point unit of the gain maps: a map value of 200 is a gain of 1 (so gains up to 1.27 fit).
+_GAIN_ONE = 200.0
 
 
 class CameraRenderer:
@@ -238,12 +244,10 @@ class CameraRenderer:
         self.camera = camera or CameraConfig()
         self.sensor = sensor or SensorConfig()
         self.model = CameraModel(self.camera)
-        self._vignette = (
-            _vignette(self.camera, self.sensor.vignetting) if self.sensor.vignetting > 0 else None
-        )
-        self._mean_vignette = (
-            float(self._vignette[..., 0].mean()) / 255.0 if self._vignette is not None else 1.0
-        )
+        self._vignette = _vignette(self.camera, self.sensor.vignetting)
+        self._mean_vignette = float(self._vignette.mean())
+        self._gain_maps: np.ndarray | None = None
+        self._episode_started = False
         self._pad = 16
         self._noise_up: np.ndarray | None = None
         self._noise_down: np.ndarray | None = None
@@ -262,9 +266,19 @@ class CameraRenderer:
         return None if self._last_raw is None else self._last_raw[..., 3]
 
     def reset(self, rng: np.random.Generator) -> None:
-        """Start an episode: draw the colour cast and the noise pool, forget the exposure."""
+        """Start an episode: draw the colour cast, white balances and noise, forget the exposure."""
         s = self.sensor
+        self._episode_started = True
         self._cast = 1.0 + s.white_balance_cast * rng.standard_normal(3)
+        # Vignetting × white balance as a pool of per-pixel, per-channel gain maps, one per
+        # jittered white balance: a frame then costs one uint8 multiply for both effects.
+        jitter = 1.0 + s.white_balance_jitter * rng.standard_normal((s.white_balance_pool, 3))
+        balances = self._cast[None, :] * jitter
+        if s.vignetting == 0 and np.all(balances == 1.0):
+            self._gain_maps = None
+        else:
+            maps = self._vignette[None, :, :, None] * balances[:, None, None, :] * _GAIN_ONE
+            self._gain_maps = np.clip(np.rint(maps), 0, 255).astype(np.uint8)
         self._gain = None  # settles on the first frame, as a camera does before recording
         if s.noise_std > 0:
             h, w = self.camera.height_px + self._pad, self.camera.width_px + self._pad
@@ -276,9 +290,9 @@ class CameraRenderer:
         else:
             self._noise_up = self._noise_down = None
 
-    def _tone_lut(self, gains: np.ndarray) -> np.ndarray:
-        """(256, 1, 3) uint8 table: level × per-channel gain, with a soft highlight shoulder."""
-        levels = np.arange(256.0)[:, None] * np.asarray(gains, dtype=np.float64)[None, :]
+    def _tone_table(self, gain: float) -> np.ndarray:
+        """(256,) uint8 table: level × exposure gain, with a soft highlight shoulder."""
+        levels = np.arange(256.0) * gain
         knee = 255.0 * self.sensor.highlight_knee
         span = 255.0 - knee
         if span > 0:
@@ -286,7 +300,7 @@ class CameraRenderer:
             # tone curves do, so bright felt keeps some gradation instead of clipping flat.
             over = levels > knee
             levels[over] = knee + span * -np.expm1(-(levels[over] - knee) / span)
-        return np.clip(np.rint(levels), 0, 255).astype(np.uint8).reshape(256, 1, 3)
+        return np.clip(np.rint(levels), 0, 255).astype(np.uint8)
 
     def _motion_kernel(self, pose: np.ndarray, motion: np.ndarray) -> np.ndarray | None:
         """Line kernel along the image displacement of the floor under the image centre."""
@@ -322,7 +336,7 @@ class CameraRenderer:
         the noise frame and offset.
         """
         s, c = self.sensor, self.camera
-        if self._noise_up is None and s.noise_std > 0:
+        if not self._episode_started:
             self.reset(rng)
         tex_from_img = np.linalg.inv(self.model.homography(pose, ground))
         raw = cv2.warpPerspective(
@@ -350,11 +364,16 @@ class CameraRenderer:
         rate = 1.0 if s.exposure_lag_frames == 0 else 1.0 - math.exp(-1.0 / s.exposure_lag_frames)
         self._gain = math.exp(math.log(gain) + rate * (math.log(wanted) - math.log(gain)))
 
-        # Exposure × white balance × the phone's tone curve as one per-channel lookup table.
-        wb = self._cast * (1.0 + s.white_balance_jitter * rng.standard_normal(3))
-        frame = cv2.LUT(cv2.cvtColor(raw, cv2.COLOR_RGBA2RGB), self._tone_lut(gain * wb))
-        if self._vignette is not None:
-            frame = cv2.multiply(frame, self._vignette, scale=1.0 / 255.0)
+        # Exposure and tone curve: one lookup table shared by the three channels (OpenCV's
+        # single-table LUT over the interleaved rows is twice as fast as a per-channel one).
+        rgb = cv2.cvtColor(raw, cv2.COLOR_RGBA2RGB)
+        table = self._tone_table(gain)
+        frame = cv2.LUT(rgb.reshape(c.height_px, -1), table).reshape(rgb.shape)
+        # Vignetting × this frame's white balance (applied after the tone curve: an approximation
+        # that only matters in the highlights, where the balance is within a few per cent).
+        if self._gain_maps is not None:
+            k = int(rng.integers(len(self._gain_maps)))
+            frame = cv2.multiply(frame, self._gain_maps[k], scale=1.0 / _GAIN_ONE)
         if self._noise_up is not None and self._noise_down is not None:
             k = int(rng.integers(s.noise_pool_frames))
             dy, dx = (int(v) for v in rng.integers(self._pad + 1, size=2))

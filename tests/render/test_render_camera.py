@@ -247,7 +247,12 @@ def test_sensor_config_validates():
 def test_highlight_shoulder_keeps_bright_felt_from_clipping(ground):
     def box(knee):
         sensor = SensorConfig(
-            exposure_target=150.0, highlight_knee=knee, noise_std=0.0, vignetting=0.0
+            exposure_target=150.0,
+            highlight_knee=knee,
+            noise_std=0.0,
+            vignetting=0.0,
+            white_balance_cast=0.0,
+            white_balance_jitter=0.0,
         )
         return render_sequence(ground, [STRAIGHT], 0, sensor)[0][SAFE_BOX]
 
@@ -273,3 +278,23 @@ def test_felt_coverage_of_the_last_frame_matches_the_geometry(track, ground):
     seen = cover[pixels[:, 1], pixels[:, 0]] >= 128
     assert 0.1 < on.mean() < 0.9
     assert (seen == on).mean() > 0.97  # all but the odd sample on a frayed edge
+
+
+def test_vignetting_darkens_the_corners(ground):
+    def frame(strength):
+        sensor = SensorConfig(
+            vignetting=strength, noise_std=0.0, white_balance_cast=0.0, white_balance_jitter=0.0
+        )
+        renderer = CameraRenderer(CameraConfig(), sensor)
+        rng = np.random.default_rng(0)
+        renderer.reset(rng)
+        renderer.render(ground, STRAIGHT, rng)
+        return renderer, renderer.render(ground, STRAIGHT, rng).astype(float)
+
+    flat_renderer, flat = frame(0.0)
+    dark_renderer, dark = frame(0.3)
+    ratio_centre = dark[220:260, 300:340].mean() / flat[220:260, 300:340].mean()
+    ratio_corner = dark[:30, :30].mean() / flat[:30, :30].mean()
+    # Exposure compensates the overall loss, so compare corners with the centre.
+    assert ratio_corner < 0.8 * ratio_centre
+    assert dark_renderer.exposure_gain > flat_renderer.exposure_gain
