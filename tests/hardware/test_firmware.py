@@ -239,13 +239,18 @@ def test_motors_stop_when_the_default_lease_runs_out(rover: BoardLink) -> None:
 
 def test_pings_do_not_renew_the_lease(rover: BoardLink) -> None:
     assert_ack(rover.request(protocol.DRIVE, "L"), "L")
-    # Ping back to back until the stop comes: ~10 round trips at 9600 baud span the lease.
-    while True:
+    # Ping back to back until the stop comes: ~10 round trips at 9600 baud span the lease, so
+    # 40 pings (~1.3 s simulated) without a stop mean the pings kept the motors running.
+    for _ in range(40):
         seq = rover.send(protocol.PING)
-        frame, _ = rover.wait_for(lambda f, seq=seq: f.seq == seq or f.type == protocol.WATCHDOG_STOP)
+        frame, _ = rover.wait_for(
+            lambda f, seq=seq: f.seq == seq or f.type == protocol.WATCHDOG_STOP
+        )
         if frame.type == protocol.WATCHDOG_STOP:
             break
         assert frame.args[0] == "L"
+    else:
+        pytest.fail("the motors were still running after 40 pings")
     start, stop = motion_span(rover.board.motor_log(since_reset=True))
     assert 0.300 - LEASE_EARLY_S <= stop - start <= 0.300 + LEASE_LATE_S
 
