@@ -41,7 +41,12 @@ import numpy as np
 import lfd_track  # noqa: F401  (registers LfDTrack-v0)
 from lfd_track.atomic import atomic_write_text
 from lfd_track.control.mlp import mlp_forward, n_weights, select_action
+from lfd_track.presets import load_preset
+from lfd_track.render.camera import CameraRenderer
+from lfd_track.render.texture import build_ground
 from lfd_track.vision.road_library import RoadLibrary
+from lfd_track.world.rover import Rover
+from lfd_track.world.track import load_track
 
 RESULTS = Path(__file__).resolve().parent / "results" / "env.json"
 TARGET_ENV_RATIO = 3.0
@@ -219,6 +224,72 @@ def run_for(workload: Workload, seconds: float) -> Sample:
     return Sample(steps, resets, clock() - t0, reset_s, time.process_time() - c0)
 
 
+def component_times(library: RoadLibrary, seed: int, repeats: int) -> dict[str, float]:
+    """Median milliseconds per call of the pieces of a step, interleaved, via public APIs.
+
+    Shows where an env step goes (and what a reset costs, which a random policy pays every
+    few steps because it leaves the felt quickly).
+    """
+    rng = np.random.default_rng(seed)
+    preset = load_preset("paper")
+    ground = build_ground(load_track("testing"), preset.appearance, preset.lighting, rng)
+    renderer = CameraRenderer(preset.camera, preset.sensor)
+    renderer.reset(rng)
+    rover = Rover(preset.rover)
+    rover.reset((0.5, 0.0, 0.0), rng)
+    poses = [
+        np.array([0.3 + 0.25 * i, rng.uniform(-0.1, 0.1), rng.uniform(-0.5, 0.5)]) for i in range(8)
+    ]
+    frames = [renderer.render(ground, pose, rng) for pose in poses]
+    values = library.road_values(frames[0], update_statistics=False)
+    weights = rng.uniform(-1.0, 1.0, n_weights())
+    env = gym.make("LfDTrack-v0")
+    env.reset(seed=seed)
+    racing = gym.make("CarRacing-v3")
+    racing.reset(seed=seed)
+    racing.action_space.seed(seed)
+
+    def clocked(fn: Callable[[int], object]) -> Callable[[int], float]:
+        def call(i: int) -> float:
+            t0 = time.perf_counter()
+            fn(i)
+            return time.perf_counter() - t0
+
+        return call
+
+    def step_only(target: gym.Env, action: Callable[[int], object]) -> Callable[[int], float]:
+        """Times one step; an episode end is reset outside the timed part."""
+
+        def call(i: int) -> float:
+            t0 = time.perf_counter()
+            _, _, terminated, truncated, _ = target.step(action(i))
+            elapsed = time.perf_counter() - t0
+            if terminated or truncated:
+                target.reset()
+            return elapsed
+
+        return call
+
+    pieces: dict[str, Callable[[int], float]] = {
+        "physics (Rover.step, 0.4 s)": clocked(lambda i: rover.step(i % 3, rng)),
+        "camera render 640x480": clocked(lambda i: renderer.render(ground, poses[i % 8], rng)),
+        "renderer reset": clocked(lambda i: renderer.reset(rng)),
+        "LfDTrack-v0 step": step_only(env, lambda i: int(rng.integers(3))),
+        "LfDTrack-v0 reset (no seed)": clocked(lambda i: env.reset()),
+        "region histograms": clocked(lambda i: library.region_histograms(frames[i % 8])),
+        "road values (100 models)": clocked(lambda i: library.road_values(frames[i % 8])),
+        "MLP + action": clocked(lambda i: select_action(mlp_forward(weights, values))),
+        "CarRacing-v3 step": step_only(racing, lambda i: racing.action_space.sample()),
+    }
+    times: dict[str, list[float]] = {name: [] for name in pieces}
+    for i in range(repeats):
+        for name, piece in pieces.items():
+            times[name].append(piece(i))
+    env.close()
+    racing.close()
+    return {name: 1e3 * statistics.median(t) for name, t in times.items()}
+
+
 def summarise(samples: list[Sample]) -> dict:
     return {
         "median_steps_per_s": statistics.median(s.rate for s in samples),
@@ -254,10 +325,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seconds", type=float, default=2.0, help="wall time per slot [s]")
     parser.add_argument("--rounds", type=int, default=7, help="counted rounds (after a warm-up)")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--component-repeats", type=int, default=30, help="calls per piece in the breakdown"
+    )
     parser.add_argument("--output", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
-    if args.seconds <= 0 or args.rounds < 1:
-        parser.error("--seconds must be > 0 and --rounds >= 1")
+    if args.seconds <= 0 or args.rounds < 1 or args.component_repeats < 1:
+        parser.error("--seconds must be > 0, --rounds and --component-repeats >= 1")
 
     load_before = os.getloadavg()
     library = full_library(args.seed + 1)
@@ -277,6 +351,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"round {round_index}/{args.rounds}: {rates} steps/s", file=sys.stderr)
     for w in workloads:
         w.close()
+    components_ms = component_times(library, args.seed + 3, args.component_repeats)
     load_after = os.getloadavg()
 
     summary = {name: summarise(s) for name, s in samples.items()}
@@ -325,6 +400,9 @@ def main(argv: list[str] | None = None) -> int:
         f" target >= {TARGET_LOOP_RATIO}x:"
         f" {'met' if met['closed_loop_over_carracing'] else 'NOT met'})"
     )
+    print("breakdown, median ms per call:")
+    for name, ms in components_ms.items():
+        print(f"  {name:<30} {ms:8.2f}")
     print(f"load average (1, 5, 15 min): before {load_before}, after {load_after}")
 
     result = {
@@ -350,6 +428,7 @@ def main(argv: list[str] | None = None) -> int:
         "load_average_after": list(load_after),
         "machine": versions(),
         "results": summary,
+        "components_median_ms": components_ms,
     }
     atomic_write_text(args.output, json.dumps(result, indent=2) + "\n")
     print(f"wrote {args.output}")
