@@ -176,6 +176,12 @@ class SimulatedBoard:
         self._proc: subprocess.Popen[bytes] | None = None
         self._run_dir: tempfile.TemporaryDirectory[str] | None = None
         self._serial_url: str | None = None
+        self._exit_code: int | None = None
+
+    @property
+    def exit_code(self) -> int | None:
+        """The harness's exit status once closed (0 = clean stop), else None."""
+        return self._exit_code
 
     @property
     def serial_url(self) -> str:
@@ -276,6 +282,7 @@ class SimulatedBoard:
                 except subprocess.TimeoutExpired:
                     proc.kill()
                     proc.wait()
+            self._exit_code = proc.returncode
             if proc.stdout is not None:
                 proc.stdout.close()
         self._serial_url = None

@@ -6,13 +6,17 @@ machine cannot make them pass or fail.
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 import pytest
 
-from lfd_track.hardware import protocol
-from lfd_track.hardware.simavr import MotorSample, parse_motor_log
+from lfd_track.hardware import protocol, simavr
+from lfd_track.hardware.simavr import MotorSample, SimulatedBoard, parse_motor_log
 
 if TYPE_CHECKING:
     from conftest import BoardLink  # the fixture's type, defined in tests/hardware/conftest.py
@@ -70,6 +74,8 @@ DRIVE_OUTPUTS = {
 
 @pytest.mark.parametrize("command", ["F", "L", "R"])
 def test_drive_frame_is_acked_and_sets_motor_pins(rover: BoardLink, command: str) -> None:
+    # A long lease keeps a slow test machine from seeing the lease stop instead.
+    assert_ack(rover.request(protocol.SET_WATCHDOG, "2000"), "S")
     assert_ack(rover.request(protocol.DRIVE, command), command)
     assert outputs(rover.board.motor_log(since_reset=True)[-1]) == DRIVE_OUTPUTS[command]
 
@@ -97,11 +103,19 @@ def test_a_reversing_tread_is_switched_off_before_its_direction_changes(
             assert before.left_pwm == 0 or after.left_pwm == 0, (before, after)
 
 
+def send_pipelined(rover: BoardLink, frame_type: str, arg: str, count: int) -> list[int]:
+    """Write ``count`` frames in one go (no waiting for acks in between); return their seqs."""
+    seqs = [rover.next_seq() for _ in range(count)]
+    rover.write(b"".join(protocol.encode_frame(frame_type, seq, arg) for seq in seqs))
+    return seqs
+
+
 def test_renewed_drive_frames_do_not_glitch_the_outputs(rover: BoardLink) -> None:
+    assert_ack(rover.request(protocol.SET_WATCHDOG, "2000"), "S")
     assert_ack(rover.request(protocol.DRIVE, "F"), "F")
     count = len(rover.board.motor_log())
-    for _ in range(3):
-        assert_ack(rover.request(protocol.DRIVE, "F"), "F")
+    for seq in send_pipelined(rover, protocol.DRIVE, "F", 3):
+        assert_ack(rover.reply_to(seq), "F")
     assert len(rover.board.motor_log()) == count
 
 
@@ -256,10 +270,11 @@ def test_pings_do_not_renew_the_lease(rover: BoardLink) -> None:
 
 
 def test_drive_frames_renew_the_lease(rover: BoardLink) -> None:
-    # 12 acked round trips take >= 12 * 30 frame bytes * ~1.15 ms/byte (simulated 9600 baud)
-    # ~ 410 ms of simulated time, longer than the 300 ms lease.
-    for _ in range(12):
-        assert_ack(rover.request(protocol.DRIVE, "F"), "F")
+    # Written in one go, so the host's own speed does not matter: the board takes them at the
+    # simulated 9600 baud, 25 x (14 frame + 16 ack) bytes at ~1.15 ms/byte, over ~400 ms of
+    # simulated time, longer than the 300 ms lease.
+    for seq in send_pipelined(rover, protocol.DRIVE, "F", 25):
+        assert_ack(rover.reply_to(seq), "F")
     expect_lease_stop(rover)
     samples = rover.board.motor_log(since_reset=True)
     start, stop = motion_span(samples)
@@ -309,6 +324,46 @@ def test_estop_survives_a_lease_period(rover: BoardLink) -> None:
     # 3 ping round trips take > 50 ms of simulated time at 9600 baud.
     for _ in range(3):
         assert_ack(rover.request(protocol.PING), "X", flags=1)
+
+
+# --- the harness and the helper --------------------------------------------------------------
+
+
+def test_harness_stops_cleanly_on_sigterm(simulated_board: SimulatedBoard) -> None:
+    # A second board beside the module's one: boards are independent processes and ptys.
+    with SimulatedBoard() as board:
+        assert board.serial_url != simulated_board.serial_url
+        assert board.motor_log()[0] == MotorSample(0.0, 0, 0, 0, 0)
+    assert board.exit_code == 0
+
+
+def test_missing_avr_gcc_is_named_with_its_package(monkeypatch: pytest.MonkeyPatch) -> None:
+    real_which = simavr.shutil.which
+    monkeypatch.setattr(
+        simavr.shutil, "which", lambda name: None if name == "avr-gcc" else real_which(name)
+    )
+    with pytest.raises(simavr.ToolMissingError, match="avr-gcc not found: apt-get install gcc-avr"):
+        simavr.build_firmware(Path("unused"))
+
+
+@pytest.mark.parametrize(("ci", "outcome"), [("true", "error"), ("", "skipped")])
+def test_missing_tools_fail_under_ci_and_skip_otherwise(
+    tmp_path: Path, ci: str, outcome: str
+) -> None:
+    # An empty PATH hides make, avr-gcc and gcc from the fixture's tool check.
+    env = {**os.environ, "PATH": str(tmp_path), "CI": ci}
+    target = f"{__file__}::test_motors_are_off_after_boot_and_a_ping_never_starts_them"
+    result = subprocess.run(
+        [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", target],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=Path(__file__).parents[2],
+        timeout=120,
+    )
+    assert f"1 {outcome}" in result.stdout, result.stdout
+    assert "avr-gcc not found" in result.stdout
+    assert (result.returncode != 0) == (outcome == "error")
 
 
 # --- the log parser -------------------------------------------------------------------------
