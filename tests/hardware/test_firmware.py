@@ -207,6 +207,12 @@ def test_line_length_limit_is_31_bytes_with_an_optional_carriage_return(
     assert_ack(rover.request(protocol.PING), "S")
 
 
+def test_trailing_carriage_returns_are_ignored(rover: BoardLink) -> None:
+    seq = rover.next_seq()
+    rover.write(protocol.encode_frame("D", seq, "F")[:-1] + b"\r\r\n")
+    assert_ack(rover.reply_to(seq), "F")
+
+
 def test_lower_case_crc_digits_are_accepted(rover: BoardLink) -> None:
     seq = rover.next_seq()
     frame = protocol.encode_frame("D", seq, "F")

@@ -25,8 +25,9 @@
 // failures this seq is only a hint, since the bytes it was read from failed the check.
 //
 // Framing: bytes outside a frame are ignored; '$' always starts a new frame (resynchronises);
-// a line longer than 31 bytes ('$' up to, not including, the newline; one trailing '\r' is
-// allowed and stripped) is rejected as LONG once its newline arrives. The receive buffer is a
+// a line longer than 31 bytes ('$' up to, not including, the newline; trailing '\r's are
+// stripped first, within the buffer's one spare byte) is rejected as LONG once its newline
+// arrives. The receive buffer is a
 // fixed 33 bytes.
 //
 // Safety: a drive frame is a lease. Motors stop when no accepted drive frame arrived within the
@@ -219,7 +220,7 @@ static void handle_line() {
     return;
   }
   uint8_t len = rx_len;
-  if (len > 0 && rx_buf[len - 1] == '\r') len--;
+  while (len > 1 && rx_buf[len - 1] == '\r') len--;  // as the host codec does
   const char *body = rx_buf + 1;
   uint8_t body_span = len - 1;  // bytes after '$'
   if (len > MAX_LINE_BYTES) {
