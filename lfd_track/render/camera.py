@@ -302,6 +302,17 @@ class CameraRenderer:
             levels[over] = knee + span * -np.expm1(-(levels[over] - knee) / span)
         return np.clip(np.rint(levels), 0, 255).astype(np.uint8)
 
+    def _sees_past_margin(self, ground: GroundTexture, pose: np.ndarray) -> bool:
+        """Whether the view reaches further past a texture edge than the carpet margin is wide."""
+        corners = ground.to_texture(self.model.footprint(pose))
+        h, w = ground.shape
+        beyond_px = max(
+            float(-corners.min()),
+            float(corners[:, 0].max()) - (w - 1),
+            float(corners[:, 1].max()) - (h - 1),
+        )
+        return beyond_px * ground.metres_per_px > 0.9 * ground.margin_m
+
     def _motion_kernel(self, pose: np.ndarray, motion: np.ndarray) -> np.ndarray | None:
         """Line kernel along the image displacement of the floor under the image centre."""
         centre_px = np.array([[self.model.cx, self.model.cy]])
@@ -339,13 +350,26 @@ class CameraRenderer:
         if not self._episode_started:
             self.reset(rng)
         tex_from_img = np.linalg.inv(self.model.homography(pose, ground))
-        raw = cv2.warpPerspective(
-            ground.rgba,
-            tex_from_img,
-            (c.width_px, c.height_px),
-            flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
-            borderMode=cv2.BORDER_REFLECT,
-        )
+        size = (c.width_px, c.height_px)
+        flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
+        if self._sees_past_margin(ground, pose):
+            # Mirroring the whole texture would bring felt back into view: fill the picture with
+            # mirrored carpet first, then draw the texture over it where it reaches.
+            raw = cv2.warpPerspective(
+                ground.carpet_band, tex_from_img, size, flags=flags, borderMode=cv2.BORDER_REFLECT
+            )
+            cv2.warpPerspective(
+                ground.rgba,
+                tex_from_img,
+                size,
+                dst=raw,
+                flags=flags,
+                borderMode=cv2.BORDER_TRANSPARENT,
+            )
+        else:
+            raw = cv2.warpPerspective(
+                ground.rgba, tex_from_img, size, flags=flags, borderMode=cv2.BORDER_REFLECT
+            )
         self._last_raw = raw
         if s.motion_blur and motion is not None:
             kernel = self._motion_kernel(pose, motion)

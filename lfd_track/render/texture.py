@@ -8,7 +8,10 @@ The camera renders views from this image with a ground-plane homography.
 Beyond the texture the carpet continues: the camera samples with ``cv2.BORDER_REFLECT``, so a
 point past the edge shows the carpet mirrored at the edge. The margin band between the felt and
 the texture edge holds only carpet, so as long as the camera sees no further past the edge than
-the margin is wide (true for a rover anywhere near the felt) the mirror shows carpet, never felt.
+the margin is wide (true for the paper's camera anywhere near the felt) the mirror shows carpet,
+never felt. For views reaching further (a flatter camera), the renderer fills the outside from
+the top margin band alone, mirrored, which is carpet however far it repeats
+(``GroundTexture.carpet_band``).
 """
 
 from __future__ import annotations
@@ -161,6 +164,17 @@ class GroundTexture:
     illumination: np.ndarray  # (h, w) float32 illumination on the coarse lighting grid
     illumination_m_per_px: float  # coarse grid resolution [m/px], same origin as the texture
     shadows: tuple[ShadowBand, ...]
+    margin_m: float  # carpet-only border between the felt's bounding box and the texture edge [m]
+
+    @property
+    def carpet_band(self) -> np.ndarray:
+        """(M, W, 4) view of the texture's top rows, which hold carpet only (M spans the margin).
+
+        Mirror-tiled (``cv2.BORDER_REFLECT``) it gives carpet everywhere, in the texture's texel
+        coordinates: the renderer's fill for views reaching far beyond the texture.
+        """
+        rows = max(int(self.margin_m / self.metres_per_px) - 2, 1)
+        return self.rgba[:rows]
 
     @property
     def image(self) -> np.ndarray:
@@ -317,7 +331,9 @@ def build_ground(
     if fuzz_px > 0.25:
         coverage = cv2.GaussianBlur(coverage, (0, 0), sigmaX=fuzz_px)
         # Stray fibres: noise (std ≈ 0.3) moves the 50 % line in and out by about the fuzz width.
+        # It is weighted to vanish away from the edge, or rare peaks would speckle the carpet.
         fray = cv2.GaussianBlur(fine, (0, 0), sigmaX=1.0)
+        fray *= 4.0 * coverage * (1.0 - coverage)
         coverage = cv2.addWeighted(coverage, 2.5, fray, 1.1, -0.75)
         np.clip(coverage, 0.0, 1.0, out=coverage)
 
@@ -406,4 +422,5 @@ def build_ground(
         illumination=light,
         illumination_m_per_px=float(light_step),
         shadows=bands,
+        margin_m=float(appearance.margin_m),
     )

@@ -298,3 +298,35 @@ def test_vignetting_darkens_the_corners(ground):
     # Exposure compensates the overall loss, so compare corners with the centre.
     assert ratio_corner < 0.8 * ratio_centre
     assert dark_renderer.exposure_gain > flat_renderer.exposure_gain
+
+
+def test_a_far_reaching_view_past_the_texture_never_mirrors_felt(track, ground):
+    import cv2
+
+    flat = CameraConfig(pitch_deg=26.0, vfov_deg=45.0)  # the randomized preset's extreme
+    pose = np.array([1.5, -0.12, -math.pi / 2])  # on the outer edge, looking away from the track
+    cam = CameraModel(flat)
+    far = cam.footprint(pose)
+    assert far[:, 1].min() < ground.origin_xy[1] - ground.shape[0] * ground.metres_per_px - 3.0
+    # Plain mirroring at the texture edge would show the far strip of the loop again...
+    tex_from_img = np.linalg.inv(cam.homography(pose, ground))
+    mirrored = cv2.warpPerspective(
+        ground.rgba,
+        tex_from_img,
+        (640, 480),
+        flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+        borderMode=cv2.BORDER_REFLECT,
+    )
+    assert (mirrored[..., 3] > 128).mean() > 0.01
+    # ...the renderer shows only carpet there (nothing of the view is on the felt).
+    us, vs = np.meshgrid(np.arange(0, 640, 20), np.arange(0, 480, 20))
+    pixels = np.column_stack([us.ravel(), vs.ravel()]).astype(float)
+    assert not track.on_felt(cam.floor_points(pixels, pose)).any()
+    renderer = CameraRenderer(flat)
+    rng = np.random.default_rng(0)
+    renderer.reset(rng)
+    frame = renderer.render(ground, pose, rng)
+    assert renderer.last_felt_coverage.max() == 0
+    assert frame.max(axis=2).min() > 5
+    mean = frame.reshape(-1, 3).astype(float).mean(axis=0)
+    assert mean[0] > mean[2] + 10
