@@ -28,6 +28,7 @@ import json
 import os
 import platform
 import statistics
+import subprocess
 import sys
 import time
 from collections.abc import Callable
@@ -48,7 +49,8 @@ from lfd_track.vision.road_library import RoadLibrary
 from lfd_track.world.rover import Rover
 from lfd_track.world.track import load_track
 
-RESULTS = Path(__file__).resolve().parent / "results" / "env.json"
+REPO = Path(__file__).resolve().parents[1]
+RESULTS = REPO / "benchmarks" / "results" / "env.json"
 TARGET_ENV_RATIO = 3.0
 TARGET_LOOP_RATIO = 1.5
 N_TYPES = 10
@@ -301,6 +303,26 @@ def summarise(samples: list[Sample]) -> dict:
     }
 
 
+def source_state() -> dict[str, object]:
+    """Commit of the checkout and its uncommitted package files (they are what was measured)."""
+
+    def git(*args: str) -> str:
+        try:
+            proc = subprocess.run(
+                ["git", *args], cwd=REPO, capture_output=True, text=True, timeout=10, check=True
+            )
+        except (OSError, subprocess.SubprocessError):
+            return ""
+        return proc.stdout
+
+    # Porcelain lines are "XY path"; the status columns may start with a space.
+    dirty = git("status", "--porcelain", "--", "lfd_track", "envs", "tracks")
+    return {
+        "commit": git("rev-parse", "HEAD").strip() or None,
+        "uncommitted": [line[3:] for line in dirty.splitlines()],
+    }
+
+
 def versions() -> dict[str, str]:
     import Box2D
     import pygame
@@ -427,6 +449,7 @@ def main(argv: list[str] | None = None) -> int:
         "load_average_before": list(load_before),
         "load_average_after": list(load_after),
         "machine": versions(),
+        "source": source_state(),
         "results": summary,
         "components_median_ms": components_ms,
     }
