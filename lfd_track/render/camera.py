@@ -94,7 +94,7 @@ class SensorConfig:
     motion_blur: bool = False
     """Blur along the image motion of the last pose change (needs ``motion`` in ``render``)."""
     motion_blur_fraction: float = 0.08
-    """Blur length as a fraction of the image displacement of the last pose change."""
+    """Blur length / image displacement of the last pose change (≈ exposure time / step time)."""
     jpeg_quality: int = 0
     """JPEG round trip at this quality (1–100); 0 turns compression off."""
 
@@ -343,8 +343,8 @@ class CameraRenderer:
         """Render the camera frame for a rover at ``pose`` (x [m], y [m], theta [rad]).
 
         ``motion`` (3,) is the pose change over the last step (dx, dy, dtheta), used only for
-        motion blur. Returns (H, W, 3) uint8 RGB. Draws from ``rng``: white-balance jitter and
-        the noise frame and offset.
+        motion blur. Returns (H, W, 3) uint8 RGB, a new array each call. Draws from ``rng``:
+        the frame's white balance (one of the pool drawn at reset), the noise frame and offset.
         """
         s, c = self.sensor, self.camera
         if not self._episode_started:
