@@ -8,13 +8,14 @@ wrong). The same is repeated with ``GAConfig(elitism=2)`` (an option, off by def
 comparison.
 
 Besides accuracy and fitness, each row carries what is needed to tell a stall from a slow climb:
-the best fitness after 1, 10, 50, 100 and 200 (500, 1000) generations, the classes the network predicts, the
-share of training outputs whose winning margin reaches the fitness threshold, and two references
-on the same cases that say how much the road values carry: a class-balanced least-squares linear
-classifier (40 inputs + bias) and the majority class.
+the best fitness after 1, 10, 50, 100 and 200 generations (and 500, 1000 for the optional long
+run), the classes the network predicts, the share of training outputs whose winning margin
+reaches the fitness threshold, and two references on the same cases that say how much the road
+values carry: a class-balanced least-squares linear classifier (40 inputs + bias) and the
+majority class.
 
-Run: ``.venv/bin/python benchmarks/ga_accuracy.py [--seeds 10] [--keep DIR]`` — prints markdown
-tables and writes ``benchmarks/results/ga_accuracy.json``.
+Run: ``.venv/bin/python benchmarks/ga_accuracy.py [--seeds 10] [--long-generations 1000]`` —
+prints markdown tables and writes ``benchmarks/results/ga_accuracy.json``.
 """
 
 from __future__ import annotations
