@@ -180,7 +180,8 @@ class LfDTrackEnv(gym.Env):
         if options and "pose" in options:
             pose = np.asarray(options["pose"], dtype=np.float64).reshape(3)
         self._rover.reset(tuple(pose), physics_rng)
-        self._renderer.reset(sensor_rng)
+        # Sensor noise and white-balance pools belong to the world: redrawn when it is rebuilt.
+        self._renderer.reset(sensor_rng, new_pools=rebuild)
         self._last_pose = self._rover.pose.copy()
         self._steps = 0
         self.episode.reset(self._last_pose, self._tread_on_felt())

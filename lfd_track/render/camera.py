@@ -265,10 +265,19 @@ class CameraRenderer:
         """(H, W) uint8 felt coverage (255 = felt) in the last frame: ground truth for tests."""
         return None if self._last_raw is None else self._last_raw[..., 3]
 
-    def reset(self, rng: np.random.Generator) -> None:
-        """Start an episode: draw the colour cast, white balances and noise, forget the exposure."""
+    def reset(self, rng: np.random.Generator, *, new_pools: bool = True) -> None:
+        """Start an episode: draw the colour cast, white balances and noise, forget the exposure.
+
+        With ``new_pools=False`` (and pools drawn before) the colour cast, white-balance maps and
+        noise pool are kept and only the exposure is forgotten: drawing the pools costs ~0.1 s,
+        which would dominate short episodes in the same world.
+        """
         s = self.sensor
+        already = self._episode_started
         self._episode_started = True
+        if not new_pools and already:
+            self._gain = None
+            return
         self._cast = 1.0 + s.white_balance_cast * rng.standard_normal(3)
         # Vignetting × white balance as a pool of per-pixel, per-channel gain maps, one per
         # jittered white balance: a frame then costs one uint8 multiply for both effects.
