@@ -10,7 +10,6 @@ from __future__ import annotations
 import argparse
 import json
 import sys
-import tempfile
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -61,8 +60,13 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     tmp = out.with_name(f".{out.name}.recording")
     with ProgressBar(200, "demonstrating", enabled=not args.quiet) as bar:
         summary = run_demonstration(
-            tmp, seed=args.seed, track=args.track, preset=args.preset, human=human,
-            overwrite=True, progress=lambda n: bar.update(n),
+            tmp,
+            seed=args.seed,
+            track=args.track,
+            preset=args.preset,
+            human=human,
+            overwrite=True,
+            progress=lambda n: bar.update(n),
         )
     tmp.replace(out)
     print(
@@ -99,16 +103,26 @@ def _cmd_evolve(args: argparse.Namespace) -> int:
     config = GAConfig(generations=args.generations, elitism=args.elitism)
     with ProgressBar(config.generations, "evolving", enabled=not args.quiet) as bar:
         result = evolve(
-            demo.road_values, demo.commands, config, np.random.default_rng(args.seed),
+            demo.road_values,
+            demo.commands,
+            config,
+            np.random.default_rng(args.seed),
             progress=lambda g, best, mean: bar.update(g, f"best {best:.4f}"),
         )
     controller = Controller.from_evolution(library, result, seed=args.seed)
     controller.save(args.out)
-    accuracy = float((mlp_forward(result.best_weights, demo.road_values).argmax(1) == demo.commands).mean())
+    accuracy = float(
+        (mlp_forward(result.best_weights, demo.road_values).argmax(1) == demo.commands).mean()
+    )
     png = Path(args.out).with_suffix(".fitness.png")
     write_png(
         str(png),
-        fitness_plot([("best", result.best_history, (200, 30, 30)), ("mean", result.mean_history, (30, 80, 200))]),
+        fitness_plot(
+            [
+                ("best", result.best_history, (200, 30, 30)),
+                ("mean", result.mean_history, (30, 80, 200)),
+            ]
+        ),
     )
     print(
         f"{args.out}: best fitness {result.best_fitness:.4f} (generation {result.best_generation}), "
@@ -155,7 +169,8 @@ def _cmd_drive(args: argparse.Namespace) -> int:
                     "lap": lap + 1,
                     "success": info["success"],
                     "failure": failure,
-                    "failed_corner": info["failed_corner"] or (None if info["success"] else _first_missing(env, info)),
+                    "failed_corner": info["failed_corner"]
+                    or (None if info["success"] else _first_missing(env, info)),
                     "corners_reached": info["corners_reached"],
                     "corners_negotiated": info["corners_negotiated"],
                     "steps": steps,
@@ -167,16 +182,26 @@ def _cmd_drive(args: argparse.Namespace) -> int:
         if video:
             video.close()
     if args.plot:
-        picture = trajectory_map(env.track, [t for t, _, _ in trajectories], [(s, f) for _, s, f in trajectories])
+        picture = trajectory_map(
+            env.track, [t for t, _, _ in trajectories], [(s, f) for _, s, f in trajectories]
+        )
         write_png(args.plot, picture)
     if args.json:
         print(json.dumps({"track": args.track, "reverse": args.reverse, "laps": laps}, indent=2))
     else:
         order = [c.label for c in env.track.corners]
-        print(f"{args.track} ({'reversed' if args.reverse else 'file order'}), corners met in order {' '.join(order)}:")
+        print(
+            f"{args.track} ({'reversed' if args.reverse else 'file order'}), corners met in order {' '.join(order)}:"
+        )
         for lap in laps:
-            outcome = "success" if lap["success"] else f"{lap['failure']} at corner {lap['failed_corner']}"
-            print(f"  lap {lap['lap']}: {outcome}; negotiated {' '.join(lap['corners_negotiated']) or '-'} ({lap['steps']} steps)")
+            outcome = (
+                "success"
+                if lap["success"]
+                else f"{lap['failure']} at corner {lap['failed_corner']}"
+            )
+            print(
+                f"  lap {lap['lap']}: {outcome}; negotiated {' '.join(lap['corners_negotiated']) or '-'} ({lap['steps']} steps)"
+            )
         print(f"  {sum(lap['success'] for lap in laps)}/{len(laps)} successful")
     return EXIT_OK
 
@@ -221,7 +246,9 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     wall = time.perf_counter() - start
     text = write_benchmark_outputs(out, config, reps, wall_s=wall, workers=args.workers)
     print(text)
-    print(f"\nreport: {out / 'report.md'}\nresults: {out / 'results.json'}\nplots: {out / 'trajectories.png'}, {out / 'fitness.png'}")
+    print(
+        f"\nreport: {out / 'report.md'}\nresults: {out / 'results.json'}\nplots: {out / 'trajectories.png'}, {out / 'fitness.png'}"
+    )
     return EXIT_OK
 
 
@@ -236,48 +263,94 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
 
-    demo = sub.add_parser("demo", help="record a scripted human demonstration in the simulator",
-                          description="Drive the paper's demonstration protocol with the scripted human and record every case.")
-    demo.add_argument("--track", default="training", help="open track to demonstrate on (default: training)")
+    demo = sub.add_parser(
+        "demo",
+        help="record a scripted human demonstration in the simulator",
+        description="Drive the paper's demonstration protocol with the scripted human and record every case.",
+    )
+    demo.add_argument(
+        "--track", default="training", help="open track to demonstrate on (default: training)"
+    )
     demo.add_argument("--seed", type=_seed, default=0, help="seed of the human and the world")
     demo.add_argument("--preset", default="paper", help="environment preset name or TOML path")
-    demo.add_argument("--careless", action="store_true", help="keep learning the road library while the safe box is off the felt (the paper's warning)")
+    demo.add_argument(
+        "--careless",
+        action="store_true",
+        help="keep learning the road library while the safe box is off the felt (the paper's warning)",
+    )
     demo.add_argument("--force", action="store_true", help="replace an existing output file")
     demo.add_argument("--out", required=True, help="demonstration file to write (.lfdemo)")
     demo.set_defaults(func=_cmd_demo)
 
-    evo = sub.add_parser("evolve", help="evolve a controller from a demonstration",
-                         description="Run the paper's GA (Table 1) on a demonstration; writes the controller JSON and a fitness-curve PNG beside it.")
+    evo = sub.add_parser(
+        "evolve",
+        help="evolve a controller from a demonstration",
+        description="Run the paper's GA (Table 1) on a demonstration; writes the controller JSON and a fitness-curve PNG beside it.",
+    )
     evo.add_argument("demo", help="demonstration file (.lfdemo)")
     evo.add_argument("--seed", type=_seed, default=0, help="GA seed")
-    evo.add_argument("--generations", type=_positive_int, default=200, help="generations (paper: 200)")
-    evo.add_argument("--elitism", type=int, default=0, help="copies of the best kept each generation (paper: 0)")
+    evo.add_argument(
+        "--generations", type=_positive_int, default=200, help="generations (paper: 200)"
+    )
+    evo.add_argument(
+        "--elitism", type=int, default=0, help="copies of the best kept each generation (paper: 0)"
+    )
     evo.add_argument("--out", required=True, help="controller file to write (.json)")
     evo.set_defaults(func=_cmd_evolve)
 
-    drive = sub.add_parser("drive", help="drive a controller autonomously in the simulator",
-                           description="Run a saved controller for N laps and report per-lap corner outcomes.")
+    drive = sub.add_parser(
+        "drive",
+        help="drive a controller autonomously in the simulator",
+        description="Run a saved controller for N laps and report per-lap corner outcomes.",
+    )
     drive.add_argument("controller", help="controller file (.json)")
-    drive.add_argument("--track", default="testing", help="track name or TOML path (default: testing)")
-    drive.add_argument("--reverse", action="store_true", help="drive against the file order (testing: clockwise)")
+    drive.add_argument(
+        "--track", default="testing", help="track name or TOML path (default: testing)"
+    )
+    drive.add_argument(
+        "--reverse", action="store_true", help="drive against the file order (testing: clockwise)"
+    )
     drive.add_argument("--laps", type=_positive_int, default=1, help="episodes to run")
     drive.add_argument("--seed", type=_seed, default=0, help="world seed")
     drive.add_argument("--preset", default="paper", help="environment preset name or TOML path")
-    drive.add_argument("--video", help="write an MP4: camera view with road values beside the top-down view")
+    drive.add_argument(
+        "--video", help="write an MP4: camera view with road values beside the top-down view"
+    )
     drive.add_argument("--plot", help="write a PNG of the trajectories coloured by outcome")
     drive.add_argument("--json", action="store_true", help="print the outcomes as JSON")
     drive.set_defaults(func=_cmd_drive)
 
-    bench = sub.add_parser("benchmark", help="reproduce the paper's Tables 2 and 3",
-                           description="The paper protocol: per repetition a fresh demonstration, evolution, then 3 runs each way on the training track and 3 laps each way on the testing track.")
-    bench.add_argument("--repetitions", type=_positive_int, default=None, help="repetitions (default 10; 1 with --quick)")
-    bench.add_argument("--trials", type=_positive_int, default=None, help="runs per direction per repetition (default 3; 1 with --quick)")
+    bench = sub.add_parser(
+        "benchmark",
+        help="reproduce the paper's Tables 2 and 3",
+        description="The paper protocol: per repetition a fresh demonstration, evolution, then 3 runs each way on the training track and 3 laps each way on the testing track.",
+    )
+    bench.add_argument(
+        "--repetitions",
+        type=_positive_int,
+        default=None,
+        help="repetitions (default 10; 1 with --quick)",
+    )
+    bench.add_argument(
+        "--trials",
+        type=_positive_int,
+        default=None,
+        help="runs per direction per repetition (default 3; 1 with --quick)",
+    )
     bench.add_argument("--seed", type=_seed, default=0, help="benchmark seed")
     bench.add_argument("--workers", type=_positive_int, default=1, help="parallel processes")
     bench.add_argument("--preset", default="paper", help="environment preset name or TOML path")
-    bench.add_argument("--careless", action="store_true", help="demonstrator keeps learning while the safe box is off the felt")
-    bench.add_argument("--quick", action="store_true", help="one repetition, one run per direction (a smoke test)")
-    bench.add_argument("--out", required=True, help="output folder (results.json, report.md, plots)")
+    bench.add_argument(
+        "--careless",
+        action="store_true",
+        help="demonstrator keeps learning while the safe box is off the felt",
+    )
+    bench.add_argument(
+        "--quick", action="store_true", help="one repetition, one run per direction (a smoke test)"
+    )
+    bench.add_argument(
+        "--out", required=True, help="output folder (results.json, report.md, plots)"
+    )
     bench.set_defaults(func=_cmd_benchmark)
 
     try:

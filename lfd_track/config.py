@@ -47,7 +47,9 @@ def _check_value(value: Any, annotation: Any, where: str, path: Path | str) -> A
         if len(args) == 2 and args[1] is Ellipsis:
             return tuple(_check_value(v, args[0], where, path) for v in value)
         if len(args) != len(value):
-            raise FileFormatError(path, f"'{where}' must have {len(args)} entries, got {len(value)}")
+            raise FileFormatError(
+                path, f"'{where}' must have {len(args)} entries, got {len(value)}"
+            )
         return tuple(_check_value(v, a, where, path) for v, a in zip(value, args, strict=True))
     return value
 

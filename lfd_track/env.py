@@ -193,7 +193,9 @@ class LfDTrackEnv(gym.Env):
         if self._rover is None:
             raise RuntimeError("call reset() before step()")
         if not self.action_space.contains(action):
-            raise ValueError(f"invalid action {action!r}: expected 0 (forward), 1 (left) or 2 (right)")
+            raise ValueError(
+                f"invalid action {action!r}: expected 0 (forward), 1 (left) or 2 (right)"
+            )
         before = self.episode.state.progress_m
         previous_pose = self._last_pose
         self._rover.step(int(Command(int(action))), self._physics_rng)

@@ -47,7 +47,15 @@ def fitness_plot(
         cv2.line(img, (left - 4, y), (left, y), (0, 0, 0), 1)
         cv2.putText(img, f"{y_val:.2f}", (5, y + 4), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1)
     cv2.putText(img, title, (left, 25), cv2.FONT_HERSHEY_SIMPLEX, 0.5, (0, 0, 0), 1)
-    cv2.putText(img, f"generation (0..{n})", (left + plot_w // 2 - 60, height - 12), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1)
+    cv2.putText(
+        img,
+        f"generation (0..{n})",
+        (left + plot_w // 2 - 60, height - 12),
+        cv2.FONT_HERSHEY_SIMPLEX,
+        0.4,
+        (0, 0, 0),
+        1,
+    )
     for label_row, (label, curve, colour) in enumerate(curves):
         curve = np.asarray(curve, dtype=float)
         if len(curve) < 2:
@@ -59,7 +67,9 @@ def fitness_plot(
         if label:
             y = top + 15 + 15 * label_row
             cv2.line(img, (left + plot_w - 150, y - 4), (left + plot_w - 130, y - 4), colour, 2)
-            cv2.putText(img, label, (left + plot_w - 125, y), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1)
+            cv2.putText(
+                img, label, (left + plot_w - 125, y), cv2.FONT_HERSHEY_SIMPLEX, 0.4, (0, 0, 0), 1
+            )
     return img
 
 
@@ -75,7 +85,9 @@ def trajectory_map(
     colours = [outcome_colour(success, failure) for success, failure in outcomes]
     img = draw_trajectories(track, list(trajectories), colours, size_px=size_px)
     if title:
-        cv2.putText(img, title, (10, 22), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (255, 255, 255), 1, cv2.LINE_AA)
+        cv2.putText(
+            img, title, (10, 22), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (255, 255, 255), 1, cv2.LINE_AA
+        )
     return img
 
 
@@ -83,10 +95,15 @@ def stack_images(images: Sequence[np.ndarray], *, vertical: bool = False) -> np.
     """Place RGB images side by side (or stacked), padding with white to a common size."""
     if vertical:
         width = max(i.shape[1] for i in images)
-        padded = [np.pad(i, ((0, 0), (0, width - i.shape[1]), (0, 0)), constant_values=255) for i in images]
+        padded = [
+            np.pad(i, ((0, 0), (0, width - i.shape[1]), (0, 0)), constant_values=255)
+            for i in images
+        ]
         return np.concatenate(padded, axis=0)
     height = max(i.shape[0] for i in images)
-    padded = [np.pad(i, ((0, height - i.shape[0]), (0, 0), (0, 0)), constant_values=255) for i in images]
+    padded = [
+        np.pad(i, ((0, height - i.shape[0]), (0, 0), (0, 0)), constant_values=255) for i in images
+    ]
     return np.concatenate(padded, axis=1)
 
 

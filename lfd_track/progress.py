@@ -10,7 +10,9 @@ from typing import TextIO
 class ProgressBar:
     """``with ProgressBar(total, "evolving") as bar: bar.update(n, "note")``."""
 
-    def __init__(self, total: int, label: str, *, stream: TextIO | None = None, enabled: bool = True) -> None:
+    def __init__(
+        self, total: int, label: str, *, stream: TextIO | None = None, enabled: bool = True
+    ) -> None:
         self.total = max(int(total), 1)
         self.label = label
         self.stream = stream or sys.stderr
@@ -31,7 +33,9 @@ class ProgressBar:
             width = 28
             filled = int(round(frac * width))
             bar = "#" * filled + "-" * (width - filled)
-            self.stream.write(f"\r{self.label} [{bar}] {done}/{self.total} {elapsed:5.0f}s {note}\033[K")
+            self.stream.write(
+                f"\r{self.label} [{bar}] {done}/{self.total} {elapsed:5.0f}s {note}\033[K"
+            )
             self.stream.flush()
         else:
             decile = int(frac * 10)

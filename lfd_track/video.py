@@ -41,14 +41,20 @@ class DriveVideo:
             top = cv2.resize(top, (int(top.shape[1] * scale), camera.shape[0]))
         canvas = np.concatenate([camera, top], axis=1)
         text = f"progress {info['progress_m']:.2f} m  corners {' '.join(info['corners_negotiated']) or '-'}"
-        cv2.putText(canvas, text, (10, 25), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (255, 255, 255), 2, cv2.LINE_AA)
+        cv2.putText(
+            canvas, text, (10, 25), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (255, 255, 255), 2, cv2.LINE_AA
+        )
         canvas = canvas[: canvas.shape[0] // 2 * 2, : canvas.shape[1] // 2 * 2]
         if self._writer is None:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             fourcc = cv2.VideoWriter_fourcc(*"mp4v")
-            self._writer = cv2.VideoWriter(str(self._tmp), fourcc, self.fps, (canvas.shape[1], canvas.shape[0]))
+            self._writer = cv2.VideoWriter(
+                str(self._tmp), fourcc, self.fps, (canvas.shape[1], canvas.shape[0])
+            )
             if not self._writer.isOpened():
-                raise OSError(f"{self.path}: cannot open an MP4 writer (OpenCV built without FFmpeg?)")
+                raise OSError(
+                    f"{self.path}: cannot open an MP4 writer (OpenCV built without FFmpeg?)"
+                )
         self._writer.write(cv2.cvtColor(canvas, cv2.COLOR_RGB2BGR))
 
     def close(self) -> None:

@@ -15,7 +15,10 @@ from lfd_track.cli import main
 def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
     return subprocess.run(
         [sys.executable, "-m", "lfd_track.cli", "--quiet", *args],
-        capture_output=True, text=True, cwd=cwd, timeout=600,
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        timeout=600,
     )
 
 
@@ -32,8 +35,22 @@ def controller_file(tmp_path_factory):
 
 def test_drive_reports_per_lap_corner_outcomes_as_json(controller_file, capsys, tmp_path):
     plot = tmp_path / "laps.png"
-    code = main(["--quiet", "drive", str(controller_file), "--track", "training", "--laps", "2",
-                 "--seed", "3", "--json", "--plot", str(plot)])
+    code = main(
+        [
+            "--quiet",
+            "drive",
+            str(controller_file),
+            "--track",
+            "training",
+            "--laps",
+            "2",
+            "--seed",
+            "3",
+            "--json",
+            "--plot",
+            str(plot),
+        ]
+    )
     assert code == 0
     report = json.loads(capsys.readouterr().out)
     assert len(report["laps"]) == 2
@@ -47,8 +64,21 @@ def test_drive_video_shows_camera_and_top_down(controller_file, tmp_path):
     import cv2
 
     video = tmp_path / "drive.mp4"
-    code = main(["--quiet", "drive", str(controller_file), "--track", "training", "--laps", "1",
-                 "--seed", "2", "--video", str(video)])
+    code = main(
+        [
+            "--quiet",
+            "drive",
+            str(controller_file),
+            "--track",
+            "training",
+            "--laps",
+            "1",
+            "--seed",
+            "2",
+            "--video",
+            str(video),
+        ]
+    )
     assert code == 0
     cap = cv2.VideoCapture(str(video))
     ok, frame = cap.read()
@@ -143,6 +173,13 @@ def test_demo_refuses_to_overwrite_and_leaves_the_old_file(tmp_path):
 
 
 def test_every_subcommand_has_help():
-    for sub in (["demo"], ["evolve"], ["drive"], ["benchmark"], ["hardware"], ["hardware", "check"]):
+    for sub in (
+        ["demo"],
+        ["evolve"],
+        ["drive"],
+        ["benchmark"],
+        ["hardware"],
+        ["hardware", "check"],
+    ):
         proc = run_cli(*sub, "--help")
         assert proc.returncode == 0 and "usage:" in proc.stdout

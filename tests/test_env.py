@@ -15,8 +15,14 @@ from lfd_track.errors import FileFormatError
 from lfd_track.world.driver import CentrelineDriver
 
 INFO_KEYS = {
-    "pose", "progress_m", "lap_fraction", "corners_reached", "corners_negotiated", "on_felt",
-    "failure", "success",
+    "pose",
+    "progress_m",
+    "lap_fraction",
+    "corners_reached",
+    "corners_negotiated",
+    "on_felt",
+    "failure",
+    "success",
 }
 
 
@@ -139,7 +145,9 @@ def test_progress_and_reward_are_continuous_through_the_135_degree_corner():
     last = info["progress_m"]
     total_reward = 0.0
     while True:
-        _, reward, terminated, truncated, info = env.step(int(driver.act(unwrapped.rover_pose, info["progress_m"])))
+        _, reward, terminated, truncated, info = env.step(
+            int(driver.act(unwrapped.rover_pose, info["progress_m"]))
+        )
         total_reward += reward
         assert info["progress_m"] > last - 0.05  # never a jump back
         assert info["progress_m"] - last < 0.2  # never a jump forward
@@ -207,8 +215,8 @@ def test_rgb_array_render_is_a_top_down_picture():
     assert picture.shape[1] >= 400
     # Felt (bluish) and carpet (brownish) are both drawn.
     pixels = picture.reshape(-1, 3).astype(int)
-    assert ((pixels[:, 2] > pixels[:, 0] + 40)).any()
-    assert ((pixels[:, 0] > pixels[:, 2] + 20)).any()
+    assert (pixels[:, 2] > pixels[:, 0] + 40).any()
+    assert (pixels[:, 0] > pixels[:, 2] + 20).any()
 
 
 def test_randomized_preset_varies_the_world_per_episode():

@@ -59,7 +59,9 @@ def write_benchmark_outputs(
         "evolution_sum": sum(r.timing_s["evolution"] for r in reps),
         "trials_sum": sum(r.timing_s["trials"] for r in reps),
     }
-    results = build_results(outcomes, repetitions=config.repetitions, seed=config.seed, timing_s=timing)
+    results = build_results(
+        outcomes, repetitions=config.repetitions, seed=config.seed, timing_s=timing
+    )
     results["config"] = config_dict(config)
     results["demonstrations"] = [dict(r.demo, repetition=r.index) for r in reps]
     results["training_accuracy"] = [r.training_accuracy for r in reps]
@@ -82,16 +84,33 @@ def write_benchmark_outputs(
     rows = [stack_images(pictures[:2]), stack_images(pictures[2:])]
     write_png(str(out / "trajectories.png"), stack_images(rows, vertical=True))
 
-    palette = [(31, 119, 180), (255, 127, 14), (44, 160, 44), (214, 39, 40), (148, 103, 189),
-               (140, 86, 75), (227, 119, 194), (127, 127, 127), (188, 189, 34), (23, 190, 207)]
-    curves = [
-        (f"rep {r.index}", np.asarray(r.fitness_best), palette[r.index % len(palette)]) for r in reps
+    palette = [
+        (31, 119, 180),
+        (255, 127, 14),
+        (44, 160, 44),
+        (214, 39, 40),
+        (148, 103, 189),
+        (140, 86, 75),
+        (227, 119, 194),
+        (127, 127, 127),
+        (188, 189, 34),
+        (23, 190, 207),
     ]
-    write_png(str(out / "fitness.png"), fitness_plot(curves, title="best fitness per generation, one curve per repetition"))
+    curves = [
+        (f"rep {r.index}", np.asarray(r.fitness_best), palette[r.index % len(palette)])
+        for r in reps
+    ]
+    write_png(
+        str(out / "fitness.png"),
+        fitness_plot(curves, title="best fitness per generation, one curve per repetition"),
+    )
 
     write_results_json(out / "results.json", results)
     extra = [demonstration_section(reps)]
     if not config.human.careful:
-        extra.insert(0, "**Careless demonstrator**: the road library kept learning while the safe box was off the felt.\n")
+        extra.insert(
+            0,
+            "**Careless demonstrator**: the road library kept learning while the safe box was off the felt.\n",
+        )
     write_report(out, results, extra_sections=extra)
     return format_tables(results)

@@ -91,7 +91,9 @@ def run_trial(
             return info, np.asarray(trajectory, dtype=np.float32), steps
 
 
-def run_repetition(index: int, seed: int, config: BenchmarkConfig, work_dir: str) -> RepetitionResult:
+def run_repetition(
+    index: int, seed: int, config: BenchmarkConfig, work_dir: str
+) -> RepetitionResult:
     """Demonstrate, evolve and test once; artefacts go to ``work_dir/rep_<index>/``."""
     import cv2
 
@@ -105,7 +107,11 @@ def run_repetition(index: int, seed: int, config: BenchmarkConfig, work_dir: str
     t0 = time.perf_counter()
     demo_path = rep_dir / "demonstration.lfdemo"
     summary = run_demonstration(
-        demo_path, seed=demo_seed, preset=config.preset, human=config.human, fsync=False,
+        demo_path,
+        seed=demo_seed,
+        preset=config.preset,
+        human=config.human,
+        fsync=False,
         overwrite=True,
     )
     demo = load_demonstration(demo_path)
@@ -133,7 +139,9 @@ def run_repetition(index: int, seed: int, config: BenchmarkConfig, work_dir: str
         for trial in range(config.trials_per_direction):
             # The floor is built once per direction (seeded); later trials redraw the rover,
             # exposure and noise from the env's own stream.
-            info, trajectory, steps = run_trial(env, controller, seed=env_seed if trial == 0 else None)
+            info, trajectory, steps = run_trial(
+                env, controller, seed=env_seed if trial == 0 else None
+            )
             failure = info["failure"]
             if not info["success"] and failure is None:
                 failure = "timeout"

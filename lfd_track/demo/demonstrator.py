@@ -158,9 +158,13 @@ def run_demonstration(
     commands = 0
     next_turn = Command.LEFT if human.first_turnaround == "left" else Command.RIGHT
 
-    with DemonstrationWriter(out, metadata, bins=library.bins, fsync=fsync, overwrite=overwrite) as writer:
+    with DemonstrationWriter(
+        out, metadata, bins=library.bins, fsync=fsync, overwrite=overwrite
+    ) as writer:
 
-        def observe_and_command(command_for: Callable[[], Command], phase: str, progress_m: float) -> None:
+        def observe_and_command(
+            command_for: Callable[[], Command], phase: str, progress_m: float
+        ) -> None:
             """One robot cycle: learn (if careful allows), road values, command, record, move."""
             nonlocal frame, info, commands, learned_frames, off_felt_frames, learned_off_felt
             box_on_felt = bool(info["safe_box_on_felt"])
@@ -175,8 +179,14 @@ def run_demonstration(
             command = command_for()
             if commands >= human.library_only_commands:
                 writer.append(
-                    int(command), values, hists, pose=env.rover_pose, progress_m=progress_m,
-                    phase=phase, learned=learn, step=commands,
+                    int(command),
+                    values,
+                    hists,
+                    pose=env.rover_pose,
+                    progress_m=progress_m,
+                    phase=phase,
+                    learned=learn,
+                    step=commands,
                 )
             frame, _, _, _, info = env.step(int(command))
             commands += 1
@@ -193,8 +203,14 @@ def run_demonstration(
             stop_at = leg_track.length_m - human.stop_before_end_m
             while tracker.progress_m < stop_at:
                 pose = env.rover_pose
-                phase = PHASE_DRIVE if commands >= human.library_only_commands else PHASE_LIBRARY_ONLY
-                observe_and_command(lambda p=pose, s=tracker.progress_m, d=driver: person.decide(d, p, s), phase, tracker.progress_m)
+                phase = (
+                    PHASE_DRIVE if commands >= human.library_only_commands else PHASE_LIBRARY_ONLY
+                )
+                observe_and_command(
+                    lambda p=pose, s=tracker.progress_m, d=driver: person.decide(d, p, s),
+                    phase,
+                    tracker.progress_m,
+                )
                 tracker.update(env.rover_pose[:2])
             # Turn round towards the next leg, alternating the direction at every arrival.
             back = legs[(leg + 1) % 2]
@@ -209,7 +225,9 @@ def run_demonstration(
                 error = back_driver.heading_error(env.rover_pose, back_tracker.progress_m)
                 if abs(error) <= dead_band:
                     break
-                observe_and_command(lambda d=direction: person.turn(d), PHASE_TURNAROUND, tracker.progress_m)
+                observe_and_command(
+                    lambda d=direction: person.turn(d), PHASE_TURNAROUND, tracker.progress_m
+                )
         writer.close(
             {
                 "road_library": library.to_dict(),

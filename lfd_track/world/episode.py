@@ -72,7 +72,9 @@ class EpisodeTracker:
         start = 0.0 if self.track.closed else self.rules.start_offset_m
         self._progress = ProgressTracker(self.track, start_progress_m=start)
         progress = self._progress.update(np.asarray(pose[:2]))
-        self.state = EpisodeState(progress_m=progress, max_progress_m=progress, on_felt=tread_on_felt)
+        self.state = EpisodeState(
+            progress_m=progress, max_progress_m=progress, on_felt=tread_on_felt
+        )
         return self.state
 
     def update(self, pose: np.ndarray, tread_on_felt: tuple[bool, bool]) -> EpisodeState:
@@ -86,7 +88,10 @@ class EpisodeTracker:
         st.on_felt = (bool(tread_on_felt[0]), bool(tread_on_felt[1]))
         any_on_felt = st.on_felt[0] or st.on_felt[1]
         for corner in self.track.corners:
-            if corner.label not in st.corners_reached and st.max_progress_m >= corner.s_m - rules.corner_margin_m:
+            if (
+                corner.label not in st.corners_reached
+                and st.max_progress_m >= corner.s_m - rules.corner_margin_m
+            ):
                 st.corners_reached.append(corner.label)
             if (
                 corner.label in st.corners_reached
@@ -101,7 +106,10 @@ class EpisodeTracker:
             st.failure = OFF_TRACK
         elif st.progress_m < st.max_progress_m - rules.reverse_margin_m:
             st.failure = REVERSED
-        elif len(st.corners_negotiated) == len(self.track.corners) and st.progress_m >= self.goal_progress_m:
+        elif (
+            len(st.corners_negotiated) == len(self.track.corners)
+            and st.progress_m >= self.goal_progress_m
+        ):
             st.success = True
         return st
 

@@ -88,7 +88,9 @@ class Track:
             ext_a = 0.0 if (not self.closed and i == 0) else half
             ext_b = 0.0 if (not self.closed and i == n - 1) else half
             a2, b2 = a - d * ext_a, b + d * ext_b
-            polys.append(np.array([a2 - nrm * half, b2 - nrm * half, b2 + nrm * half, a2 + nrm * half]))
+            polys.append(
+                np.array([a2 - nrm * half, b2 - nrm * half, b2 + nrm * half, a2 + nrm * half])
+            )
         return polys
 
     def bounds(self, margin_m: float = 0.0) -> tuple[float, float, float, float]:
@@ -115,7 +117,9 @@ class Track:
         along = rel[..., 0] * d[None, :, 0] + rel[..., 1] * d[None, :, 1]
         across = -rel[..., 0] * d[None, :, 1] + rel[..., 1] * d[None, :, 0]
         inside = (
-            (along >= -ext_a[None]) & (along <= lengths[None] + ext_b[None]) & (np.abs(across) <= half)
+            (along >= -ext_a[None])
+            & (along <= lengths[None] + ext_b[None])
+            & (np.abs(across) <= half)
         )
         return inside.any(axis=1).reshape(pts.shape[:-1])
 
@@ -238,14 +242,20 @@ def _segments_intersect(p1, p2, q1, q2) -> float:
     d3, d4 = cross(p1, p2, q1), cross(p1, p2, q2)
     if ((d1 > 0) != (d2 > 0)) and ((d3 > 0) != (d4 > 0)) and d1 * d2 < 0 and d3 * d4 < 0:
         return 0.0
-    return min(point_seg(p1, q1, q2), point_seg(p2, q1, q2), point_seg(q1, p1, p2), point_seg(q2, p1, p2))
+    return min(
+        point_seg(p1, q1, q2), point_seg(p2, q1, q2), point_seg(q1, p1, p2), point_seg(q2, p1, p2)
+    )
 
 
-def parse_track(data: dict, source: Path | str) -> tuple[str, np.ndarray, bool, float, dict[str, int]]:
+def parse_track(
+    data: dict, source: Path | str
+) -> tuple[str, np.ndarray, bool, float, dict[str, int]]:
     """Validate a track table; return (name, vertices (V, 2), closed, width_m, label→vertex)."""
     unknown = sorted(set(data) - _TRACK_KEYS)
     if unknown:
-        raise _fail(source, f"unknown key '{unknown[0]}' (allowed: {', '.join(sorted(_TRACK_KEYS))})")
+        raise _fail(
+            source, f"unknown key '{unknown[0]}' (allowed: {', '.join(sorted(_TRACK_KEYS))})"
+        )
     name = data.get("name", Path(str(source)).stem)
     if not isinstance(name, str) or not name:
         raise _fail(source, "'name' must be a non-empty string")
@@ -261,7 +271,9 @@ def parse_track(data: dict, source: Path | str) -> tuple[str, np.ndarray, bool, 
         raise _fail(source, f"'width_m' {width} m is narrower than the rover ({ROVER_WIDTH_M} m)")
     raw = data.get("vertices")
     if not isinstance(raw, list) or not all(
-        isinstance(v, list) and len(v) == 2 and all(isinstance(c, (int, float)) and not isinstance(c, bool) for c in v)
+        isinstance(v, list)
+        and len(v) == 2
+        and all(isinstance(c, (int, float)) and not isinstance(c, bool) for c in v)
         for v in raw
     ):
         raise _fail(source, "'vertices' must be a list of [x, y] pairs in metres")
@@ -270,7 +282,10 @@ def parse_track(data: dict, source: Path | str) -> tuple[str, np.ndarray, bool, 
         raise _fail(source, "'vertices' contains NaN or infinity")
     min_vertices = 3 if closed else 2
     if len(vertices) < min_vertices:
-        raise _fail(source, f"a {'closed' if closed else 'open'} track needs at least {min_vertices} vertices, got {len(vertices)}")
+        raise _fail(
+            source,
+            f"a {'closed' if closed else 'open'} track needs at least {min_vertices} vertices, got {len(vertices)}",
+        )
     if closed and np.allclose(vertices[0], vertices[-1]):
         raise _fail(source, "closed track: do not repeat the first vertex at the end")
     starts = vertices if closed else vertices[:-1]
@@ -296,14 +311,20 @@ def parse_track(data: dict, source: Path | str) -> tuple[str, np.ndarray, bool, 
         d1 = (ends[i] - starts[i]) / lengths[i]
         d2 = (ends[j] - starts[j]) / lengths[j]
         if np.dot(d1, d2) < math.cos(math.radians(170)):
-            raise _fail(source, f"self-intersecting strips: the track folds back at vertex {(i + 1) % len(vertices)}")
+            raise _fail(
+                source,
+                f"self-intersecting strips: the track folds back at vertex {(i + 1) % len(vertices)}",
+            )
     corners = data.get("corners", {})
     if not isinstance(corners, dict):
         raise _fail(source, "'corners' must be a table of label = vertex index")
     label_to_vertex: dict[str, int] = {}
     for label, idx in corners.items():
         if isinstance(idx, bool) or not isinstance(idx, int) or not 0 <= idx < len(vertices):
-            raise _fail(source, f"corner '{label}' must name a vertex index 0..{len(vertices) - 1}, got {idx!r}")
+            raise _fail(
+                source,
+                f"corner '{label}' must name a vertex index 0..{len(vertices) - 1}, got {idx!r}",
+            )
         if not closed and idx in (0, len(vertices) - 1):
             raise _fail(source, f"corner '{label}' is an end vertex of an open track")
         label_to_vertex[str(label)] = idx
@@ -344,11 +365,21 @@ def build_track(
         if not closed:
             raise ValueError(f"{source}: start_corner is only for closed tracks")
         if start_corner not in label_to_vertex:
-            raise ValueError(f"{source}: unknown start corner '{start_corner}' (corners: {', '.join(label_to_vertex)})")
+            raise ValueError(
+                f"{source}: unknown start corner '{start_corner}' (corners: {', '.join(label_to_vertex)})"
+            )
         pos = int(np.nonzero(index == label_to_vertex[start_corner])[0][0])
         verts = np.roll(verts, -pos, axis=0)
         index = np.roll(index, -pos)
-    track = Track(name=name, source=source, vertices=verts, closed=closed, width_m=width_m, corners=(), reversed=reverse)
+    track = Track(
+        name=name,
+        source=source,
+        vertices=verts,
+        closed=closed,
+        width_m=width_m,
+        corners=(),
+        reversed=reverse,
+    )
     seg_s = np.concatenate([track.segment_s, [track.length_m]])
     corners = []
     for label, file_idx in label_to_vertex.items():
@@ -359,12 +390,19 @@ def build_track(
         corners.append(Corner(label, drive_idx, s, _turn_deg(verts, drive_idx, closed)))
     corners.sort(key=lambda c: c.s_m)
     return Track(
-        name=name, source=source, vertices=verts, closed=closed, width_m=width_m,
-        corners=tuple(corners), reversed=reverse,
+        name=name,
+        source=source,
+        vertices=verts,
+        closed=closed,
+        width_m=width_m,
+        corners=tuple(corners),
+        reversed=reverse,
     )
 
 
-def load_track(name_or_path: str | Path, *, reverse: bool = False, start_corner: str | None = None) -> Track:
+def load_track(
+    name_or_path: str | Path, *, reverse: bool = False, start_corner: str | None = None
+) -> Track:
     """Load a shipped track by name (``"testing"``) or a track TOML file, in driving order.
 
     Raises FileFormatError (one line naming the file and the problem) for malformed files.
@@ -379,6 +417,15 @@ def load_track(name_or_path: str | Path, *, reverse: bool = False, start_corner:
         raise FileFormatError(path, f"cannot read ({exc.strerror})") from None
     name, vertices, closed, width, corners = parse_track(data, path)
     try:
-        return build_track(name, vertices, closed, width, corners, reverse=reverse, start_corner=start_corner, source=str(path))
+        return build_track(
+            name,
+            vertices,
+            closed,
+            width,
+            corners,
+            reverse=reverse,
+            start_corner=start_corner,
+            source=str(path),
+        )
     except ValueError as exc:
         raise FileFormatError(path, str(exc).split(": ", 1)[-1]) from None

@@ -24,7 +24,9 @@ def test_default_demonstration_meets_the_calibration_targets(default_demo):
     assert counts["forward"] > demo.n_cases / 2
     assert summary.turnarounds == ("left", "right", "left", "right")
     assert summary.learned_off_felt == 0
-    assert summary.off_felt_frames > 0  # the box did leave the felt (turn-arounds): the pause mattered
+    assert (
+        summary.off_felt_frames > 0
+    )  # the box did leave the felt (turn-arounds): the pause mattered
     # No case marked as learned was recorded with the box off the felt.
     assert demo.metadata["complete"] is True
     assert demo.metadata["road_library"]["bins"] == demo.bins

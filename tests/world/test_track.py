@@ -53,7 +53,9 @@ def test_felt_union_and_open_ends():
     assert not track.on_felt(np.array([1.5, 0.16]))
     # Open ends are flat: nothing past the end vertex along the arm.
     end = track.vertices[0]
-    outward = (track.vertices[0] - track.vertices[1]) / np.linalg.norm(track.vertices[0] - track.vertices[1])
+    outward = (track.vertices[0] - track.vertices[1]) / np.linalg.norm(
+        track.vertices[0] - track.vertices[1]
+    )
     assert track.on_felt(end - outward * 0.01)
     assert not track.on_felt(end + outward * 0.01)
     # Loop corners are covered by the overlapping strip extensions.
@@ -108,17 +110,23 @@ def _write(tmp_path, text):
 @pytest.mark.parametrize(
     ("text", "problem"),
     [
-        ('closed = false\nvertices = [[0.0, 0.0]]\n', "at least 2 vertices"),
-        ('closed = false\nwidth_m = 0.0\nvertices = [[0.0, 0.0], [1.0, 0.0]]\n', "must be > 0"),
-        ('closed = false\nwidth_m = 0.2\nvertices = [[0.0, 0.0], [1.0, 0.0]]\n', "narrower than the rover"),
-        ('closed = false\nvertices = [[0.0, 0.0], [1.0, 0.0]]\ncolour = "red"\n', "unknown key 'colour'"),
-        ('closed = false\nvertices = [[0.0, 0.0], [nan, 0.0]]\n', "NaN"),
-        ('closed = false\nwidth_m = nan\nvertices = [[0.0, 0.0], [1.0, 0.0]]\n', "finite"),
+        ("closed = false\nvertices = [[0.0, 0.0]]\n", "at least 2 vertices"),
+        ("closed = false\nwidth_m = 0.0\nvertices = [[0.0, 0.0], [1.0, 0.0]]\n", "must be > 0"),
+        (
+            "closed = false\nwidth_m = 0.2\nvertices = [[0.0, 0.0], [1.0, 0.0]]\n",
+            "narrower than the rover",
+        ),
+        (
+            'closed = false\nvertices = [[0.0, 0.0], [1.0, 0.0]]\ncolour = "red"\n',
+            "unknown key 'colour'",
+        ),
+        ("closed = false\nvertices = [[0.0, 0.0], [nan, 0.0]]\n", "NaN"),
+        ("closed = false\nwidth_m = nan\nvertices = [[0.0, 0.0], [1.0, 0.0]]\n", "finite"),
         (
             "closed = true\nvertices = [[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [1.0, -1.0], [0.0, 2.0]]\n",
             "self-intersecting",
         ),
-        ('closed = false\nvertices = [[0.0, 0.0], [1.0, 0.0], [0.0, 0.0]]\n', "self-intersecting"),
+        ("closed = false\nvertices = [[0.0, 0.0], [1.0, 0.0], [0.0, 0.0]]\n", "self-intersecting"),
         ('closed = false\nvertices = [[0.0, 0.0], [1.0, 0.0]]\n[corners]\n"1" = 7\n', "corner '1'"),
         ("this is = not toml [", "not valid TOML"),
     ],
@@ -134,7 +142,9 @@ def test_bad_track_files_are_rejected_with_one_line(tmp_path, text, problem):
 
 
 def test_unknown_track_name():
-    with pytest.raises(FileNotFoundError, match="unknown track 'nowhere' \\(shipped: sbend, testing, training"):
+    with pytest.raises(
+        FileNotFoundError, match="unknown track 'nowhere' \\(shipped: sbend, testing, training"
+    ):
         load_track("nowhere")
 
 
