@@ -133,8 +133,8 @@ def _cmd_evolve(args: argparse.Namespace) -> int:
 
 # --------------------------------------------------------------------------------- drive
 def _cmd_drive(args: argparse.Namespace) -> int:
-    import numpy as np
 
+    from .benchmark.runner import run_trial
     from .controller import Controller
     from .env import LfDTrackEnv
     from .plots import trajectory_map, write_png
@@ -147,37 +147,26 @@ def _cmd_drive(args: argparse.Namespace) -> int:
     video = DriveVideo(args.video, env) if args.video else None
     try:
         for lap in range(args.laps):
-            obs, info = env.reset(seed=args.seed if lap == 0 else None)
-            controller.reset()
-            trajectory = [info["pose"][:2]]
-            steps = 0
-            while True:
-                if controller.learn:
-                    controller.library.learn(obs)
-                values = controller.library.road_values(obs)
-                action = controller.act_on_values(values)
-                if video:
-                    video.add(obs, values, info)
-                obs, _, terminated, truncated, info = env.step(action)
-                trajectory.append(info["pose"][:2])
-                steps += 1
-                if terminated or truncated:
-                    break
+            info, trajectory, steps = run_trial(
+                env,
+                controller,
+                seed=args.seed if lap == 0 else None,
+                on_step=video.add if video else None,
+            )
             failure = info["failure"] or (None if info["success"] else "timeout")
             laps.append(
                 {
                     "lap": lap + 1,
                     "success": info["success"],
                     "failure": failure,
-                    "failed_corner": info["failed_corner"]
-                    or (None if info["success"] else _first_missing(env, info)),
+                    "failed_corner": None if info["success"] else env.episode.next_corner,
                     "corners_reached": info["corners_reached"],
                     "corners_negotiated": info["corners_negotiated"],
                     "steps": steps,
                     "progress_m": round(info["progress_m"], 3),
                 }
             )
-            trajectories.append((np.asarray(trajectory), info["success"], failure))
+            trajectories.append((trajectory, info["success"], failure))
     finally:
         if video:
             video.close()
@@ -204,13 +193,6 @@ def _cmd_drive(args: argparse.Namespace) -> int:
             )
         print(f"  {sum(lap['success'] for lap in laps)}/{len(laps)} successful")
     return EXIT_OK
-
-
-def _first_missing(env: Any, info: dict[str, Any]) -> str | None:
-    for corner in env.track.corners:
-        if corner.label not in info["corners_negotiated"]:
-            return corner.label
-    return None
 
 
 # --------------------------------------------------------------------------------- benchmark

@@ -76,15 +76,28 @@ def repetition_seeds(seed: int, repetitions: int) -> list[int]:
 
 
 def run_trial(
-    env: LfDTrackEnv, controller: Controller, *, seed: int | None
+    env: LfDTrackEnv,
+    controller: Controller,
+    *,
+    seed: int | None,
+    on_step: Callable[[np.ndarray, np.ndarray, dict[str, Any]], None] | None = None,
 ) -> tuple[dict[str, Any], np.ndarray, int]:
-    """Drive one autonomous episode; returns (last info, trajectory (N, 2), steps)."""
+    """Drive one autonomous episode; returns (last info, trajectory (N, 2), steps).
+
+    ``on_step(frame, road_values, info)`` sees each frame before its command is executed.
+    """
     obs, info = env.reset(seed=seed)
     controller.reset()
     trajectory = [info["pose"][:2]]
     steps = 0
     while True:
-        obs, _, terminated, truncated, info = env.step(controller.act(obs))
+        if controller.learn:
+            controller.library.learn(obs)
+        values = controller.library.road_values(obs)
+        action = controller.act_on_values(values)
+        if on_step is not None:
+            on_step(obs, values, info)
+        obs, _, terminated, truncated, info = env.step(action)
         trajectory.append(info["pose"][:2])
         steps += 1
         if terminated or truncated:

@@ -114,14 +114,17 @@ class EpisodeTracker:
         return st
 
     @property
-    def failed_corner(self) -> str | None:
-        """The corner a failure is charged to: the first corner not yet negotiated."""
-        if self.state.failure is None:
-            return None
+    def next_corner(self) -> str | None:
+        """The first corner not yet negotiated (None once all are)."""
         for corner in self.track.corners:
             if corner.label not in self.state.corners_negotiated:
                 return corner.label
         return None
+
+    @property
+    def failed_corner(self) -> str | None:
+        """The corner a failure is charged to: the first corner not yet negotiated."""
+        return None if self.state.failure is None else self.next_corner
 
     def lap_fraction(self) -> float:
         """Progress as a fraction of the track length (may exceed 1 past the end of a loop)."""
