@@ -20,9 +20,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from lfd_track.vision.histograms import patch_histograms
 from lfd_track.vision.road_library import RoadLibrary
-from lfd_track.vision.synthetic import synthetic_frames
+from lfd_track.vision.synthetic import patch_library, synthetic_frames
 
 RESULTS = Path(__file__).resolve().parent / "results" / "road_values.json"
 CHANNELS = [(0, 256), (1, 256), (2, 256), (0, 180), (1, 256)]  # plane, range: R G B H S
@@ -48,25 +47,7 @@ def rendered_frames(n: int, seed: int) -> list[np.ndarray]:
 
 def full_library(frames: list[np.ndarray], bins: int, rng: np.random.Generator) -> RoadLibrary:
     """10 types x 10 examples from random 50 x 50 patches of the frames."""
-    types = []
-    for _ in range(10):
-        examples = []
-        for _ in range(10):
-            frame = frames[int(rng.integers(len(frames)))]
-            y, x = int(rng.integers(0, 430)), int(rng.integers(0, 590))
-            model = patch_histograms(frame[y : y + 50, x : x + 50], bins)
-            examples.append({"selections": 0, "comparisons": 0, "model": model.tolist()})
-        types.append({"selections": 0, "comparisons": 0, "examples": examples})
-    return RoadLibrary.from_dict(
-        {
-            "version": 1,
-            "bins": bins,
-            "similarity_threshold": 0.75,
-            "max_types": 10,
-            "max_examples": 10,
-            "types": types,
-        }
-    )
+    return patch_library(frames, bins, rng)
 
 
 def naive_road_values(frame: np.ndarray, models: list[list[np.ndarray]], bins: int) -> np.ndarray:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import tomllib
 import types
 import typing
 from pathlib import Path
@@ -72,3 +73,14 @@ def dataclass_from_table(cls: type[T], table: dict[str, Any], where: str, path: 
         return cls(**kwargs)
     except (TypeError, ValueError) as exc:
         raise FileFormatError(path, f"[{where}] {exc}") from None
+
+
+def read_toml(path: Path | str) -> dict[str, Any]:
+    """Parse a TOML file; unreadable or malformed files fail with one line naming the file."""
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except tomllib.TOMLDecodeError as exc:
+        raise FileFormatError(path, f"not valid TOML ({exc})") from None
+    except OSError as exc:
+        raise FileFormatError(path, f"cannot read ({exc.strerror})") from None

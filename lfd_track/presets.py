@@ -12,7 +12,6 @@ length and each component is drawn independently. Integer keys are rounded.
 from __future__ import annotations
 
 import dataclasses
-import tomllib
 import typing
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from ._data import resolve_data_file
-from .config import dataclass_from_table
+from .config import dataclass_from_table, read_toml
 from .errors import FileFormatError
 from .render.camera import CameraConfig, SensorConfig
 from .render.texture import AppearanceConfig, LightingConfig
@@ -137,13 +136,7 @@ def _parse_ranges(table: Any, path: Path) -> tuple[Range, ...]:
 def load_preset(name_or_path: str | Path = "paper") -> Preset:
     """Load a shipped preset by name (``"paper"``, ``"randomized"``) or a preset TOML file."""
     path = resolve_data_file("envs", name_or_path)
-    try:
-        with open(path, "rb") as fh:
-            data = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise FileFormatError(path, f"not valid TOML ({exc})") from None
-    except OSError as exc:
-        raise FileFormatError(path, f"cannot read ({exc.strerror})") from None
+    data = read_toml(path)
     unknown = sorted(set(data) - _TOP_KEYS)
     if unknown:
         raise FileFormatError(path, f"unknown table or key '{unknown[0]}'")

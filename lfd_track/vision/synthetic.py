@@ -76,3 +76,34 @@ def synthetic_frames(rng: np.random.Generator, n: int) -> list[np.ndarray]:
             )
         )
     return frames
+
+
+def patch_library(frames: list[np.ndarray], bins: int, rng: np.random.Generator):
+    """A full road library (10 types x 10 examples) of random 50 x 50 patches of ``frames``.
+
+    Not built by Algorithm 1: a fixed layout that exercises every model slot, for checking road
+    values against a naive loop and for timing them with a full library.
+    """
+    from .histograms import patch_histograms
+    from .road_library import RoadLibrary
+
+    types = []
+    for _ in range(10):
+        examples = []
+        for _ in range(10):
+            frame = frames[int(rng.integers(len(frames)))]
+            y = int(rng.integers(0, FRAME_HEIGHT - 50))
+            x = int(rng.integers(0, FRAME_WIDTH - 50))
+            model = patch_histograms(frame[y : y + 50, x : x + 50], bins)
+            examples.append({"selections": 0, "comparisons": 0, "model": model.tolist()})
+        types.append({"selections": 0, "comparisons": 0, "examples": examples})
+    return RoadLibrary.from_dict(
+        {
+            "version": 1,
+            "bins": bins,
+            "similarity_threshold": 0.75,
+            "max_types": 10,
+            "max_examples": 10,
+            "types": types,
+        }
+    )

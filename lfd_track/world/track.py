@@ -7,13 +7,13 @@ x to the right and y up when seen from above; loops are listed counter-clockwise
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .._data import resolve_data_file
+from ..config import read_toml
 from ..errors import FileFormatError
 
 #: Rover body width [m]; a track narrower than this cannot be driven.
@@ -408,13 +408,7 @@ def load_track(
     Raises FileFormatError (one line naming the file and the problem) for malformed files.
     """
     path = resolve_data_file("tracks", name_or_path)
-    try:
-        with open(path, "rb") as fh:
-            data = tomllib.load(fh)
-    except tomllib.TOMLDecodeError as exc:
-        raise FileFormatError(path, f"not valid TOML ({exc})") from None
-    except OSError as exc:
-        raise FileFormatError(path, f"cannot read ({exc.strerror})") from None
+    data = read_toml(path)
     name, vertices, closed, width, corners = parse_track(data, path)
     try:
         return build_track(

@@ -3,8 +3,6 @@ frames rendered from the simulated camera."""
 
 from __future__ import annotations
 
-import importlib.util
-
 import numpy as np
 import pytest
 
@@ -29,15 +27,11 @@ def flat_rgb_region(frame: np.ndarray, region: int) -> np.ndarray:
 
 
 def rendered_frames(n: int, seed: int) -> list[np.ndarray]:
-    """Frames from the simulated camera on the testing track, or [] without a renderer."""
-    if importlib.util.find_spec("lfd_track.render.camera") is None:
-        return []
-    try:
-        from lfd_track.render.camera import CameraRenderer
-        from lfd_track.render.texture import AppearanceConfig, LightingConfig, build_ground
-        from lfd_track.world.track import load_track
-    except ImportError:
-        return []
+    """Frames from the simulated camera on straights of the testing track."""
+    from lfd_track.render.camera import CameraRenderer
+    from lfd_track.render.texture import AppearanceConfig, LightingConfig, build_ground
+    from lfd_track.world.track import load_track
+
     rng = np.random.default_rng(seed)
     ground = build_ground(load_track("testing"), AppearanceConfig(), LightingConfig(), rng)
     renderer = CameraRenderer()
@@ -51,7 +45,7 @@ def rendered_frames(n: int, seed: int) -> list[np.ndarray]:
 
 @pytest.fixture(scope="session")
 def frames() -> list[np.ndarray]:
-    """Twelve synthetic frames, one with a flat-RGB region, plus rendered ones if available."""
+    """Twelve synthetic frames, one with a flat-RGB region, plus four rendered by the simulator."""
     out = synthetic_frames(np.random.default_rng(7), 12)
     out[3] = flat_rgb_region(out[3], 5)
     return out + rendered_frames(4, seed=3)

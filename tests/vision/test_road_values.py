@@ -6,6 +6,7 @@ import pytest
 
 from lfd_track.vision.histograms import patch_histograms
 from lfd_track.vision.road_library import RoadLibrary
+from lfd_track.vision.synthetic import patch_library
 
 CHANNELS = [(0, 256), (1, 256), (2, 256), (0, 180), (1, 256)]  # (plane index, range) R G B H S
 
@@ -47,25 +48,7 @@ def naive_road_values(frame, library_models, bins):
 
 def full_library(frames, bins, seed=0):
     """10 types x 10 examples of 50 x 50 patches from the frames (felt, carpet, edges, shade)."""
-    rng = np.random.default_rng(seed)
-    types = []
-    for _ in range(10):
-        examples = []
-        for _ in range(10):
-            frame = frames[int(rng.integers(len(frames)))]
-            y, x = int(rng.integers(0, 430)), int(rng.integers(0, 590))
-            model = patch_histograms(frame[y : y + 50, x : x + 50], bins)
-            examples.append({"selections": 0, "comparisons": 0, "model": model.tolist()})
-        types.append({"selections": 0, "comparisons": 0, "examples": examples})
-    data = {
-        "version": 1,
-        "bins": bins,
-        "similarity_threshold": 0.75,
-        "max_types": 10,
-        "max_examples": 10,
-        "types": types,
-    }
-    return RoadLibrary.from_dict(data)
+    return patch_library(frames, bins, np.random.default_rng(seed))
 
 
 @pytest.mark.parametrize("bins", [16, 32, 256])
