@@ -42,7 +42,14 @@ class DriveVideo:
         canvas = np.concatenate([camera, top], axis=1)
         text = f"progress {info['progress_m']:.2f} m  corners {' '.join(info['corners_negotiated']) or '-'}"
         cv2.putText(
-            canvas, text, (camera.shape[1] + 10, camera.shape[0] - 12), cv2.FONT_HERSHEY_SIMPLEX, 0.6, (255, 255, 255), 2, cv2.LINE_AA
+            canvas,
+            text,
+            (camera.shape[1] + 10, camera.shape[0] - 12),
+            cv2.FONT_HERSHEY_SIMPLEX,
+            0.6,
+            (255, 255, 255),
+            2,
+            cv2.LINE_AA,
         )
         canvas = canvas[: canvas.shape[0] // 2 * 2, : canvas.shape[1] // 2 * 2]
         if self._writer is None:
