@@ -14,7 +14,7 @@ from .presets import Preset, load_preset
 from .render.camera import CameraModel, CameraRenderer
 from .render.texture import GroundTexture, build_ground
 from .render.topdown import draw_topdown
-from .world.episode import OFF_TRACK, EpisodeTracker, reference_step_count
+from .world.episode import EpisodeTracker, reference_step_count
 from .world.rover import Rover
 from .world.track import Track, load_track
 
@@ -234,8 +234,3 @@ class LfDTrackEnv(gym.Env):
     def camera_frame(self) -> np.ndarray | None:
         """The latest rendered camera frame (same array as the last observation)."""
         return self._frame
-
-    @property
-    def off_track(self) -> bool:
-        """Whether the episode ended with both treads off the felt."""
-        return self.episode.state.failure == OFF_TRACK
