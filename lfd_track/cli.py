@@ -141,6 +141,7 @@ def _cmd_drive(args: argparse.Namespace) -> int:
     from .video import DriveVideo
 
     controller = Controller.load(args.controller)
+    controller.learn = controller.learn or args.keep_learning
     env = LfDTrackEnv(track=args.track, reverse=args.reverse, preset=args.preset)
     laps: list[dict[str, Any]] = []
     trajectories = []
@@ -210,6 +211,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         trials_per_direction=trials,
         preset=args.preset,
         human=HumanConfig(careful=not args.careless),
+        keep_learning=args.keep_learning,
     )
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -299,6 +301,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--video", help="write an MP4: camera view with road values beside the top-down view"
     )
     drive.add_argument("--plot", help="write a PNG of the trajectories coloured by outcome")
+    drive.add_argument(
+        "--keep-learning",
+        action="store_true",
+        help="let the road library keep learning from the safe box while driving (default: frozen)",
+    )
     drive.add_argument("--json", action="store_true", help="print the outcomes as JSON")
     drive.set_defaults(func=_cmd_drive)
 
@@ -326,6 +333,11 @@ def build_parser() -> argparse.ArgumentParser:
         "--careless",
         action="store_true",
         help="demonstrator keeps learning while the safe box is off the felt",
+    )
+    bench.add_argument(
+        "--keep-learning",
+        action="store_true",
+        help="road library keeps learning during autonomous runs (default: frozen, as in the paper)",
     )
     bench.add_argument(
         "--quick", action="store_true", help="one repetition, one run per direction (a smoke test)"
