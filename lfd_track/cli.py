@@ -201,6 +201,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     from .benchmark.report import write_benchmark_outputs
     from .benchmark.runner import BenchmarkConfig, run_benchmark
     from .demo.demonstrator import HumanConfig
+    from .presets import load_preset
     from .progress import ProgressBar
 
     repetitions = 1 if args.quick and args.repetitions is None else (args.repetitions or 10)
@@ -213,6 +214,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         human=HumanConfig(careful=not args.careless),
         keep_learning=args.keep_learning,
     )
+    load_preset(args.preset)  # a bad preset fails here, before anything is created
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     work = out / "repetitions"
@@ -365,7 +367,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("lfd-track: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
-    except (LfdTrackError, OSError, ValueError) as exc:
+    except OSError as exc:
+        where = exc.filename if exc.filename is not None else ""
+        message = (
+            f"{where}: {exc.strerror}" if where and exc.strerror else str(exc) or type(exc).__name__
+        )
+        print(f"lfd-track {args.command}: {message.splitlines()[0]}", file=sys.stderr)
+        return EXIT_ERROR
+    except (LfdTrackError, ValueError, OverflowError, RecursionError) as exc:
         message = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         print(f"lfd-track {args.command}: {message}", file=sys.stderr)
         return EXIT_ERROR

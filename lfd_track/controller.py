@@ -152,10 +152,12 @@ class Controller:
             raise FileFormatError(
                 path, f"not valid JSON (truncated or corrupted?): {exc.msg} at line {exc.lineno}"
             ) from None
+        except RecursionError:
+            raise FileFormatError(path, "JSON nested too deeply to be a controller file") from None
         try:
             return cls._from_dict(data)
-        except ValueError as exc:
-            raise FileFormatError(path, str(exc)) from None
+        except (ValueError, TypeError, OverflowError, RecursionError) as exc:
+            raise FileFormatError(path, str(exc) or exc.__class__.__name__) from None
 
     @classmethod
     def _from_dict(cls, data: Any) -> Controller:
@@ -226,4 +228,9 @@ def _reject_constant(name: str) -> float:
 
 
 def _is_finite_number(value: Any) -> bool:
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
+        return False
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:  # an integer too large for a float
+        return False

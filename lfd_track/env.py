@@ -117,7 +117,16 @@ class LfDTrackEnv(gym.Env):
             rover_cfg.pivot_rate_radps * rover_cfg.control_period_s,
         )
         self.max_steps = int(max_steps) if max_steps is not None else int(BUDGET_FACTOR * ideal)
-        self.episode = EpisodeTracker(self.track, self.preset.episode)
+        rules = self.preset.episode
+        if not self.track.closed and (
+            self.track.length_m <= rules.start_offset_m + rules.end_margin_m
+        ):
+            raise ValueError(
+                f"track '{self.track.name}' ({self.track.length_m:.2f} m) is too short for the"
+                f" episode rules: it starts {rules.start_offset_m} m in and ends"
+                f" {rules.end_margin_m} m before the far end"
+            )
+        self.episode = EpisodeTracker(self.track, rules)
         self._ground: GroundTexture | None = None
         self._rover: Rover | None = None
         self._renderer: CameraRenderer | None = None

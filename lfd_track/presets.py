@@ -146,6 +146,13 @@ def load_preset(name_or_path: str | Path = "paper") -> Preset:
         if section in data
     }
     kwargs["randomization"] = _parse_ranges(data.get("randomization", {}), path)
+    camera = kwargs.get("camera")
+    if camera is not None and (camera.width_px, camera.height_px) != (640, 480):
+        raise FileFormatError(
+            path,
+            f"camera must be 640 x 480 px (the road-value grid is 8 x 5 regions of 80 x 96 px),"
+            f" got {camera.width_px} x {camera.height_px}",
+        )
     name = data.get("name", path.stem)
     if not isinstance(name, str):
         raise FileFormatError(path, "'name' must be a string")

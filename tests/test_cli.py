@@ -162,6 +162,31 @@ def test_truncated_demonstration_and_wrong_schema_controller(tmp_path, controlle
     truncated.write_text(controller_file.read_text()[:500])
     proc = run_cli("drive", str(truncated))
     assert proc.returncode == 1 and str(truncated) in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_wrong_schema_demonstration_is_one_line(tmp_path, monkeypatch):
+    import numpy as np
+
+    from lfd_track.demo import dataset
+
+    bad = tmp_path / "future.lfdemo"
+    monkeypatch.setattr(dataset, "SCHEMA_VERSION", dataset.SCHEMA_VERSION + 1)
+    with dataset.DemonstrationWriter(bad, {"track": "training"}, bins=32, fsync=False) as writer:
+        writer.append(0, np.zeros(40), np.zeros((40, 5, 32), np.float32))
+    proc = run_cli("evolve", str(bad), "--out", str(tmp_path / "c.json"))
+    assert proc.returncode == 1 and len(proc.stderr.strip().splitlines()) == 1
+    assert str(bad) in proc.stderr and "schema" in proc.stderr
+    assert not (tmp_path / "c.json").exists()
+
+
+def test_bad_preset_fails_before_the_benchmark_creates_anything(tmp_path):
+    preset = tmp_path / "bad.toml"
+    preset.write_text("[camera]\nzoom = 3\n")
+    out = tmp_path / "bench"
+    proc = run_cli("benchmark", "--quick", "--preset", str(preset), "--out", str(out))
+    assert proc.returncode == 1 and "unknown key 'camera.zoom'" in proc.stderr
+    assert not out.exists()
 
 
 def test_demo_refuses_to_overwrite_and_leaves_the_old_file(tmp_path):

@@ -127,3 +127,13 @@ def test_constructor_checks_weights(trained):
     with pytest.raises(ValueError, match="NaN"):
         Controller(lib, np.full(215, np.nan))
     assert Controller(lib, np.zeros(223), bias=True).bias
+
+
+def test_huge_integers_and_deep_nesting_are_one_line_errors(trained, tmp_path):
+    deep = tmp_path / "deep.json"
+    deep.write_text("[" * 100_000 + "]" * 100_000)
+    _expect_one_line_error(deep, "nested too deeply")
+    path, data = _saved(trained, tmp_path)
+    data["weights"][0] = 10**400  # valid JSON, but no float can hold it
+    path.write_text(json.dumps(data))
+    _expect_one_line_error(path, "finite numbers")

@@ -251,6 +251,8 @@ def test_track_and_preset_paths_are_accepted(tmp_path):
         ('[randomization]\n"camera.zoom" = [1.0, 2.0]\n', "names no preset field"),
         ('[randomization]\n"camera.height_m" = [0.4, 0.3]\n', "low > high"),
         ("[camera\n", "not valid TOML"),
+        ("[camera]\nwidth_px = 320\n", "camera must be 640 x 480"),
+        ("[episode]\ncorner_margin_m = -0.3\n", "corner_margin_m must be a finite number >= 0"),
     ],
 )
 def test_bad_presets_are_rejected_with_one_line(tmp_path, text, problem):
@@ -272,3 +274,10 @@ def test_invalid_action_is_rejected():
     env.reset(seed=0)
     with pytest.raises(ValueError, match="invalid action"):
         env.step(3)
+
+
+def test_a_track_shorter_than_the_episode_margins_is_refused(tmp_path):
+    path = tmp_path / "stub.toml"
+    path.write_text("closed = false\nvertices = [[0.0, 0.0], [0.5, 0.0]]\n")
+    with pytest.raises(ValueError, match="too short for the episode rules"):
+        gym.make("LfDTrack-v0", track=str(path))

@@ -31,6 +31,14 @@ class EpisodeRules:
     end_margin_m: float = 0.40  # open track: success within this distance of the far end [m]
     start_offset_m: float = 0.15  # open track: start this far along the centreline [m]
 
+    def __post_init__(self) -> None:
+        for name in ("corner_margin_m", "reverse_margin_m", "end_margin_m", "start_offset_m"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0.0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {value}")
+        if self.reverse_margin_m == 0.0:
+            raise ValueError("reverse_margin_m must be > 0 (any wobble would count as reversing)")
+
 
 @dataclass
 class EpisodeState:

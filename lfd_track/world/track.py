@@ -14,10 +14,12 @@ import numpy as np
 
 from .._data import resolve_data_file
 from ..config import read_toml
-from ..errors import FileFormatError
+from ..errors import FileFormatError, LfdTrackError
 
 #: Rover body width [m]; a track narrower than this cannot be driven.
 ROVER_WIDTH_M = 0.225
+#: Largest coordinate accepted in a track file [m] (a floor, not a continent).
+MAX_COORDINATE_M = 1000.0
 _TRACK_KEYS = {"name", "description", "closed", "width_m", "vertices", "corners"}
 
 
@@ -223,6 +225,10 @@ class ProgressTracker:
         return self.progress_m
 
 
+class StartCornerError(LfdTrackError, ValueError):
+    """A ``start_corner`` argument that does not fit the track."""
+
+
 def _fail(path: Path | str, problem: str) -> FileFormatError:
     return FileFormatError(path, problem)
 
@@ -280,6 +286,8 @@ def parse_track(
     vertices = np.array(raw, dtype=np.float64).reshape(-1, 2)
     if not np.isfinite(vertices).all():
         raise _fail(source, "'vertices' contains NaN or infinity")
+    if np.abs(vertices).max() > MAX_COORDINATE_M:
+        raise _fail(source, f"'vertices' must lie within ±{MAX_COORDINATE_M:g} m of the origin")
     min_vertices = 3 if closed else 2
     if len(vertices) < min_vertices:
         raise _fail(
@@ -363,10 +371,11 @@ def build_track(
         index = np.roll(index[::-1], shift)
     if start_corner is not None:
         if not closed:
-            raise ValueError(f"{source}: start_corner is only for closed tracks")
+            raise StartCornerError(f"start_corner='{start_corner}': track '{name}' is not a loop")
         if start_corner not in label_to_vertex:
-            raise ValueError(
-                f"{source}: unknown start corner '{start_corner}' (corners: {', '.join(label_to_vertex)})"
+            raise StartCornerError(
+                f"start_corner='{start_corner}': track '{name}' has no such corner"
+                f" (corners: {', '.join(label_to_vertex)})"
             )
         pos = int(np.nonzero(index == label_to_vertex[start_corner])[0][0])
         verts = np.roll(verts, -pos, axis=0)
@@ -421,5 +430,7 @@ def load_track(
             start_corner=start_corner,
             source=str(path),
         )
+    except StartCornerError:
+        raise  # the argument is wrong, not the file
     except ValueError as exc:
         raise FileFormatError(path, str(exc).split(": ", 1)[-1]) from None

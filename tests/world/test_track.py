@@ -129,6 +129,7 @@ def _write(tmp_path, text):
         ("closed = false\nvertices = [[0.0, 0.0], [1.0, 0.0], [0.0, 0.0]]\n", "self-intersecting"),
         ('closed = false\nvertices = [[0.0, 0.0], [1.0, 0.0]]\n[corners]\n"1" = 7\n', "corner '1'"),
         ("this is = not toml [", "not valid TOML"),
+        ("closed = false\nvertices = [[0.0, 0.0], [1e300, 0.0]]\n", "within ±1000 m"),
     ],
 )
 def test_bad_track_files_are_rejected_with_one_line(tmp_path, text, problem):
@@ -159,3 +160,12 @@ def test_sbend_track_is_a_valid_general_loop():
         for i in range(len(v))
     )
     assert total == pytest.approx(2 * math.pi)  # a simple counter-clockwise loop
+
+
+def test_bad_start_corner_blames_the_argument_not_the_file():
+    from lfd_track.world.track import StartCornerError
+
+    with pytest.raises(StartCornerError, match="start_corner='1': track 'training' is not a loop"):
+        load_track("training", start_corner="1")
+    with pytest.raises(StartCornerError, match="has no such corner"):
+        load_track("testing", start_corner="9")

@@ -1,0 +1,43 @@
+"""Atomic writes: complete files only, ordinary permissions, clear refusal of a folder."""
+
+from __future__ import annotations
+
+import os
+import stat
+
+import pytest
+
+from lfd_track.atomic import atomic_write_bytes, atomic_write_text
+
+
+def test_write_replaces_the_file_whole_with_ordinary_permissions(tmp_path):
+    path = tmp_path / "sub" / "out.json"
+    atomic_write_text(path, "old")
+    atomic_write_text(path, "new")
+    assert path.read_text() == "new"
+    mask = os.umask(0)
+    os.umask(mask)
+    assert stat.S_IMODE(path.stat().st_mode) == 0o666 & ~mask
+    assert sorted(p.name for p in path.parent.iterdir()) == ["out.json"]
+
+
+def test_a_folder_is_refused_and_nothing_is_left_behind(tmp_path):
+    folder = tmp_path / "results"
+    folder.mkdir()
+    with pytest.raises(IsADirectoryError, match="is a folder"):
+        atomic_write_bytes(folder, b"x")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["results"]
+
+
+def test_a_failed_write_keeps_the_old_file(tmp_path, monkeypatch):
+    path = tmp_path / "keep.txt"
+    atomic_write_text(path, "precious")
+
+    def broken_replace(src, dst):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(os, "replace", broken_replace)
+    with pytest.raises(OSError, match="disk full"):
+        atomic_write_text(path, "half")
+    assert path.read_text() == "precious"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["keep.txt"]
