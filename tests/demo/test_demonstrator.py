@@ -45,11 +45,35 @@ def test_library_only_commands_are_not_recorded_and_turnarounds_are(default_demo
 
 
 def test_record_time_values_come_from_the_stored_histograms(default_demo):
+    from lfd_track.vision.road_library import RoadLibrary
+
     _, demo = default_demo
     assert demo.road_values.shape == (demo.n_cases, 40)
     assert demo.histograms.shape == (demo.n_cases, 40, 5, 32)
-    assert np.all(np.abs(demo.road_values) <= 1.0 + 1e-9)
-    assert np.isfinite(demo.poses).all()
+    # After the last case nothing more was learned, so the stored final library reproduces the
+    # last case's record-time values from its stored histograms.
+    library = RoadLibrary.from_dict(demo.metadata["road_library"])
+    last = library.road_values_from_histograms(demo.histograms[-1], update_statistics=False)
+    np.testing.assert_allclose(last, demo.road_values[-1], atol=1e-9)
+    # Earlier cases were recorded with a younger library: not all of them match the final one.
+    first = library.road_values_from_histograms(demo.histograms[0], update_statistics=False)
+    assert not np.allclose(first, demo.road_values[0])
+
+
+def test_learning_happened_only_with_the_safe_box_on_the_felt(default_demo):
+    from lfd_track.render.camera import CameraModel
+    from lfd_track.world.track import load_track
+
+    _, demo = default_demo
+    track = load_track("training")
+    camera = CameraModel()
+    box_on_felt = np.array(
+        [bool(track.on_felt(camera.safe_box_floor_polygon(pose)).all()) for pose in demo.poses]
+    )
+    assert demo.learned.any() and (~box_on_felt).any()
+    # Recomputed independently from the stored poses: no learning with the box off the felt.
+    assert not (demo.learned & ~box_on_felt).any()
+    assert (demo.learned == box_on_felt).all()
 
 
 def test_careless_demonstrator_learns_carpet(tmp_path):
@@ -78,3 +102,59 @@ def test_human_traits_are_validated():
 def test_loop_tracks_are_refused(tmp_path):
     with pytest.raises(ValueError, match="open track"):
         run_demonstration(tmp_path / "x.lfdemo", seed=0, track="testing", fsync=False)
+
+
+class _FixedDriver:
+    """Stands in for the centreline driver: answers a scripted sequence of commands."""
+
+    def __init__(self, commands):
+        self.commands = list(commands)
+
+    def act(self, pose, progress_m):
+        return self.commands.pop(0)
+
+
+def _decide_all(config, intended, seed=0):
+    from lfd_track.demo.demonstrator import ScriptedHuman
+
+    human = ScriptedHuman(config, np.random.default_rng(seed))
+    driver = _FixedDriver(intended)
+    return [human.decide(driver, np.zeros(3), 0.0) for _ in intended]
+
+
+def test_reaction_delay_answers_the_previous_frame():
+    from lfd_track.commands import Command as C
+
+    calm = HumanConfig(reaction_delay_prob=0.0, lapse_prob=0.0)
+    late = HumanConfig(reaction_delay_prob=1.0, lapse_prob=0.0)
+    intended = [C.FORWARD, C.LEFT, C.FORWARD, C.FORWARD, C.RIGHT, C.FORWARD]
+    assert _decide_all(calm, intended) == intended
+    assert _decide_all(late, intended) == [
+        C.FORWARD,
+        C.FORWARD,
+        C.LEFT,
+        C.FORWARD,
+        C.FORWARD,
+        C.RIGHT,
+    ]
+
+
+def test_lapses_repeat_the_last_command():
+    from lfd_track.commands import Command as C
+
+    lapsing = HumanConfig(reaction_delay_prob=0.0, lapse_prob=1.0)
+    intended = [C.LEFT, C.FORWARD, C.RIGHT, C.FORWARD]
+    assert _decide_all(lapsing, intended) == [C.FORWARD] * 4  # starts on forward, never lets go
+
+
+def test_never_left_straight_after_right():
+    from lfd_track.commands import Command as C
+
+    calm = HumanConfig(reaction_delay_prob=0.0, lapse_prob=0.0)
+    intended = [C.LEFT, C.RIGHT, C.RIGHT, C.LEFT, C.FORWARD, C.LEFT]
+    assert _decide_all(calm, intended) == [C.LEFT, C.FORWARD, C.RIGHT, C.FORWARD, C.FORWARD, C.LEFT]
+    noisy = HumanConfig(reaction_delay_prob=0.3, lapse_prob=0.2)
+    rng = np.random.default_rng(4)
+    sequence = [C(int(c)) for c in rng.integers(0, 3, 500)]
+    out = _decide_all(noisy, sequence, seed=5)
+    assert all({a, b} != {C.LEFT, C.RIGHT} for a, b in zip(out, out[1:], strict=False))
