@@ -195,7 +195,8 @@ def test_safe_box_model_uses_the_bottom_centre_patch(frames):
 
 
 def test_safe_box_matches_renderer():
-    camera = pytest.importorskip("lfd_track.render.camera")
+    from lfd_track.render import camera
+
     rows, cols = safe_box_slices()
     render_box = camera.SAFE_BOX
     probe = np.zeros((480, 640), np.uint8)

@@ -97,8 +97,7 @@ def test_flat_region_engages_opencv_rule(frames):
 
 def test_rendered_frames_equal_naive_loop(frames):
     rendered = frames[12:]
-    if not rendered:
-        pytest.skip("lfd_track.render is not available")
+    assert len(rendered) == 4
     library = RoadLibrary()
     for frame in rendered:
         library.learn(frame)
