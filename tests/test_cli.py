@@ -86,6 +86,15 @@ def test_drive_video_shows_camera_and_top_down(controller_file, tmp_path):
     assert frame.shape[0] == 480 and frame.shape[1] > 640  # camera view plus the top-down view
     assert cap.get(cv2.CAP_PROP_FRAME_COUNT) >= 5
     cap.release()
+    camera_half = cv2.cvtColor(frame[:, :640], cv2.COLOR_BGR2RGB).astype(int)
+    # The road-value overlay tints regions green (road) and red (not road) and draws the grid.
+    greenish = (camera_half[..., 1] > camera_half[..., 0] + 40) & (
+        camera_half[..., 1] > camera_half[..., 2]
+    )
+    reddish = camera_half[..., 0] > camera_half[..., 1] + 60
+    assert greenish.mean() > 0.1 and reddish.mean() > 0.05
+    grid_column = camera_half[:, 78:83].mean(axis=(0, 2))
+    assert grid_column.min() < camera_half.mean() * 0.7  # a dark grid line near x = 80
 
 
 def test_quick_benchmark_writes_results_report_and_plots(tmp_path):

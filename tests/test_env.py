@@ -206,17 +206,27 @@ def test_async_vector_env_steps():
 
 
 def test_rgb_array_render_is_a_top_down_picture():
+    from lfd_track.render import topdown
+
     env = gym.make("LfDTrack-v0", render_mode="rgb_array")
     env.reset(seed=0)
-    for _ in range(5):
+    before = env.render()
+    for _ in range(8):
         env.step(0)
     picture = env.render()
     assert picture.dtype == np.uint8 and picture.ndim == 3 and picture.shape[2] == 3
     assert picture.shape[1] >= 400
-    # Felt (bluish) and carpet (brownish) are both drawn.
-    pixels = picture.reshape(-1, 3).astype(int)
-    assert (pixels[:, 2] > pixels[:, 0] + 40).any()
-    assert (pixels[:, 0] > pixels[:, 2] + 20).any()
+
+    def count(image, rgb):
+        return int((np.abs(image.astype(int) - rgb).sum(axis=2) <= 6).sum())
+
+    for rgb in (topdown.FELT_RGB, topdown.CARPET_RGB, topdown.ROVER_RGB, topdown.FOOTPRINT_RGB):
+        assert count(picture, rgb) > 50, rgb
+    # The trajectory grows as the rover drives; the rover moves with it.
+    assert count(picture, topdown.TRAJECTORY_RGB) > count(before, topdown.TRAJECTORY_RGB) + 50
+    rover_before = np.argwhere(np.abs(before.astype(int) - topdown.ROVER_RGB).sum(axis=2) <= 6)
+    rover_after = np.argwhere(np.abs(picture.astype(int) - topdown.ROVER_RGB).sum(axis=2) <= 6)
+    assert rover_after[:, 1].mean() > rover_before[:, 1].mean() + 20  # drove right (+x)
 
 
 def test_randomized_preset_varies_the_world_per_episode():
