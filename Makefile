@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 
-.PHONY: benchmark test setup setup-test lint
+.PHONY: benchmark test setup setup-test setup-bench lint
 
 $(BIN)/python:
 	$(PYTHON) -m venv $(VENV)
@@ -13,6 +13,10 @@ setup: $(BIN)/python
 	$(BIN)/pip install --quiet .
 
 setup-test: $(BIN)/python
+	$(BIN)/pip install --quiet -e ".[test]"
+
+# Speed benchmarks (benchmarks/*.py) also need DEAP and Box2D: `make setup-bench`.
+setup-bench: $(BIN)/python
 	$(BIN)/pip install --quiet -e ".[test,bench]"
 
 benchmark: setup
@@ -22,4 +26,6 @@ test: setup-test
 	$(BIN)/python -m pytest -n 2 -q
 
 lint: setup-test
+	$(BIN)/pip install --quiet ruff
 	$(BIN)/ruff check lfd_track tests benchmarks
+	$(BIN)/ruff format --check lfd_track tests benchmarks

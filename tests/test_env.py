@@ -115,10 +115,13 @@ def test_turning_around_ends_reversed_and_is_charged_to_the_next_corner():
     for _ in range(8):  # pivot round on the straight
         _, _, terminated, _, info = env.step(1)
         assert not terminated
+    rewards = []
     for _ in range(10):
-        _, _, terminated, _, info = env.step(0)
+        _, reward, terminated, _, info = env.step(0)
+        rewards.append(reward)
         if terminated:
             break
+    assert rewards[0] < 0  # driving back along the track earns negative reward
     assert info["failure"] == "reversed"
     assert info["failed_corner"] == "1"
 
