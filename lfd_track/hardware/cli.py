@@ -10,10 +10,12 @@ runs the same commands stand-alone.
 from __future__ import annotations
 
 import argparse
+import signal
 import statistics
 import sys
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from typing import Any
 
 from ..errors import LfdTrackError
@@ -21,6 +23,9 @@ from ..errors import LfdTrackError
 EXIT_OK = 0
 EXIT_ERROR = 1
 EXIT_INTERRUPTED = 130
+
+_STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
+"""Signals that stop ``hardware sim`` cleanly, like Ctrl-C (``kill PID``, closed terminal)."""
 
 
 def _fail(message: str) -> int:
@@ -44,23 +49,51 @@ def _guarded(handler: Callable[[argparse.Namespace], int]) -> Callable[[argparse
 
 
 # ---------------------------------------------------------------------------------------- sim
+@contextmanager
+def _stop_signals_interrupt() -> Iterator[None]:
+    """Make SIGTERM and SIGHUP raise ``KeyboardInterrupt`` in the main thread, as Ctrl-C does.
+
+    Their default action ends the process at once, leaving the harness running and its files
+    behind; handled like Ctrl-C, the normal clean-up runs. The previous handlers are restored.
+    """
+
+    def interrupt(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt
+
+    previous = {signum: signal.signal(signum, interrupt) for signum in _STOP_SIGNALS}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+
+
 def _cmd_sim(args: argparse.Namespace) -> int:
     from .simavr import FIRMWARE_BAUD, SimavrError, SimulatedBoard
 
+    board = SimulatedBoard(build_dir=args.build_dir, keep_files=args.keep_log)
+    log_path = None
     try:
-        board = SimulatedBoard(build_dir=args.build_dir).start()
-    except SimavrError as exc:
-        return _fail(str(exc))
-    try:
-        print(f"simulated board running; serial URL: {board.serial_url} (baud {FIRMWARE_BAUD})")
-        print("motor log:", board.log_path)
-        print("press Ctrl-C to stop", flush=True)
-        try:
-            threading.Event().wait()  # until Ctrl-C
-        except KeyboardInterrupt:
-            print("stopping the simulated board")
+        with _stop_signals_interrupt():
+            try:
+                board.start()
+            except SimavrError as exc:
+                return _fail(str(exc))
+            except KeyboardInterrupt:
+                print("interrupted before the simulated board started", file=sys.stderr)
+                return EXIT_INTERRUPTED
+            log_path = board.log_path
+            print(f"simulated board running; serial URL: {board.serial_url} (baud {FIRMWARE_BAUD})")
+            print("motor log:", log_path)
+            print("press Ctrl-C to stop", flush=True)
+            try:
+                threading.Event().wait()  # until Ctrl-C, SIGTERM or SIGHUP
+            except KeyboardInterrupt:
+                print("stopping the simulated board", flush=True)
     finally:
-        board.close()
+        board.close()  # stops the harness; removes its files unless --keep-log
+    if args.keep_log and log_path is not None:
+        print("motor log kept:", log_path)
     return EXIT_OK
 
 
@@ -246,9 +279,14 @@ def add_hardware_parser(subparsers: Any) -> argparse.ArgumentParser:
     commands.required = True
 
     sim = commands.add_parser(
-        "sim", help="run the firmware in simavr and print its serial URL (until Ctrl-C)"
+        "sim", help="run the firmware in simavr and print its serial URL (until Ctrl-C/SIGTERM)"
     )
     sim.add_argument("--build-dir", default=None, help="build folder (default hardware/build)")
+    sim.add_argument(
+        "--keep-log",
+        action="store_true",
+        help="keep the run folder with the motor log after stopping (removed by default)",
+    )
     sim.set_defaults(func=_guarded(_cmd_sim))
 
     check = commands.add_parser(

@@ -164,17 +164,21 @@ class SimulatedBoard:
     Arguments:
         build_dir: where firmware and harness are built (default ``hardware/build``).
         start_timeout_s: how long to wait for the harness to announce its pty.
+        keep_files: leave the run folder (motor log, harness stderr) in place on ``close()``;
+            by default it is removed.
     """
 
     def __init__(
         self,
         build_dir: str | os.PathLike[str] | None = None,
         start_timeout_s: float = 30.0,
+        keep_files: bool = False,
     ) -> None:
         self._build_dir = Path(build_dir) if build_dir is not None else HARDWARE_DIR / "build"
         self._start_timeout_s = start_timeout_s
+        self._keep_files = keep_files
         self._proc: subprocess.Popen[bytes] | None = None
-        self._run_dir: tempfile.TemporaryDirectory[str] | None = None
+        self._run_dir: Path | None = None
         self._serial_url: str | None = None
         self._exit_code: int | None = None
 
@@ -191,11 +195,16 @@ class SimulatedBoard:
         return self._serial_url
 
     @property
-    def log_path(self) -> Path:
-        """Motor log file written by the harness."""
+    def run_dir(self) -> Path:
+        """Folder of this run's files (``lfd-rover-sim-*`` in the temporary directory)."""
         if self._run_dir is None:
             raise SimavrError("the simulated board is not running (use it as a context manager)")
-        return Path(self._run_dir.name) / "motors.csv"
+        return self._run_dir
+
+    @property
+    def log_path(self) -> Path:
+        """Motor log file written by the harness."""
+        return self.run_dir / "motors.csv"
 
     def start(self) -> SimulatedBoard:
         """Build if needed, start the harness and wait until its pty exists."""
@@ -203,16 +212,16 @@ class SimulatedBoard:
             return self
         elf = build_firmware(self._build_dir / "firmware")
         exe = build_harness(self._build_dir / "sim")
-        self._run_dir = tempfile.TemporaryDirectory(prefix="lfd-rover-sim-")
-        stderr_path = Path(self._run_dir.name) / "harness.stderr"
-        with open(stderr_path, "wb") as stderr:
-            self._proc = subprocess.Popen(
-                [str(exe), "--log", str(self.log_path), str(elf)],
-                stdin=subprocess.DEVNULL,
-                stdout=subprocess.PIPE,
-                stderr=stderr,
-            )
+        self._run_dir = Path(tempfile.mkdtemp(prefix="lfd-rover-sim-"))
+        stderr_path = self._run_dir / "harness.stderr"
         try:
+            with open(stderr_path, "wb") as stderr:
+                self._proc = subprocess.Popen(
+                    [str(exe), "--log", str(self.log_path), str(elf)],
+                    stdin=subprocess.DEVNULL,
+                    stdout=subprocess.PIPE,
+                    stderr=stderr,
+                )
             self._serial_url = self._read_pty_line(stderr_path)
         except BaseException:
             self.close()
@@ -272,7 +281,10 @@ class SimulatedBoard:
         return parse_motor_log(self.log_path.read_text(), since_reset)
 
     def close(self) -> None:
-        """Stop the harness (SIGTERM, then SIGKILL after 5 s) and remove its files."""
+        """Stop the harness (SIGTERM, then SIGKILL after 5 s) and remove its files.
+
+        The run folder stays if the board was made with ``keep_files=True``.
+        """
         proc, self._proc = self._proc, None
         if proc is not None:
             if proc.poll() is None:
@@ -286,9 +298,9 @@ class SimulatedBoard:
             if proc.stdout is not None:
                 proc.stdout.close()
         self._serial_url = None
-        if self._run_dir is not None:
-            self._run_dir.cleanup()
-            self._run_dir = None
+        run_dir, self._run_dir = self._run_dir, None
+        if run_dir is not None and not self._keep_files:
+            shutil.rmtree(run_dir, ignore_errors=True)
 
     def __enter__(self) -> SimulatedBoard:
         return self.start()

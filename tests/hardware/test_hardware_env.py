@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import _thread
 import importlib.util
+import shutil
+import signal
+import subprocess
 import sys
 from pathlib import Path
 
@@ -342,3 +345,54 @@ def test_cli_check_with_lease_test_on_the_simulated_firmware(simulated_board, ca
     out = capsys.readouterr().out
     assert code == 0, out
     assert "lease watchdog stopped the motors" in out and "OK:" in out
+
+
+def _processes_mentioning(text: str) -> list[int]:
+    """Ids of running processes whose command line contains ``text`` (Linux ``/proc``)."""
+    found = []
+    for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
+        try:
+            if text.encode() in cmdline.read_bytes():
+                found.append(int(cmdline.parent.name))
+        except OSError:
+            continue  # the process ended while we looked
+    return found
+
+
+@pytest.mark.simavr
+@pytest.mark.parametrize("keep_log", [False, True])
+def test_cli_sim_stops_cleanly_on_sigterm(simulated_board, keep_log: bool) -> None:
+    """``kill PID`` stops the harness and removes its files, as Ctrl-C does."""
+    argv = [sys.executable, "-m", "lfd_track.hardware.cli", "hardware", "sim"]
+    proc = subprocess.Popen(
+        argv + (["--keep-log"] if keep_log else []),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=Path(__file__).resolve().parents[2],
+    )
+    try:
+        lines = []
+        while not lines or not lines[-1].startswith("press Ctrl-C"):
+            line = proc.stdout.readline()  # returns "" at once if the command died
+            assert line, f"hardware sim ended early: {lines} {proc.communicate()[1]}"
+            lines.append(line)
+        log_path = Path(
+            next(x for x in lines if x.startswith("motor log:")).split(": ", 1)[1].strip()
+        )
+        assert log_path.parent.name.startswith("lfd-rover-sim-") and log_path.is_file()
+        assert _processes_mentioning(str(log_path))  # the harness runs
+        proc.send_signal(signal.SIGTERM)
+        out, err = proc.communicate(timeout=30)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0, err
+    assert "stopping the simulated board" in out
+    assert not _processes_mentioning(str(log_path))  # the harness was stopped
+    if keep_log:
+        assert log_path.is_file() and f"motor log kept: {log_path}" in out
+        shutil.rmtree(log_path.parent)
+    else:
+        assert not log_path.parent.exists()
