@@ -103,8 +103,19 @@ def _cmd_check(args: argparse.Namespace) -> int:
     from .link import RobotLink
 
     link = RobotLink(args.serial, baudrate=args.baud, boot_wait_s=args.boot_wait)
+    if args.boot_wait > 0:
+        print(
+            f"waiting up to {args.boot_wait:g} s for the board's boot frame (a USB board resets "
+            "when the port opens; reset or power-cycle any other board now)",
+            flush=True,
+        )
     with link:
-        version = link.firmware_version or "unknown (no boot frame seen; reset the board to see it)"
+        # The firmware names its version only in the boot frame (the ack format is fixed), so a
+        # board that booted before the port opened cannot tell it.
+        version = link.firmware_version or (
+            "unknown (the board's boot frame was not seen; reset or power-cycle the board while "
+            "check waits for it with --boot-wait S)"
+        )
         print(f"connected to {args.serial}; firmware version: {version}")
         rtts = [link.ping().rtt_ms for _ in range(args.pings)]
         stats = link.stats()
@@ -246,7 +257,8 @@ def _add_link_options(parser: argparse.ArgumentParser) -> None:
         type=float,
         default=0.0,
         metavar="S",
-        help="seconds to wait for the board's boot frame (a USB Arduino resets on open; try 2)",
+        help="seconds to wait for the board's boot frame, which names the firmware version "
+        "(a USB Arduino resets on open, try 2; reset other boards by hand during the wait)",
     )
     parser.add_argument(
         "--watchdog-ms", type=int, default=300, help="board motor watchdog [ms] (default 300)"

@@ -284,6 +284,24 @@ def test_cli_check_runs_the_motionless_self_test(capsys) -> None:
     assert board.state == "S" and not board.estopped  # e-stop cleared, motors off
 
 
+def test_cli_check_explains_an_unknown_firmware_version(capsys) -> None:
+    with FakeBoard(boot=False) as board:  # booted before the port opened
+        code = _run_cli("check", "--serial", board.url, "--pings", "1")
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "firmware version: unknown (the board's boot frame was not seen;" in out
+    assert "--boot-wait S" in out
+
+
+def test_cli_check_boot_wait_sees_a_board_reset_during_the_wait(capsys) -> None:
+    with FakeBoard(boot_delay_s=0.3) as board:  # someone presses reset after the port opened
+        code = _run_cli("check", "--serial", board.url, "--pings", "1", "--boot-wait", "5")
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "waiting up to 5 s for the board's boot frame" in out
+    assert "firmware version: fake-1" in out
+
+
 def test_cli_drive_runs_a_controller_file(controller_file: Path, capsys) -> None:
     with FakeBoard() as board, MjpegServer() as server:
         code = _run_cli(

@@ -28,7 +28,9 @@ class FakeBoard:
 
     ``mode``: ``"ok"``, ``"silent"`` (reads but never replies), ``"corrupt"`` (replies with a bad
     CRC) or ``"disconnect"`` (closes the connection on the next frame). ``fault_after``: the number
-    of frames answered normally before ``mode`` applies. Every frame received is recorded with its
+    of frames answered normally before ``mode`` applies. ``boot_delay_s``: when the boot frame
+    goes out after the connection opens (if ``boot``), as if the board were reset then; frames
+    are answered before it too. Every frame received is recorded with its
     arrival time in ``received``. ``lease_lapses`` counts the times the real firmware's watchdog
     would have stopped the motors: a drive frame arrived while moving, more than ``watchdog_ms``
     after the previous one.
@@ -40,11 +42,13 @@ class FakeBoard:
         mode: str = "ok",
         fault_after: int = 0,
         boot: bool = True,
+        boot_delay_s: float = 0.05,
         on_frame=None,
     ) -> None:
         self.mode = mode
         self.fault_after = fault_after
         self.boot = boot
+        self.boot_delay_s = boot_delay_s
         self.on_frame = on_frame
         self.received: list[tuple[float, protocol.Frame]] = []
         self.state = "S"
@@ -140,14 +144,22 @@ class FakeBoard:
             return
         self._conn = conn
         parser = protocol.FrameParser()
+        # Like a real bootloader, announce a moment after the port opens (pyserial drops input
+        # that arrives while it is still opening the port); frames are answered meanwhile.
+        boot_at = time.monotonic() + self.boot_delay_s if self.boot else None
         try:
-            if self.boot:
-                # Like a real bootloader, announce a moment after the port opens (pyserial drops
-                # input that arrives while it is still opening the port).
-                self._closed.wait(0.05)
-                conn.sendall(protocol.encode_frame(protocol.BOOT, 0, "fake-1"))
             while not self._closed.is_set():
-                data = conn.recv(256)
+                if boot_at is not None:
+                    if time.monotonic() >= boot_at:
+                        conn.sendall(protocol.encode_frame(protocol.BOOT, 0, "fake-1"))
+                        boot_at = None
+                    conn.settimeout(
+                        None if boot_at is None else max(boot_at - time.monotonic(), 0.001)
+                    )
+                try:
+                    data = conn.recv(256)
+                except TimeoutError:
+                    continue  # time to boot
                 if not data:
                     return
                 for item in parser.feed(data):
