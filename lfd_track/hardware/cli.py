@@ -83,10 +83,13 @@ def _cmd_sim(args: argparse.Namespace) -> int:
                 print("interrupted before the simulated board started", file=sys.stderr)
                 return EXIT_INTERRUPTED
             log_path = board.log_path
-            print(f"simulated board running; serial URL: {board.serial_url} (baud {FIRMWARE_BAUD})")
-            print("motor log:", log_path)
-            print("press Ctrl-C to stop", flush=True)
-            try:
+            try:  # a stop request may come as soon as the URL is out, even before the wait
+                print(
+                    f"simulated board running; serial URL: {board.serial_url} "
+                    f"(baud {FIRMWARE_BAUD})"
+                )
+                print("motor log:", log_path)
+                print("press Ctrl-C to stop", flush=True)
                 threading.Event().wait()  # until Ctrl-C, SIGTERM or SIGHUP
             except KeyboardInterrupt:
                 print("stopping the simulated board", flush=True)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import _thread
 import importlib.util
+import os
 import shutil
 import signal
 import subprocess
@@ -389,6 +390,7 @@ def test_cli_sim_stops_cleanly_on_sigterm(simulated_board, keep_log: bool) -> No
         text=True,
         cwd=Path(__file__).resolve().parents[2],
     )
+    log_path = None
     try:
         lines = []
         while not lines or not lines[-1].startswith("press Ctrl-C"):
@@ -402,15 +404,19 @@ def test_cli_sim_stops_cleanly_on_sigterm(simulated_board, keep_log: bool) -> No
         assert _processes_mentioning(str(log_path))  # the harness runs
         proc.send_signal(signal.SIGTERM)
         out, err = proc.communicate(timeout=30)
+        assert proc.returncode == 0, err
+        assert "stopping the simulated board" in out
+        assert not _processes_mentioning(str(log_path))  # the harness was stopped
+        if keep_log:
+            assert log_path.is_file() and f"motor log kept: {log_path}" in out
+        else:
+            assert not log_path.parent.exists()
     finally:
         if proc.poll() is None:
             proc.kill()
             proc.communicate()
-    assert proc.returncode == 0, err
-    assert "stopping the simulated board" in out
-    assert not _processes_mentioning(str(log_path))  # the harness was stopped
-    if keep_log:
-        assert log_path.is_file() and f"motor log kept: {log_path}" in out
-        shutil.rmtree(log_path.parent)
-    else:
-        assert not log_path.parent.exists()
+        if log_path is not None:
+            # Whatever a failure left behind: the harness of this run, its folder.
+            for pid in _processes_mentioning(str(log_path)):
+                os.kill(pid, signal.SIGKILL)
+            shutil.rmtree(log_path.parent, ignore_errors=True)
