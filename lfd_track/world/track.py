@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -50,27 +51,27 @@ class Track:
     reversed: bool = False
 
     # ---- derived geometry -------------------------------------------------------------
-    @property
+    @cached_property
     def segment_starts(self) -> np.ndarray:
         """(S, 2) start points of the driven segments [m]."""
         return self.vertices if self.closed else self.vertices[:-1]
 
-    @property
+    @cached_property
     def segment_ends(self) -> np.ndarray:
         """(S, 2) end points of the driven segments [m]."""
         return np.roll(self.vertices, -1, axis=0) if self.closed else self.vertices[1:]
 
-    @property
+    @cached_property
     def segment_lengths(self) -> np.ndarray:
         """(S,) segment lengths [m]."""
         return np.linalg.norm(self.segment_ends - self.segment_starts, axis=1)
 
-    @property
+    @cached_property
     def segment_s(self) -> np.ndarray:
         """(S,) arc length at the start of each segment [m]."""
         return np.concatenate([[0.0], np.cumsum(self.segment_lengths)[:-1]])
 
-    @property
+    @cached_property
     def length_m(self) -> float:
         """Centreline length: perimeter for a loop, end-to-end length if open [m]."""
         return float(self.segment_lengths.sum())
@@ -101,27 +102,32 @@ class Track:
         lo, hi = pts.min(axis=0) - margin_m, pts.max(axis=0) + margin_m
         return float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1])
 
+    @cached_property
+    def _strip_frames(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Per strip: start (S, 2), unit direction (S, 2), length, back and front extension [m]."""
+        a = self.segment_starts
+        lengths = self.segment_lengths
+        d = (self.segment_ends - a) / lengths[:, None]
+        half = self.width_m / 2.0
+        ext_a = np.full(len(a), half)
+        ext_b = np.full(len(a), half)
+        if not self.closed:
+            ext_a[0] = 0.0
+            ext_b[-1] = 0.0
+        return a, d, lengths, ext_a, ext_b
+
     def on_felt(self, points: np.ndarray) -> np.ndarray:
         """Whether each of ``points`` (..., 2) [m] lies on the felt; returns bool array (...)."""
         pts = np.asarray(points, dtype=np.float64)
         flat = pts.reshape(-1, 2)
-        a, b = self.segment_starts, self.segment_ends
-        lengths = self.segment_lengths
-        d = (b - a) / lengths[:, None]
-        half = self.width_m / 2.0
-        n = len(a)
-        ext_a = np.full(n, half)
-        ext_b = np.full(n, half)
-        if not self.closed:
-            ext_a[0] = 0.0
-            ext_b[-1] = 0.0
+        a, d, lengths, ext_a, ext_b = self._strip_frames
         rel = flat[:, None, :] - a[None, :, :]  # (P, S, 2)
         along = rel[..., 0] * d[None, :, 0] + rel[..., 1] * d[None, :, 1]
         across = -rel[..., 0] * d[None, :, 1] + rel[..., 1] * d[None, :, 0]
         inside = (
             (along >= -ext_a[None])
             & (along <= lengths[None] + ext_b[None])
-            & (np.abs(across) <= half)
+            & (np.abs(across) <= self.width_m / 2.0)
         )
         return inside.any(axis=1).reshape(pts.shape[:-1])
 
