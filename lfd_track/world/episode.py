@@ -141,12 +141,5 @@ class EpisodeTracker:
 
 def reference_step_count(track: Track, forward_step_m: float, pivot_step_rad: float) -> int:
     """Commands an ideal driver needs: the length in forward steps plus every corner in pivots."""
-    turns = 0.0
-    n = len(track.vertices)
-    verts = track.vertices
-    inner = range(n) if track.closed else range(1, n - 1)
-    for i in inner:
-        a, b, c = verts[(i - 1) % n], verts[i], verts[(i + 1) % n]
-        d1, d2 = b - a, c - b
-        turns += abs(math.atan2(d1[0] * d2[1] - d1[1] * d2[0], float(np.dot(d1, d2))))
+    turns = float(np.abs(track.vertex_turns_rad).sum())
     return int(math.ceil(track.length_m / forward_step_m + turns / pivot_step_rad))

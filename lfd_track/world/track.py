@@ -76,6 +76,11 @@ class Track:
         """Centreline length: perimeter for a loop, end-to-end length if open [m]."""
         return float(self.segment_lengths.sum())
 
+    @cached_property
+    def vertex_turns_rad(self) -> np.ndarray:
+        """(V,) signed turning angle at each vertex, left positive [rad]; 0 at open-track ends."""
+        return vertex_turns_rad(self.vertices, self.closed)
+
     def strip_polygons(self) -> list[np.ndarray]:
         """Felt strips as (4, 2) rectangles [m], counter-clockwise corners.
 
@@ -178,14 +183,8 @@ class ProgressTracker:
         self._dir = (b - a) / self._len[:, None]
         self._s0 = track.segment_s
         n = len(a)
-        turns = np.zeros(len(track.vertices))
-        verts = track.vertices
-        m = len(verts)
-        for i in range(m):
-            if not track.closed and i in (0, m - 1):
-                continue
-            d1, d2 = verts[i] - verts[(i - 1) % m], verts[(i + 1) % m] - verts[i]
-            turns[i] = math.atan2(d1[0] * d2[1] - d1[1] * d2[0], float(np.dot(d1, d2)))
+        turns = track.vertex_turns_rad
+        m = len(turns)
         start_idx = np.arange(n)
         end_idx = (start_idx + 1) % m
         self._tan0 = np.tan(turns[start_idx] / 2.0)
@@ -347,13 +346,19 @@ def parse_track(
     return name, vertices, closed, float(width), label_to_vertex
 
 
-def _turn_deg(vertices: np.ndarray, idx: int, closed: bool) -> float:
-    n = len(vertices)
-    if not closed and idx in (0, n - 1):
-        return 0.0
-    a, b, c = vertices[(idx - 1) % n], vertices[idx], vertices[(idx + 1) % n]
-    d1, d2 = b - a, c - b
-    return math.degrees(math.atan2(d1[0] * d2[1] - d1[1] * d2[0], float(np.dot(d1, d2))))
+def vertex_turns_rad(vertices: np.ndarray, closed: bool) -> np.ndarray:
+    """(V,) signed turning angle at each of ``vertices`` (V, 2), left positive [rad].
+
+    The two end vertices of an open track have no turn (0).
+    """
+    incoming = vertices - np.roll(vertices, 1, axis=0)
+    outgoing = np.roll(vertices, -1, axis=0) - vertices
+    cross = incoming[:, 0] * outgoing[:, 1] - incoming[:, 1] * outgoing[:, 0]
+    dot = (incoming * outgoing).sum(axis=1)
+    turns = np.arctan2(cross, dot)
+    if not closed:
+        turns[[0, -1]] = 0.0
+    return turns
 
 
 def build_track(
@@ -402,7 +407,8 @@ def build_track(
         s = float(seg_s[drive_idx])
         if closed and drive_idx == 0:
             s = track.length_m  # the start corner is met at the end of the lap
-        corners.append(Corner(label, drive_idx, s, _turn_deg(verts, drive_idx, closed)))
+        turn_deg = math.degrees(track.vertex_turns_rad[drive_idx])
+        corners.append(Corner(label, drive_idx, s, turn_deg))
     corners.sort(key=lambda c: c.s_m)
     return Track(
         name=name,
