@@ -82,9 +82,9 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 def _cmd_evolve(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from .control.mlp import mlp_forward
     from .controller import Controller
     from .demo.dataset import load_demonstration
+    from .learning.fitness import training_accuracy
     from .learning.ga import GAConfig, evolve
     from .plots import fitness_plot, write_png
     from .progress import ProgressBar
@@ -111,9 +111,7 @@ def _cmd_evolve(args: argparse.Namespace) -> int:
         )
     controller = Controller.from_evolution(library, result, seed=args.seed)
     controller.save(args.out)
-    accuracy = float(
-        (mlp_forward(result.best_weights, demo.road_values).argmax(1) == demo.commands).mean()
-    )
+    accuracy = training_accuracy(result.best_weights, demo.road_values, demo.commands)
     png = Path(args.out).with_suffix(".fitness.png")
     write_png(
         str(png),

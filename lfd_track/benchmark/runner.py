@@ -24,6 +24,7 @@ from ..controller import Controller
 from ..demo.dataset import load_demonstration
 from ..demo.demonstrator import HumanConfig, run_demonstration
 from ..env import LfDTrackEnv
+from ..learning.fitness import training_accuracy
 from ..learning.ga import GAConfig, evolve
 from ..vision.road_library import RoadLibrary
 from .tables import TrialOutcome
@@ -136,10 +137,7 @@ def run_repetition(
     controller = Controller.from_evolution(library, result, seed=ga_seed)
     controller.learn = config.keep_learning
     controller.save(rep_dir / "controller.json")
-    from ..control.mlp import mlp_forward
-
-    predicted = mlp_forward(result.best_weights, demo.road_values).argmax(axis=1)
-    accuracy = float((predicted == demo.commands).mean())
+    accuracy = training_accuracy(result.best_weights, demo.road_values, demo.commands)
     timing["evolution"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()

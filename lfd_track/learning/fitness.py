@@ -57,6 +57,15 @@ def imitation_fitness(
     return 1.0 - total / 3.0
 
 
+def training_accuracy(weights: np.ndarray, inputs: np.ndarray, actions: np.ndarray) -> float:
+    """Share of cases where the network's largest output is the demonstrated command.
+
+    ``weights`` (W,), ``inputs`` (N, 40) road values, ``actions`` (N,) commands 0/1/2.
+    """
+    predicted = mlp_forward(weights, np.asarray(inputs, dtype=np.float64)).argmax(axis=1)
+    return float((predicted == np.asarray(actions)).mean())
+
+
 def _check_actions(actions: np.ndarray) -> np.ndarray:
     a = np.asarray(actions)
     if a.ndim != 1:

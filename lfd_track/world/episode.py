@@ -95,7 +95,7 @@ class EpisodeTracker:
         st.max_progress_m = max(st.max_progress_m, st.progress_m)
         st.on_felt = (bool(tread_on_felt[0]), bool(tread_on_felt[1]))
         any_on_felt = st.on_felt[0] or st.on_felt[1]
-        for corner in self.track.corners:
+        for index, corner in enumerate(self.track.corners):
             if (
                 corner.label not in st.corners_reached
                 and st.max_progress_m >= corner.s_m - rules.corner_margin_m
@@ -107,7 +107,7 @@ class EpisodeTracker:
                 and st.progress_m >= corner.s_m + rules.corner_margin_m
                 and any_on_felt
                 # Corners are negotiated in order: a later one never before an earlier one.
-                and len(st.corners_negotiated) == self.track.corners.index(corner)
+                and len(st.corners_negotiated) == index
             ):
                 st.corners_negotiated.append(corner.label)
         if not any_on_felt:

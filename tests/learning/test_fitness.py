@@ -71,3 +71,16 @@ def test_bounds_and_direction():
 def test_rejects_bad_actions():
     with pytest.raises(ValueError, match="actions"):
         imitation_fitness(np.zeros((1, 215)), np.zeros((2, 40)), np.array([0, 3]))
+
+
+def test_training_accuracy_counts_argmax_agreement():
+    from lfd_track.control.mlp import mlp_forward
+    from lfd_track.learning.fitness import training_accuracy
+
+    rng = np.random.default_rng(3)
+    weights = rng.uniform(-1, 1, 215)
+    inputs = rng.uniform(-1, 1, (50, 40))
+    predicted = mlp_forward(weights, inputs).argmax(axis=1)
+    actions = predicted.copy()
+    actions[:10] = (actions[:10] + 1) % 3  # ten deliberate disagreements
+    assert training_accuracy(weights, inputs, actions) == pytest.approx(0.8)
