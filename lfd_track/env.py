@@ -230,7 +230,7 @@ class LfDTrackEnv(gym.Env):
             self.track,
             pose=self._last_pose,
             trajectory=np.asarray(self._trajectory),
-            footprint=self._camera_model.footprint(self._last_pose),
+            footprint=self.camera_footprint(self._last_pose),
         )
 
     # Convenience for drivers, demonstrators and tests (privileged state, not an observation).
@@ -243,3 +243,7 @@ class LfDTrackEnv(gym.Env):
     def camera_frame(self) -> np.ndarray | None:
         """The latest rendered camera frame (same array as the last observation)."""
         return self._frame
+
+    def camera_footprint(self, pose: np.ndarray) -> np.ndarray:
+        """(4, 2) floor polygon [m] the camera sees from ``pose`` (x, y, theta)."""
+        return self._camera_model.footprint(np.asarray(pose, dtype=np.float64))

@@ -33,7 +33,7 @@ class DriveVideo:
             self.env.track,
             pose=pose,
             trajectory=np.asarray(self._trajectory),
-            footprint=self.env._camera_model.footprint(pose),
+            footprint=self.env.camera_footprint(pose),
             size_px=(camera.shape[0] * 4 // 3, camera.shape[0]),
         )
         if top.shape[0] != camera.shape[0]:
