@@ -164,21 +164,142 @@ def next_generation(
     return np.concatenate([population[elite], children])
 
 
+# ------------------------------------------------------------------------------------ ask/tell
+@dataclass(frozen=True)
+class GAState:
+    """Everything the GA remembers between generations (immutable; ``tell`` returns a new one).
+
+    Arrays are read-only. ``fitness`` is Algorithm 3 on the cases the state was last scored on
+    (lower is better); in generation 0 it is all zeros (nothing evaluated yet, so the first
+    tournaments are uniformly random, as in the paper).
+    """
+
+    population: np.ndarray
+    """Current generation, (P, W) float64."""
+    fitness: np.ndarray
+    """Fitness of ``population``, (P,) float64."""
+    generation: int
+    """Generations evaluated so far (0 after :func:`ga_init`)."""
+    best_weights: np.ndarray
+    """Best individual evaluated so far, (W,) float64 (the first initial one before any)."""
+    best_fitness: float
+    """Its fitness (``inf`` before any evaluation)."""
+    best_generation: int
+    """Generation in which it was evaluated (0 before any)."""
+    best_history: tuple[float, ...] = ()
+    """Best fitness of each generation told so far."""
+    mean_history: tuple[float, ...] = ()
+    """Mean fitness of each generation told so far."""
+
+
+def _frozen(array: np.ndarray) -> np.ndarray:
+    out = np.array(array, dtype=np.float64, copy=True)
+    out.flags.writeable = False
+    return out
+
+
+def ga_init(config: GAConfig, rng: np.random.Generator) -> GAState:
+    """Initial state: a random population (see :func:`initial_population`), nothing evaluated."""
+    population = _frozen(initial_population(config, rng))
+    return GAState(
+        population=population,
+        fitness=_frozen(np.zeros(config.population_size)),
+        generation=0,
+        best_weights=_frozen(population[0]),
+        best_fitness=float("inf"),
+        best_generation=0,
+    )
+
+
+def ga_ask(state: GAState, config: GAConfig, rng: np.random.Generator) -> np.ndarray:
+    """The next generation to evaluate, (P, W) float64 (see :func:`next_generation`)."""
+    return next_generation(state.population, state.fitness, config, rng)
+
+
+def ga_tell(state: GAState, population: np.ndarray, fitness: np.ndarray) -> GAState:
+    """State after evaluating ``population`` (P, W) with ``fitness`` (P,) (lower is better).
+
+    The population replaces the old one (generational replacement); the best individual ever
+    evaluated is kept, the earliest on ties.
+    """
+    fitness = np.asarray(fitness, dtype=np.float64)
+    i = int(np.argmin(fitness))
+    best = (state.best_weights, state.best_fitness, state.best_generation)
+    generation = state.generation + 1
+    if fitness[i] < state.best_fitness:
+        best = (_frozen(population[i]), float(fitness[i]), generation)
+    return GAState(
+        population=_frozen(population),
+        fitness=_frozen(fitness),
+        generation=generation,
+        best_weights=best[0],
+        best_fitness=best[1],
+        best_generation=best[2],
+        best_history=(*state.best_history, float(fitness[i])),
+        mean_history=(*state.mean_history, float(fitness.mean())),
+    )
+
+
+def ga_rescore(
+    state: GAState, inputs: np.ndarray, actions: np.ndarray, config: GAConfig
+) -> GAState:
+    """Re-evaluate the population and the best-so-far on new cases (e.g. after some arrived).
+
+    ``inputs`` (N, 40), ``actions`` (N,). Fitness values from different case sets are not
+    comparable, so both the population's fitness and the best individual's are recomputed;
+    the best becomes whichever of the old best and the current population now scores lowest
+    (the old best on ties). Histories and the generation count are kept.
+    """
+    fitness = imitation_fitness(
+        state.population, inputs, actions, config.threshold, bias=config.bias
+    )
+    best_fitness = float(
+        imitation_fitness(
+            state.best_weights[None], inputs, actions, config.threshold, bias=config.bias
+        )[0]
+    )
+    best = (state.best_weights, best_fitness, state.best_generation)
+    i = int(np.argmin(fitness))
+    if state.generation > 0 and fitness[i] < best_fitness:
+        best = (_frozen(state.population[i]), float(fitness[i]), state.generation)
+    return dataclasses.replace(
+        state,
+        fitness=_frozen(fitness),
+        best_weights=best[0],
+        best_fitness=best[1],
+        best_generation=best[2],
+    )
+
+
+def ga_result(state: GAState, config: GAConfig, rng_state: dict[str, Any]) -> EvolutionResult:
+    """The :class:`EvolutionResult` of a state (``rng_state``: the generator's starting state)."""
+    return EvolutionResult(
+        best_weights=np.array(state.best_weights),
+        best_fitness=state.best_fitness,
+        best_generation=state.best_generation,
+        best_history=np.array(state.best_history, dtype=np.float64),
+        mean_history=np.array(state.mean_history, dtype=np.float64),
+        config=config,
+        rng_state=rng_state,
+    )
+
+
 # ------------------------------------------------------------------------------------ the GA
 def evolve(
     inputs: np.ndarray,
     actions: np.ndarray,
-    config: GAConfig | None = None,
-    rng: np.random.Generator | None = None,
+    config: GAConfig | None,
+    rng: np.random.Generator,
     progress: Callable[[int, float, float], None] | None = None,
 ) -> EvolutionResult:
-    """Evolve MLP weights that imitate ``actions`` from ``inputs``.
+    """Evolve MLP weights that imitate ``actions`` from ``inputs`` (the paper's offline GA).
 
-    ``inputs``: (N, 40) road values; ``actions``: (N,) commands 0/1/2. ``rng`` is required for
-    reproducibility (a fresh unseeded generator is used if None). ``progress(generation,
-    best_fitness, mean_fitness)`` is called after each generation is evaluated.
+    ``inputs``: (N, 40) road values; ``actions``: (N,) commands 0/1/2; ``config`` None means the
+    paper's Table 1. ``rng`` is required: every draw comes from it, so a seed repeats the run.
+    ``progress(generation, best_fitness, mean_fitness)`` is called after each generation.
 
-    Order of operations (as the paper describes):
+    Order of operations (as the paper describes), one :func:`ga_ask` / :func:`ga_tell` per
+    generation after :func:`ga_init`:
 
     1. Draw the initial population; every fitness is 0 (not evaluated), so the first round of
        tournaments is uniformly random.
@@ -188,38 +309,19 @@ def evolve(
     3. Return the best individual ever evaluated (the earliest on ties).
     """
     config = config or GAConfig()
-    rng = rng if rng is not None else np.random.default_rng()
+    if not isinstance(rng, np.random.Generator):
+        raise TypeError("evolve needs a seeded np.random.Generator (rng)")
     rng_state = rng.bit_generator.state
     inputs = np.asarray(inputs, dtype=np.float64)
     actions = np.asarray(actions)
     # Fail on bad data before spending any time.
     imitation_fitness(np.zeros((1, n_weights(config.bias))), inputs, actions, config.threshold)
 
-    population = initial_population(config, rng)
-    fitness = np.zeros(config.population_size)
-    best_history = np.empty(config.generations)
-    mean_history = np.empty(config.generations)
-    best_weights = population[0].copy()
-    best_fitness = np.inf
-    best_generation = 0
-    for generation in range(1, config.generations + 1):
-        population = next_generation(population, fitness, config, rng)
-        fitness = imitation_fitness(population, inputs, actions, config.threshold, bias=config.bias)
-        i = int(np.argmin(fitness))
-        best_history[generation - 1] = fitness[i]
-        mean_history[generation - 1] = fitness.mean()
-        if fitness[i] < best_fitness:
-            best_fitness = float(fitness[i])
-            best_weights = population[i].copy()
-            best_generation = generation
+    state = ga_init(config, rng)
+    for _ in range(config.generations):
+        children = ga_ask(state, config, rng)
+        fitness = imitation_fitness(children, inputs, actions, config.threshold, bias=config.bias)
+        state = ga_tell(state, children, fitness)
         if progress is not None:
-            progress(generation, float(fitness[i]), float(mean_history[generation - 1]))
-    return EvolutionResult(
-        best_weights=best_weights,
-        best_fitness=best_fitness,
-        best_generation=best_generation,
-        best_history=best_history,
-        mean_history=mean_history,
-        config=config,
-        rng_state=rng_state,
-    )
+            progress(state.generation, state.best_history[-1], state.mean_history[-1])
+    return ga_result(state, config, rng_state)
