@@ -18,6 +18,8 @@ from .atomic import atomic_write_text
 from .control.mlp import LAYER_SIZES, mlp_forward, n_weights, select_action
 from .errors import FileFormatError
 from .learning.ga import EvolutionResult, GAConfig
+from .teaching.commanders import PolicyCommander
+from .teaching.perception import Perception
 from .vision.road_library import RoadLibrary
 
 CONTROLLER_FORMAT = "lfd-track-controller"
@@ -102,10 +104,17 @@ class Controller:
         self.last_outputs = None
 
     def act(self, frame: np.ndarray) -> int:
-        """Command (0 forward, 1 left, 2 right) for an RGB uint8 (480, 640, 3) frame."""
-        if self.learn:
-            self.library.learn(frame)
-        return self.act_on_values(self.library.road_values(frame))
+        """Command (0 forward, 1 left, 2 right) for an RGB uint8 (480, 640, 3) frame.
+
+        The library learns from the frame first when ``learn`` is set (rule ``always``), else it
+        is frozen (rule ``frozen``: not even selection counts change).
+        """
+        rule = "always" if self.learn else "frozen"
+        return self.act_on_values(Perception(self.library, rule).perceive(frame).values)
+
+    def commander(self) -> PolicyCommander:
+        """This controller's network as a commander for the teaching loop."""
+        return PolicyCommander(self.weights)
 
     def act_on_values(self, road_values: np.ndarray) -> int:
         """Command for precomputed road values, (40,) float."""

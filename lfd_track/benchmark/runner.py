@@ -26,6 +26,10 @@ from ..demo.demonstrator import HumanConfig, run_demonstration
 from ..env import LfDTrackEnv
 from ..learning.fitness import training_accuracy
 from ..learning.ga import GAConfig, evolve
+from ..teaching.arbiter import Arbiter
+from ..teaching.loop import TeachingLoop
+from ..teaching.observers import CallbackObserver, TrajectoryObserver
+from ..teaching.perception import Perception
 from ..vision.road_library import RoadLibrary
 from .tables import TrialOutcome
 
@@ -85,24 +89,26 @@ def run_trial(
 ) -> tuple[dict[str, Any], np.ndarray, int]:
     """Drive one autonomous episode; returns (last info, trajectory (N, 2), steps).
 
-    ``on_step(frame, road_values, info)`` sees each frame before its command is executed.
+    An arrangement of the teaching loop: the controller's library (frozen, or learning from every
+    frame when ``controller.learn``), the controller as the only commander.
+    ``on_step(frame, road_values, info)`` sees each frame after its command was chosen.
     """
-    obs, info = env.reset(seed=seed)
-    controller.reset()
-    trajectory = [info["pose"][:2]]
-    steps = 0
-    while True:
-        if controller.learn:
-            controller.library.learn(obs)
-        values = controller.library.road_values(obs)
-        action = controller.act_on_values(values)
-        if on_step is not None:
-            on_step(obs, values, info)
-        obs, _, terminated, truncated, info = env.step(action)
-        trajectory.append(info["pose"][:2])
-        steps += 1
-        if terminated or truncated:
-            return info, np.asarray(trajectory, dtype=np.float32), steps
+    trajectory = TrajectoryObserver()
+    observers: list[Any] = [trajectory]
+    if on_step is not None:
+        observers.append(
+            CallbackObserver(lambda s: on_step(s.moment.frame, s.percept.values, s.moment.info))
+        )
+    loop = TeachingLoop(
+        env,
+        Perception(controller.library, "always" if controller.learn else "frozen"),
+        Arbiter("policy"),
+        policy=controller.commander(),
+        observers=observers,
+    )
+    loop.reset(seed=seed)
+    loop.run()
+    return loop.info, trajectory.array(), loop.counts.steps
 
 
 def run_repetition(

@@ -1,0 +1,32 @@
+"""One teaching loop for everything that teaches or drives (demonstration, trials, takeover).
+
+A camera frame goes through a :class:`Perception` (the road library and its learning rule) to
+road values; :class:`Commander` s propose commands (a scripted human, keys, a policy; ``None``
+means no opinion); an :class:`Arbiter` decides who drives; :class:`Observer` s see every step
+(recorder, trajectory, learner feed). The demonstration, the benchmark trials and the online
+methods are arrangements of :class:`TeachingLoop`, not copies of it.
+"""
+
+from .arbiter import Arbiter, Decision
+from .commanders import Commander, PolicyCommander, QueueCommander
+from .loop import Moment, Step, TeachingLoop
+from .observers import CallbackObserver, Observer, Recorder, TrajectoryObserver
+from .perception import LEARNING_RULES, Percept, Perception
+
+__all__ = [
+    "LEARNING_RULES",
+    "Arbiter",
+    "CallbackObserver",
+    "Commander",
+    "Decision",
+    "Moment",
+    "Observer",
+    "Percept",
+    "Perception",
+    "PolicyCommander",
+    "QueueCommander",
+    "Recorder",
+    "Step",
+    "TeachingLoop",
+    "TrajectoryObserver",
+]

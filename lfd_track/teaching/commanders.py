@@ -1,0 +1,86 @@
+"""Commanders: anything that proposes a command for a frame (``None`` = no opinion yet).
+
+The scripted human (:mod:`lfd_track.teaching.scripted`), a keyboard or a browser (through
+:class:`QueueCommander`) and policies (:class:`PolicyCommander`) all implement
+:class:`Commander`, so the arbiter can weigh them the same way.
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
+
+import numpy as np
+
+from ..commands import Command
+from ..control.mlp import mlp_forward, select_action
+
+if TYPE_CHECKING:
+    from .loop import Moment
+
+
+@runtime_checkable
+class Commander(Protocol):
+    """Proposes a command for the current moment of the loop."""
+
+    def reset(self) -> None:
+        """Start of an episode: forget per-episode state."""
+
+    def propose(self, moment: Moment) -> Command | None:
+        """The command this commander wants now, or ``None`` for no opinion."""
+
+
+class PolicyCommander:
+    """A 40-5-3 MLP driving from road values (paper §4.2.3): the largest output wins.
+
+    An exact tie keeps the previous command. ``weights`` may be replaced between steps (a learner
+    updating the policy); ``None`` weights mean there is no policy yet (proposes ``None``).
+    """
+
+    def __init__(self, weights: np.ndarray | None) -> None:
+        self.weights = None if weights is None else np.asarray(weights, dtype=np.float64)
+        self._previous: int | None = None
+        self.last_outputs: np.ndarray | None = None
+        """MLP outputs (3,) of the latest proposal."""
+
+    def reset(self) -> None:
+        self._previous = None
+        self.last_outputs = None
+
+    def propose(self, moment: Moment) -> Command | None:
+        return self.act_on_values(moment.values)
+
+    def act_on_values(self, values: np.ndarray) -> Command | None:
+        """Command for road values (40,) float."""
+        if self.weights is None:
+            return None
+        outputs = mlp_forward(self.weights, np.asarray(values, dtype=np.float64)[None])[0]
+        self.last_outputs = outputs
+        self._previous = select_action(outputs, self._previous)
+        return Command(self._previous)
+
+
+class QueueCommander:
+    """A push-style human: another thread (keys, a web server) sets the latest command.
+
+    :meth:`push` may be called from any thread; :meth:`propose` hands the latest pushed command
+    to the loop once (then ``None`` until the next push), so a held key or a button is one command.
+    """
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._pending: Command | None = None
+
+    def push(self, command: Command | int) -> None:
+        """Set the command the human gives next (replaces one not yet taken)."""
+        with self._lock:
+            self._pending = Command(int(command))
+
+    def reset(self) -> None:
+        with self._lock:
+            self._pending = None
+
+    def propose(self, moment: Moment) -> Command | None:
+        with self._lock:
+            command, self._pending = self._pending, None
+        return command

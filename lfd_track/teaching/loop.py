@@ -1,0 +1,188 @@
+"""The teaching loop: frame → perception → commanders → arbiter → command → world → observers.
+
+The world is any Gymnasium env whose observation is the RGB camera frame (the simulated
+``LfDTrackEnv`` or the hardware env). :meth:`TeachingLoop.step` runs one command; a teaching
+station can call it whenever its human pushed a command, a benchmark calls :meth:`run`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..commands import Command
+from .arbiter import Arbiter, Decision
+from .commanders import Commander
+from .observers import Observer
+from .perception import Percept, Perception
+
+
+@dataclass(frozen=True)
+class Moment:
+    """What the commanders see when proposing a command."""
+
+    step: int
+    """Commands executed so far in this episode."""
+    frame: np.ndarray
+    """The camera frame, RGB uint8 (480, 640, 3)."""
+    values: np.ndarray
+    """Its road values, (40,) float64."""
+    info: dict[str, Any]
+    """The env's info for this frame (privileged state in simulation, e.g. ``pose``)."""
+    driving: str
+    """Who drives before this frame's decision: ``"human"`` or ``"policy"``."""
+
+    @property
+    def pose(self) -> np.ndarray | None:
+        """The rover pose (x [m], y [m], theta [rad]) as (3,) float64, if the world reports it."""
+        pose = self.info.get("pose")
+        return None if pose is None else np.asarray(pose, dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class Step:
+    """One executed (or waiting) step of the loop, as observers receive it."""
+
+    moment: Moment
+    percept: Percept
+    human: Command | None
+    """The human's proposal (None: no opinion or no human)."""
+    policy: Command | None
+    """The policy's proposal (None: no opinion or no policy)."""
+    decision: Decision
+    is_case: bool
+    """The human drove this step and it counts as a teaching case."""
+    info_after: dict[str, Any] = field(default_factory=dict)
+    """The env's info after the command was executed (empty when nothing was executed)."""
+
+    @property
+    def command(self) -> Command | None:
+        return self.decision.command
+
+
+@dataclass
+class LoopCounts:
+    """What happened in a loop so far (counted the same way for every arrangement)."""
+
+    steps: int = 0
+    """Commands executed."""
+    human_commands: int = 0
+    """Commands executed that the human gave (demonstration and corrections)."""
+    policy_commands: int = 0
+    """Commands executed that the policy gave."""
+    corrections: int = 0
+    """Human commands that took control back from the policy."""
+    takeovers: int = 0
+    """Times the policy took control."""
+    cases: int = 0
+    """Steps that counted as teaching cases."""
+
+
+class TeachingLoop:
+    """One loop, many parts.
+
+    Args:
+        env: Gymnasium env with camera-frame observations (``info`` may hold ``pose`` and
+            ``safe_box_on_felt``).
+        perception: library + learning rule.
+        arbiter: who drives.
+        human: the human commander (scripted, keys, browser) or None.
+        policy: the policy commander or None.
+        observers: receive every executed step, after the command ran.
+        stop_on_episode_end: end :meth:`run` when the env terminates or truncates (a
+            demonstration keeps going: its human steers back).
+    """
+
+    def __init__(
+        self,
+        env: Any,
+        perception: Perception,
+        arbiter: Arbiter,
+        *,
+        human: Commander | None = None,
+        policy: Commander | None = None,
+        observers: Sequence[Observer] = (),
+        stop_on_episode_end: bool = True,
+    ) -> None:
+        self.env = env
+        self.perception = perception
+        self.arbiter = arbiter
+        self.human = human
+        self.policy = policy
+        self.observers = list(observers)
+        self.stop_on_episode_end = stop_on_episode_end
+        self.counts = LoopCounts()
+        self.frame: np.ndarray | None = None
+        self.info: dict[str, Any] = {}
+        self.episode_over = False
+        self._episode_steps = 0
+
+    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> None:
+        """Reset the env and every part's per-episode state."""
+        self.frame, self.info = self.env.reset(seed=seed, options=options)
+        self.episode_over = False
+        self._episode_steps = 0
+        self.arbiter.reset()
+        for part in (self.human, self.policy):
+            if part is not None:
+                part.reset()
+        for observer in self.observers:
+            observer.start(self.info)
+
+    @property
+    def done(self) -> bool:
+        """The episode ended (and the loop stops on that) or the human's script finished."""
+        finished = getattr(self.human, "finished", None)
+        if finished is not None and finished(self.info):
+            return True
+        return self.stop_on_episode_end and self.episode_over
+
+    def step(self) -> Step:
+        """Perceive the current frame, ask the commanders, execute the arbiter's command."""
+        if self.frame is None:
+            raise RuntimeError("call reset() before step()")
+        percept = self.perception.perceive(self.frame, self.info.get("safe_box_on_felt"))
+        moment = Moment(
+            step=self._episode_steps,
+            frame=self.frame,
+            values=percept.values,
+            info=self.info,
+            driving=self.arbiter.driving,
+        )
+        human = self.human.propose(moment) if self.human is not None else None
+        policy = self.policy.propose(moment) if self.policy is not None else None
+        decision = self.arbiter.decide(human, policy)
+        if decision.command is None:
+            return Step(moment, percept, human, policy, decision, is_case=False)
+        is_case = decision.driver == "human" and bool(getattr(self.human, "records", True))
+        frame, _, terminated, truncated, info = self.env.step(int(decision.command))
+        self.frame, self.info = frame, info
+        self.episode_over = self.episode_over or bool(terminated or truncated)
+        self._episode_steps += 1
+        c = self.counts
+        c.steps += 1
+        c.human_commands += decision.driver == "human"
+        c.policy_commands += decision.driver == "policy"
+        c.corrections += decision.correction
+        c.takeovers += decision.takeover
+        c.cases += is_case
+        step = Step(moment, percept, human, policy, decision, is_case, info_after=info)
+        for observer in self.observers:
+            observer.observe(step)
+        return step
+
+    def run(self, max_steps: int | None = None) -> LoopCounts:
+        """Step until :attr:`done` (or ``max_steps`` commands, then ``RuntimeError``)."""
+        executed = 0
+        while not self.done:
+            step = self.step()
+            if step.command is None and self.human is not None and not self.done:
+                # A scripted run never waits; a commander with no opinion would spin forever.
+                raise RuntimeError("no commander proposed a command")
+            executed += step.command is not None
+            if max_steps is not None and executed > max_steps:
+                raise RuntimeError(f"the loop exceeded {max_steps} commands")
+        return self.counts

@@ -1,0 +1,108 @@
+"""Observers: parts that see every executed step (recorder, trajectory, learner feed, callbacks)."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, Protocol
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from ..demo.dataset import DemonstrationWriter
+    from .loop import Step
+
+
+class Observer(Protocol):
+    """Receives the start of each episode and every executed step."""
+
+    def start(self, info: dict[str, Any]) -> None:
+        """An episode started; ``info`` is the env's reset info."""
+
+    def observe(self, step: Step) -> None:
+        """One command was executed (``step.info_after`` is the info after it)."""
+
+
+class Recorder:
+    """Writes every teaching case to a crash-safe ``.lfdemo`` file (one ``append`` per case).
+
+    ``annotate(step)`` returns extra per-case fields for
+    :meth:`~lfd_track.demo.dataset.DemonstrationWriter.append` (``pose``, ``progress_m``,
+    ``phase``, ``step`` …); a step that is not a case is skipped. Road values and histograms are
+    the record-time ones from the step's percept.
+    """
+
+    def __init__(
+        self,
+        writer: DemonstrationWriter,
+        annotate: Callable[[Step], dict[str, Any]] | None = None,
+    ) -> None:
+        self.writer = writer
+        self.annotate = annotate or (lambda step: {})
+
+    def start(self, info: dict[str, Any]) -> None:
+        pass
+
+    def observe(self, step: Step) -> None:
+        if not step.is_case:
+            return
+        self.writer.append(
+            int(step.command),
+            step.percept.values,
+            step.percept.histograms,
+            learned=step.percept.learned,
+            **self.annotate(step),
+        )
+
+
+class CaseBuffer:
+    """Keeps every teaching case in memory: road values, commands and whether a correction."""
+
+    def __init__(self) -> None:
+        self.values: list[np.ndarray] = []
+        self.commands: list[int] = []
+        self.corrections: list[bool] = []
+
+    def start(self, info: dict[str, Any]) -> None:
+        pass
+
+    def observe(self, step: Step) -> None:
+        if step.is_case:
+            self.values.append(np.asarray(step.percept.values, dtype=np.float64))
+            self.commands.append(int(step.command))
+            self.corrections.append(step.decision.correction)
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """(N, 40) float64 road values and (N,) intp commands."""
+        if not self.values:
+            return np.empty((0, 40)), np.empty(0, dtype=np.intp)
+        return np.stack(self.values), np.asarray(self.commands, dtype=np.intp)
+
+
+class TrajectoryObserver:
+    """Collects the rover's (x, y) after reset and after every step, for plots and results."""
+
+    def __init__(self) -> None:
+        self.points: list[tuple[float, float]] = []
+
+    def start(self, info: dict[str, Any]) -> None:
+        self.points = [info["pose"][:2]]
+
+    def observe(self, step: Step) -> None:
+        self.points.append(step.info_after["pose"][:2])
+
+    def array(self) -> np.ndarray:
+        """(N, 2) float32 positions [m]."""
+        return np.asarray(self.points, dtype=np.float32)
+
+
+class CallbackObserver:
+    """Calls ``on_step(step)`` for every executed step (videos, progress bars, live views)."""
+
+    def __init__(self, on_step: Callable[[Step], None]) -> None:
+        self.on_step = on_step
+
+    def start(self, info: dict[str, Any]) -> None:
+        pass
+
+    def observe(self, step: Step) -> None:
+        self.on_step(step)

@@ -1,0 +1,283 @@
+"""The scripted "human": the paper's demonstration protocol as a commander (DESIGN §6).
+
+The human is the privileged centreline driver (pure pursuit on the known track, not pixels) with
+human traits: a heading dead-band, an occasional reaction delay (acting on the previous frame's
+decision), occasional lapses (repeating the previous command), and a rate limit on direction
+changes (never left straight after right or the reverse).
+
+:class:`ProtocolHuman` drives the protocol: the training track from the right end to the left end
+and back, twice; at each of the four arrivals it stops about 0.35 m before the end and pivots
+round, alternating left and right turn-arounds. While a policy drives (takeover), the same human
+keeps watching and intervenes by the rule in :class:`InterventionConfig`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..commands import Command
+from ..world.driver import CentrelineDriver, DriverConfig
+from ..world.rover import RoverConfig
+from ..world.track import ProgressTracker, Track
+from .loop import Moment
+
+PHASE_LIBRARY_ONLY = "library_only"
+PHASE_DRIVE = "drive"
+PHASE_TURNAROUND = "turnaround"
+
+
+@dataclass(frozen=True)
+class HumanConfig:
+    """Traits of the scripted human and the demonstration protocol."""
+
+    dead_band_deg: float = 15.0  # [deg] heading error tolerated before turning (> half a pivot)
+    lookahead_m: float = 0.35  # [m] pure-pursuit lookahead along the centreline
+    reaction_delay_prob: float = 0.10  # chance a command answers the previous frame, not this one
+    lapse_prob: float = 0.03  # chance the human just repeats the previous command
+    library_only_commands: int = 10  # initial commands that only build the library (not recorded)
+    legs: int = 4  # end-to-end drives: right→left, left→right, twice
+    stop_before_end_m: float = 0.35  # [m] where the human stops to turn round
+    first_turnaround: str = "left"  # direction of the first turn-around; then they alternate
+    careful: bool = True  # pause library learning while the safe box is off the felt
+    max_commands: int = 1000  # give up (error) after this many commands
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.dead_band_deg < 90.0:
+            raise ValueError(f"dead_band_deg must be in [0, 90), got {self.dead_band_deg}")
+        for name in ("reaction_delay_prob", "lapse_prob"):
+            value = getattr(self, name)
+            if not 0.0 <= value <= 1.0:
+                raise ValueError(f"{name} must be in [0, 1], got {value}")
+        if self.first_turnaround not in ("left", "right"):
+            raise ValueError("first_turnaround must be 'left' or 'right'")
+        if self.legs < 1 or self.library_only_commands < 0:
+            raise ValueError("legs must be >= 1 and library_only_commands >= 0")
+
+    @property
+    def driver(self) -> DriverConfig:
+        """The pure-pursuit settings of this human."""
+        return DriverConfig(lookahead_m=self.lookahead_m, dead_band_deg=self.dead_band_deg)
+
+
+@dataclass(frozen=True)
+class InterventionConfig:
+    """When a watching human takes control back from the policy (any one of the three).
+
+    The human watches the robot, not the network: it intervenes when its own judgement says the
+    policy is wrong *and it matters* — small disagreements inside the dead-band are let go.
+    """
+
+    heading_error_deg: float = 35.0
+    """[deg] the robot points this far off the human's aim point (dead-band 15° + one pivot
+    step ≈ 23°, plus margin: a policy one pivot late is not yet corrected)."""
+    tread_overhang_m: float = 0.03
+    """[m] an outer tread edge hangs this far over the felt edge (the strip is 0.30 m, the rover
+    0.225 m: 3.75 cm of play each side before any overhang)."""
+    progress_drop_m: float = 0.10
+    """[m] progress fell this far below its maximum on the leg (the robot turned back)."""
+
+    def __post_init__(self) -> None:
+        for name in ("heading_error_deg", "tread_overhang_m", "progress_drop_m"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+
+    def to_dict(self) -> dict[str, float]:
+        return {
+            "heading_error_deg": self.heading_error_deg,
+            "tread_overhang_m": self.tread_overhang_m,
+            "progress_drop_m": self.progress_drop_m,
+        }
+
+
+class ScriptedHuman:
+    """Turns privileged state into the paper's discrete commands, with human traits."""
+
+    def __init__(self, config: HumanConfig, rng: np.random.Generator) -> None:
+        self.config = config
+        self.rng = rng
+        self._pending: Command | None = None
+        self.previous = Command.FORWARD
+
+    def decide(self, driver: CentrelineDriver, pose: np.ndarray, progress_m: float) -> Command:
+        """The command for this frame while driving along a leg."""
+        intended = driver.act(pose, progress_m)
+        cfg = self.config
+        command = intended
+        if self._pending is not None and self.rng.random() < cfg.reaction_delay_prob:
+            command = self._pending  # reacting late: still answering the previous frame
+        elif self.rng.random() < cfg.lapse_prob:
+            command = self.previous  # a lapse: the thumb stays on the last button
+        self._pending = intended
+        # Rate limit: a human goes through forward when switching turn direction.
+        if {command, self.previous} == {Command.LEFT, Command.RIGHT}:
+            command = Command.FORWARD
+        self.previous = command
+        return command
+
+    def turn(self, direction: Command) -> Command:
+        """A command of a turn-around (always the chosen direction)."""
+        self._pending = None
+        self.previous = direction
+        return direction
+
+
+class Watcher:
+    """The intervention rule: does the human take control back from the policy here?"""
+
+    def __init__(self, config: InterventionConfig, rover_half_width_m: float) -> None:
+        self.config = config
+        self._heading_rad = math.radians(config.heading_error_deg)
+        self._half_width_m = rover_half_width_m
+
+    def reason(
+        self,
+        track: Track,
+        driver: CentrelineDriver,
+        tracker: ProgressTracker,
+        max_progress_m: float,
+        pose: np.ndarray,
+    ) -> str | None:
+        """Why the human intervenes (``heading``, ``edge``, ``progress``) or None."""
+        cfg = self.config
+        if abs(driver.heading_error(pose, tracker.progress_m)) > self._heading_rad:
+            return "heading"
+        centre, _ = track.point_at(min(max(tracker.progress_m, 0.0), track.length_m))
+        offset = float(np.hypot(pose[0] - centre[0], pose[1] - centre[1]))
+        if offset + self._half_width_m > track.width_m / 2.0 + cfg.tread_overhang_m:
+            return "edge"
+        if tracker.progress_m < max_progress_m - cfg.progress_drop_m:
+            return "progress"
+        return None
+
+
+class ProtocolHuman:
+    """The demonstration protocol as a commander (needs the privileged pose in ``info``).
+
+    Args:
+        legs: the track in its two directions ``(forward, reverse)``, both open.
+        config: traits and protocol settings.
+        rng: the human's own random stream (reaction delays, lapses).
+        intervention: the rule for taking control back while a policy drives (None: never
+            watches; a demonstration without takeover).
+        rover: rover settings (its width matters for the tread-overhang rule).
+    """
+
+    def __init__(
+        self,
+        legs: tuple[Track, Track],
+        config: HumanConfig,
+        rng: np.random.Generator,
+        *,
+        intervention: InterventionConfig | None = None,
+        rover: RoverConfig | None = None,
+    ) -> None:
+        self.legs = legs
+        self.config = config
+        self.person = ScriptedHuman(config, rng)
+        rover = rover or RoverConfig()
+        self.watcher = (
+            None if intervention is None else Watcher(intervention, rover.body_width_m / 2.0)
+        )
+        self._dead_band = math.radians(config.dead_band_deg)
+        self._next_turn = Command.LEFT if config.first_turnaround == "left" else Command.RIGHT
+        self.turnarounds: list[str] = []
+        self.interventions: dict[str, int] = {"heading": 0, "edge": 0, "progress": 0, "turn": 0}
+        self.leg = 0
+        self.phase = PHASE_LIBRARY_ONLY
+        self.progress_m = 0.0
+        self.done = False
+        self._state = "drive"
+        self._tracker: ProgressTracker | None = None
+        self._driver: CentrelineDriver | None = None
+        self._max_progress = -math.inf
+        self._turns = 0
+        self._back: tuple[CentrelineDriver, float] | None = None
+        self._direction = self._next_turn
+        self._step = 0
+        self._advanced_for: dict | None = None
+
+    @property
+    def records(self) -> bool:
+        """Commands after the first ``library_only_commands`` are teaching cases."""
+        return self._step >= self.config.library_only_commands
+
+    def reset(self) -> None:
+        pass  # the protocol spans the whole demonstration, not an episode
+
+    def finished(self, info: dict) -> bool:
+        """Whether the protocol is over at the frame with this ``info`` (before perceiving it)."""
+        self._advance(info)
+        return self.done
+
+    def _advance(self, info: dict) -> None:
+        """Move the protocol's state machine to the pose in ``info`` (once per frame)."""
+        if info is self._advanced_for or self.done:
+            return
+        self._advanced_for = info
+        pose = np.asarray(info["pose"], dtype=np.float64)
+        while True:
+            if self._state == "drive":
+                leg_track = self.legs[self.leg % 2]
+                if self._tracker is None:
+                    self._tracker = ProgressTracker(leg_track)
+                    self._driver = CentrelineDriver(leg_track, self.config.driver)
+                    self._max_progress = -math.inf
+                self._tracker.update(pose[:2])
+                self.progress_m = self._tracker.progress_m
+                self._max_progress = max(self._max_progress, self.progress_m)
+                if self.progress_m < leg_track.length_m - self.config.stop_before_end_m:
+                    return
+                self._start_turnaround(pose)
+            driver, back_progress = self._back
+            error = driver.heading_error(pose, back_progress)
+            if self._turns < 40 and abs(error) > self._dead_band:
+                return
+            self.leg += 1
+            self._state = "drive"
+            self._tracker = None
+            if self.leg >= self.config.legs:
+                self.done = True
+                return
+
+    def propose(self, moment: Moment) -> Command | None:
+        self._step = moment.step
+        self._advance(moment.info)
+        if self.done:
+            return None
+        pose = moment.pose
+        watching = moment.driving == "policy" and self.watcher is not None
+        if self._state == "drive":
+            self.phase = PHASE_DRIVE if self.records else PHASE_LIBRARY_ONLY
+            if watching:
+                why = self.watcher.reason(
+                    self.legs[self.leg % 2],
+                    self._driver,
+                    self._tracker,
+                    self._max_progress,
+                    pose,
+                )
+                if why is None:
+                    return None
+                self.interventions[why] += 1
+            return self.person.decide(self._driver, pose, self.progress_m)
+        self._turns += 1
+        self.phase = PHASE_TURNAROUND
+        if watching:
+            self.interventions["turn"] += 1
+        return self.person.turn(self._direction)
+
+    def _start_turnaround(self, pose: np.ndarray) -> None:
+        # Turn round towards the next leg, alternating the direction at every arrival.
+        back = self.legs[(self.leg + 1) % 2]
+        back_tracker = ProgressTracker(back)
+        back_tracker.update(pose[:2])
+        self._back = (CentrelineDriver(back, self.config.driver), back_tracker.progress_m)
+        self._direction = self._next_turn
+        self.turnarounds.append(self._direction.name.lower())
+        self._next_turn = Command.RIGHT if self._direction == Command.LEFT else Command.LEFT
+        self._turns = 0
+        self._state = "turn"
