@@ -97,8 +97,6 @@ def _run_local(jobs: Sequence[Job], done: JobDone, *, workers: int) -> None:
         for job in jobs:
             try:
                 files = run_job(job)
-            except (KeyboardInterrupt, LfdTrackError):
-                raise
             except Exception as exc:
                 raise _failed(job, exc) from exc
             done(job, files)

@@ -60,16 +60,10 @@ class Condition:
     """Free text (may be empty)."""
     config: BenchmarkConfig
     """The benchmark settings; ``seed`` and ``repetitions`` are replaced per job."""
-
-    @property
-    def method(self) -> str:
-        """Learning method (``"paper"`` where the build has no method choice)."""
-        return str(getattr(self.config, "method", "paper"))
-
-    @property
-    def test_tracks(self) -> tuple[str, ...]:
-        """Extra tracks the controllers are scored on, beyond the paper's two."""
-        return tuple(getattr(self.config, "test_tracks", ()))
+    method: str = "paper"
+    """Learning method (as the study file names it)."""
+    test_tracks: tuple[str, ...] = ()
+    """Extra tracks the controllers are scored on, beyond the paper's two."""
 
 
 @dataclass(frozen=True)
@@ -213,7 +207,8 @@ def _condition(table: dict[str, Any], index: int, path: Path, check_names: bool)
                 path, f"{where}: '{key}' is set by the [study] table, not per condition"
             )
         if key not in fields and key in _LATER_FIELDS:
-            _check_without_field(key, value, where, path)
+            if check_names:
+                _check_without_field(key, value, where, path)
             continue
         if key not in fields:
             raise FileFormatError(path, f"{where}: unknown key '{key}'")
@@ -226,9 +221,21 @@ def _condition(table: dict[str, Any], index: int, path: Path, check_names: bool)
         if key in settings:
             settings[key] = _relative_to(settings[key], path)
     config = dataclass_from_table(BenchmarkConfig, settings, name, path)
+    method = getattr(config, "method", table.get("method", "paper"))
+    tracks = getattr(config, "test_tracks", table.get("test_tracks", ()))
+    if not isinstance(method, str):
+        raise FileFormatError(path, f"{where}: 'method' must be a string, got {method!r}")
+    if not isinstance(tracks, list | tuple) or not all(isinstance(t, str) for t in tracks):
+        raise FileFormatError(path, f"{where}: 'test_tracks' must be a list of track names")
     if check_names:
         check_condition_names(config, where, path)
-    return Condition(name=name, description=description, config=config)
+    return Condition(
+        name=name,
+        description=description,
+        config=config,
+        method=method,
+        test_tracks=tuple(tracks),
+    )
 
 
 def _check_without_field(key: str, value: Any, where: str, path: Path) -> None:
