@@ -257,6 +257,7 @@ def study_plot(results: Mapping[str, Any]) -> np.ndarray:
     conditions = results["conditions"]
     group_w, left, right, top, bottom = 130, 60, 20, 60, 70
     width = max(640, left + right + group_w * len(conditions))
+    group_w = (width - left - right) // max(len(conditions), 1)  # spread out when few
     height = 460
     plot_h = height - top - bottom
     img = np.full((height, width, 3), 255, np.uint8)
@@ -297,7 +298,7 @@ def study_plot(results: Mapping[str, Any]) -> np.ndarray:
             r = c[series]
             if not r["trials"]:
                 continue
-            x = x0 + 35 + 30 * s
+            x = x0 + group_w // 2 - 30 + 30 * s
             low, high = r["ci95"]
             cv2.line(img, (x, y_of(low)), (x, y_of(high)), colour, 2)
             for yy in (y_of(low), y_of(high)):
