@@ -145,18 +145,18 @@ def bc_loss_and_gradient(
 def fit_bc(
     inputs: np.ndarray,
     actions: np.ndarray,
-    config: BCConfig | None = None,
-    rng: np.random.Generator | None = None,
+    config: BCConfig | None,
+    rng: np.random.Generator,
 ) -> LearnerFit:
     """Train the 40-5-3 network on demonstration cases by Adam on the BC loss.
 
     ``inputs``: (N, 40) road values; ``actions``: (N,) commands 0/1/2; ``rng`` (required) draws
     the initial weights and, with minibatches, each epoch's case order, so the same seed gives
-    the same bytes. Returns the weights after the last epoch; ``history[e]`` is the Algorithm 3
+    the same bytes; ``config`` None means ``BCConfig()``. Returns the weights after the last epoch; ``history[e]`` is the Algorithm 3
     fitness of the weights after epoch ``e + 1`` (one network per epoch, so it is also that
     epoch's best).
     """
-    if rng is None:
+    if not isinstance(rng, np.random.Generator):
         raise ValueError("fit_bc needs a numpy Generator (rng) so that runs are reproducible")
     config = config or BCConfig()
     x, a = check_cases(inputs, actions)

@@ -68,17 +68,17 @@ class CMAESConfig:
 def fit_cmaes(
     inputs: np.ndarray,
     actions: np.ndarray,
-    config: CMAESConfig | None = None,
-    rng: np.random.Generator | None = None,
+    config: CMAESConfig | None,
+    rng: np.random.Generator,
 ) -> LearnerFit:
     """Minimise the imitation fitness of the 40-5-3 network with CMA-ES.
 
     ``inputs``: (N, 40) road values; ``actions``: (N,) commands 0/1/2; ``rng`` (required) draws
-    the start mean and every sample, so the same seed gives the same bytes. Returns the best
+    the start mean and every sample, so the same seed gives the same bytes; ``config`` None means ``CMAESConfig()``. Returns the best
     network ever evaluated (the earliest on ties); ``history[g]`` is the best fitness among
     generation ``g + 1``'s samples.
     """
-    if rng is None:
+    if not isinstance(rng, np.random.Generator):
         raise ValueError("fit_cmaes needs a numpy Generator (rng) so that runs are reproducible")
     with warnings.catch_warnings():
         # cma warns on import when matplotlib (only used by its own plotting) is absent.

@@ -6,7 +6,6 @@ import os
 import sys
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -86,10 +85,13 @@ def run_study(
     )
 
 
-def _failed(job: Job, exc: BaseException) -> LfdTrackError:
+def _first_line(exc: BaseException) -> str:
     text = str(exc).strip()
-    first = text.splitlines()[0] if text else type(exc).__name__
-    return LfdTrackError(f"job {job.key} failed: {first}")
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+def _failed(job: Job, exc: BaseException) -> LfdTrackError:
+    return LfdTrackError(f"job {job.key} failed: {_first_line(exc)}")
 
 
 def _run_local(jobs: Sequence[Job], done: JobDone, *, workers: int) -> None:
@@ -104,22 +106,23 @@ def _run_local(jobs: Sequence[Job], done: JobDone, *, workers: int) -> None:
     import multiprocessing
 
     # Fresh worker processes (no inherited OpenCV/pymunk state), as the benchmark's own pool.
+    # Leaving the with-block terminates the workers, so an interrupt or a failed job does not
+    # wait for the jobs still running (they are lost, the finished ones are already stored).
     ctx = multiprocessing.get_context("spawn" if os.name != "posix" else "forkserver")
-    pool = ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=ctx)
+    with ctx.Pool(processes=min(workers, len(jobs))) as pool:
+        for index, files, problem in pool.imap_unordered(_run_indexed, list(enumerate(jobs))):
+            if problem is not None:
+                raise LfdTrackError(f"job {jobs[index].key} failed: {problem}")
+            done(jobs[index], files)
+
+
+def _run_indexed(item: tuple[int, Job]) -> tuple[int, dict[str, bytes], str | None]:
+    """Pool worker: ``(index, files, None)``, or ``(index, {}, first line of the error)``."""
+    index, job = item
     try:
-        pending: dict[Future[dict[str, bytes]], Job] = {pool.submit(run_job, j): j for j in jobs}
-        while pending:
-            finished, _ = wait(pending, return_when=FIRST_COMPLETED)
-            # Store in submission order among those that ended together: same files either way.
-            for future in sorted(finished, key=lambda f: jobs.index(pending[f])):
-                job = pending.pop(future)
-                try:
-                    files = future.result()
-                except Exception as exc:
-                    raise _failed(job, exc) from exc
-                done(job, files)
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+        return index, run_job(job), None
+    except Exception as exc:
+        return index, {}, _first_line(exc)
 
 
 def _run_ray(jobs: Sequence[Job], done: JobDone, *, workers: int, address: str | None) -> None:

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..atomic import atomic_write_text
 from ..benchmark.paper import TRACK_RESULT_KEYS
+from ..benchmark.runner import config_dict
 from ..benchmark.tables import results_json_text
 from .spec import Job, Study
 from .stats import rate_summary
@@ -116,6 +117,11 @@ def condition_summary(
         "repetitions": study.repetitions,
         "trials_per_direction": condition.config.trials_per_direction,
         "test_tracks": list(condition.test_tracks),
+        "config": {
+            k: v
+            for k, v in config_dict(condition.config).items()
+            if k not in ("seed", "repetitions")
+        },
         "training": rate(["training"]),
         "testing": rate(["testing"]),
         "unseen_tracks": {t: rate([t]) for t in unseen},

@@ -127,7 +127,8 @@ def test_progress_shows_jobs_done_of_total(tiny_study, tmp_path, capsys):
     assert "2/2" in capsys.readouterr().err
 
 
-def test_a_failing_job_names_itself():
+@pytest.mark.parametrize("workers", [1, 2])
+def test_a_failing_job_names_itself(workers):
     from lfd_track.study.run import _run_local
 
     job = Job(
@@ -137,4 +138,4 @@ def test_a_failing_job_names_itself():
     )
     assert config_dict(job.config)["preset"] == "no-such-preset"
     with pytest.raises(LfdTrackError, match="job broken/seed0 failed: unknown preset"):
-        _run_local([job], lambda job, files: None, workers=1)
+        _run_local([job, job], lambda job, files: None, workers=workers)
