@@ -138,7 +138,13 @@ def _run_ray(jobs: Sequence[Job], done: JobDone, *, workers: int, address: str |
         if address:
             ray.init(address=address, **options)
         else:
-            ray.init(num_cpus=workers, _node_ip_address="127.0.0.1", **options)
+            # Loopback only; a small object store, as jobs return only a few small files.
+            ray.init(
+                num_cpus=workers,
+                _node_ip_address="127.0.0.1",
+                object_store_memory=256 * 1024**2,
+                **options,
+            )
     pending: dict[Any, Job] = {}
     try:
         task = ray.remote(num_cpus=1, max_retries=0)(run_job)

@@ -139,3 +139,28 @@ def test_a_failing_job_names_itself(workers):
     assert config_dict(job.config)["preset"] == "no-such-preset"
     with pytest.raises(LfdTrackError, match="job broken/seed0 failed: unknown preset"):
         _run_local([job, job], lambda job, files: None, workers=workers)
+
+
+def test_an_interrupt_keeps_finished_jobs_and_the_rerun_does_only_the_rest(tmp_path, monkeypatch):
+    import lfd_track.study.run as run_module
+    from lfd_track.study.jobs import expected_config
+
+    study = load_study(write_study(tmp_path))
+    first, second = study.jobs()
+    calls = []
+
+    def fake_job(job):
+        calls.append(job.key)
+        if job == second and len(calls) == 2:
+            raise KeyboardInterrupt  # Ctrl-C while the second job runs
+        results = json.dumps({"config": expected_config(job), "seed": job.seed})
+        return {"report.md": b"report\n", RESULTS_FILE: results.encode()}
+
+    monkeypatch.setattr(run_module, "run_job", fake_job)
+    out = tmp_path / "out"
+    with pytest.raises(KeyboardInterrupt):
+        run_study(study, out)
+    assert (out / first.key / RESULTS_FILE).is_file()
+    assert not (out / second.key).exists()
+    run = run_study(study, out)
+    assert (run.skipped, run.ran) == (1, 1) and calls == [first.key, second.key, second.key]
