@@ -197,10 +197,11 @@ def study_markdown(results: Mapping[str, Any]) -> str:
     ]
     for c in results["conditions"]:
         accuracy = c["training_accuracy"]
+        commands = c["human_commands"]["per_repetition"]
         lines.append(
             f"| {c['name']} | {c['method']} | {c['preset']} | {_cell(c['training'])} "
             f"| {_cell(c['testing'])} | {_cell(c['unseen'])} "
-            f"| {c['human_commands']['per_repetition']:.0f} "
+            f"| {'–' if commands is None else f'{commands:.0f}'} "
             f"| {'–' if accuracy is None else f'{100 * accuracy:.1f} %'} | {c['wall_s']:.0f} |"
         )
     paper = results["paper"]
