@@ -347,6 +347,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     bench.set_defaults(func=_cmd_benchmark)
 
+    from .study.cli import add_study_parser
+
+    add_study_parser(sub)
+
     try:
         from .hardware.cli import add_hardware_parser
     except ImportError:  # pragma: no cover - the hardware extra is part of the package

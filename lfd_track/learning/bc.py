@@ -1,0 +1,192 @@
+"""Behaviour cloning baseline: the paper's 40-5-3 network trained by backpropagation (numpy only).
+
+The network is exactly the one the GA evolves (sigmoid hidden and output nodes, no biases unless
+asked; weight order of :mod:`lfd_track.control.mlp`), so a BC fit drops into a controller file
+unchanged. The loss is a class-balanced softmax cross-entropy over the three sigmoid outputs
+divided by a temperature:
+
+    p = softmax(o / temperature),  loss = sum_i c_i * -log p_i[a_i] / sum_i c_i
+                                         + weight_decay / 2 * |w|^2
+
+where ``o`` (N, 3) are the sigmoid outputs, ``a_i`` the demonstrated command and ``c_i = 1 / n_e``
+with ``n_e`` the number of cases of that command, so each command weighs the same however often
+it was demonstrated (as Algorithm 3 normalises per category). The outputs lie in (0, 1), so
+without a temperature the softmax could never be confident; 0.1 lets the winning output lead by
+a margin well past Algorithm 3's threshold before the loss flattens. Adam minimises it.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..control.mlp import N_HIDDEN, N_INPUTS, N_OUTPUTS, n_weights, sigmoid
+from .fit import (
+    LearnerFit,
+    check_cases,
+    check_int,
+    check_positive,
+    config_from_dict,
+    initial_weights,
+)
+from .fitness import category_weights, imitation_fitness
+
+_W1 = N_HIDDEN * N_INPUTS
+_W2 = N_OUTPUTS * N_HIDDEN
+
+
+@dataclass(frozen=True)
+class BCConfig:
+    """Behaviour-cloning settings (chosen on the training track's demonstrations only)."""
+
+    epochs: int = 2000
+    """Passes over the training cases."""
+    batch_size: int = 0
+    """Cases per Adam step, drawn as a fresh permutation each epoch; 0 = all cases (full batch)."""
+    learning_rate: float = 0.01
+    """Adam step size (per weight, in weight units)."""
+    beta1: float = 0.9
+    """Adam decay of the gradient's running mean."""
+    beta2: float = 0.999
+    """Adam decay of the squared gradient's running mean."""
+    epsilon: float = 1e-8
+    """Adam's guard against division by zero."""
+    temperature: float = 0.1
+    """The sigmoid outputs (0..1) are divided by this before the softmax."""
+    weight_decay: float = 0.0
+    """L2 penalty coefficient on all weights (loss units per squared weight)."""
+    init_range: float = 1.0
+    """Initial weights are uniform in [-init_range, init_range], as the GA draws them."""
+    bias: bool = False
+    """Give hidden and output nodes biases (223 weights instead of the paper's 215)."""
+    threshold: float = 0.4
+    """Output-difference threshold of the Algorithm 3 fitness reported in the history."""
+
+    def __post_init__(self) -> None:
+        check_int("epochs", self.epochs, 1)
+        check_int("batch_size", self.batch_size, 0)
+        check_positive("learning_rate", self.learning_rate)
+        for name in ("beta1", "beta2"):
+            value = getattr(self, name)
+            check_positive(name, value, allow_zero=True)
+            if not value < 1:
+                raise ValueError(f"{name} must be in [0, 1), got {value!r}")
+        check_positive("epsilon", self.epsilon)
+        check_positive("temperature", self.temperature)
+        check_positive("weight_decay", self.weight_decay, allow_zero=True)
+        check_positive("init_range", self.init_range, allow_zero=True)
+        if not isinstance(self.bias, bool):
+            raise ValueError(f"bias must be true or false, got {self.bias!r}")
+        check_positive("threshold", self.threshold)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain dict of the fields (JSON-friendly)."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> BCConfig:
+        """Inverse of :meth:`to_dict`; unknown keys or bad values raise ``ValueError``."""
+        return config_from_dict(cls, data, "BC")
+
+
+def bc_loss_and_gradient(
+    weights: np.ndarray,
+    inputs: np.ndarray,
+    actions: np.ndarray,
+    case_weights: np.ndarray,
+    temperature: float,
+    weight_decay: float = 0.0,
+) -> tuple[float, np.ndarray]:
+    """The BC loss (see the module docstring) and its exact gradient by backpropagation.
+
+    ``weights`` (W,) float64 with W = 215 or 223 (biases); ``inputs`` (N, 40); ``actions`` (N,)
+    intp commands; ``case_weights`` (N,) non-negative importance of each case (normalised here).
+    Returns ``(loss, gradient (W,) float64)``.
+    """
+    bias = weights.shape[0] == n_weights(True)
+    w1 = weights[:_W1].reshape(N_HIDDEN, N_INPUTS)
+    w2 = weights[_W1 : _W1 + _W2].reshape(N_OUTPUTS, N_HIDDEN)
+    pre_hidden = inputs @ w1.T
+    if bias:
+        pre_hidden += weights[_W1 + _W2 : _W1 + _W2 + N_HIDDEN]
+    hidden = sigmoid(pre_hidden)  # (N, 5)
+    pre_out = hidden @ w2.T
+    if bias:
+        pre_out += weights[_W1 + _W2 + N_HIDDEN :]
+    out = sigmoid(pre_out)  # (N, 3)
+    logits = out / temperature
+    logits -= logits.max(axis=1, keepdims=True)
+    log_norm = np.log(np.exp(logits).sum(axis=1))
+    rows = np.arange(inputs.shape[0])
+    c = case_weights / case_weights.sum()
+    loss = float(c @ (log_norm - logits[rows, actions]))
+    loss += 0.5 * weight_decay * float(weights @ weights)
+
+    # Backward pass, layer by layer.
+    d_logits = np.exp(logits - log_norm[:, None])  # softmax probabilities
+    d_logits[rows, actions] -= 1.0
+    d_logits *= c[:, None]
+    d_pre_out = d_logits / temperature * out * (1.0 - out)  # (N, 3)
+    d_hidden = d_pre_out @ w2
+    d_pre_hidden = d_hidden * hidden * (1.0 - hidden)  # (N, 5)
+    grad = np.empty_like(weights)
+    grad[:_W1] = (d_pre_hidden.T @ inputs).ravel()
+    grad[_W1 : _W1 + _W2] = (d_pre_out.T @ hidden).ravel()
+    if bias:
+        grad[_W1 + _W2 : _W1 + _W2 + N_HIDDEN] = d_pre_hidden.sum(axis=0)
+        grad[_W1 + _W2 + N_HIDDEN :] = d_pre_out.sum(axis=0)
+    grad += weight_decay * weights
+    return loss, grad
+
+
+def fit_bc(
+    inputs: np.ndarray,
+    actions: np.ndarray,
+    config: BCConfig | None,
+    rng: np.random.Generator,
+) -> LearnerFit:
+    """Train the 40-5-3 network on demonstration cases by Adam on the BC loss.
+
+    ``inputs``: (N, 40) road values; ``actions``: (N,) commands 0/1/2; ``rng`` (required) draws
+    the initial weights and, with minibatches, each epoch's case order, so the same seed gives
+    the same bytes; ``config`` None means ``BCConfig()``. Returns the weights after the last epoch; ``history[e]`` is the Algorithm 3
+    fitness of the weights after epoch ``e + 1`` (one network per epoch, so it is also that
+    epoch's best).
+    """
+    if not isinstance(rng, np.random.Generator):
+        raise ValueError("fit_bc needs a numpy Generator (rng) so that runs are reproducible")
+    config = config or BCConfig()
+    x, a = check_cases(inputs, actions)
+    n = x.shape[0]
+    case_weights = category_weights(a)
+    weights = initial_weights(config.bias, config.init_range, rng)
+    m = np.zeros_like(weights)
+    v = np.zeros_like(weights)
+    history = np.empty(config.epochs)
+    batch = n if config.batch_size == 0 else min(config.batch_size, n)
+    step = 0
+    for epoch in range(config.epochs):
+        order = np.arange(n) if batch == n else rng.permutation(n)
+        for start in range(0, n, batch):
+            idx = order[start : start + batch]
+            _, grad = bc_loss_and_gradient(
+                weights, x[idx], a[idx], case_weights[idx], config.temperature, config.weight_decay
+            )
+            step += 1
+            m = config.beta1 * m + (1.0 - config.beta1) * grad
+            v = config.beta2 * v + (1.0 - config.beta2) * grad * grad
+            m_hat = m / (1.0 - config.beta1**step)
+            v_hat = v / (1.0 - config.beta2**step)
+            weights = weights - config.learning_rate * m_hat / (np.sqrt(v_hat) + config.epsilon)
+        fitness = imitation_fitness(weights[None], x, a, config.threshold, bias=config.bias)
+        history[epoch] = fitness[0]
+    return LearnerFit(
+        weights=weights,
+        fitness=float(history[-1]),
+        history=history,
+        learner="bc",
+        config=config.to_dict(),
+    )

@@ -1,0 +1,101 @@
+"""What every baseline learner returns, and the checks they share on training cases.
+
+A learner turns demonstration cases (road values and the commands given) into the weights of the
+paper's 40-5-3 sigmoid network (see :mod:`lfd_track.control.mlp` for the weight order). Whatever
+the learner optimises internally, :attr:`LearnerFit.fitness` is the paper's Algorithm 3 imitation
+fitness of the returned weights, so learners can be compared on one scale.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any, TypeVar
+
+import numpy as np
+
+from ..control.mlp import N_INPUTS, N_OUTPUTS, n_weights
+
+
+@dataclass(frozen=True)
+class LearnerFit:
+    """Outcome of a baseline learner (:func:`~lfd_track.learning.bc.fit_bc`, ...)."""
+
+    weights: np.ndarray
+    """The learned network, (215,) float64, or (223,) with biases."""
+    fitness: float
+    """Algorithm 3 imitation fitness of ``weights`` on the training cases (lower is better)."""
+    history: np.ndarray
+    """Best Algorithm 3 fitness of each epoch or generation, (epochs or generations,) float64."""
+    learner: str
+    """Name of the learner, e.g. ``"bc"`` or ``"cma-es"``."""
+    config: dict[str, Any]
+    """The learner's settings as a plain JSON-friendly dict."""
+
+
+def check_cases(inputs: np.ndarray, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Validate training cases; returns ``(inputs (N, 40) float64, actions (N,) intp)``.
+
+    Raises ``ValueError`` with one line saying what is wrong: wrong shapes, no cases, non-finite
+    road values, or commands outside 0..2.
+    """
+    x = np.asarray(inputs)
+    if x.ndim != 2 or x.shape[1] != N_INPUTS:
+        raise ValueError(f"inputs must have shape (N, {N_INPUTS}), got {x.shape}")
+    if not (np.issubdtype(x.dtype, np.floating) or np.issubdtype(x.dtype, np.integer)):
+        raise ValueError(f"inputs must be numbers, got dtype {x.dtype}")
+    x = x.astype(np.float64)
+    a = np.asarray(actions)
+    if a.ndim != 1:
+        raise ValueError(f"actions must be 1-D, got shape {a.shape}")
+    if a.shape[0] != x.shape[0]:
+        raise ValueError(f"{x.shape[0]} input rows but {a.shape[0]} actions")
+    if x.shape[0] == 0:
+        raise ValueError("no training cases: a learner needs at least one")
+    if not np.isfinite(x).all():
+        raise ValueError("inputs contain NaN or infinite road values")
+    if a.dtype == np.bool_ or not np.issubdtype(a.dtype, np.integer):
+        raise ValueError(f"actions must be integer commands 0..{N_OUTPUTS - 1}, got {a.dtype}")
+    if a.min() < 0 or a.max() >= N_OUTPUTS:
+        raise ValueError(f"actions must be integers in 0..{N_OUTPUTS - 1}")
+    return x, a.astype(np.intp)
+
+
+def initial_weights(bias: bool, init_range: float, rng: np.random.Generator) -> np.ndarray:
+    """One network drawn like a GA individual: uniform in [-init_range, init_range], (W,)."""
+    return rng.uniform(-init_range, init_range, size=n_weights(bias))
+
+
+_C = TypeVar("_C")
+
+
+def config_from_dict(cls: type[_C], data: dict[str, Any], what: str) -> _C:
+    """Build the frozen config ``cls`` from a dict; unknown keys or bad values → ``ValueError``."""
+    if not isinstance(data, dict):
+        raise ValueError(f"{what} config must be an object")
+    names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    unknown = sorted(set(data) - names)
+    if unknown:
+        raise ValueError(f"unknown {what} config key '{unknown[0]}'")
+    try:
+        return cls(**data)
+    except TypeError as exc:
+        raise ValueError(str(exc)) from None
+
+
+def check_int(name: str, value: Any, minimum: int) -> None:
+    """Raise ``ValueError`` unless ``value`` is an int (not bool) of at least ``minimum``."""
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ValueError(f"{name} must be an integer, got {value!r}")
+    if value < minimum:
+        raise ValueError(f"{name} must be at least {minimum}, got {value}")
+
+
+def check_positive(name: str, value: Any, *, allow_zero: bool = False) -> None:
+    """Raise ``ValueError`` unless ``value`` is a finite positive (or zero) real number."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ValueError(f"{name} must be a number, got {value!r}")
+    ok = value >= 0 if allow_zero else value > 0
+    if not (ok and np.isfinite(value)):
+        kind = "non-negative" if allow_zero else "positive"
+        raise ValueError(f"{name} must be a finite {kind} number, got {value!r}")

@@ -1,0 +1,91 @@
+"""The ``lfd-track study`` subcommand."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from ..errors import LfdTrackError
+
+
+def _workers(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def add_study_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Add ``study`` to the ``lfd-track`` subcommands; its ``func`` returns the exit code."""
+    study = subparsers.add_parser(
+        "study",
+        help="run a study: conditions x seeds of the paper protocol, with 95 % intervals",
+        description=(
+            "Run every (condition, seed) job of a study file as one paper-protocol benchmark, "
+            "skipping jobs finished by an earlier run, then write DIR/study.json, study.md and "
+            "study.png."
+        ),
+    )
+    study.add_argument("study_file", metavar="STUDY.toml", help="the study file")
+    study.add_argument("--out", required=True, help="output folder (one subfolder per job)")
+    study.add_argument(
+        "--executor",
+        choices=("local", "ray"),
+        default="local",
+        help="local processes (default) or Ray tasks (needs lfd-track[cluster])",
+    )
+    study.add_argument(
+        "--address",
+        default=None,
+        help="Ray cluster address, e.g. 'auto' or 'HOST:6379' (default: start a local Ray)",
+    )
+    study.add_argument(
+        "--workers",
+        type=_workers,
+        default=1,
+        help="jobs run at once: local processes, or the CPUs of a local Ray (default 1)",
+    )
+    study.set_defaults(func=_cmd_study)
+    return study
+
+
+def _cmd_study(args: argparse.Namespace) -> int:
+    from .run import load_finished, run_study
+    from .spec import load_study
+    from .summary import write_study_outputs
+
+    if args.address is not None and args.executor != "ray":
+        raise LfdTrackError("--address needs --executor ray")
+    study = load_study(args.study_file)  # a bad study file fails here, before DIR is touched
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise LfdTrackError(f"{out}: exists and is not a folder")
+    out.mkdir(parents=True, exist_ok=True)
+    show = not args.quiet and sys.stderr.isatty()
+    run = run_study(
+        study,
+        out,
+        executor=args.executor,
+        workers=args.workers,
+        address=args.address,
+        progress=show,
+    )
+    results = write_study_outputs(out, study, load_finished(study, out))
+    for c in results["conditions"]:
+        testing = c["testing"]
+        low, high = testing["ci95"]
+        print(
+            f"{c['name']}: testing {testing['successes']}/{testing['trials']} "
+            f"[{100 * low:.0f}–{100 * high:.0f} %], training "
+            f"{c['training']['successes']}/{c['training']['trials']}"
+        )
+    print(
+        f"{run.ran} jobs run, {run.skipped} already finished, {run.wall_s:.0f} s; "
+        f"tables {out / 'study.md'}, results {out / 'study.json'}, plot {out / 'study.png'}"
+    )
+    return 0

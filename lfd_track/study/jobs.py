@@ -1,0 +1,84 @@
+"""One study job: the paper protocol for one (condition, seed), and where its results live.
+
+A job runs in a temporary folder on whatever machine executes it (a local process or a Ray
+worker) and returns its output files as bytes, so the machine that runs the study writes every
+file itself and a cluster needs no shared file system. A job is finished exactly when
+``OUT/<condition>/seed<k>/results.json`` exists: that file is written atomically, after the
+job's report, so an interrupted study loses at most the jobs that were running.
+"""
+
+from __future__ import annotations
+
+import json
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from ..atomic import atomic_write_bytes
+from ..benchmark.runner import config_dict, run_benchmark
+from ..benchmark.tables import results_json_text
+from ..errors import FileFormatError
+from .spec import Job
+
+RESULTS_FILE = "results.json"
+JOB_FILES = ("report.md", RESULTS_FILE)
+"""Files kept from each job's benchmark outputs, in the order they are written (results last)."""
+
+
+def run_job(job: Job) -> dict[str, bytes]:
+    """Run one job's benchmark (one process) and return ``{file name: contents}``.
+
+    The outputs are exactly what ``lfd-track benchmark`` writes for the same settings; the
+    demonstrations, controllers and pictures are not kept.
+    """
+    from ..benchmark.report import write_benchmark_outputs
+
+    with tempfile.TemporaryDirectory(prefix="lfd-track-job-") as tmp:
+        folder = Path(tmp)
+        start = time.perf_counter()
+        reps = run_benchmark(job.config, folder / "repetitions", workers=1)
+        wall_s = time.perf_counter() - start
+        write_benchmark_outputs(folder, job.config, reps, wall_s=wall_s, workers=1)
+        return {name: (folder / name).read_bytes() for name in JOB_FILES}
+
+
+def job_folder(out: Path, job: Job) -> Path:
+    """Where the job's files go: ``out/<condition>/seed<k>``."""
+    return out / job.condition / f"seed{job.seed}"
+
+
+def store_job(out: Path, job: Job, files: dict[str, bytes]) -> None:
+    """Write a finished job's files, ``results.json`` last (each one atomically)."""
+    folder = job_folder(out, job)
+    for name in JOB_FILES:
+        atomic_write_bytes(folder / name, files[name])
+
+
+def expected_config(job: Job) -> dict[str, Any]:
+    """The job's settings as its results.json stores them."""
+    return json.loads(results_json_text({"config": config_dict(job.config)}))["config"]
+
+
+def finished_results(out: Path, job: Job) -> dict[str, Any] | None:
+    """The job's results if it finished earlier, else None.
+
+    Raises ``FileFormatError`` if the stored results are unreadable or were produced with other
+    settings than the study now asks for (rerunning would mix two studies in one folder).
+    """
+    path = job_folder(out, job) / RESULTS_FILE
+    if not path.is_file():
+        return None
+    try:
+        results = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise FileFormatError(
+            path, f"unreadable results ({exc}); delete it to rerun the job"
+        ) from None
+    if not isinstance(results, dict) or results.get("config") != expected_config(job):
+        raise FileFormatError(
+            path,
+            f"was run with other settings than condition '{job.condition}' now has "
+            "(use another --out folder, or delete this job's folder to rerun it)",
+        )
+    return results

@@ -1,0 +1,351 @@
+"""Pool a study's job results per condition: study.json, study.md and study.png.
+
+Rates pool every trial of a condition over its seeds and repetitions, with Wilson 95 % intervals.
+The interval treats trials as independent; trials of one repetition share a controller, so it
+is somewhat narrower than the spread between repetitions warrants (``per_seed`` shows that
+spread).
+"""
+
+from __future__ import annotations
+
+import statistics
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..atomic import atomic_write_text
+from ..benchmark.paper import TRACK_RESULT_KEYS
+from ..benchmark.runner import config_dict
+from ..benchmark.tables import results_json_text
+from .spec import Job, Study
+from .stats import rate_summary
+
+STUDY_SCHEMA = 1
+PAPER_TRACKS = tuple(TRACK_RESULT_KEYS)
+"""The paper's two tracks ("training", "testing"); any other track scored is an unseen track."""
+
+
+def _charged_corner(outcome: Mapping[str, Any]) -> str | None:
+    """The corner a failed trial is charged to: the first it did not negotiate."""
+    if outcome["success"]:
+        return None
+    order, negotiated = outcome["corner_order"], outcome["corners_negotiated"]
+    return None if len(negotiated) >= len(order) else str(order[len(negotiated)])
+
+
+def human_commands(results: Mapping[str, Any]) -> int:
+    """Commands the (scripted) human gave in one job, demonstrations and corrections together.
+
+    Taken from the results' human-effort totals where the benchmark reports them; otherwise (the
+    paper method, which only demonstrates) every demonstration command counts: the recorded
+    cases plus the library-only commands at the start of each demonstration.
+    """
+    for key in ("human_effort", "human"):
+        effort = results.get(key)
+        if isinstance(effort, Mapping):
+            total = effort.get("total", effort)
+            if isinstance(total, Mapping) and isinstance(total.get("commands"), int):
+                return int(total["commands"])
+    if isinstance(results.get("human_commands"), int):
+        return int(results["human_commands"])
+    library_only = int(results["config"]["human"]["library_only_commands"])
+    return sum(int(d["cases"]) + library_only for d in results["demonstrations"])
+
+
+def _track_counts(outcomes: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Per track: successes, trials, corner failures and failure kinds."""
+    tracks: dict[str, dict[str, Any]] = {}
+    for o in outcomes:
+        t = tracks.setdefault(
+            str(o["track"]), {"successes": 0, "trials": 0, "corners": {}, "failure_kinds": {}}
+        )
+        t["trials"] += 1
+        t["successes"] += bool(o["success"])
+        for label in o["corner_order"]:
+            t["corners"].setdefault(str(label), 0)
+        corner = _charged_corner(o)
+        if corner is not None:
+            t["corners"][corner] += 1
+        if o["failure"] is not None:
+            kinds = t["failure_kinds"]
+            kinds[o["failure"]] = kinds.get(o["failure"], 0) + 1
+    return tracks
+
+
+def condition_summary(
+    study: Study, name: str, jobs: Sequence[tuple[Job, Mapping[str, Any]]]
+) -> dict[str, Any]:
+    """One entry of study.json's ``conditions`` from the condition's finished jobs."""
+    condition = next(c for c in study.conditions if c.name == name)
+    outcomes = [o for _, r in jobs for o in r["outcomes"]]
+    tracks = _track_counts(outcomes)
+    unseen = sorted(t for t in tracks if t not in PAPER_TRACKS)
+
+    def rate(track_names: Sequence[str]) -> dict[str, Any]:
+        return rate_summary(
+            sum(tracks[t]["successes"] for t in track_names if t in tracks),
+            sum(tracks[t]["trials"] for t in track_names if t in tracks),
+        )
+
+    commands = [human_commands(r) for _, r in jobs]
+    accuracy = [float(a) for _, r in jobs for a in r.get("training_accuracy", [])]
+    reps = study.repetitions * len(jobs)
+    per_seed = []
+    for job, r in jobs:
+        seed_tracks = _track_counts(r["outcomes"])
+        per_seed.append(
+            {
+                "seed": job.seed,
+                **{
+                    t: rate_summary(
+                        seed_tracks.get(t, {}).get("successes", 0),
+                        seed_tracks.get(t, {}).get("trials", 0),
+                    )
+                    for t in PAPER_TRACKS
+                },
+                "wall_s": float(r.get("timing_s", {}).get("wall", 0.0)),
+            }
+        )
+    return {
+        "name": name,
+        "description": condition.description,
+        "method": condition.method,
+        "preset": condition.config.preset,
+        "seeds": list(study.seeds),
+        "repetitions": study.repetitions,
+        "trials_per_direction": condition.config.trials_per_direction,
+        "test_tracks": list(condition.test_tracks),
+        "config": {
+            k: v
+            for k, v in config_dict(condition.config).items()
+            if k not in ("seed", "repetitions")
+        },
+        "training": rate(["training"]),
+        "testing": rate(["testing"]),
+        "unseen_tracks": {t: rate([t]) for t in unseen},
+        "unseen": rate(unseen),
+        "corner_failures": {t: tracks[t]["corners"] for t in sorted(tracks)},
+        "failure_kinds": {t: tracks[t]["failure_kinds"] for t in sorted(tracks)},
+        "human_commands": {
+            "total": sum(commands),
+            "per_repetition": sum(commands) / reps if reps else None,
+        },
+        "training_accuracy": statistics.mean(accuracy) if accuracy else None,
+        "wall_s": sum(float(r.get("timing_s", {}).get("wall", 0.0)) for _, r in jobs),
+        "per_seed": per_seed,
+        "jobs": [job.key for job, _ in jobs],
+    }
+
+
+def build_study_results(
+    study: Study, finished: Sequence[tuple[Job, Mapping[str, Any]]]
+) -> dict[str, Any]:
+    """The study.json dict: one pooled entry per condition, in the study file's order."""
+    from ..benchmark.paper import paper_results
+
+    paper = paper_results()
+    return {
+        "schema": STUDY_SCHEMA,
+        "study": study.name,
+        "description": study.description,
+        "seeds": list(study.seeds),
+        "repetitions": study.repetitions,
+        "conditions": [
+            condition_summary(study, c.name, [(j, r) for j, r in finished if j.condition == c.name])
+            for c in study.conditions
+        ],
+        "paper": {
+            t: rate_summary(paper[k]["successes"], paper[k][_trial_key(t)])
+            for t, k in TRACK_RESULT_KEYS.items()
+        },
+        "wall_s": sum(float(r.get("timing_s", {}).get("wall", 0.0)) for _, r in finished),
+    }
+
+
+def _trial_key(track: str) -> str:
+    from ..benchmark.paper import TRIAL_COUNT_KEYS
+
+    return TRIAL_COUNT_KEYS[track]
+
+
+# ------------------------------------------------------------------------------------ markdown
+def _cell(r: Mapping[str, Any]) -> str:
+    if not r["trials"]:
+        return "–"
+    low, high = r["ci95"]
+    return f"{r['successes']}/{r['trials']} = {100 * r['rate']:.0f} % [{100 * low:.0f}–{100 * high:.0f}]"
+
+
+def study_markdown(results: Mapping[str, Any]) -> str:
+    """The study's tables as Markdown (the table a paper would print)."""
+    seeds = ", ".join(str(s) for s in results["seeds"])
+    lines = [
+        f"# Study `{results['study']}`",
+        "",
+        *([results["description"], ""] if results["description"] else []),
+        f"Each condition runs the paper protocol for seeds {seeds} (matched across conditions), "
+        f"{results['repetitions']} repetition(s) per seed: a fresh demonstration, learning, then "
+        "autonomous runs on the training track, laps of the testing track and laps of any unseen "
+        "tracks. Cells: successes/trials = rate [Wilson 95 % interval], pooled over seeds and "
+        "repetitions.",
+        "",
+        "| condition | method | preset | training track | testing track | unseen tracks "
+        "| human commands / repetition | training accuracy | wall (s) |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for c in results["conditions"]:
+        accuracy = c["training_accuracy"]
+        commands = c["human_commands"]["per_repetition"]
+        lines.append(
+            f"| {c['name']} | {c['method']} | {c['preset']} | {_cell(c['training'])} "
+            f"| {_cell(c['testing'])} | {_cell(c['unseen'])} "
+            f"| {'–' if commands is None else f'{commands:.0f}'} "
+            f"| {'–' if accuracy is None else f'{100 * accuracy:.1f} %'} | {c['wall_s']:.0f} |"
+        )
+    paper = results["paper"]
+    lines.append(
+        f"| paper (reported) | paper | – | {_cell(paper['training'])} | {_cell(paper['testing'])} "
+        "| – | – | – | – |"
+    )
+    for track in ("testing", "training"):
+        corner_rows = [
+            (c["name"], c["corner_failures"].get(track, {})) for c in results["conditions"]
+        ]
+        labels = sorted({label for _, corners in corner_rows for label in corners})
+        if not labels:
+            continue
+        lines += [
+            "",
+            f"Failures charged to each corner of the {track} track (both directions, all trials):",
+            "",
+            "| condition | " + " | ".join(f"corner {label}" for label in labels) + " |",
+            "|---|" + "---|" * len(labels),
+        ]
+        for name, corners in corner_rows:
+            lines.append(f"| {name} | " + " | ".join(str(corners.get(x, 0)) for x in labels) + " |")
+    unseen = sorted({t for c in results["conditions"] for t in c["unseen_tracks"]})
+    if unseen:
+        lines += [
+            "",
+            "Unseen tracks one by one:",
+            "",
+            "| condition | " + " | ".join(unseen) + " |",
+            "|---|" + "---|" * len(unseen),
+        ]
+        for c in results["conditions"]:
+            cells = [
+                _cell(c["unseen_tracks"][t]) if t in c["unseen_tracks"] else "–" for t in unseen
+            ]
+            lines.append(f"| {c['name']} | " + " | ".join(cells) + " |")
+    lines += [
+        "",
+        "The intervals treat every trial as independent; trials of one repetition share a "
+        "controller, so the spread between seeds (study.json, `per_seed`) is the better guide "
+        "where it is wider.",
+        f"Summed job time: {results['wall_s']:.0f} s.",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+# ------------------------------------------------------------------------------------ picture
+_SERIES = (
+    ("training", (44, 160, 44)),
+    ("testing", (31, 119, 180)),
+    ("unseen", (214, 39, 40)),
+)
+
+
+def study_plot(results: Mapping[str, Any]) -> np.ndarray:
+    """Success rate of every condition with Wilson 95 % bars; RGB uint8 image."""
+    import cv2
+
+    conditions = results["conditions"]
+    group_w, left, right, top, bottom = 130, 60, 20, 60, 70
+    width = max(640, left + right + group_w * len(conditions))
+    group_w = (width - left - right) // max(len(conditions), 1)  # spread out when few
+    height = 460
+    plot_h = height - top - bottom
+    img = np.full((height, width, 3), 255, np.uint8)
+    font = cv2.FONT_HERSHEY_SIMPLEX
+
+    def y_of(rate: float) -> int:
+        return int(round(top + plot_h * (1.0 - rate)))
+
+    for k in range(6):
+        rate = k / 5
+        y = y_of(rate)
+        cv2.line(img, (left, y), (width - right, y), (225, 225, 225), 1)
+        cv2.putText(img, f"{100 * rate:.0f}%", (8, y + 4), font, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
+    paper_rate = results["paper"]["testing"]["rate"]
+    y = y_of(paper_rate)
+    for x in range(left, width - right, 12):
+        cv2.line(img, (x, y), (min(x + 6, width - right), y), _SERIES[1][1], 1)
+    cv2.putText(
+        img,
+        "paper, testing",
+        (width - right - 110, y - 4),
+        font,
+        0.4,
+        _SERIES[1][1],
+        1,
+        cv2.LINE_AA,
+    )
+    cv2.rectangle(img, (left, top), (width - right, top + plot_h), (0, 0, 0), 1)
+    title = f"study {results['study']}: success rate, Wilson 95 % interval"
+    cv2.putText(img, title, (left, 22), font, 0.5, (0, 0, 0), 1, cv2.LINE_AA)
+    for i, (name, colour) in enumerate(_SERIES):
+        x = left + 10 + 110 * i
+        cv2.circle(img, (x, 42), 4, colour, -1, cv2.LINE_AA)
+        cv2.putText(img, name, (x + 8, 46), font, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
+    for g, c in enumerate(conditions):
+        x0 = left + g * group_w
+        for s, (series, colour) in enumerate(_SERIES):
+            r = c[series]
+            if not r["trials"]:
+                continue
+            x = x0 + group_w // 2 - 30 + 30 * s
+            low, high = r["ci95"]
+            cv2.line(img, (x, y_of(low)), (x, y_of(high)), colour, 2)
+            for yy in (y_of(low), y_of(high)):
+                cv2.line(img, (x - 5, yy), (x + 5, yy), colour, 2)
+            cv2.circle(img, (x, y_of(r["rate"])), 5, colour, -1, cv2.LINE_AA)
+        label = c["name"] if len(c["name"]) <= 16 else c["name"][:15] + "."
+        (text_w, _), _ = cv2.getTextSize(label, font, 0.45, 1)
+        cv2.putText(
+            img,
+            label,
+            (x0 + (group_w - text_w) // 2, top + plot_h + 22),
+            font,
+            0.45,
+            (0, 0, 0),
+            1,
+            cv2.LINE_AA,
+        )
+        method = f"{c['method']}, {c['preset']}"
+        (text_w, _), _ = cv2.getTextSize(method, font, 0.35, 1)
+        cv2.putText(
+            img,
+            method,
+            (x0 + (group_w - text_w) // 2, top + plot_h + 42),
+            font,
+            0.35,
+            (90, 90, 90),
+            1,
+            cv2.LINE_AA,
+        )
+    return img
+
+
+def write_study_outputs(
+    out: Path, study: Study, finished: Sequence[tuple[Job, Mapping[str, Any]]]
+) -> dict[str, Any]:
+    """Write study.json, study.md and study.png into ``out``; returns the study.json dict."""
+    from ..plots import write_png
+
+    results = build_study_results(study, finished)
+    atomic_write_text(out / "study.json", results_json_text(results))
+    atomic_write_text(out / "study.md", study_markdown(results))
+    write_png(str(out / "study.png"), study_plot(results))
+    return results

@@ -1,0 +1,38 @@
+import pytest
+
+from lfd_track.study.stats import rate_summary, wilson_interval
+
+
+def test_wilson_interval_known_values():
+    # Textbook values: 8 of 10 -> (0.490, 0.943); 0 of 10 -> (0, z^2 / (n + z^2)).
+    low, high = wilson_interval(8, 10)
+    assert low == pytest.approx(0.4902, abs=1e-4) and high == pytest.approx(0.9433, abs=1e-4)
+    assert wilson_interval(0, 10) == (0.0, pytest.approx(3.8415 / 13.8415, abs=1e-4))
+    assert wilson_interval(10, 10) == (pytest.approx(1 - 3.8415 / 13.8415, abs=1e-4), 1.0)
+    # The paper's testing track, 28 of 60 laps (worked by hand: centre 0.4687, half 0.1224).
+    low, high = wilson_interval(28, 60)
+    assert low == pytest.approx(0.3463, abs=1e-4) and high == pytest.approx(0.5911, abs=1e-4)
+
+
+def test_interval_is_symmetric_contains_the_rate_and_narrows_with_trials():
+    for n in (1, 5, 60, 1000):
+        for k in range(0, n + 1, max(1, n // 7)):
+            low, high = wilson_interval(k, n)
+            assert 0 <= low <= k / n <= high <= 1
+            mirrored = wilson_interval(n - k, n)
+            assert mirrored == (pytest.approx(1 - high), pytest.approx(1 - low))
+    assert wilson_interval(30, 60)[1] - wilson_interval(30, 60)[0] > (
+        wilson_interval(300, 600)[1] - wilson_interval(300, 600)[0]
+    )
+
+
+def test_rate_summary_and_bad_counts():
+    assert rate_summary(3, 4) == {
+        "successes": 3,
+        "trials": 4,
+        "rate": 0.75,
+        "ci95": list(wilson_interval(3, 4)),
+    }
+    assert rate_summary(0, 0) == {"successes": 0, "trials": 0, "rate": None, "ci95": [0.0, 1.0]}
+    with pytest.raises(ValueError):
+        wilson_interval(5, 4)
