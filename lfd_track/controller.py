@@ -1,30 +1,67 @@
-"""A trained controller: frozen road library + evolved MLP weights, saved as one JSON file.
+"""A trained controller: frozen road library + learned MLP weights, saved as one JSON file.
 
 ``act(frame)`` runs the paper's autonomous loop for one frame: road values (Algorithm 2) → MLP →
 the command with the largest output (an exact tie keeps the previous command).
+
+The file (schema 2) is one JSON object with the keys ``format``, ``schema_version``,
+``policy_kind`` (``"mlp-sigmoid"``: the 40-5-3 sigmoid network, the only kind today),
+``layer_sizes``, ``bias``, ``weights``, ``road_library``, ``learner`` (what trained it: ``"ga"``,
+``"bc"``, ``"cma-es"``, ... or null), ``learner_config`` (the learner's settings as a JSON object,
+or null), ``seed``, ``fitness_history``, ``learn`` and ``checksum``: the SHA-256 (hex) of the
+canonical JSON (sorted keys, no spaces, UTF-8) of every other key, so a changed digit anywhere is
+refused. Schema 1 files (wave 1: ``ga_config`` instead of ``learner``/``learner_config``, no
+``policy_kind`` or checksum) still load as ``learner="ga"``.
+
+A policy does not import its trainer: the GA appears here only as a type for ``from_evolution``.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .atomic import atomic_write_text
 from .control.mlp import LAYER_SIZES, mlp_forward, n_weights, select_action
 from .errors import FileFormatError
-from .learning.ga import EvolutionResult, GAConfig
+from .files import read_regular_text
 from .teaching.commanders import PolicyCommander
 from .teaching.perception import Perception
 from .vision.road_library import RoadLibrary
 
+if TYPE_CHECKING:
+    from .learning.ga import EvolutionResult
+
 CONTROLLER_FORMAT = "lfd-track-controller"
-CONTROLLER_SCHEMA_VERSION = 1
+CONTROLLER_SCHEMA_VERSION = 2
+POLICY_KINDS = ("mlp-sigmoid",)
+"""Policy kinds this version of lfd-track can run."""
+MAX_ABS_WEIGHT = 1e6
+"""Largest weight magnitude accepted: beyond it every sigmoid is saturated (a road value is at
+most 1 and a layer has at most 40 inputs), so larger values only come from a damaged file."""
+MAX_FILE_BYTES = 256 << 20
+"""Largest controller file read (a 100-model library at 256 bins is a few MB)."""
 _KEYS = (
+    "format",
+    "schema_version",
+    "policy_kind",
+    "layer_sizes",
+    "bias",
+    "weights",
+    "road_library",
+    "learner",
+    "learner_config",
+    "seed",
+    "fitness_history",
+    "learn",
+    "checksum",
+)
+_KEYS_V1 = (
     "format",
     "schema_version",
     "layer_sizes",
@@ -38,18 +75,29 @@ _KEYS = (
 )
 
 
+def checksum(contents: Mapping[str, Any]) -> str:
+    """SHA-256 hex of the canonical JSON of every key of ``contents`` except ``checksum``."""
+    body = {k: v for k, v in contents.items() if k != "checksum"}
+    text = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
 class Controller:
     """Drives from camera frames with a road library and a 40-5-3 MLP.
 
     Args:
-        library: the road library (frozen unless ``learn``).
-        weights: (215,) MLP weights, or (223,) with ``bias=True``.
+        library: the road library (frozen unless ``learn``); must hold at least one model.
+        weights: (215,) MLP weights, or (223,) with ``bias=True``; finite, |w| <= 1e6.
         bias: whether the weights include node biases.
-        ga_config: GA settings the weights came from (stored for the record).
+        learner: what produced the weights ("ga", "bc", "cma-es", "online", "hg-dagger", ...),
+            stored for the record.
+        learner_config: the learner's settings (a JSON-friendly dict), stored for the record.
         seed: seed of the run that produced the weights (stored for the record).
         fitness_history: best fitness per generation (stored for the record).
         learn: also run Algorithm 1 on each frame before computing its road values.
     """
+
+    policy_kind = "mlp-sigmoid"
 
     def __init__(
         self,
@@ -57,7 +105,8 @@ class Controller:
         weights: np.ndarray,
         *,
         bias: bool = False,
-        ga_config: GAConfig | None = None,
+        learner: str | None = None,
+        learner_config: Mapping[str, Any] | None = None,
         seed: int | None = None,
         fitness_history: Sequence[float] | None = None,
         learn: bool = False,
@@ -70,11 +119,22 @@ class Controller:
             )
         if not np.all(np.isfinite(w)):
             raise ValueError("weights contain NaN or infinite values")
+        if np.abs(w).max() > MAX_ABS_WEIGHT:
+            raise ValueError(f"a weight of {np.abs(w).max():.3g} is beyond +-{MAX_ABS_WEIGHT:g}")
+        if learner is not None and (not isinstance(learner, str) or not learner.strip()):
+            raise ValueError(f"learner must be a non-empty string or None, got {learner!r}")
+        config = None if learner_config is None else dict(learner_config)
+        if config is not None:
+            try:
+                json.dumps(config, allow_nan=False)
+            except (TypeError, ValueError) as exc:
+                raise ValueError(f"learner_config is not JSON-friendly: {exc}") from None
         w.flags.writeable = False
         self.library = library
         self.weights = w
         self.bias = bool(bias)
-        self.ga_config = ga_config
+        self.learner = learner
+        self.learner_config = config
         self.seed = seed
         self.fitness_history = (
             None if fitness_history is None else [float(f) for f in fitness_history]
@@ -93,7 +153,8 @@ class Controller:
             library,
             result.best_weights,
             bias=result.config.bias,
-            ga_config=result.config,
+            learner="ga",
+            learner_config=result.config.to_dict(),
             seed=seed,
             fitness_history=result.best_history.tolist(),
         )
@@ -125,19 +186,23 @@ class Controller:
 
     # ------------------------------------------------------------------------------- files
     def to_dict(self) -> dict[str, Any]:
-        """JSON-friendly contents of the controller file."""
-        return {
+        """JSON-friendly contents of the controller file (schema 2, checksum included)."""
+        contents: dict[str, Any] = {
             "format": CONTROLLER_FORMAT,
             "schema_version": CONTROLLER_SCHEMA_VERSION,
+            "policy_kind": self.policy_kind,
             "layer_sizes": list(LAYER_SIZES),
             "bias": self.bias,
             "weights": self.weights.tolist(),
             "road_library": self.library.to_dict(),
-            "ga_config": None if self.ga_config is None else self.ga_config.to_dict(),
+            "learner": self.learner,
+            "learner_config": self.learner_config,
             "seed": self.seed,
             "fitness_history": self.fitness_history,
             "learn": self.learn,
         }
+        contents["checksum"] = checksum(contents)
+        return contents
 
     def save(self, path: str | Path) -> None:
         """Write the controller file atomically (a reader never sees a partial file)."""
@@ -147,12 +212,7 @@ class Controller:
     @classmethod
     def load(cls, path: str | Path) -> Controller:
         """Read a controller file; anything malformed raises ``FileFormatError(path, problem)``."""
-        try:
-            text = Path(path).read_text(encoding="utf-8")
-        except FileNotFoundError:
-            raise FileFormatError(path, "file not found") from None
-        except (OSError, UnicodeDecodeError) as exc:
-            raise FileFormatError(path, f"cannot read file ({exc.__class__.__name__})") from None
+        text = read_regular_text(path, MAX_FILE_BYTES, "controller")
         try:
             data = json.loads(text, parse_constant=_reject_constant)
         except _NonFiniteError as exc:
@@ -163,10 +223,13 @@ class Controller:
             ) from None
         except RecursionError:
             raise FileFormatError(path, "JSON nested too deeply to be a controller file") from None
+        except ValueError as exc:  # e.g. an integer with thousands of digits
+            raise FileFormatError(path, f"not a valid controller file: {exc}") from None
         try:
             return cls._from_dict(data)
         except (ValueError, TypeError, OverflowError, RecursionError) as exc:
-            raise FileFormatError(path, str(exc) or exc.__class__.__name__) from None
+            message = (str(exc) or exc.__class__.__name__).splitlines()[0]
+            raise FileFormatError(path, message) from None
 
     @classmethod
     def _from_dict(cls, data: Any) -> Controller:
@@ -175,17 +238,33 @@ class Controller:
         if data.get("format") != CONTROLLER_FORMAT:
             raise ValueError(f"not a controller file ('format' must be '{CONTROLLER_FORMAT}')")
         version = data.get("schema_version")
-        if version != CONTROLLER_SCHEMA_VERSION:
+        if isinstance(version, bool) or version not in (1, CONTROLLER_SCHEMA_VERSION):
             raise ValueError(
                 f"schema version {version!r} is not supported"
-                f" (this version of lfd-track reads {CONTROLLER_SCHEMA_VERSION})"
+                f" (this version of lfd-track reads 1 and {CONTROLLER_SCHEMA_VERSION})"
             )
-        for key in _KEYS:
+        keys = _KEYS if version == CONTROLLER_SCHEMA_VERSION else _KEYS_V1
+        for key in keys:
             if key not in data:
                 raise ValueError(f"missing key '{key}'")
-        unknown = sorted(set(data) - set(_KEYS))
+        unknown = sorted(set(data) - set(keys))
         if unknown:
             raise ValueError(f"unknown key '{unknown[0]}'")
+        if version == CONTROLLER_SCHEMA_VERSION:
+            stored = data["checksum"]
+            if not isinstance(stored, str) or stored != checksum(data):
+                raise ValueError(
+                    "checksum mismatch: the file was changed or damaged after it was saved"
+                )
+            kind = data["policy_kind"]
+            if kind not in POLICY_KINDS:
+                raise ValueError(
+                    f"policy kind {kind!r} is not supported (this lfd-track runs"
+                    f" {', '.join(POLICY_KINDS)})"
+                )
+            learner, learner_config = data["learner"], data["learner_config"]
+        else:
+            learner, learner_config = "ga", data["ga_config"]
         if data["layer_sizes"] != list(LAYER_SIZES):
             raise ValueError(
                 f"layer_sizes {data['layer_sizes']!r} not supported (expected {list(LAYER_SIZES)})"
@@ -201,18 +280,28 @@ class Controller:
                 f"expected {n_weights(bias)} weights for layers {list(LAYER_SIZES)}"
                 f" {'with' if bias else 'without'} biases, got {len(weights)}"
             )
+        if any(abs(w) > MAX_ABS_WEIGHT for w in weights):
+            raise ValueError(f"'weights' must lie within +-{MAX_ABS_WEIGHT:g}")
         library = RoadLibrary.from_dict(data["road_library"])
-        ga_config = None if data["ga_config"] is None else GAConfig.from_dict(data["ga_config"])
-        if ga_config is not None and ga_config.bias != bias:
-            raise ValueError("'bias' disagrees with ga_config.bias")
+        if library.n_models == 0:
+            raise ValueError("the road library is empty (a controller cannot see the road)")
+        if learner is not None and (not isinstance(learner, str) or not learner.strip()):
+            raise ValueError("'learner' must be a non-empty string or null")
+        if learner_config is not None and not isinstance(learner_config, dict):
+            raise ValueError("'learner_config' must be a JSON object or null")
+        if learner == "ga" and learner_config is not None:
+            _check_ga_config(learner_config, bias)
         seed = data["seed"]
-        if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int)):
-            raise ValueError("'seed' must be an integer or null")
+        if seed is not None and (
+            isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**64
+        ):
+            raise ValueError("'seed' must be an integer in 0..2**64-1 or null")
         history = data["fitness_history"]
         if history is not None and (
-            not isinstance(history, list) or not all(_is_finite_number(f) for f in history)
+            not isinstance(history, list)
+            or not all(_is_finite_number(f) and f >= 0 for f in history)
         ):
-            raise ValueError("'fitness_history' must be a list of numbers or null")
+            raise ValueError("'fitness_history' must be a list of non-negative numbers or null")
         learn = data["learn"]
         if not isinstance(learn, bool):
             raise ValueError("'learn' must be true or false")
@@ -220,11 +309,34 @@ class Controller:
             library,
             np.asarray(weights, dtype=np.float64),
             bias=bias,
-            ga_config=ga_config,
+            learner=learner,
+            learner_config=learner_config,
             seed=seed,
             fitness_history=history,
             learn=learn,
         )
+
+
+def _check_ga_config(config: dict[str, Any], bias: bool) -> None:
+    """Plausibility of a GA's settings without importing the GA (a policy never imports its
+    trainer): known keys, numbers where numbers belong, and the same ``bias`` as the weights."""
+    counts = ("population_size", "generations", "tournament_size", "elitism")
+    rates = ("mutation_rate", "mutation_delta", "init_range", "threshold")
+    unknown = sorted(set(config) - {*counts, *rates, "bias"})
+    if unknown:
+        raise ValueError(f"unknown GA config key '{unknown[0]}'")
+    for name in counts:
+        value = config.get(name, 0)
+        if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 10**9:
+            raise ValueError(f"GA config {name} must be an integer in 0..1e9, got {value!r}")
+    for name in rates:
+        value = config.get(name, 0.0)
+        if not _is_finite_number(value) or value < 0:
+            raise ValueError(f"GA config {name} must be a non-negative number, got {value!r}")
+    if not config.get("mutation_rate", 0.0) <= 1.0:
+        raise ValueError("GA config mutation_rate must be in [0, 1]")
+    if "bias" in config and config["bias"] != bias:
+        raise ValueError("'bias' disagrees with the GA config's bias")
 
 
 class _NonFiniteError(ValueError):

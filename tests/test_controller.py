@@ -3,7 +3,7 @@ import json
 import numpy as np
 import pytest
 
-from lfd_track.controller import Controller
+from lfd_track.controller import Controller, checksum
 from lfd_track.errors import FileFormatError
 from lfd_track.learning.ga import GAConfig, evolve
 from lfd_track.vision.road_library import RoadLibrary
@@ -31,7 +31,8 @@ def test_saved_and_loaded_controller_acts_identically(trained, tmp_path):
     controller.save(path)
     loaded = Controller.load(path)
     assert loaded.weights.tobytes() == controller.weights.tobytes()
-    assert loaded.ga_config == controller.ga_config and loaded.seed == 2
+    assert loaded.learner == "ga" and loaded.seed == 2
+    assert loaded.learner_config == controller.learner_config == GAConfig(generations=20).to_dict()
     assert loaded.fitness_history == controller.fitness_history
     assert loaded.library.to_dict() == controller.library.to_dict()
     controller.reset()
@@ -42,7 +43,9 @@ def test_saved_and_loaded_controller_acts_identically(trained, tmp_path):
     np.testing.assert_array_equal(outs, loaded.last_outputs)
     assert len(set(acts)) > 1  # the comparison means something
     data = json.loads(path.read_text())
-    assert data["schema_version"] == 1 and data["layer_sizes"] == [40, 5, 3]
+    assert data["schema_version"] == 2 and data["layer_sizes"] == [40, 5, 3]
+    assert data["policy_kind"] == "mlp-sigmoid" and data["learner"] == "ga"
+    assert data["checksum"] == checksum(data) and len(data["checksum"]) == 64
     assert data["bias"] is False and len(data["weights"]) == 215
 
 
@@ -71,6 +74,12 @@ def _saved(trained, tmp_path):
     return path, json.loads(path.read_text())
 
 
+def _write_with_checksum(path, data):
+    """An edited file that still passes the checksum (to reach the checks behind it)."""
+    data["checksum"] = checksum(data)
+    path.write_text(json.dumps(data))
+
+
 def _expect_one_line_error(path, match):
     with pytest.raises(FileFormatError, match=match) as info:
         Controller.load(path)
@@ -90,21 +99,79 @@ def test_truncated_file_fails_clearly(trained, tmp_path):
     "edit, match",
     [
         (lambda d: d["weights"].pop(), "expected 215 weights.*got 214"),
-        (lambda d: d.update(schema_version=2), "schema version 2 is not supported"),
+        (lambda d: d.update(schema_version=3), "schema version 3 is not supported"),
         (lambda d: d.pop("road_library"), "missing key 'road_library'"),
         (lambda d: d.update(extra=1), "unknown key 'extra'"),
         (lambda d: d.update(layer_sizes=[40, 6, 3]), "layer_sizes"),
         (lambda d: d["weights"].__setitem__(3, "x"), "weights"),
         (lambda d: d["road_library"].pop("bins"), "road library is missing key 'bins'"),
-        (lambda d: d["ga_config"].update(mutation_rate=3.0), "mutation_rate"),
+        (lambda d: d["learner_config"].update(mutation_rate=3.0), "mutation_rate"),
+        (lambda d: d["learner_config"].update(bias=True), "disagrees"),
         (lambda d: d.update(format="something"), "not a controller file"),
+        (lambda d: d.update(policy_kind="transformer"), "policy kind 'transformer'"),
+        (lambda d: d.update(learner_config=[1]), "learner_config"),
+        (lambda d: d.update(learner=""), "learner"),
+        (lambda d: d["weights"].__setitem__(0, 1e300), r"within \+-1e\+06"),
+        (lambda d: d["road_library"].update(types=[]), "road library is empty"),
+        (lambda d: d.update(seed=-1), "seed"),
+        (lambda d: d.update(fitness_history=[-1.0]), "fitness_history"),
+        (
+            lambda d: d["road_library"]["types"][0]["examples"][0]["model"][0].__setitem__(0, 7.0),
+            r"\[0, 1\]",
+        ),
+        (
+            lambda d: d["road_library"]["types"][0].update(selections=10**9, comparisons=1),
+            "more selections than comparisons",
+        ),
     ],
 )
 def test_edited_file_fails_clearly(trained, tmp_path, edit, match):
     path, data = _saved(trained, tmp_path)
     edit(data)
-    path.write_text(json.dumps(data))
+    _write_with_checksum(path, data)
     _expect_one_line_error(path, match)
+
+
+def test_any_changed_digit_is_caught_by_the_checksum(trained, tmp_path):
+    path, data = _saved(trained, tmp_path)
+    text = path.read_text()
+    rng = np.random.default_rng(0)
+    digits = [i for i, ch in enumerate(text) if ch.isdigit()]
+    for i in rng.choice(digits, 200, replace=False):
+        new = str((int(text[i]) + int(rng.integers(1, 10))) % 10)
+        path.write_text(text[:i] + new + text[i + 1 :])
+        _expect_one_line_error(path, ".")
+    # An edit with a stale checksum names the problem.
+    data["weights"][0] += 0.5
+    path.write_text(json.dumps(data))
+    _expect_one_line_error(path, "checksum mismatch")
+
+
+def test_wave_1_files_still_load(trained, tmp_path):
+    path, data = _saved(trained, tmp_path)
+    old = {k: v for k, v in data.items() if k not in ("checksum", "policy_kind")}
+    old["schema_version"] = 1
+    old["ga_config"] = old.pop("learner_config")
+    del old["learner"]
+    path.write_text(json.dumps(old))
+    loaded = Controller.load(path)
+    assert loaded.learner == "ga" and loaded.learner_config == data["learner_config"]
+    assert loaded.weights.tobytes() == trained[0].weights.tobytes()
+    old["ga_config"]["bias"] = True
+    path.write_text(json.dumps(old))
+    _expect_one_line_error(path, "disagrees")
+
+
+def test_policy_does_not_import_its_trainer(tmp_path):
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, lfd_track.controller;"
+        "print([m for m in sys.modules if m.startswith('lfd_track.learning')])"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
 
 
 def test_nan_weight_fails_clearly(trained, tmp_path):
@@ -135,5 +202,10 @@ def test_huge_integers_and_deep_nesting_are_one_line_errors(trained, tmp_path):
     _expect_one_line_error(deep, "nested too deeply")
     path, data = _saved(trained, tmp_path)
     data["weights"][0] = 10**400  # valid JSON, but no float can hold it
-    path.write_text(json.dumps(data))
+    _write_with_checksum(path, data)
     _expect_one_line_error(path, "finite numbers")
+    trained[0].save(path)
+    text = path.read_text()
+    assert '"seed":2,' in text
+    path.write_text(text.replace('"seed":2,', '"seed":' + "7" * 5000 + ","))  # past int limit
+    _expect_one_line_error(path, "not a valid controller file")

@@ -3,6 +3,10 @@
 A demonstration is the sequence of *cases* a demonstrator recorded: the command it gave, the 40
 road values computed at that moment with the record-time library, and the 40 x 5 x bins region
 histograms those values came from (kept so the values can be recomputed with another library).
+Each case also says where it came from: ``source`` is ``"demonstration"`` (the human drove) or
+``"correction"`` (a human command that took control back from the policy, or an intervention
+during an autonomous run), and ``round`` is 0 for the initial demonstration and r for the r-th
+round of autonomous runs with interventions.
 
 File layout (all integers little-endian)::
 
@@ -12,11 +16,25 @@ File layout (all integers little-endian)::
 The CRC-32 covers kind, length and payload. Records, in order:
 
 - ``H`` header, once, first: UTF-8 JSON ``{"format", "schema", "bins", "n_values", "n_channels",
-  "metadata"}``.
-- ``C`` case, one per ``append``: ``step i64 | command u8 | learned u8 | phase_len u16 |
-  x, y, theta, progress_m f64 | phase utf-8 | road_values 40 f64 | histograms 40*5*bins f32``.
+  "metadata", "initial_road_library"}``; the last is the library snapshot when recording started
+  (null when the writer was given no library to log).
+- ``C`` case, one per ``append``: ``step i64 | command u8 | learned u8 | source u8 | round u32 |
+  phase_len u16 | x, y, theta, progress_m f64 | phase utf-8 | road_values 40 f64 |
+  histograms 40*5*bins f32``. ``source`` is an index into :data:`SOURCES`.
+- ``L`` library learned (only with a logged library): ``joined_type i16 | evicted_type i16 |
+  evicted_example i16 | model 5*bins f32``; -1 means none (a new type; nothing evicted).
+- ``S`` library selections (only with a logged library): ``n_models u16 | counts u8[n_models]``,
+  the regions of one road-value frame that selected each model (they sum to 40).
 - ``F`` footer, once, last, written by ``close``: UTF-8 JSON of the final metadata (the
   record-time road library snapshot, counts).
+
+The ``L`` and ``S`` records are written as the road library changes, so an interrupted recording
+still carries its library: replaying them onto ``initial_road_library`` rebuilds the library as it
+was after the last intact record. A complete file's replayed library must equal the footer's
+snapshot (checked at load); a partial file's replayed snapshot becomes its ``"road_library"``.
+
+Schema 1 files (no source, round or library log) still load: every case is a ``"demonstration"``
+of round 0.
 
 Why a log rather than ``.npz``: each case is one ``write`` of one record on an unbuffered file
 (and by default ``fsync``-ed), so a killed recorder loses at most the case being written, and
@@ -29,7 +47,10 @@ complete last record whose CRC fails (a filesystem may extend a file before the 
 case in it is returned. Anything else — bad magic, unknown schema, a truncated or corrupt header,
 a corrupt record with data after it, a length no record of its kind can have, data after the
 footer, values out of range — raises :class:`lfd_track.errors.FileFormatError` with one line
-naming the file and the problem.
+naming the file and the problem. Only regular files up to :data:`MAX_FILE_BYTES` are read.
+
+Physically possible values only: road values in [-1, 1], histogram values in [0, 1], steps >= 0,
+poses and progress finite (or all NaN when unknown) and within ``MAX_POSITION_M``.
 
 JSON metadata must be JSON-friendly (no NaN); tuples come back as lists.
 """
@@ -51,9 +72,20 @@ import numpy as np
 from ..atomic import atomic_write_bytes
 from ..commands import Command
 from ..errors import FileFormatError
+from ..files import read_regular_file
+from ..vision.road_library import LibraryChange, LibraryLearned, RoadLibrary
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 """Version of the record layout; bumped on any incompatible change."""
+READABLE_SCHEMAS = (1, 2)
+"""Schema versions this version of lfd-track loads."""
+SOURCES = ("demonstration", "correction")
+"""Case sources; a case stores the index into this tuple."""
+MAX_ROUND = 2**32 - 1
+MAX_FILE_BYTES = 1 << 32
+"""Largest demonstration file read (4 GiB; a 1000-case recording at 32 bins is about 26 MB)."""
+MAX_POSITION_M = 1e4
+"""Largest |x|, |y| [m] and |progress| [m] a case may hold (tracks are far smaller)."""
 FILE_EXTENSION = ".lfdemo"
 FORMAT_NAME = "lfd-track demonstration"
 N_VALUES = 40  # 8 x 5 image regions
@@ -62,15 +94,30 @@ DEFAULT_BINS = 32
 
 _MAGIC = b"\x89LFDEMO\n"
 _FRAME = struct.Struct("<BII")  # kind, payload length, crc32
-_CASE_FIXED = struct.Struct("<qBBH4d")  # step, command, learned, phase length, x, y, theta, s
+_CASE_FIXED_V1 = struct.Struct("<qBBH4d")  # step, command, learned, phase length, x, y, theta, s
+# step, command, learned, source, round, phase length, x, y, theta, s
+_CASE_FIXED = struct.Struct("<qBBBIH4d")
+_LEARNED_FIXED = struct.Struct("<hhh")  # joined type, evicted type, evicted example (-1: none)
+_SELECTED_FIXED = struct.Struct("<H")  # number of models
 _KIND_HEADER = ord("H")
 _KIND_CASE = ord("C")
+_KIND_LEARNED = ord("L")
+_KIND_SELECTED = ord("S")
 _KIND_FOOTER = ord("F")
+_MAX_MODELS = 10_000  # a library logged here has fewer models (u16 count)
 _MAX_JSON_BYTES = 1 << 28  # generous bound for header/footer (a road library is ~1 MB of JSON)
 _MAX_PHASE_BYTES = 255
 _VALUE_TOLERANCE = 1e-6  # road values are correlations; allow float rounding past +-1
 # Keys the loader derives; stored metadata never overrides them.
-_DERIVED_KEYS = ("complete", "n_cases", "counts", "torn_tail_bytes", "schema_version", "bins")
+_DERIVED_KEYS = (
+    "complete",
+    "n_cases",
+    "counts",
+    "torn_tail_bytes",
+    "schema_version",
+    "bins",
+    "library_log",
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -93,6 +140,10 @@ class Demonstration:
     """(N,) bool — whether the road library learned from this frame."""
     steps: np.ndarray
     """(N,) int64 — the recorder's step index of each case."""
+    sources: np.ndarray
+    """(N,) str — ``"demonstration"`` or ``"correction"`` (see :data:`SOURCES`)."""
+    rounds: np.ndarray
+    """(N,) int64 — 0 for the initial demonstration, r for the r-th round of interventions."""
     metadata: dict[str, Any] = field(default_factory=dict)
     """File-level metadata: header metadata, footer metadata and derived keys (see module doc)."""
 
@@ -130,7 +181,9 @@ def _json_bytes(obj: Any, what: str) -> bytes:
     return text.encode("utf-8")
 
 
-def _header_record(metadata: Mapping[str, Any], bins: int) -> bytes:
+def _header_record(
+    metadata: Mapping[str, Any], bins: int, initial_library: dict[str, Any] | None = None
+) -> bytes:
     from .. import __version__
 
     meta = dict(metadata)
@@ -142,6 +195,7 @@ def _header_record(metadata: Mapping[str, Any], bins: int) -> bytes:
         "n_values": N_VALUES,
         "n_channels": N_CHANNELS,
         "metadata": meta,
+        "initial_road_library": initial_library,
     }
     return _frame(_KIND_HEADER, _json_bytes(header, "demonstration metadata"))
 
@@ -163,10 +217,18 @@ def _case_record(
     progress_m: float | None,
     phase: str,
     learned: bool,
+    source: str = "demonstration",
+    round_: int = 0,
 ) -> bytes:
     """Validate one case and encode it as a ``C`` record (raises ValueError on bad input)."""
     if int(command) not in (0, 1, 2) or int(command) != command:
         raise ValueError(f"command must be 0, 1 or 2, got {command!r}")
+    if source not in SOURCES:
+        raise ValueError(f"source must be one of {', '.join(SOURCES)}, got {source!r}")
+    if isinstance(round_, bool) or int(round_) != round_ or not 0 <= int(round_) <= MAX_ROUND:
+        raise ValueError(f"round must be an integer in 0..{MAX_ROUND}, got {round_!r}")
+    if int(step) != step or not 0 <= int(step) < 2**63:
+        raise ValueError(f"step must be a non-negative integer, got {step!r}")
     values = np.asarray(road_values, dtype=np.float64)
     if values.shape != (N_VALUES,):
         raise ValueError(f"road_values must have shape ({N_VALUES},), got {values.shape}")
@@ -180,17 +242,28 @@ def _case_record(
             f"got {hists.shape}"
         )
     hists = hists.astype("<f4", copy=False)
-    if not np.isfinite(hists).all():
-        raise ValueError("region_histograms contain NaN or infinity")
+    problem = _histogram_problem(hists)
+    if problem:
+        raise ValueError(f"region_histograms {problem}")
     xyt = (math.nan,) * 3 if pose is None else tuple(float(v) for v in pose)
     if len(xyt) != 3:
         raise ValueError(f"pose must be (x, y, theta), got {pose!r}")
     s = math.nan if progress_m is None else float(progress_m)
+    problem = _pose_problem(xyt, s)
+    if problem:
+        raise ValueError(problem)
     phase_bytes = str(phase).encode("utf-8")
     if not phase_bytes or len(phase_bytes) > _MAX_PHASE_BYTES:
         raise ValueError(f"phase label must be 1..{_MAX_PHASE_BYTES} UTF-8 bytes, got {phase!r}")
     fixed = _CASE_FIXED.pack(
-        int(step), int(command), 1 if learned else 0, len(phase_bytes), *xyt, s
+        int(step),
+        int(command),
+        1 if learned else 0,
+        SOURCES.index(source),
+        int(round_),
+        len(phase_bytes),
+        *xyt,
+        s,
     )
     payload = b"".join(
         (fixed, phase_bytes, values.astype("<f8", copy=False).tobytes(), hists.tobytes())
@@ -207,8 +280,54 @@ def _road_value_problem(values: np.ndarray) -> str:
     return ""
 
 
+def _histogram_problem(hists: np.ndarray) -> str:
+    if not np.isfinite(hists).all():
+        return "contain NaN or infinity"
+    if hists.size and (hists.min() < 0.0 or hists.max() > 1.0):
+        return "values must lie in [0, 1] (normalised histograms)"
+    return ""
+
+
+def _pose_problem(xyt: tuple[float, ...], progress_m: float) -> str:
+    known = [math.isfinite(v) for v in xyt]
+    if (
+        any(math.isnan(v) for v in xyt)
+        and any(known)
+        or not all(known)
+        and not all(math.isnan(v) for v in xyt)
+    ):
+        return f"pose must be three finite numbers or unknown (all NaN), got {xyt}"
+    if all(known) and max(abs(xyt[0]), abs(xyt[1])) > MAX_POSITION_M:
+        return f"pose {xyt[:2]} is more than {MAX_POSITION_M:g} m from the origin"
+    if all(known) and abs(xyt[2]) > 1e6:
+        return f"pose heading {xyt[2]} rad is not plausible"
+    if not math.isnan(progress_m) and not abs(progress_m) <= MAX_POSITION_M:
+        return f"progress {progress_m} m must be finite and within {MAX_POSITION_M:g} m"
+    return ""
+
+
 def _max_case_length(bins: int) -> int:
     return _CASE_FIXED.size + _MAX_PHASE_BYTES + 8 * N_VALUES + 4 * N_VALUES * N_CHANNELS * bins
+
+
+def _learned_record(change: LibraryLearned) -> bytes:
+    out = change.outcome
+    joined = -1 if out.new_type else out.type_index
+    fixed = _LEARNED_FIXED.pack(
+        joined,
+        -1 if out.evicted_type is None else out.evicted_type,
+        -1 if out.evicted_example is None else out.evicted_example,
+    )
+    return _frame(_KIND_LEARNED, fixed + np.asarray(change.model, dtype="<f4").tobytes())
+
+
+def _selected_record(per_model: np.ndarray) -> bytes:
+    counts = np.asarray(per_model)
+    if counts.size > _MAX_MODELS:
+        raise ValueError(f"a logged road library holds at most {_MAX_MODELS} models")
+    return _frame(
+        _KIND_SELECTED, _SELECTED_FIXED.pack(counts.size) + counts.astype(np.uint8).tobytes()
+    )
 
 
 def _counts(commands: list[int] | np.ndarray) -> dict[str, int]:
@@ -239,6 +358,9 @@ class DemonstrationWriter:
         fsync: ``fsync`` after every case, so cases also survive a power cut (a killed process
             loses nothing already appended either way, because writes are unbuffered).
         overwrite: replace an existing file instead of refusing.
+        library: road library to log: its state now goes in the header and every later change
+            (learning step, counter update) is appended as it happens, until the writer closes.
+            Its ``bins`` must equal ``bins``.
     """
 
     def __init__(
@@ -249,12 +371,17 @@ class DemonstrationWriter:
         *,
         fsync: bool = True,
         overwrite: bool = False,
+        library: RoadLibrary | None = None,
     ) -> None:
         self.path = Path(path)
         self.bins = _check_bins(bins)
         self._fsync = fsync
         self._commands: list[int] = []
-        header = _header_record(metadata, self.bins)
+        self._unsubscribe: Any = None
+        if library is not None and library.bins != self.bins:
+            raise ValueError(f"library has {library.bins} bins, the file {self.bins}")
+        initial = None if library is None else library.to_dict()
+        header = _header_record(metadata, self.bins, initial)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         # Unbuffered: each record reaches the kernel in one write() call, so SIGKILL cannot
         # leave a record half in a user-space buffer.
@@ -265,6 +392,19 @@ class DemonstrationWriter:
         except BaseException:
             self._file.close()
             raise
+        if library is not None:
+            self._unsubscribe = library.subscribe(self._on_library_change)
+
+    def _on_library_change(self, change: LibraryChange) -> None:
+        if self._file.closed:
+            return
+        if isinstance(change, LibraryLearned):
+            record = _learned_record(change)
+        else:
+            record = _selected_record(change.per_model)
+        # No fsync of its own: the next case's fsync makes it durable (unbuffered writes already
+        # survive a killed process).
+        self._write(record, sync=False)
 
     @property
     def n_cases(self) -> int:
@@ -287,6 +427,8 @@ class DemonstrationWriter:
         phase: str = "drive",
         learned: bool = False,
         step: int | None = None,
+        source: str = "demonstration",
+        round: int = 0,  # noqa: A002 - the file's field name
     ) -> None:
         """Append one case and make it durable before returning.
 
@@ -298,7 +440,10 @@ class DemonstrationWriter:
             progress_m: progress along the centreline [m], None if unknown (stored as NaN).
             phase: phase label, e.g. "library_only", "drive", "turnaround".
             learned: whether the road library learned from this frame.
-            step: recorder step index; defaults to the number of cases appended before.
+            step: recorder step index (>= 0); defaults to the number of cases appended before.
+            source: ``"demonstration"`` or ``"correction"`` (a human command that took control
+                back from the policy, or an intervention during an autonomous run).
+            round: 0 for the initial demonstration, r for the r-th round of autonomous runs.
         """
         if self._file.closed:
             raise ValueError(f"{self.path}: demonstration writer is closed")
@@ -313,6 +458,8 @@ class DemonstrationWriter:
             progress_m,
             phase,
             learned,
+            source,
+            round,
         )
         self._write(record)
         self._commands.append(int(command))
@@ -321,6 +468,7 @@ class DemonstrationWriter:
         """Write the footer (final metadata, e.g. the road library snapshot, plus counts)."""
         if self._file.closed:
             return
+        self._stop_logging()
         try:
             footer = _footer_record(final_metadata or {}, _counts(self._commands), self.n_cases)
             self._write(footer)
@@ -329,15 +477,21 @@ class DemonstrationWriter:
 
     def abandon(self) -> None:
         """Close without a footer: the file will load as an interrupted recording."""
+        self._stop_logging()
         if not self._file.closed:
             self._file.close()
 
-    def _write(self, data: bytes) -> None:
+    def _stop_logging(self) -> None:
+        if self._unsubscribe is not None:
+            self._unsubscribe()
+            self._unsubscribe = None
+
+    def _write(self, data: bytes, *, sync: bool = True) -> None:
         view = memoryview(data)
         while view:  # a raw write may be partial (signals, pipes); finish the record
             written = self._file.write(view)
             view = view[written:]
-        if self._fsync:
+        if self._fsync and sync:
             os.fsync(self._file.fileno())
 
     def _sync_directory(self) -> None:
@@ -379,6 +533,8 @@ def save_demonstration(path: str | Path, demonstration: Demonstration) -> None:
                 float(demo.progress_m[i]),
                 str(demo.phases[i]),
                 bool(demo.learned[i]),
+                str(demo.sources[i]),
+                int(demo.rounds[i]),
             )
         )
     parts.append(_footer_record({}, _counts(demo.commands), demo.n_cases))
@@ -393,21 +549,68 @@ def load_demonstration(path: str | Path) -> Demonstration:
 
     The returned metadata is the header metadata updated with the footer's (e.g. the
     ``"road_library"`` snapshot passed to ``close``), plus derived keys ``schema_version``,
-    ``bins``, ``n_cases``, ``counts``, ``complete`` and ``torn_tail_bytes``.
+    ``bins``, ``n_cases``, ``counts``, ``complete``, ``torn_tail_bytes`` and ``library_log``
+    (whether the file logs its road library). An interrupted recording with a library log gets
+    the replayed library as its ``"road_library"``.
 
     Raises:
         FileFormatError: one line naming the file and the problem.
     """
     path = Path(path)
-    try:
-        data = path.read_bytes()
-    except OSError as exc:
-        raise FileFormatError(path, f"cannot read demonstration: {exc.strerror or exc}") from None
+    data = read_regular_file(path, MAX_FILE_BYTES, "demonstration")
     return _parse(path, memoryview(data))
 
 
 def _fail(path: Path, problem: str) -> FileFormatError:
     return FileFormatError(path, problem)
+
+
+class _Replay:
+    """Rebuilds the record-time road library from the header snapshot and the L/S records."""
+
+    def __init__(self, path: Path, initial: Any, bins: int) -> None:
+        self.path = path
+        try:
+            self.library = RoadLibrary.from_dict(initial)
+        except (ValueError, TypeError, KeyError, OverflowError) as exc:
+            raise _fail(path, f"initial road library: {exc}") from None
+        if self.library.bins != bins:
+            raise _fail(path, f"initial road library has {self.library.bins} bins, not {bins}")
+
+    def learned(self, payload: memoryview, start: int) -> None:
+        bins = self.library.bins
+        if len(payload) != _LEARNED_FIXED.size + 4 * N_CHANNELS * bins:
+            raise _fail(self.path, f"library record at byte {start} has the wrong length")
+        joined, evicted_type, evicted_example = _LEARNED_FIXED.unpack_from(payload, 0)
+        model = np.frombuffer(payload, "<f4", N_CHANNELS * bins, _LEARNED_FIXED.size)
+        problem = _histogram_problem(model)
+        if problem:
+            raise _fail(self.path, f"library record at byte {start}: model {problem}")
+        try:
+            self.library.redo_learned(
+                model.reshape(N_CHANNELS, bins),
+                joined_type=None if joined < 0 else joined,
+                evicted_type=None if evicted_type < 0 else evicted_type,
+                evicted_example=None if evicted_example < 0 else evicted_example,
+            )
+        except ValueError as exc:
+            raise _fail(
+                self.path, f"library record at byte {start} does not apply: {exc}"
+            ) from None
+
+    def selected(self, payload: memoryview, start: int) -> None:
+        if len(payload) < _SELECTED_FIXED.size:
+            raise _fail(self.path, f"selection record at byte {start} is too short")
+        (n,) = _SELECTED_FIXED.unpack_from(payload, 0)
+        if len(payload) != _SELECTED_FIXED.size + n:
+            raise _fail(self.path, f"selection record at byte {start} has the wrong length")
+        counts = np.frombuffer(payload, np.uint8, n, _SELECTED_FIXED.size).astype(np.int64)
+        try:
+            self.library.redo_selected(counts)
+        except ValueError as exc:
+            raise _fail(
+                self.path, f"selection record at byte {start} does not apply: {exc}"
+            ) from None
 
 
 def _parse(path: Path, data: memoryview) -> Demonstration:
@@ -435,10 +638,17 @@ def _parse(path: Path, data: memoryview) -> Demonstration:
     if not _crc_ok(kind, payload, crc):
         raise _fail(path, "header record is corrupt (CRC mismatch)")
     header = _parse_json(path, payload, "header")
-    bins, user_meta = _check_header(path, header)
+    schema, bins, user_meta = _check_header(path, header)
+    replay = None
+    if schema >= 2 and header.get("initial_road_library") is not None:
+        replay = _Replay(path, header["initial_road_library"], bins)
     offset = end
 
     max_case = _max_case_length(bins)
+    limits = {_KIND_CASE: max_case, _KIND_FOOTER: _MAX_JSON_BYTES}
+    if replay is not None:
+        limits[_KIND_LEARNED] = _LEARNED_FIXED.size + 4 * N_CHANNELS * bins
+        limits[_KIND_SELECTED] = _SELECTED_FIXED.size + _MAX_MODELS
     cases: list[tuple[Any, ...]] = []
     footer: dict[str, Any] | None = None
     torn = 0
@@ -450,7 +660,7 @@ def _parse(path: Path, data: memoryview) -> Demonstration:
             torn = size - start
             break
         kind, length, crc = _FRAME.unpack_from(data, offset)
-        limit = {_KIND_CASE: max_case, _KIND_FOOTER: _MAX_JSON_BYTES}.get(kind)
+        limit = limits.get(kind)
         if limit is None or length > limit:
             if not any(data[start:]):  # zero fill a filesystem left past the last write
                 torn = size - start
@@ -469,12 +679,18 @@ def _parse(path: Path, data: memoryview) -> Demonstration:
                 break
             raise _fail(path, f"record at byte {start} is corrupt (CRC mismatch)")
         if kind == _KIND_CASE:
-            cases.append(_decode_case(path, payload, bins, len(cases)))
+            cases.append(_decode_case(path, payload, bins, len(cases), schema))
+        elif kind == _KIND_LEARNED:
+            assert replay is not None
+            replay.learned(payload, start)
+        elif kind == _KIND_SELECTED:
+            assert replay is not None
+            replay.selected(payload, start)
         else:
             footer = _parse_json(path, payload, "footer")
         offset = end
 
-    return _assemble(path, cases, bins, user_meta, footer, torn)
+    return _assemble(path, cases, bins, schema, user_meta, footer, torn, replay)
 
 
 def _crc_ok(kind: int, payload: memoryview, crc: int) -> bool:
@@ -482,23 +698,32 @@ def _crc_ok(kind: int, payload: memoryview, crc: int) -> bool:
     return zlib.crc32(payload, zlib.crc32(head)) == crc
 
 
+def _reject_constant(name: str) -> Any:
+    raise ValueError(f"non-finite number {name} is not allowed")
+
+
 def _parse_json(path: Path, payload: memoryview, what: str) -> dict[str, Any]:
     try:
-        obj = json.loads(bytes(payload).decode("utf-8"))
+        obj = json.loads(bytes(payload).decode("utf-8"), parse_constant=_reject_constant)
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
         raise _fail(path, f"{what} is not valid JSON: {exc}") from None
+    except RecursionError:
+        raise _fail(path, f"{what} JSON is nested too deeply") from None
+    except ValueError as exc:  # NaN/Infinity, or an integer with thousands of digits
+        raise _fail(path, f"{what}: {str(exc).splitlines()[0]}") from None
     if not isinstance(obj, dict):
         raise _fail(path, f"{what} must be a JSON object")
     return obj
 
 
-def _check_header(path: Path, header: dict[str, Any]) -> tuple[int, dict[str, Any]]:
+def _check_header(path: Path, header: dict[str, Any]) -> tuple[int, int, dict[str, Any]]:
     if header.get("format") != FORMAT_NAME:
         raise _fail(path, f"header format is {header.get('format')!r}, expected {FORMAT_NAME!r}")
     schema = header.get("schema")
-    if schema != SCHEMA_VERSION:
+    if isinstance(schema, bool) or schema not in READABLE_SCHEMAS:
+        readable = ", ".join(str(v) for v in READABLE_SCHEMAS)
         raise _fail(
-            path, f"unsupported schema version {schema!r} (this lfd-track reads {SCHEMA_VERSION})"
+            path, f"unsupported schema version {schema!r} (this lfd-track reads {readable})"
         )
     if header.get("n_values") != N_VALUES or header.get("n_channels") != N_CHANNELS:
         raise _fail(
@@ -512,15 +737,24 @@ def _check_header(path: Path, header: dict[str, Any]) -> tuple[int, dict[str, An
     meta = header.get("metadata")
     if not isinstance(meta, dict):
         raise _fail(path, "header metadata must be a JSON object")
-    return bins, meta
+    return schema, bins, meta
 
 
-def _decode_case(path: Path, payload: memoryview, bins: int, index: int) -> tuple[Any, ...]:
+def _decode_case(
+    path: Path, payload: memoryview, bins: int, index: int, schema: int
+) -> tuple[Any, ...]:
     where = f"case {index}"
-    if len(payload) < _CASE_FIXED.size:
+    fixed = _CASE_FIXED if schema >= 2 else _CASE_FIXED_V1
+    if len(payload) < fixed.size:
         raise _fail(path, f"{where}: record too short")
-    step, command, learned, phase_len, x, y, theta, s = _CASE_FIXED.unpack_from(payload, 0)
-    expected = _CASE_FIXED.size + phase_len + 8 * N_VALUES + 4 * N_VALUES * N_CHANNELS * bins
+    if schema >= 2:
+        step, command, learned, source, round_, phase_len, x, y, theta, s = fixed.unpack_from(
+            payload, 0
+        )
+    else:
+        step, command, learned, phase_len, x, y, theta, s = fixed.unpack_from(payload, 0)
+        source, round_ = 0, 0
+    expected = fixed.size + phase_len + 8 * N_VALUES + 4 * N_VALUES * N_CHANNELS * bins
     if len(payload) != expected:
         raise _fail(
             path, f"{where}: record is {len(payload)} bytes, expected {expected} for {bins} bins"
@@ -529,7 +763,14 @@ def _decode_case(path: Path, payload: memoryview, bins: int, index: int) -> tupl
         raise _fail(path, f"{where}: command {command} is not 0, 1 or 2")
     if learned not in (0, 1):
         raise _fail(path, f"{where}: learned flag {learned} is not 0 or 1")
-    pos = _CASE_FIXED.size
+    if source >= len(SOURCES):
+        raise _fail(path, f"{where}: source code {source} is not one of 0..{len(SOURCES) - 1}")
+    if step < 0:
+        raise _fail(path, f"{where}: step {step} is negative")
+    problem = _pose_problem((x, y, theta), s)
+    if problem:
+        raise _fail(path, f"{where}: {problem}")
+    pos = fixed.size
     try:
         phase = bytes(payload[pos : pos + phase_len]).decode("utf-8")
     except UnicodeDecodeError:
@@ -541,18 +782,21 @@ def _decode_case(path: Path, payload: memoryview, bins: int, index: int) -> tupl
     problem = _road_value_problem(values)
     if problem:
         raise _fail(path, f"{where}: {problem}")
-    if not np.isfinite(hists).all():
-        raise _fail(path, f"{where}: region histograms contain NaN or infinity")
-    return step, command, bool(learned), (x, y, theta), s, phase, values, hists
+    problem = _histogram_problem(hists)
+    if problem:
+        raise _fail(path, f"{where}: region histograms {problem}")
+    return step, command, bool(learned), (x, y, theta), s, phase, values, hists, source, round_
 
 
 def _assemble(
     path: Path,
     cases: list[tuple[Any, ...]],
     bins: int,
+    schema: int,
     user_meta: dict[str, Any],
     footer: dict[str, Any] | None,
     torn: int,
+    replay: _Replay | None,
 ) -> Demonstration:
     n = len(cases)
     commands = np.array([c[1] for c in cases], dtype=np.int8)
@@ -562,13 +806,23 @@ def _assemble(
     if footer is not None:
         # Footer keys (e.g. the end-of-recording road library) join the header's; footer wins.
         meta.update((k, v) for k, v in footer.items() if k not in _DERIVED_KEYS)
+    if replay is not None:
+        replayed = replay.library.to_dict()
+        stored = footer.get("road_library") if footer is not None else None
+        if stored is None:
+            meta["road_library"] = replayed
+        elif stored != replayed:
+            raise _fail(
+                path, "the road-library log does not rebuild the footer's library (corrupt file)"
+            )
     meta.update(
-        schema_version=SCHEMA_VERSION,
+        schema_version=schema,
         bins=bins,
         n_cases=n,
         counts=_counts(commands),
         complete=footer is not None,
         torn_tail_bytes=torn,
+        library_log=replay is not None,
     )
     arrays = {
         "commands": commands,
@@ -589,6 +843,8 @@ def _assemble(
         "phases": np.array([c[5] for c in cases], dtype=str),
         "learned": np.array([c[2] for c in cases], dtype=bool),
         "steps": np.array([c[0] for c in cases], dtype=np.int64),
+        "sources": np.array([SOURCES[c[8]] for c in cases], dtype="<U13").reshape(n),
+        "rounds": np.array([c[9] for c in cases], dtype=np.int64),
     }
     for arr in arrays.values():
         arr.flags.writeable = False

@@ -127,7 +127,7 @@ def run_demonstration(
     }
     tally = _LearningTally()
     with DemonstrationWriter(
-        out, metadata, bins=library.bins, fsync=fsync, overwrite=overwrite
+        out, metadata, bins=library.bins, fsync=fsync, overwrite=overwrite, library=library
     ) as writer:
         observers: list[Any] = [
             tally,

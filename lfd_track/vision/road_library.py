@@ -16,6 +16,7 @@ frequencies evict the oldest.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -51,6 +52,27 @@ class LearnOutcome:
     """Index (before the update) of the road type removed to make room, if any."""
     evicted_example: int | None = None
     """Index within the matched type (before the update) of the example removed, if any."""
+
+
+@dataclass(frozen=True, eq=False)
+class LibraryLearned:
+    """Change event: Algorithm 1 stored ``model`` as described by ``outcome``."""
+
+    outcome: LearnOutcome
+    model: np.ndarray
+    """(5, bins) float32 — the stored model (read-only)."""
+
+
+@dataclass(frozen=True, eq=False)
+class LibrarySelected:
+    """Change event: one road-value frame updated the usage counters."""
+
+    per_model: np.ndarray
+    """(n_models,) int64 — regions (of 40) that selected each model, in library order."""
+
+
+LibraryChange = LibraryLearned | LibrarySelected
+"""What a library listener receives; replaying the events in order rebuilds the library."""
 
 
 @dataclass
@@ -108,6 +130,70 @@ class RoadLibrary:
         self._types: list[_RoadType] = []
         self._grid = GridHistogrammer(self.bins)
         self._cache: tuple[tuple[np.ndarray, np.ndarray], np.ndarray] | None = None
+        self._listeners: list[Callable[[LibraryChange], None]] = []
+
+    # ----------------------------------------------------------------------------- listeners
+    def subscribe(self, listener: Callable[[LibraryChange], None]) -> Callable[[], None]:
+        """Call ``listener`` after every change (learning step, counter update); returns an
+        unsubscribe function. A recorder uses this to log the library incrementally."""
+        self._listeners.append(listener)
+
+        def unsubscribe() -> None:
+            if listener in self._listeners:
+                self._listeners.remove(listener)
+
+        return unsubscribe
+
+    def _notify(self, change: LibraryChange) -> None:
+        for listener in list(self._listeners):
+            listener(change)
+
+    def redo_learned(
+        self,
+        model: np.ndarray,
+        *,
+        joined_type: int | None,
+        evicted_type: int | None,
+        evicted_example: int | None,
+    ) -> None:
+        """Apply a recorded learning step without re-running Algorithm 1's similarity test.
+
+        ``joined_type`` is the type the model joined (None: it started a new type); the evicted
+        indices are as in :class:`LearnOutcome`. Raises ``ValueError`` if the step is impossible
+        for this library (wrong index, eviction missing or not needed).
+        """
+        model = self._check_model(model)
+        if joined_type is None:
+            full = len(self._types) >= self.max_types
+            if evicted_example is not None or full != (evicted_type is not None):
+                raise ValueError("new-type step does not match the library's fill")
+            if evicted_type is not None:
+                if not 0 <= evicted_type < len(self._types):
+                    raise ValueError(f"evicted type {evicted_type} does not exist")
+                del self._types[evicted_type]
+            self._types.append(_RoadType(examples=[_Example(model)]))
+        else:
+            if evicted_type is not None or not 0 <= joined_type < len(self._types):
+                raise ValueError(f"joined type {joined_type} does not exist")
+            examples = self._types[joined_type].examples
+            full = len(examples) >= self.max_examples
+            if full != (evicted_example is not None):
+                raise ValueError("join step does not match the type's fill")
+            if evicted_example is not None:
+                if not 0 <= evicted_example < len(examples):
+                    raise ValueError(f"evicted example {evicted_example} does not exist")
+                del examples[evicted_example]
+            examples.append(_Example(model))
+        self._cache = None
+
+    def redo_selected(self, per_model: np.ndarray) -> None:
+        """Apply a recorded counter update: (n_models,) regions that selected each model."""
+        counts = np.asarray(per_model)
+        if counts.shape != (self.n_models,) or not np.issubdtype(counts.dtype, np.integer):
+            raise ValueError(f"selection counts must be {self.n_models} integers")
+        if self.n_models == 0 or counts.min() < 0 or int(counts.sum()) != N_REGIONS:
+            raise ValueError(f"selection counts must be >= 0 and sum to {N_REGIONS}")
+        self._add_selections(counts.astype(np.int64), notify=False)
 
     # ----------------------------------------------------------------------------- inspection
     @property
@@ -185,26 +271,36 @@ class RoadLibrary:
                 del road_type.examples[evicted_example]
             road_type.examples.append(_Example(model))
             self._cache = None
-            return LearnOutcome(
+            outcome = LearnOutcome(
                 type_index=best_type,
                 new_type=False,
                 similarity=similarity,
                 best_type=best_type,
                 evicted_example=evicted_example,
             )
+            self._notify_learned(outcome, model)
+            return outcome
         evicted_type = None
         if len(self._types) >= self.max_types:
             evicted_type = _least_used(self._types)
             del self._types[evicted_type]
         self._types.append(_RoadType(examples=[_Example(model)]))
         self._cache = None
-        return LearnOutcome(
+        outcome = LearnOutcome(
             type_index=len(self._types) - 1,
             new_type=True,
             similarity=similarity,
             best_type=best_type,
             evicted_type=evicted_type,
         )
+        self._notify_learned(outcome, model)
+        return outcome
+
+    def _notify_learned(self, outcome: LearnOutcome, model: np.ndarray) -> None:
+        if self._listeners:
+            frozen = model.copy()
+            frozen.flags.writeable = False
+            self._notify(LibraryLearned(outcome, frozen))
 
     # ----------------------------------------------------------------------------- Algorithm 2
     def road_values(self, frame: np.ndarray, *, update_statistics: bool = True) -> np.ndarray:
@@ -242,7 +338,9 @@ class RoadLibrary:
         return values
 
     def _count_selections(self, best: np.ndarray, n_models: int) -> None:
-        per_model = np.bincount(best, minlength=n_models)
+        self._add_selections(np.bincount(best, minlength=n_models))
+
+    def _add_selections(self, per_model: np.ndarray, *, notify: bool = True) -> None:
         k = 0
         for t in self._types:
             t.comparisons += N_REGIONS
@@ -251,6 +349,10 @@ class RoadLibrary:
                 e.selections += int(per_model[k])
                 t.selections += int(per_model[k])
                 k += 1
+        if notify and self._listeners:
+            counts = np.array(per_model, dtype=np.int64)
+            counts.flags.writeable = False
+            self._notify(LibrarySelected(counts))
 
     # ----------------------------------------------------------------------------- internals
     def _check_model(self, model: np.ndarray) -> np.ndarray:
@@ -342,6 +444,8 @@ class RoadLibrary:
                 selections=_count(t["selections"], where),
                 comparisons=_count(t["comparisons"], where),
             )
+            if road_type.selections > road_type.comparisons:
+                raise ValueError(f"{where}: more selections than comparisons")
             for j, e in enumerate(examples):
                 ewhere = f"{where} example {j}"
                 if not isinstance(e, dict) or set(e) != {"selections", "comparisons", "model"}:
@@ -354,13 +458,16 @@ class RoadLibrary:
                     model = library._check_model(model)
                 except ValueError as exc:
                     raise ValueError(f"{ewhere}: {exc}") from None
-                road_type.examples.append(
-                    _Example(
-                        model=model,
-                        selections=_count(e["selections"], ewhere),
-                        comparisons=_count(e["comparisons"], ewhere),
-                    )
+                if model.size and (model.min() < 0.0 or model.max() > 1.0):
+                    raise ValueError(f"{ewhere}: histogram values must lie in [0, 1]")
+                example = _Example(
+                    model=model,
+                    selections=_count(e["selections"], ewhere),
+                    comparisons=_count(e["comparisons"], ewhere),
                 )
+                if example.selections > example.comparisons:
+                    raise ValueError(f"{ewhere}: more selections than comparisons")
+                road_type.examples.append(example)
             library._types.append(road_type)
         return library
 
@@ -371,7 +478,12 @@ class RoadLibrary:
         )
 
 
+_MAX_COUNT = 2**62  # far beyond any run (40 comparisons per frame), and exact in int64
+
+
 def _count(value: Any, where: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-        raise ValueError(f"{where}: counters must be non-negative integers, got {value!r}")
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= _MAX_COUNT:
+        raise ValueError(
+            f"{where}: counters must be non-negative integers up to 2**62, got {value!r}"
+        )
     return value

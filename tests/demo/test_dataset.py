@@ -291,15 +291,16 @@ def test_damaged_files_are_rejected_with_one_line(tmp_path: Path) -> None:
     _one_line_error(bad, "after the footer")
 
 
-def _rewrite_header(data: bytes, edit) -> bytes:
-    """Replace the header JSON with ``edit(header)`` and a valid CRC (a well-formed wrong file)."""
+def _rewrite_header(data: bytes, edit, raw=lambda b: b) -> bytes:
+    """Replace the header JSON with ``edit(header)`` and a valid CRC (a well-formed wrong file);
+    ``raw`` may then change the JSON bytes."""
     import json
     import zlib
 
     (length,) = struct.unpack_from("<I", data, MAGIC_LEN + 1)
     start = MAGIC_LEN + FRAME_LEN
     header = json.loads(data[start : start + length])
-    payload = json.dumps(edit(header)).encode()
+    payload = raw(json.dumps(edit(header)).encode())
     head = struct.pack("<BI", ord("H"), len(payload))
     frame = struct.pack("<BII", ord("H"), len(payload), zlib.crc32(payload, zlib.crc32(head)))
     return data[:MAGIC_LEN] + frame + payload + data[start + length :]
@@ -334,3 +335,208 @@ def test_wrong_schema_or_values_are_rejected(tmp_path: Path) -> None:
     offsets = _case_offsets(data)
     bad.write_bytes(_with_case_byte(data, offsets[2], 7))
     _one_line_error(bad, "case 1: command 7")
+
+
+# --------------------------------------------------------------------------- schema 2 additions
+
+
+def test_cases_carry_source_and_round(tmp_path: Path) -> None:
+    path = tmp_path / "demo.lfdemo"
+    rng = np.random.default_rng(4)
+    with DemonstrationWriter(path, {}, bins=BINS, fsync=False) as writer:
+        writer.append(*_case(rng))  # defaults: a demonstration of round 0
+        writer.append(*_case(rng), source="correction", round=2)
+        writer.append(*_case(rng), source="demonstration", round=1)
+        with pytest.raises(ValueError, match="source"):
+            writer.append(*_case(rng), source="policy")
+        with pytest.raises(ValueError, match="round"):
+            writer.append(*_case(rng), round=-1)
+        with pytest.raises(ValueError, match="step"):
+            writer.append(*_case(rng), step=-3)
+    demo = load_demonstration(path)
+    assert demo.sources.tolist() == ["demonstration", "correction", "demonstration"]
+    assert demo.rounds.tolist() == [0, 2, 1] and demo.rounds.dtype == np.int64
+    assert demo.metadata["schema_version"] == SCHEMA_VERSION == 2
+    copy = tmp_path / "copy.lfdemo"
+    save_demonstration(copy, demo)
+    again = load_demonstration(copy)
+    assert again.sources.tolist() == demo.sources.tolist()
+    assert again.rounds.tolist() == demo.rounds.tolist()
+
+
+def _schema_1_file(path: Path, n: int, rng: np.random.Generator) -> list:
+    """A wave-1 (schema 1) file, encoded here independently of the writer."""
+    import json
+    import zlib
+
+    def frame(kind: str, payload: bytes) -> bytes:
+        head = struct.pack("<BI", ord(kind), len(payload))
+        return struct.pack("<BII", ord(kind), len(payload), zlib.crc32(payload, zlib.crc32(head)))
+
+    header = {
+        "format": "lfd-track demonstration",
+        "schema": 1,
+        "bins": BINS,
+        "n_values": 40,
+        "n_channels": 5,
+        "metadata": {"track": "training"},
+    }
+    out = [b"\x89LFDEMO\n"]
+    payload = json.dumps(header).encode()
+    out += [frame("H", payload), payload]
+    written = []
+    for i in range(n):
+        command, values, hists = _case(rng)
+        fixed = struct.pack("<qBBH4d", i, command, 1, 5, 0.5, 0.25, 0.1, 1.5)
+        payload = fixed + b"drive" + values.astype("<f8").tobytes() + hists.tobytes()
+        out += [frame("C", payload), payload]
+        written.append((command, values, hists))
+    payload = json.dumps({"n_cases": n, "road_library": None}).encode()
+    out += [frame("F", payload), payload]
+    path.write_bytes(b"".join(out))
+    return written
+
+
+def test_schema_1_files_still_load_as_round_0_demonstrations(tmp_path: Path) -> None:
+    path = tmp_path / "wave1.lfdemo"
+    written = _schema_1_file(path, 3, np.random.default_rng(9))
+    demo = load_demonstration(path)
+    assert demo.n_cases == 3 and demo.metadata["schema_version"] == 1
+    assert demo.sources.tolist() == ["demonstration"] * 3 and demo.rounds.tolist() == [0, 0, 0]
+    for i, (command, values, hists) in enumerate(written):
+        assert demo.commands[i] == command
+        assert demo.road_values[i].tobytes() == values.tobytes()
+        assert demo.histograms[i].tobytes() == hists.tobytes()
+    assert demo.poses[0].tolist() == [0.5, 0.25, 0.1] and demo.phases[0] == "drive"
+    assert demo.metadata["library_log"] is False
+
+
+def test_impossible_values_are_refused(tmp_path: Path) -> None:
+    rng = np.random.default_rng(3)
+    command, values, hists = _case(rng)
+    with DemonstrationWriter(tmp_path / "w.lfdemo", {}, bins=BINS, fsync=False) as writer:
+        with pytest.raises(ValueError, match=r"\[0, 1\]"):
+            writer.append(command, values, hists * 3)
+        with pytest.raises(ValueError, match="pose"):
+            writer.append(command, values, hists, pose=(1e9, 0.0, 0.0))
+        with pytest.raises(ValueError, match="pose"):
+            writer.append(command, values, hists, pose=(np.nan, 0.0, 0.0))
+        with pytest.raises(ValueError, match="progress"):
+            writer.append(command, values, hists, progress_m=np.inf)
+    # The same values written past the writer's checks are refused by the loader, naming the case.
+    good = tmp_path / "good.lfdemo"
+    _record(good, 2)
+    data = good.read_bytes()
+    offsets = _case_offsets(data)
+    bad = tmp_path / "bad.lfdemo"
+    bad.write_bytes(_with_payload(data, offsets[1], 0, struct.pack("<q", -5)))
+    _one_line_error(bad, "case 0: step -5 is negative")
+    big = struct.pack("<f", 2.5)
+    end = FRAME_LEN + struct.unpack_from("<I", data, offsets[1] + 1)[0]
+    bad.write_bytes(_with_payload(data, offsets[1], end - FRAME_LEN - 4, big))
+    _one_line_error(bad, "case 0: region histograms values must lie in [0, 1]")
+    bad.write_bytes(_rewrite_header(data, lambda h: {**h, "metadata": {"x": float("nan")}}))
+    _one_line_error(bad, "header: non-finite number NaN")
+    huge = (lambda h: {**h, "metadata": {"x": 12345}}, lambda b: b.replace(b"12345", b"9" * 5000))
+    bad.write_bytes(_rewrite_header(data, *huge))
+    _one_line_error(bad, "header: Exceeds the limit")
+
+
+def _with_payload(data: bytes, offset: int, at: int, new: bytes) -> bytes:
+    """Overwrite payload bytes ``at`` of the record at ``offset`` and fix its CRC."""
+    import zlib
+
+    (length,) = struct.unpack_from("<I", data, offset + 1)
+    payload = bytearray(data[offset + FRAME_LEN : offset + FRAME_LEN + length])
+    payload[at : at + len(new)] = new
+    head = struct.pack("<BI", data[offset], length)
+    frame = struct.pack("<BII", data[offset], length, zlib.crc32(bytes(payload), zlib.crc32(head)))
+    return data[:offset] + frame + bytes(payload) + data[offset + FRAME_LEN + length :]
+
+
+def _record_with_library(path: Path, n_frames: int, *, close: bool = True):
+    """Learn and look at synthetic frames as the demonstrator does; snapshot after every case."""
+    from lfd_track.vision.road_library import RoadLibrary
+
+    rng = np.random.default_rng(11)
+    # Cheap frames: a few base colours with noise, so that types and examples both form.
+    bases = rng.integers(0, 256, (5, 3))
+    frames = [
+        np.clip(bases[i % 5] + rng.normal(0, 12, (480, 640, 3)), 0, 255).astype(np.uint8)
+        for i in range(n_frames)
+    ]
+    # A small library so that types and examples are evicted during the recording.
+    library = RoadLibrary(bins=BINS, max_types=3, max_examples=2)
+    snapshots = []
+    writer = DemonstrationWriter(path, {}, bins=BINS, fsync=False, library=library)
+    for i, frame in enumerate(frames):
+        if i % 3 != 2:
+            library.learn(frame)
+        hists = library.region_histograms(frame)
+        values = library.road_values_from_histograms(hists)
+        library.road_values_from_histograms(hists, update_statistics=False)  # looking only
+        if i >= 2:  # the first frames only build the library, as in the protocol
+            writer.append(i % 3, values, hists, learned=i % 3 != 2)
+            snapshots.append(library.to_dict())
+    if close:
+        writer.close({"road_library": library.to_dict()})
+    else:
+        writer.abandon()
+    library.learn(frames[0])  # after closing: not logged
+    return snapshots
+
+
+def test_library_log_rebuilds_the_record_time_library(tmp_path: Path) -> None:
+    path = tmp_path / "demo.lfdemo"
+    snapshots = _record_with_library(path, 24)
+    demo = load_demonstration(path)
+    assert demo.metadata["library_log"] is True
+    # The loader checked the replayed library against the footer snapshot; prove it can fail:
+    # a footer that disagrees with the log is refused.
+    assert demo.metadata["road_library"] == snapshots[-1]
+    types = snapshots[-1]["types"]
+    assert len(types) == 3 and any(len(t["examples"]) == 2 for t in types)  # evictions happened
+
+    data = path.read_bytes()
+    offsets = _case_offsets(data)
+    kinds = [data[o] for o in offsets]
+    assert kinds.count(ord("L")) > 3 * 2 and kinds.count(ord("S")) == 24
+    # Cut the file right after each case: the partial file's library is the one at that case.
+    ends = [nxt for o, nxt in zip(offsets, offsets[1:], strict=False) if data[o] == ord("C")]
+    partial = tmp_path / "partial.lfdemo"
+    for k, end in enumerate(ends):
+        partial.write_bytes(data[:end])
+        cut = load_demonstration(partial)
+        assert cut.n_cases == k + 1 and cut.metadata["complete"] is False
+        assert cut.metadata["road_library"] == snapshots[k], f"case {k}"
+
+
+def test_abandoned_recording_keeps_its_library(tmp_path: Path) -> None:
+    path = tmp_path / "demo.lfdemo"
+    snapshots = _record_with_library(path, 12, close=False)
+    demo = load_demonstration(path)
+    assert demo.metadata["complete"] is False and demo.metadata["road_library"] == snapshots[-1]
+    from lfd_track.vision.road_library import RoadLibrary
+
+    assert RoadLibrary.from_dict(demo.metadata["road_library"]).n_models > 0
+
+
+def test_footer_that_disagrees_with_the_log_is_refused(tmp_path: Path) -> None:
+    import json
+    import zlib
+
+    path = tmp_path / "demo.lfdemo"
+    _record_with_library(path, 9)
+    data = path.read_bytes()
+    footer_at = _case_offsets(data)[-1]
+    footer = json.loads(data[footer_at + FRAME_LEN :])
+    footer["road_library"]["types"][0]["selections"] += 1
+    payload = json.dumps(footer).encode()
+    head = struct.pack("<BI", ord("F"), len(payload))
+    frame = struct.pack("<BII", ord("F"), len(payload), zlib.crc32(payload, zlib.crc32(head)))
+    path.write_bytes(data[:footer_at] + frame + payload)
+    _one_line_error(path, "does not rebuild the footer's library")
+    # A learning record that cannot apply (an evicted type that does not exist) is named.
+    learned_at = next(o for o in _case_offsets(data) if data[o] == ord("L"))
+    path.write_bytes(_with_payload(data, learned_at, 0, struct.pack("<hhh", 7, -1, -1)))
+    _one_line_error(path, "does not apply")
