@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import signal
 import sys
 import time
 from collections.abc import Sequence
@@ -17,7 +19,7 @@ from typing import Any, NoReturn
 
 from .errors import LfdTrackError
 
-EXIT_OK, EXIT_ERROR, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+EXIT_OK, EXIT_ERROR, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 1, 2, 130, 143
 
 
 class _Parser(argparse.ArgumentParser):
@@ -48,29 +50,80 @@ def _seed(text: str) -> int:
 
 
 # --------------------------------------------------------------------------------- demo
+class _Terminated(Exception):
+    """SIGTERM arrived: stop like Ctrl-C, keeping what was recorded."""
+
+
+def _raise_terminated(signum: int, frame: Any) -> None:
+    raise _Terminated()
+
+
+def _shown(path: str | Path) -> str:
+    """A path as text that can always be printed (undecodable bytes as \\x escapes)."""
+    return os.fsencode(path).decode("utf-8", "backslashreplace")
+
+
+def _partial_name(out: Path) -> Path:
+    """Where a ``--force`` recording goes until it is complete: beside ``out``, visible."""
+    return out.with_name(f"{out.stem}.partial{out.suffix or '.lfdemo'}")
+
+
 def _cmd_demo(args: argparse.Namespace) -> int:
+    from .demo.dataset import load_demonstration
     from .demo.demonstrator import HumanConfig, run_demonstration
     from .progress import ProgressBar
 
     out = Path(args.out)
-    if out.exists() and not args.force:
-        raise LfdTrackError(f"{out}: already exists (use --force to replace it)")
-    human = HumanConfig(careful=not args.careless)
-    # Record next to the target, then move it into place: an old file is never half-replaced.
-    tmp = out.with_name(f".{out.name}.recording")
-    with ProgressBar(200, "demonstrating", enabled=not args.quiet) as bar:
-        summary = run_demonstration(
-            tmp,
-            seed=args.seed,
-            track=args.track,
-            preset=args.preset,
-            human=human,
-            overwrite=True,
-            progress=lambda n: bar.update(n),
+    if out.is_dir():
+        raise LfdTrackError(f"{_shown(out)}: is a folder, expected a file name")
+    if (out.exists() or out.is_symlink()) and not args.force:
+        raise LfdTrackError(
+            f"{_shown(out)}: already exists; an earlier recording is never replaced"
+            " (use --force to replace it)"
         )
-    tmp.replace(out)
+    human = HumanConfig(careful=not args.careless)
+    # Without --force the recording goes straight to its name: interrupted, it is still there,
+    # visible and usable. With --force an existing file is kept until the new one is complete.
+    target = _partial_name(out) if out.exists() else out
+    commands = 0
+
+    def progress(n: int) -> None:
+        nonlocal commands
+        commands = n
+        bar.update(n)
+
+    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    try:
+        with ProgressBar(200, "demonstrating", enabled=not args.quiet) as bar:
+            summary = run_demonstration(
+                target,
+                seed=args.seed,
+                track=args.track,
+                preset=args.preset,
+                human=human,
+                overwrite=args.force,
+                progress=progress,
+            )
+    except (KeyboardInterrupt, _Terminated) as exc:
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not cut the note
+        if not target.exists():
+            raise
+        try:
+            kept = f"{load_demonstration(target).n_cases} cases"
+        except LfdTrackError:
+            kept = "no usable cases"
+        print(
+            f"lfd-track demo: interrupted after {commands} commands; the partial recording"
+            f" ({kept}) is kept at {_shown(target)} (lfd-track evolve can train on it)",
+            file=sys.stderr,
+        )
+        return EXIT_TERMINATED if isinstance(exc, _Terminated) else EXIT_INTERRUPTED
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    if target != out:
+        target.replace(out)
     print(
-        f"{out}: {summary.n_cases} cases ({summary.counts['forward']} forward, "
+        f"{_shown(out)}: {summary.n_cases} cases ({summary.counts['forward']} forward, "
         f"{summary.counts['left']} left, {summary.counts['right']} right), "
         f"turn-arounds {', '.join(summary.turnarounds)}, library {summary.library_models} models "
         f"in {summary.library_types} types"
@@ -92,14 +145,17 @@ def _cmd_evolve(args: argparse.Namespace) -> int:
 
     demo = load_demonstration(args.demo)
     if demo.n_cases == 0:
-        raise LfdTrackError(f"{args.demo}: the demonstration holds no cases")
+        raise LfdTrackError(f"{_shown(args.demo)}: the demonstration holds no cases")
     library_dict = demo.metadata.get("road_library")
     if not isinstance(library_dict, dict):
-        raise LfdTrackError(f"{args.demo}: no road library stored (recording was interrupted?)")
+        raise LfdTrackError(
+            f"{_shown(args.demo)}: no road library stored (an interrupted recording without a"
+            " library log, written by an older lfd-track: record it again)"
+        )
     try:
         library = RoadLibrary.from_dict(library_dict)
     except (ValueError, KeyError, TypeError) as exc:
-        raise LfdTrackError(f"{args.demo}: bad road library ({exc})") from None
+        raise LfdTrackError(f"{_shown(args.demo)}: bad road library ({exc})") from None
     config = GAConfig(generations=args.generations, elitism=args.elitism)
     with ProgressBar(config.generations, "evolving", enabled=not args.quiet) as bar:
         result = evolve(
@@ -122,9 +178,11 @@ def _cmd_evolve(args: argparse.Namespace) -> int:
             ]
         ),
     )
+    partial = "" if demo.metadata["complete"] else " (an interrupted recording)"
     print(
-        f"{args.out}: best fitness {result.best_fitness:.4f} (generation {result.best_generation}), "
-        f"training accuracy {accuracy:.1%} on {demo.n_cases} cases; fitness curve {png}"
+        f"{_shown(args.out)}: best fitness {result.best_fitness:.4f} (generation "
+        f"{result.best_generation}), training accuracy {accuracy:.1%} on {demo.n_cases} cases"
+        f"{partial}; fitness curve {_shown(png)}"
     )
     return EXIT_OK
 
