@@ -9,7 +9,7 @@ The file (schema 2) is one JSON object with the keys ``format``, ``schema_versio
 ``"bc"``, ``"cma-es"``, ... or null), ``learner_config`` (the learner's settings as a JSON object,
 or null), ``seed``, ``fitness_history``, ``learn`` and ``checksum``: the SHA-256 (hex) of the
 canonical JSON (sorted keys, no spaces, UTF-8) of every other key, so a changed digit anywhere is
-refused. Schema 1 files (wave 1: ``ga_config`` instead of ``learner``/``learner_config``, no
+refused (unless the number still parses to the very same value, which changes nothing). Schema 1 files (wave 1: ``ga_config`` instead of ``learner``/``learner_config``, no
 ``policy_kind`` or checksum) still load as ``learner="ga"``.
 
 A policy does not import its trainer: the GA appears here only as a type for ``from_evolution``.

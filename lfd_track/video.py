@@ -20,7 +20,9 @@ class DriveVideo:
         self.path = Path(path)
         self.env = env
         self.fps = fps
-        self._tmp = self.path.with_name(f".{self.path.stem}.partial.mp4")
+        # OpenCV takes the name as UTF-8 and crashes on one that is not (a non-UTF-8 byte in a
+        # POSIX file name): write under an ASCII name in the same folder, then rename.
+        self._tmp = self.path.with_name(f".lfd-track-video-{os.getpid()}.partial.mp4")
         self._writer: cv2.VideoWriter | None = None
         self._trajectory: list[tuple[float, float]] = []
 

@@ -110,3 +110,32 @@ def test_output_names_that_are_not_utf8_work(partial_recording, tmp_path, capsys
     demo_name.write_bytes(Path(out).read_bytes())
     assert main(["--quiet", "demo", "--out", str(demo_name)]) == 1
     assert "demo-\\xff.lfdemo: already exists" in capsys.readouterr().err
+
+
+_VIDEO = """
+import os, sys
+import numpy as np
+from lfd_track.env import LfDTrackEnv
+from lfd_track.video import DriveVideo
+
+env = LfDTrackEnv(track="training")
+frame, info = env.reset(seed=0)
+video = DriveVideo(os.path.join(sys.argv[1], os.fsdecode(b"v-\\xff.mp4")), env)
+for _ in range(3):
+    video.add(frame, np.zeros(40), info)
+    frame, _, _, _, info = env.step(0)
+video.close()
+"""
+
+
+def test_video_with_a_name_that_is_not_utf8(tmp_path):
+    import subprocess
+    import sys
+
+    # In a child: OpenCV used to crash the process (SIGSEGV) on such a name.
+    proc = subprocess.run(
+        [sys.executable, "-c", _VIDEO, str(tmp_path)], capture_output=True, timeout=300
+    )
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert [os.fsencode(p.name) for p in tmp_path.iterdir()] == [b"v-\xff.mp4"]
+    assert (tmp_path / os.fsdecode(b"v-\xff.mp4")).stat().st_size > 1000
