@@ -33,10 +33,11 @@ def resolve_data_file(kind: str, name_or_path: str | Path) -> Path:
     what = _WHAT.get(kind, kind)
     text = str(name_or_path)
     path = Path(text)
-    if path.suffix == ".toml" or path.is_file() or "/" in text or "\\" in text:
-        if not path.is_file():
+    as_path = path.exists() and not path.is_dir()  # a file, FIFO or device given by name
+    if path.suffix == ".toml" or as_path or "/" in text or "\\" in text:
+        if not path.exists():
             raise UnknownDataError(f"{path}: no such {what} file")
-        return path
+        return path  # the reader refuses folders, FIFOs and devices naming the file
     shipped = data_dir(kind) / f"{text}.toml"
     if not shipped.is_file():
         known = sorted(p.stem for p in data_dir(kind).glob("*.toml"))

@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from .errors import FileFormatError
+from .files import read_regular_text
 
 T = TypeVar("T")
 
@@ -26,9 +27,13 @@ def _check_value(value: Any, annotation: Any, where: str, path: Path | str) -> A
     if annotation is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise FileFormatError(path, f"'{where}' must be a number, got {value!r}")
-        if not math.isfinite(float(value)):
+        try:
+            number = float(value)
+        except OverflowError:  # an integer beyond any float
+            number = math.inf
+        if not math.isfinite(number):
             raise FileFormatError(path, f"'{where}' must be finite, got {value!r}")
-        return float(value)
+        return number
     if annotation is int:
         if isinstance(value, bool) or not isinstance(value, int):
             raise FileFormatError(path, f"'{where}' must be an integer, got {value!r}")
@@ -75,12 +80,18 @@ def dataclass_from_table(cls: type[T], table: dict[str, Any], where: str, path: 
         raise FileFormatError(path, f"[{where}] {exc}") from None
 
 
-def read_toml(path: Path | str) -> dict[str, Any]:
-    """Parse a TOML file; unreadable or malformed files fail with one line naming the file."""
+def read_toml(path: Path | str, *, max_bytes: int = 1 << 20, what: str = "TOML") -> dict[str, Any]:
+    """Parse a TOML file; unreadable or malformed files fail with one line naming the file.
+
+    Only regular files up to ``max_bytes`` are read (a FIFO or ``/dev/zero`` is refused, not
+    waited on); ``what`` names the kind of file in messages.
+    """
+    text = read_regular_text(path, max_bytes, what)
     try:
-        with open(path, "rb") as fh:
-            return tomllib.load(fh)
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise FileFormatError(path, f"not valid TOML ({exc})") from None
-    except OSError as exc:
-        raise FileFormatError(path, f"cannot read ({exc.strerror})") from None
+    except RecursionError:
+        raise FileFormatError(path, "TOML nested too deeply") from None
+    except ValueError as exc:  # e.g. an integer with thousands of digits
+        raise FileFormatError(path, f"not valid TOML ({str(exc).splitlines()[0]})") from None

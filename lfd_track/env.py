@@ -66,6 +66,9 @@ class LfDTrackEnv(gym.Env):
     of the far end; loop back across the start) or failure (``"reversed"``: progress fell more than
     0.30 m below its maximum; ``"off_track"``: both treads completely off the felt). Truncated after
     ``max_steps`` commands (default 3× the commands an ideal driver needs, pivots included).
+    Calling ``step`` after the episode ended raises ``RuntimeError`` (call ``reset``), unless the
+    env was made with ``continue_after_end=True`` (a demonstration protocol that is not one
+    episode: the human drives on past the far end and turns round).
 
     ## Info
     ``pose`` (x, y, theta), ``progress_m``, ``lap_fraction``, ``corners_reached`` and
@@ -75,16 +78,21 @@ class LfDTrackEnv(gym.Env):
 
     ## Arguments
     ``gym.make("LfDTrack-v0", track="testing", reverse=False, start_corner=None, preset="paper",
-    render_mode=None, max_steps=None)``
+    render_mode=None, max_steps=None, continue_after_end=False)``
 
     * ``track``: shipped track name (``testing``, ``training``, ``sbend``) or a path to a TOML file.
     * ``reverse``: drive the track against its file order (testing: clockwise; training:
       direction 2).
-    * ``start_corner``: label of the corner to start on (loops only).
+    * ``start_corner``: label of the corner to start on (loops only), ``"1"`` or ``1``.
     * ``preset``: ``paper`` (default), ``randomized`` or a path to a preset TOML file.
     * ``render_mode``: ``"rgb_array"`` returns a top-down picture (track, rover, camera footprint,
       trajectory).
-    * ``max_steps``: override the step budget.
+    * ``max_steps``: override the step budget (a positive integer).
+    * ``continue_after_end``: allow ``step`` after the episode ended.
+
+    ``reset(options=...)`` accepts ``{"pose": (x [m], y [m], theta [rad])}`` to start elsewhere:
+    three finite numbers, with (x, y) on the painted floor (the felt plus the preset's margin).
+    Any other option, or a bad argument, raises ``ValueError``/``TypeError`` at once.
 
     ## Version History
     * v0: initial release.
@@ -100,9 +108,28 @@ class LfDTrackEnv(gym.Env):
         preset: str | Path | Preset = "paper",
         render_mode: str | None = None,
         max_steps: int | None = None,
+        continue_after_end: bool = False,
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode must be one of {self.metadata['render_modes']} or None")
+        if not isinstance(track, (str, Path)):
+            raise TypeError(f"track must be a track name or a path, got {track!r}")
+        if not isinstance(preset, (str, Path, Preset)):
+            raise TypeError(f"preset must be a preset name, a path or a Preset, got {preset!r}")
+        reverse = _flag("reverse", reverse)
+        self.continue_after_end = _flag("continue_after_end", continue_after_end)
+        if max_steps is not None and (
+            isinstance(max_steps, (bool, np.bool_))
+            or not isinstance(max_steps, (int, np.integer))
+            or max_steps < 1
+        ):
+            raise ValueError(f"max_steps must be a positive integer or None, got {max_steps!r}")
+        if start_corner is not None:
+            if isinstance(start_corner, (bool, np.bool_)) or not isinstance(
+                start_corner, (str, int, np.integer)
+            ):
+                raise TypeError(f"start_corner must be a corner label or None, got {start_corner!r}")
+            start_corner = str(start_corner)  # labels are strings; 1 means "1"
         self.render_mode = render_mode
         self.track: Track = load_track(track, reverse=reverse, start_corner=start_corner)
         self.base_preset: Preset = preset if isinstance(preset, Preset) else load_preset(preset)
@@ -137,6 +164,7 @@ class LfDTrackEnv(gym.Env):
         self._steps = 0
         self._last_pose = np.zeros(3)
         self._frame: np.ndarray | None = None
+        self._ended = False
 
     # ------------------------------------------------------------------------------------
     def _build_world(self, world_rng: np.random.Generator) -> None:
@@ -177,6 +205,7 @@ class LfDTrackEnv(gym.Env):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
         """Start an episode. ``options`` may hold ``pose`` (x, y, theta) to start elsewhere."""
+        start = _start_pose_option(options)
         super().reset(seed=seed)
         # Independent streams so that, e.g., changing sensor noise never changes the physics.
         world_rng, physics_rng, sensor_rng = self.np_random.spawn(3)
@@ -186,8 +215,14 @@ class LfDTrackEnv(gym.Env):
             self._build_world(world_rng)
         self._physics_rng, self._sensor_rng = physics_rng, sensor_rng
         pose = self.episode.start_pose()
-        if options and "pose" in options:
-            pose = np.asarray(options["pose"], dtype=np.float64).reshape(3)
+        if start is not None:
+            xmin, ymin, xmax, ymax = self.track.bounds(self.preset.appearance.margin_m)
+            if not (xmin <= start[0] <= xmax and ymin <= start[1] <= ymax):
+                raise ValueError(
+                    f"options['pose'] ({start[0]:g}, {start[1]:g}) is off the painted floor"
+                    f" x in [{xmin:.2f}, {xmax:.2f}], y in [{ymin:.2f}, {ymax:.2f}] m"
+                )
+            pose = start
         self._rover.reset(tuple(pose), physics_rng)
         # Sensor noise and white-balance pools belong to the world: redrawn when it is rebuilt.
         self._renderer.reset(sensor_rng, new_pools=rebuild)
@@ -196,11 +231,17 @@ class LfDTrackEnv(gym.Env):
         self.episode.reset(self._last_pose, self._tread_on_felt())
         self._trajectory = [self._last_pose[:2].copy()]
         self._frame = self._renderer.render(self._ground, self._last_pose, sensor_rng)
+        self._ended = False
         return self._frame, self._info()
 
     def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         if self._rover is None:
             raise RuntimeError("call reset() before step()")
+        if self._ended and not self.continue_after_end:
+            raise RuntimeError(
+                "the episode has ended (terminated or truncated): call reset() before step()"
+                " (or make the env with continue_after_end=True)"
+            )
         if not self.action_space.contains(action):
             raise ValueError(
                 f"invalid action {action!r}: expected 0 (forward), 1 (left) or 2 (right)"
@@ -219,6 +260,7 @@ class LfDTrackEnv(gym.Env):
             reward -= 1.0
         terminated = st.failure is not None or st.success
         truncated = not terminated and self._steps >= self.max_steps
+        self._ended = terminated or truncated
         return self._frame, float(reward), terminated, truncated, self._info()
 
     def render(self) -> np.ndarray | None:
@@ -247,3 +289,34 @@ class LfDTrackEnv(gym.Env):
     def camera_footprint(self, pose: np.ndarray) -> np.ndarray:
         """(4, 2) floor polygon [m] the camera sees from ``pose`` (x, y, theta)."""
         return self._camera_model.footprint(np.asarray(pose, dtype=np.float64))
+
+
+def _flag(name: str, value: Any) -> bool:
+    """A bool argument: True/False (numpy bools too), nothing that merely looks truthy."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be True or False, got {value!r}")
+    return bool(value)
+
+
+def _start_pose_option(options: Any) -> np.ndarray | None:
+    """The ``pose`` of reset's ``options`` as (3,) float64, None if absent; bad options raise."""
+    if options is None:
+        return None
+    if not isinstance(options, dict):
+        raise TypeError(f"options must be a dict or None, got {type(options).__name__}")
+    unknown = sorted(str(k) for k in set(options) - {"pose"})
+    if unknown:
+        raise ValueError(f"unknown reset option '{unknown[0]}' (allowed: pose)")
+    if "pose" not in options:
+        return None
+    try:
+        pose = np.asarray(options["pose"], dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"options['pose'] must be (x, y, theta), got {options['pose']!r}") from None
+    if pose.shape != (3,) or not np.isfinite(pose).all():
+        raise ValueError(
+            f"options['pose'] must be three finite numbers (x, y, theta), got {options['pose']!r}"
+        )
+    if abs(pose[2]) > 1e3:
+        raise ValueError(f"options['pose'] heading {pose[2]:g} rad is not plausible")
+    return pose

@@ -7,6 +7,13 @@ tables and keys take the paper defaults of the matching config dataclass.
 ``[randomization]`` maps ``"<table>.<key>"`` to a ``[low, high]`` range drawn uniformly once per
 episode (domain randomization); for tuple-valued keys (colours) low and high are lists of the same
 length and each component is drawn independently. Integer keys are rounded.
+
+Every numeric value, and both ends of every range, must lie within :data:`BOUNDS` (physically
+meaningful limits, listed with their reasons in ``envs/README.md``), and the step's physics must
+stay affordable (at most :data:`MAX_SUBSTEPS_PER_COMMAND` physics substeps per command). The
+randomization ranges are checked *jointly*: every corner of the box of drawn values in a table
+(each field at its low or high end) must make a valid config, so a draw can never fail
+mid-episode (the config checks are monotone in each field, so the corners bound every draw).
 """
 
 from __future__ import annotations
@@ -36,6 +43,106 @@ SECTIONS: dict[str, type] = {
     "episode": EpisodeRules,
 }
 _TOP_KEYS = {"name", "description", *SECTIONS, "randomization"}
+MAX_FILE_BYTES = 1 << 20
+"""Largest preset file read."""
+MAX_SUBSTEPS_PER_COMMAND = 1000
+"""Most physics substeps one command may take (control_period_s / physics_dt_s)."""
+
+BOUNDS: dict[str, tuple[float, float]] = {
+    # [rover] a small tracked rover on a floor
+    "rover.body_width_m": (0.05, 1.0),
+    "rover.body_length_m": (0.05, 1.0),
+    "rover.mass_kg": (0.1, 50.0),
+    "rover.tread_width_m": (0.005, 0.5),
+    "rover.forward_speed_mps": (0.01, 2.0),
+    "rover.pivot_rate_radps": (0.05, 10.0),
+    "rover.control_period_s": (0.02, 5.0),
+    "rover.physics_dt_s": (0.001, 0.05),
+    "rover.calibration_commands": (1, 20),
+    "rover.drive_gain_npmps": (0.1, 10_000.0),
+    "rover.traction_coeff": (0.01, 3.0),
+    "rover.lateral_stiffness_npmps": (0.1, 10_000.0),
+    "rover.lateral_friction_coeff": (0.01, 3.0),
+    "rover.contacts_per_tread": (1, 20),
+    "rover.gravity_mps2": (1.0, 30.0),
+    "rover.motor_asymmetry_std": (0.0, 0.3),
+    "rover.slip_noise_std": (0.0, 0.3),
+    # [camera] a phone on a mast
+    "camera.width_px": (640, 640),
+    "camera.height_px": (480, 480),
+    "camera.height_m": (0.05, 2.0),
+    "camera.pitch_deg": (1.0, 89.0),
+    "camera.vfov_deg": (10.0, 120.0),
+    "camera.forward_offset_m": (-0.5, 0.5),
+    # [sensor] a phone camera's processing
+    "sensor.exposure_target": (10.0, 245.0),
+    "sensor.exposure_lag_frames": (0.0, 100.0),
+    "sensor.exposure_min_gain": (0.01, 10.0),
+    "sensor.exposure_max_gain": (0.01, 100.0),
+    "sensor.white_balance_cast": (0.0, 0.5),
+    "sensor.white_balance_jitter": (0.0, 0.5),
+    "sensor.white_balance_pool": (1, 64),
+    "sensor.highlight_knee": (0.01, 1.0),
+    "sensor.noise_std": (0.0, 64.0),
+    "sensor.noise_pool_frames": (1, 32),
+    "sensor.vignetting": (0.0, 0.99),
+    "sensor.motion_blur_fraction": (0.0, 1.0),
+    "sensor.jpeg_quality": (0, 100),
+    # [appearance] felt and carpet
+    "appearance.felt_rgb": (0, 255),
+    "appearance.carpet_rgb": (0, 255),
+    "appearance.metres_per_px": (0.0005, 0.002),
+    "appearance.margin_m": (0.5, 5.0),
+    "appearance.carpet_pile_strength": (0.0, 1.0),
+    "appearance.carpet_pile_scale_m": (0.001, 1.0),
+    "appearance.carpet_fleck_strength": (0.0, 1.0),
+    "appearance.carpet_patchiness": (0.0, 1.0),
+    "appearance.felt_fibre_strength": (0.0, 1.0),
+    "appearance.felt_fibre_length_m": (0.001, 1.0),
+    "appearance.felt_nonuniformity": (0.0, 1.0),
+    "appearance.felt_tint_variation": (0.0, 1.0),
+    "appearance.felt_nonuniformity_scale_m": (0.001, 10.0),
+    "appearance.edge_fuzz_m": (0.0, 0.05),
+    # [lighting] a room's lamps and shadows
+    "lighting.ambient": (0.05, 2.0),
+    "lighting.pool_count": (0, 20),
+    "lighting.pool_radius_m": (0.05, 10.0),
+    "lighting.pool_strength": (0.0, 2.0),
+    "lighting.max_illumination": (0.1, 4.0),
+    "lighting.shadow_count": (0, 20),
+    "lighting.shadow_width_m": (0.01, 5.0),
+    "lighting.shadow_darkness": (0.0, 0.99),
+    "lighting.shadow_softness_m": (0.001, 2.0),
+    "lighting.shadow_min_crossing_deg": (0.0, 90.0),
+    "lighting.grid_m": (0.005, 0.5),
+    # [episode] margins of the success and failure rules
+    "episode.corner_margin_m": (0.05, 2.0),
+    "episode.reverse_margin_m": (0.05, 5.0),
+    "episode.end_margin_m": (0.05, 2.0),
+    "episode.start_offset_m": (0.0, 2.0),
+}
+"""Inclusive [low, high] of every numeric preset value (for colours: of each component)."""
+
+
+def _bounds_problem(section: str, config: Any) -> str:
+    """First value of ``config`` outside :data:`BOUNDS`, or a joint limit it breaks; else ""."""
+    for f in dataclasses.fields(config):
+        name = f"{section}.{f.name}"
+        if name not in BOUNDS:
+            continue
+        low, high = BOUNDS[name]
+        value = getattr(config, f.name)
+        for v in value if isinstance(value, tuple) else (value,):
+            if not low <= v <= high:
+                return f"'{name}' = {value!r} is outside [{low:g}, {high:g}]"
+    if section == "rover":
+        substeps = config.control_period_s / config.physics_dt_s
+        if substeps > MAX_SUBSTEPS_PER_COMMAND:
+            return (
+                f"rover.control_period_s / rover.physics_dt_s = {substeps:.0f} physics substeps per"
+                f" command, more than {MAX_SUBSTEPS_PER_COMMAND}"
+            )
+    return ""
 
 
 @dataclass(frozen=True)
@@ -122,21 +229,59 @@ def _parse_ranges(table: Any, path: Path) -> tuple[Range, ...]:
             raise FileFormatError(path, f"randomization '{name}' bounds must be finite")
         if (low > high).any():
             raise FileFormatError(path, f"randomization '{name}' has low > high")
-        # Both ends must make a valid config, so a draw never fails mid-episode.
-        for end in (low, high):
-            val = tuple(elem(v) for v in end) if is_tuple else elem(end[0])
-            try:
-                dataclasses.replace(cls(), **{key: val})
-            except (TypeError, ValueError) as exc:
-                raise FileFormatError(path, f"randomization '{name}': {exc}") from None
+        bound_low, bound_high = BOUNDS[name]
+        if low.min() < bound_low or high.max() > bound_high:
+            raise FileFormatError(
+                path,
+                f"randomization '{name}' = [{_plain(lo)}, {_plain(hi)}] reaches outside"
+                f" [{bound_low:g}, {bound_high:g}]",
+            )
         ranges.append(Range(section, key, tuple(low), tuple(high), is_tuple, elem is int))
     return tuple(ranges)
+
+
+def _plain(value: Any) -> str:
+    return str(value).replace("'", "")
+
+
+def _check_ranges_jointly(preset: Preset, path: Path) -> None:
+    """Every corner of each table's box of drawn values must make a valid config."""
+    by_section: dict[str, list[tuple[Range, int]]] = {}
+    for r in preset.randomization:
+        for component in range(len(r.low)):
+            by_section.setdefault(r.section, []).append((r, component))
+    for section, axes in by_section.items():
+        if len(axes) > 16:  # 65536 corners: refuse rather than hang
+            raise FileFormatError(
+                path, f"[randomization] draws {len(axes)} values of [{section}] (at most 16)"
+            )
+        base = getattr(preset, section)
+        for corner in range(1 << len(axes)):
+            values: dict[str, list[float]] = {}
+            for bit, (r, component) in enumerate(axes):
+                current = values.setdefault(r.key, list(r.low))
+                current[component] = r.high[component] if corner >> bit & 1 else r.low[component]
+            fields: dict[str, Any] = {}
+            for r, _ in axes:
+                cast = int if r.is_int else float
+                drawn = [cast(round(v)) if r.is_int else cast(v) for v in values[r.key]]
+                fields[r.key] = tuple(drawn) if r.is_tuple else drawn[0]
+            try:
+                config = dataclasses.replace(base, **fields)
+            except (TypeError, ValueError) as exc:
+                shown = ", ".join(f"{section}.{k} = {_plain(v)}" for k, v in fields.items())
+                raise FileFormatError(
+                    path, f"randomization can draw {shown}, which is invalid: {exc}"
+                ) from None
+            problem = _bounds_problem(section, config)
+            if problem:
+                raise FileFormatError(path, f"randomization can draw {problem}")
 
 
 def load_preset(name_or_path: str | Path = "paper") -> Preset:
     """Load a shipped preset by name (``"paper"``, ``"randomized"``) or a preset TOML file."""
     path = resolve_data_file("envs", name_or_path)
-    data = read_toml(path)
+    data = read_toml(path, max_bytes=MAX_FILE_BYTES, what="preset")
     unknown = sorted(set(data) - _TOP_KEYS)
     if unknown:
         raise FileFormatError(path, f"unknown table or key '{unknown[0]}'")
@@ -153,7 +298,13 @@ def load_preset(name_or_path: str | Path = "paper") -> Preset:
             f"camera must be 640 x 480 px (the road-value grid is 8 x 5 regions of 80 x 96 px),"
             f" got {camera.width_px} x {camera.height_px}",
         )
+    for section in SECTIONS:
+        problem = _bounds_problem(section, kwargs.get(section, SECTIONS[section]()))
+        if problem:
+            raise FileFormatError(path, problem)
     name = data.get("name", path.stem)
     if not isinstance(name, str):
         raise FileFormatError(path, "'name' must be a string")
-    return Preset(name=name, source=str(path), **kwargs)
+    preset = Preset(name=name, source=str(path), **kwargs)
+    _check_ranges_jointly(preset, path)
+    return preset

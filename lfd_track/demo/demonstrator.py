@@ -113,7 +113,7 @@ def run_demonstration(
     human = human or HumanConfig()
     rng = np.random.default_rng(seed)
     env_seed = int(rng.integers(2**31 - 1))
-    env = LfDTrackEnv(track=track, preset=preset, max_steps=10**9)
+    env = LfDTrackEnv(track=track, preset=preset, max_steps=10**9, continue_after_end=True)
     person = protocol_human(track, human, rng)
     library = library_factory()
     metadata: dict[str, Any] = {

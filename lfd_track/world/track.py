@@ -1,4 +1,4 @@
-"""Track files and track geometry: centreline, felt strips, arc length and continuous progress.
+"""Track geometry: centreline, felt strips, arc length and continuous progress.
 
 A track is a centreline polyline of straight felt strips (DESIGN §3.1). Coordinates are metres,
 x to the right and y up when seen from above; loops are listed counter-clockwise.
@@ -13,15 +13,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .._data import resolve_data_file
-from ..config import read_toml
-from ..errors import FileFormatError, LfdTrackError
+from ..errors import LfdTrackError
 
 #: Rover body width [m]; a track narrower than this cannot be driven.
 ROVER_WIDTH_M = 0.225
 #: Largest coordinate accepted in a track file [m] (a floor, not a continent).
 MAX_COORDINATE_M = 1000.0
-_TRACK_KEYS = {"name", "description", "closed", "width_m", "vertices", "corners"}
 
 
 @dataclass(frozen=True)
@@ -234,118 +231,6 @@ class StartCornerError(LfdTrackError, ValueError):
     """A ``start_corner`` argument that does not fit the track."""
 
 
-def _fail(path: Path | str, problem: str) -> FileFormatError:
-    return FileFormatError(path, problem)
-
-
-def _segments_intersect(p1, p2, q1, q2) -> float:
-    """Minimum distance between segments p1p2 and q1q2 (0 if they cross) [m]."""
-
-    def point_seg(p, a, b):
-        ab = b - a
-        t = np.clip(np.dot(p - a, ab) / np.dot(ab, ab), 0.0, 1.0)
-        return float(np.linalg.norm(p - (a + t * ab)))
-
-    def cross(o, a, b):
-        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
-
-    d1, d2 = cross(q1, q2, p1), cross(q1, q2, p2)
-    d3, d4 = cross(p1, p2, q1), cross(p1, p2, q2)
-    if ((d1 > 0) != (d2 > 0)) and ((d3 > 0) != (d4 > 0)) and d1 * d2 < 0 and d3 * d4 < 0:
-        return 0.0
-    return min(
-        point_seg(p1, q1, q2), point_seg(p2, q1, q2), point_seg(q1, p1, p2), point_seg(q2, p1, p2)
-    )
-
-
-def parse_track(
-    data: dict, source: Path | str
-) -> tuple[str, np.ndarray, bool, float, dict[str, int]]:
-    """Validate a track table; return (name, vertices (V, 2), closed, width_m, label→vertex)."""
-    unknown = sorted(set(data) - _TRACK_KEYS)
-    if unknown:
-        raise _fail(
-            source, f"unknown key '{unknown[0]}' (allowed: {', '.join(sorted(_TRACK_KEYS))})"
-        )
-    name = data.get("name", Path(str(source)).stem)
-    if not isinstance(name, str) or not name:
-        raise _fail(source, "'name' must be a non-empty string")
-    closed = data.get("closed", False)
-    if not isinstance(closed, bool):
-        raise _fail(source, "'closed' must be true or false")
-    width = data.get("width_m", 0.30)
-    if isinstance(width, bool) or not isinstance(width, (int, float)) or not math.isfinite(width):
-        raise _fail(source, f"'width_m' must be a finite number, got {width!r}")
-    if width <= 0:
-        raise _fail(source, f"'width_m' must be > 0, got {width}")
-    if width < ROVER_WIDTH_M:
-        raise _fail(source, f"'width_m' {width} m is narrower than the rover ({ROVER_WIDTH_M} m)")
-    raw = data.get("vertices")
-    if not isinstance(raw, list) or not all(
-        isinstance(v, list)
-        and len(v) == 2
-        and all(isinstance(c, (int, float)) and not isinstance(c, bool) for c in v)
-        for v in raw
-    ):
-        raise _fail(source, "'vertices' must be a list of [x, y] pairs in metres")
-    vertices = np.array(raw, dtype=np.float64).reshape(-1, 2)
-    if not np.isfinite(vertices).all():
-        raise _fail(source, "'vertices' contains NaN or infinity")
-    if np.abs(vertices).max() > MAX_COORDINATE_M:
-        raise _fail(source, f"'vertices' must lie within ±{MAX_COORDINATE_M:g} m of the origin")
-    min_vertices = 3 if closed else 2
-    if len(vertices) < min_vertices:
-        raise _fail(
-            source,
-            f"a {'closed' if closed else 'open'} track needs at least {min_vertices} vertices, got {len(vertices)}",
-        )
-    if closed and np.allclose(vertices[0], vertices[-1]):
-        raise _fail(source, "closed track: do not repeat the first vertex at the end")
-    starts = vertices if closed else vertices[:-1]
-    ends = np.roll(vertices, -1, axis=0) if closed else vertices[1:]
-    lengths = np.linalg.norm(ends - starts, axis=1)
-    if (lengths < 1e-6).any():
-        raise _fail(source, f"segment {int(np.argmin(lengths))} has zero length (repeated vertex)")
-    n = len(starts)
-    for i in range(n):
-        for j in range(i + 1, n):
-            adjacent = j == i + 1 or (closed and i == 0 and j == n - 1)
-            if adjacent:
-                continue
-            gap = _segments_intersect(starts[i], ends[i], starts[j], ends[j])
-            if gap < width:
-                raise _fail(
-                    source,
-                    f"self-intersecting strips: segments {i} and {j} come within {gap:.3f} m (< width {width} m)",
-                )
-    # Adjacent strips folding back on themselves also intersect.
-    for i in range(n - (0 if closed else 1)):
-        j = (i + 1) % n
-        d1 = (ends[i] - starts[i]) / lengths[i]
-        d2 = (ends[j] - starts[j]) / lengths[j]
-        if np.dot(d1, d2) < math.cos(math.radians(170)):
-            raise _fail(
-                source,
-                f"self-intersecting strips: the track folds back at vertex {(i + 1) % len(vertices)}",
-            )
-    corners = data.get("corners", {})
-    if not isinstance(corners, dict):
-        raise _fail(source, "'corners' must be a table of label = vertex index")
-    label_to_vertex: dict[str, int] = {}
-    for label, idx in corners.items():
-        if isinstance(idx, bool) or not isinstance(idx, int) or not 0 <= idx < len(vertices):
-            raise _fail(
-                source,
-                f"corner '{label}' must name a vertex index 0..{len(vertices) - 1}, got {idx!r}",
-            )
-        if not closed and idx in (0, len(vertices) - 1):
-            raise _fail(source, f"corner '{label}' is an end vertex of an open track")
-        label_to_vertex[str(label)] = idx
-    if len(set(label_to_vertex.values())) != len(label_to_vertex):
-        raise _fail(source, "two corners name the same vertex")
-    return name, vertices, closed, float(width), label_to_vertex
-
-
 def vertex_turns_rad(vertices: np.ndarray, closed: bool) -> np.ndarray:
     """(V,) signed turning angle at each of ``vertices`` (V, 2), left positive [rad].
 
@@ -426,23 +311,9 @@ def load_track(
 ) -> Track:
     """Load a shipped track by name (``"testing"``) or a track TOML file, in driving order.
 
-    Raises FileFormatError (one line naming the file and the problem) for malformed files.
+    Raises FileFormatError (one line naming the file and the problem) for malformed files; the
+    file format and its limits are in :mod:`lfd_track.world.track_file`.
     """
-    path = resolve_data_file("tracks", name_or_path)
-    data = read_toml(path)
-    name, vertices, closed, width, corners = parse_track(data, path)
-    try:
-        return build_track(
-            name,
-            vertices,
-            closed,
-            width,
-            corners,
-            reverse=reverse,
-            start_corner=start_corner,
-            source=str(path),
-        )
-    except StartCornerError:
-        raise  # the argument is wrong, not the file
-    except ValueError as exc:
-        raise FileFormatError(path, str(exc).split(": ", 1)[-1]) from None
+    from .track_file import load_track_file  # the parser builds on this module's geometry
+
+    return load_track_file(name_or_path, reverse=reverse, start_corner=start_corner)
