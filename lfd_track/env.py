@@ -12,7 +12,7 @@ from gymnasium import spaces
 from .commands import Command
 from .presets import Preset, load_preset
 from .render.camera import CameraModel, CameraRenderer
-from .render.texture import GroundTexture, build_ground
+from .render.texture import MAX_TEXTURE_BYTES, GroundTexture, build_ground
 from .render.topdown import draw_topdown
 from .world.episode import EpisodeTracker, reference_step_count
 from .world.rover import Rover
@@ -128,7 +128,9 @@ class LfDTrackEnv(gym.Env):
             if isinstance(start_corner, (bool, np.bool_)) or not isinstance(
                 start_corner, (str, int, np.integer)
             ):
-                raise TypeError(f"start_corner must be a corner label or None, got {start_corner!r}")
+                raise TypeError(
+                    f"start_corner must be a corner label or None, got {start_corner!r}"
+                )
             start_corner = str(start_corner)  # labels are strings; 1 means "1"
         self.render_mode = render_mode
         self.track: Track = load_track(track, reverse=reverse, start_corner=start_corner)
@@ -153,6 +155,7 @@ class LfDTrackEnv(gym.Env):
                 f" episode rules: it starts {rules.start_offset_m} m in and ends"
                 f" {rules.end_margin_m} m before the far end"
             )
+        _check_ground_fits(self.track, self.base_preset)
         self.episode = EpisodeTracker(self.track, rules)
         self._ground: GroundTexture | None = None
         self._rover: Rover | None = None
@@ -312,7 +315,9 @@ def _start_pose_option(options: Any) -> np.ndarray | None:
     try:
         pose = np.asarray(options["pose"], dtype=np.float64)
     except (TypeError, ValueError):
-        raise ValueError(f"options['pose'] must be (x, y, theta), got {options['pose']!r}") from None
+        raise ValueError(
+            f"options['pose'] must be (x, y, theta), got {options['pose']!r}"
+        ) from None
     if pose.shape != (3,) or not np.isfinite(pose).all():
         raise ValueError(
             f"options['pose'] must be three finite numbers (x, y, theta), got {options['pose']!r}"
@@ -320,3 +325,23 @@ def _start_pose_option(options: Any) -> np.ndarray | None:
     if abs(pose[2]) > 1e3:
         raise ValueError(f"options['pose'] heading {pose[2]:g} rad is not plausible")
     return pose
+
+
+def _check_ground_fits(track: Track, preset: Preset) -> None:
+    """Refuse at construction a track + preset whose ground texture would exceed the renderer's
+    cap for some draw (finest ``metres_per_px``, widest ``margin_m`` the preset can draw)."""
+    mpp = preset.appearance.metres_per_px
+    margin = preset.appearance.margin_m
+    for r in preset.randomization:
+        if (r.section, r.key) == ("appearance", "metres_per_px"):
+            mpp = min(mpp, r.low[0])
+        elif (r.section, r.key) == ("appearance", "margin_m"):
+            margin = max(margin, r.high[0])
+    xmin, ymin, xmax, ymax = track.bounds(margin)
+    size = (int(np.ceil((xmax - xmin) / mpp)) + 1) * (int(np.ceil((ymax - ymin) / mpp)) + 1) * 4
+    if size > MAX_TEXTURE_BYTES:
+        raise ValueError(
+            f"track '{track.name}' with preset '{preset.name}' ({preset.source}) needs a"
+            f" {size / 2**20:.0f} MiB ground texture, more than {MAX_TEXTURE_BYTES / 2**20:.0f} MiB:"
+            " raise appearance.metres_per_px or lower appearance.margin_m"
+        )
