@@ -211,6 +211,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         preset=args.preset,
         human=HumanConfig(careful=not args.careless),
         keep_learning=args.keep_learning,
+        method=args.method,
     )
     load_preset(args.preset)  # a bad preset fails here, before anything is created
     out = Path(args.out)
@@ -238,6 +239,8 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
 
 # --------------------------------------------------------------------------------- parser
 def build_parser() -> argparse.ArgumentParser:
+    from .benchmark.methods import METHODS
+
     """The ``lfd-track`` argument parser."""
     parser = _Parser(
         prog="lfd-track",
@@ -327,6 +330,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="runs per direction per repetition (default 3; 1 with --quick)",
     )
     bench.add_argument("--seed", type=_seed, default=0, help="benchmark seed")
+    bench.add_argument(
+        "--method",
+        choices=METHODS,
+        default="paper",
+        help="how each repetition learns: paper (demonstrate, then evolve), online (evolve while"
+        " demonstrating, policy takes over, human corrects), hg-dagger (rounds of runs with"
+        " interventions), bc, cma-es (default paper)",
+    )
     bench.add_argument("--workers", type=_positive_int, default=1, help="parallel processes")
     bench.add_argument("--preset", default="paper", help="environment preset name or TOML path")
     bench.add_argument(

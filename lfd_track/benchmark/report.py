@@ -55,8 +55,7 @@ def write_benchmark_outputs(
     timing: dict[str, Any] = {
         "wall": wall_s,
         "workers": workers,
-        "demonstration_sum": sum(r.timing_s["demonstration"] for r in reps),
-        "evolution_sum": sum(r.timing_s["evolution"] for r in reps),
+        "learning_sum": sum(r.timing_s["learning"] for r in reps),
         "trials_sum": sum(r.timing_s["trials"] for r in reps),
     }
     results = build_results(
@@ -66,6 +65,20 @@ def write_benchmark_outputs(
     results["demonstrations"] = [dict(r.demo, repetition=r.index) for r in reps]
     results["training_accuracy"] = [r.training_accuracy for r in reps]
     results["best_fitness"] = [r.fitness_best[-1] if r.fitness_best else None for r in reps]
+    results["method"] = config.method
+    results["effort"] = {
+        "repetitions": [dict(r.effort, repetition=r.index) for r in reps],
+        "total": {
+            key: sum(r.effort.get(key, 0) for r in reps)
+            for key in (
+                "human_commands",
+                "corrections",
+                "takeovers",
+                "learning_drive_s",
+                "autonomous_drive_s",
+            )
+        },
+    }
 
     pictures = []
     for track_name in ("training", "testing"):

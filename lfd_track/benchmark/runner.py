@@ -21,16 +21,21 @@ from typing import Any
 import numpy as np
 
 from ..controller import Controller
-from ..demo.dataset import load_demonstration
-from ..demo.demonstrator import HumanConfig, run_demonstration
+from ..demo.demonstrator import HumanConfig
 from ..env import LfDTrackEnv
-from ..learning.fitness import training_accuracy
-from ..learning.ga import GAConfig, evolve
+from ..learning.ga import GAConfig
 from ..teaching.arbiter import Arbiter
 from ..teaching.loop import TeachingLoop
 from ..teaching.observers import CallbackObserver, TrajectoryObserver
 from ..teaching.perception import Perception
-from ..vision.road_library import RoadLibrary
+from .methods import (
+    METHODS,
+    HGDaggerConfig,
+    OnlineConfig,
+    learn_hg_dagger,
+    learn_online,
+    learn_paper,
+)
 from .tables import TrialOutcome
 
 #: (track, reverse, direction name in the tables), in the order trials are run.
@@ -53,8 +58,13 @@ class BenchmarkConfig:
     human: HumanConfig = HumanConfig()
     ga: GAConfig = GAConfig()
     keep_learning: bool = False  # let the road library keep learning during autonomous runs
+    method: str = "paper"  # how the controller is learned: one of methods.METHODS
+    online: OnlineConfig = OnlineConfig()  # settings of method "online"
+    hg_dagger: HGDaggerConfig = HGDaggerConfig()  # settings of method "hg-dagger"
 
     def __post_init__(self) -> None:
+        if self.method not in METHODS:
+            raise ValueError(f"unknown method '{self.method}' (choose from {', '.join(METHODS)})")
         if self.repetitions < 1:
             raise ValueError(f"repetitions must be >= 1, got {self.repetitions}")
         if self.trials_per_direction < 1:
@@ -72,6 +82,8 @@ class RepetitionResult:
     fitness_mean: list[float]
     training_accuracy: float
     timing_s: dict[str, float] = field(default_factory=dict)
+    effort: dict[str, Any] = field(default_factory=dict)
+    """Human commands, corrections, takeovers and driving seconds during learning."""
 
 
 def repetition_seeds(seed: int, repetitions: int) -> list[int]:
@@ -125,26 +137,19 @@ def run_repetition(
     timing: dict[str, float] = {}
 
     t0 = time.perf_counter()
-    demo_path = rep_dir / "demonstration.lfdemo"
-    summary = run_demonstration(
-        demo_path,
-        seed=demo_seed,
-        preset=config.preset,
-        human=config.human,
-        fsync=False,
-        overwrite=True,
-    )
-    demo = load_demonstration(demo_path)
-    timing["demonstration"] = time.perf_counter() - t0
-
-    t0 = time.perf_counter()
-    result = evolve(demo.road_values, demo.commands, config.ga, np.random.default_rng(ga_seed))
-    library = RoadLibrary.from_dict(demo.metadata["road_library"])
-    controller = Controller.from_evolution(library, result, seed=ga_seed)
+    common = dict(demo_seed=demo_seed, ga_seed=ga_seed, preset=config.preset, human=config.human)
+    if config.method == "online":
+        learned = learn_online(rep_dir, **common, ga=config.ga, online=config.online)
+    elif config.method == "hg-dagger":
+        learned = learn_hg_dagger(rep_dir, **common, ga=config.ga, hg=config.hg_dagger)
+    elif config.method == "paper":
+        learned = learn_paper(rep_dir, **common, ga=config.ga)
+    else:
+        raise ValueError(f"method '{config.method}' is not available yet")
+    controller = learned.controller
     controller.learn = config.keep_learning
     controller.save(rep_dir / "controller.json")
-    accuracy = training_accuracy(result.best_weights, demo.road_values, demo.commands)
-    timing["evolution"] = time.perf_counter() - t0
+    timing["learning"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
     outcomes: list[TrialOutcome] = []
@@ -182,18 +187,12 @@ def run_repetition(
     return RepetitionResult(
         index=index,
         outcomes=outcomes,
-        demo={
-            "cases": summary.n_cases,
-            "counts": summary.counts,
-            "turnarounds": list(summary.turnarounds),
-            "library_models": summary.library_models,
-            "library_types": summary.library_types,
-            "learned_off_felt": summary.learned_off_felt,
-        },
-        fitness_best=result.best_history.tolist(),
-        fitness_mean=result.mean_history.tolist(),
-        training_accuracy=accuracy,
+        demo=learned.demo,
+        fitness_best=learned.fitness_best,
+        fitness_mean=learned.fitness_mean,
+        training_accuracy=learned.training_accuracy,
         timing_s=timing,
+        effort=learned.effort,
     )
 
 
@@ -232,4 +231,7 @@ def run_benchmark(
 
 def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
     """JSON-friendly form of a benchmark config (stored in results.json)."""
-    return dataclasses.asdict(config)
+    data = dataclasses.asdict(config)
+    data["online"] = config.online.to_dict()
+    data["hg_dagger"] = config.hg_dagger.to_dict()
+    return data
