@@ -3,7 +3,7 @@
 Every method is an arrangement of the teaching loop (:mod:`lfd_track.teaching`) and ends with a
 controller plus a record of the human's effort, counted the same way for every method:
 
-* ``human_commands`` — commands the human gave (demonstration, library-only ones included, and
+* ``commands`` — commands the human gave (demonstration, library-only ones included, and
   corrections / interventions);
 * ``corrections`` — times the human took control back from a driving policy;
 * ``takeovers`` — times the policy took control;
@@ -18,6 +18,9 @@ Methods:
   the last ``window`` commands it drives, and the human watches, taking control back by the
   intervention rule (:class:`~lfd_track.teaching.scripted.InterventionConfig`); corrections are
   flagged cases and learned like the rest. The controller is the best individual of the run.
+* ``bc`` / ``cma-es`` — the paper's demonstration, then the same network fitted to its cases by
+  backprop (:func:`~lfd_track.learning.bc.fit_bc`) or by CMA-ES on Algorithm 3
+  (:func:`~lfd_track.learning.cmaes.fit_cmaes`) instead of the GA.
 * ``hg-dagger`` — the paper's demonstration and GA, then ``rounds`` rounds of autonomous runs on
   the training track (one each way) with the human intervening by the same rule; the
   interventions of every round are aggregated and the GA re-run on all cases after each round.
@@ -36,6 +39,8 @@ from ..controller import Controller
 from ..demo.dataset import DemonstrationWriter, load_demonstration
 from ..demo.demonstrator import HumanConfig, protocol_human, run_demonstration
 from ..env import LfDTrackEnv
+from ..learning.bc import BCConfig, fit_bc
+from ..learning.cmaes import CMAESConfig, fit_cmaes
 from ..learning.fitness import imitation_fitness, training_accuracy
 from ..learning.ga import (
     GAConfig,
@@ -156,7 +161,7 @@ class Learned:
 def effort_record(counts: LoopCounts, period_s: float, **extra: Any) -> dict[str, Any]:
     """The effort fields of results.json from a loop's counts (``period_s``: one command [s])."""
     return {
-        "human_commands": counts.human_commands,
+        "commands": counts.human_commands,
         "corrections": counts.corrections,
         "takeovers": counts.takeovers,
         "learning_drive_s": round(counts.steps * period_s, 6),
@@ -204,7 +209,57 @@ def learn_paper(
         fitness_mean=result.mean_history.tolist(),
         training_accuracy=training_accuracy(result.best_weights, demo.road_values, demo.commands),
         effort={
-            "human_commands": summary.commands,
+            "commands": summary.commands,
+            "corrections": 0,
+            "takeovers": 0,
+            "learning_drive_s": round(summary.commands * period, 6),
+            "autonomous_drive_s": 0.0,
+        },
+    )
+
+
+def learn_baseline(
+    rep_dir: Path,
+    *,
+    demo_seed: int,
+    ga_seed: int,
+    preset: str | Preset,
+    human: HumanConfig,
+    learner: BCConfig | CMAESConfig,
+) -> Learned:
+    """The paper's demonstration, then BC or CMA-ES instead of the GA (same cases, same seed)."""
+    demo_path = rep_dir / "demonstration.lfdemo"
+    summary = run_demonstration(
+        demo_path, seed=demo_seed, preset=preset, human=human, fsync=False, overwrite=True
+    )
+    demo = load_demonstration(demo_path)
+    fit = fit_bc if isinstance(learner, BCConfig) else fit_cmaes
+    result = fit(demo.road_values, demo.commands, learner, np.random.default_rng(ga_seed))
+    library = RoadLibrary.from_dict(demo.metadata["road_library"])
+    controller = Controller(
+        library,
+        result.weights,
+        bias=learner.bias,
+        seed=ga_seed,
+        fitness_history=result.history.tolist(),
+    )
+    period = _period_s(preset)
+    return Learned(
+        controller=controller,
+        demo={
+            "cases": summary.n_cases,
+            "counts": summary.counts,
+            "turnarounds": list(summary.turnarounds),
+            "library_models": summary.library_models,
+            "library_types": summary.library_types,
+            "learned_off_felt": summary.learned_off_felt,
+            "learner": result.learner,
+        },
+        fitness_best=result.history.tolist(),
+        fitness_mean=[],
+        training_accuracy=training_accuracy(result.weights, demo.road_values, demo.commands),
+        effort={
+            "commands": summary.commands,
             "corrections": 0,
             "takeovers": 0,
             "learning_drive_s": round(summary.commands * period, 6),
@@ -466,7 +521,7 @@ def learn_hg_dagger(
         )
     all_x, all_a = np.concatenate(inputs), np.concatenate(actions)
     effort = dict(paper.effort)
-    effort["human_commands"] += totals.human_commands
+    effort["commands"] += totals.human_commands
     effort["corrections"] += totals.corrections
     effort["takeovers"] += totals.takeovers
     effort["learning_drive_s"] = round(effort["learning_drive_s"] + totals.steps * period, 6)

@@ -66,12 +66,12 @@ def write_benchmark_outputs(
     results["training_accuracy"] = [r.training_accuracy for r in reps]
     results["best_fitness"] = [r.fitness_best[-1] if r.fitness_best else None for r in reps]
     results["method"] = config.method
-    results["effort"] = {
+    results["human_effort"] = {
         "repetitions": [dict(r.effort, repetition=r.index) for r in reps],
         "total": {
             key: sum(r.effort.get(key, 0) for r in reps)
             for key in (
-                "human_commands",
+                "commands",
                 "corrections",
                 "takeovers",
                 "learning_drive_s",

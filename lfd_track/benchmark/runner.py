@@ -23,6 +23,8 @@ import numpy as np
 from ..controller import Controller
 from ..demo.demonstrator import HumanConfig
 from ..env import LfDTrackEnv
+from ..learning.bc import BCConfig
+from ..learning.cmaes import CMAESConfig
 from ..learning.ga import GAConfig
 from ..teaching.arbiter import Arbiter
 from ..teaching.loop import TeachingLoop
@@ -32,11 +34,24 @@ from .methods import (
     METHODS,
     HGDaggerConfig,
     OnlineConfig,
+    learn_baseline,
     learn_hg_dagger,
     learn_online,
     learn_paper,
 )
 from .tables import TrialOutcome
+
+__all__ = [
+    "DIRECTIONS",
+    "METHODS",
+    "BenchmarkConfig",
+    "RepetitionResult",
+    "config_dict",
+    "repetition_seeds",
+    "run_benchmark",
+    "run_repetition",
+    "run_trial",
+]
 
 #: (track, reverse, direction name in the tables), in the order trials are run.
 DIRECTIONS: tuple[tuple[str, bool, str], ...] = (
@@ -61,6 +76,8 @@ class BenchmarkConfig:
     method: str = "paper"  # how the controller is learned: one of methods.METHODS
     online: OnlineConfig = OnlineConfig()  # settings of method "online"
     hg_dagger: HGDaggerConfig = HGDaggerConfig()  # settings of method "hg-dagger"
+    bc: BCConfig = BCConfig()  # settings of method "bc" (backprop on the same network)
+    cmaes: CMAESConfig = CMAESConfig()  # settings of method "cma-es"
 
     def __post_init__(self) -> None:
         if self.method not in METHODS:
@@ -142,10 +159,12 @@ def run_repetition(
         learned = learn_online(rep_dir, **common, ga=config.ga, online=config.online)
     elif config.method == "hg-dagger":
         learned = learn_hg_dagger(rep_dir, **common, ga=config.ga, hg=config.hg_dagger)
-    elif config.method == "paper":
-        learned = learn_paper(rep_dir, **common, ga=config.ga)
+    elif config.method == "bc":
+        learned = learn_baseline(rep_dir, **common, learner=config.bc)
+    elif config.method == "cma-es":
+        learned = learn_baseline(rep_dir, **common, learner=config.cmaes)
     else:
-        raise ValueError(f"method '{config.method}' is not available yet")
+        learned = learn_paper(rep_dir, **common, ga=config.ga)
     controller = learned.controller
     controller.learn = config.keep_learning
     controller.save(rep_dir / "controller.json")
@@ -234,4 +253,6 @@ def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
     data = dataclasses.asdict(config)
     data["online"] = config.online.to_dict()
     data["hg_dagger"] = config.hg_dagger.to_dict()
+    data["bc"] = config.bc.to_dict()
+    data["cmaes"] = config.cmaes.to_dict()
     return data

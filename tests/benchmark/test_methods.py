@@ -9,12 +9,21 @@ import pytest
 from lfd_track.benchmark.methods import (
     HGDaggerConfig,
     OnlineConfig,
+    learn_baseline,
     learn_hg_dagger,
     learn_online,
+    learn_paper,
 )
-from lfd_track.benchmark.runner import BenchmarkConfig, repetition_seeds, run_repetition
+from lfd_track.benchmark.runner import (
+    BenchmarkConfig,
+    repetition_seeds,
+    run_benchmark,
+    run_repetition,
+)
 from lfd_track.demo.dataset import load_demonstration
 from lfd_track.demo.demonstrator import HumanConfig
+from lfd_track.learning.bc import BCConfig
+from lfd_track.learning.cmaes import CMAESConfig
 from lfd_track.learning.ga import GAConfig
 
 
@@ -39,7 +48,7 @@ def test_paper_repetition_is_unchanged_by_the_loop_refactor(tmp_path):
     assert result.training_accuracy == 0.7325581395348837
     assert digest.hexdigest()[:16] == "48da32528a3285fb"
     assert result.effort == {
-        "human_commands": 182,
+        "commands": 182,
         "corrections": 0,
         "takeovers": 0,
         "learning_drive_s": pytest.approx(182 * 0.4),
@@ -126,3 +135,53 @@ def test_method_settings_round_trip_and_refuse_unknown_keys():
         dataclasses.replace(online, threshold=0)
     with pytest.raises(ValueError, match="unknown method"):
         BenchmarkConfig(method="magic")
+
+
+def test_bc_reaches_at_least_the_ga_training_accuracy_on_the_same_cases(tmp_path):
+    demo_seed, ga_seed, _ = _seeds(0)
+    kwargs = dict(demo_seed=demo_seed, ga_seed=ga_seed, preset="paper", human=HumanConfig())
+    paper = learn_paper(tmp_path / "ga", **kwargs, ga=GAConfig())
+    bc = learn_baseline(tmp_path / "bc", **kwargs, learner=BCConfig())
+    assert bc.demo["cases"] == paper.demo["cases"]  # the same demonstration
+    assert bc.demo["learner"] == "bc"
+    assert bc.training_accuracy >= paper.training_accuracy
+    assert bc.effort == paper.effort  # same human effort: only the learner differs
+
+
+def test_cma_es_is_wired_in_as_a_method(tmp_path):
+    demo_seed, ga_seed, _ = _seeds(0)
+    learned = learn_baseline(
+        tmp_path,
+        demo_seed=demo_seed,
+        ga_seed=ga_seed,
+        preset="paper",
+        human=HumanConfig(legs=1),
+        learner=CMAESConfig(generations=5),
+    )
+    assert learned.demo["learner"] == "cma-es" and len(learned.fitness_best) == 5
+    assert learned.controller.weights.shape == (215,)
+
+
+_QUICK = dict(
+    repetitions=1,
+    trials_per_direction=1,
+    human=HumanConfig(legs=1),
+    ga=GAConfig(generations=10),
+    online=OnlineConfig(window=4, threshold=0.75),
+    hg_dagger=HGDaggerConfig(rounds=1),
+    bc=BCConfig(epochs=50),
+    cmaes=CMAESConfig(generations=3),
+)
+
+
+@pytest.mark.parametrize("method", ["online", "hg-dagger", "bc", "cma-es"])
+def test_every_method_gives_the_same_results_with_one_or_two_workers(method, tmp_path):
+    config = BenchmarkConfig(method=method, **_QUICK)
+    one = run_benchmark(config, tmp_path / "one", workers=1)
+    two = run_benchmark(config, tmp_path / "two", workers=2)
+    for a, b in zip(one, two, strict=True):
+        assert a.effort == b.effort and a.demo == b.demo
+        assert a.fitness_best == b.fitness_best
+        assert [o.to_dict() for o in a.outcomes] == [o.to_dict() for o in b.outcomes]
+    first = (tmp_path / "one" / "rep_00" / "controller.json").read_bytes()
+    assert first == (tmp_path / "two" / "rep_00" / "controller.json").read_bytes()
