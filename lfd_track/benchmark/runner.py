@@ -30,6 +30,7 @@ from ..teaching.arbiter import Arbiter
 from ..teaching.loop import TeachingLoop
 from ..teaching.observers import CallbackObserver, TrajectoryObserver
 from ..teaching.perception import Perception
+from ..world.track import load_track
 from .methods import (
     METHODS,
     HGDaggerConfig,
@@ -51,6 +52,7 @@ __all__ = [
     "run_benchmark",
     "run_repetition",
     "run_trial",
+    "trial_directions",
 ]
 
 #: (track, reverse, direction name in the tables), in the order trials are run.
@@ -78,8 +80,16 @@ class BenchmarkConfig:
     hg_dagger: HGDaggerConfig = HGDaggerConfig()  # settings of method "hg-dagger"
     bc: BCConfig = BCConfig()  # settings of method "bc" (backprop on the same network)
     cmaes: CMAESConfig = CMAESConfig()  # settings of method "cma-es"
+    test_tracks: tuple[str, ...] = ("testing",)  # loops (names or paths) lapped both ways
 
     def __post_init__(self) -> None:
+        if isinstance(self.test_tracks, str) or not all(
+            isinstance(t, str) and t for t in self.test_tracks
+        ):
+            raise ValueError("test_tracks must be a list of track names or paths")
+        if len(set(self.test_tracks)) != len(self.test_tracks):
+            raise ValueError("test_tracks lists a track twice")
+        object.__setattr__(self, "test_tracks", tuple(self.test_tracks))
         if self.method not in METHODS:
             raise ValueError(f"unknown method '{self.method}' (choose from {', '.join(METHODS)})")
         if self.repetitions < 1:
@@ -101,6 +111,27 @@ class RepetitionResult:
     timing_s: dict[str, float] = field(default_factory=dict)
     effort: dict[str, Any] = field(default_factory=dict)
     """Human commands, corrections, takeovers and driving seconds during learning."""
+
+
+def trial_directions(test_tracks: tuple[str, ...]) -> list[tuple[str, bool, str]]:
+    """(track, reverse, direction) of every trial direction, in the order they are run.
+
+    The training track's two directions, the testing track's (if listed), then each other loop
+    counter-clockwise and clockwise: extra loops come last, so adding one leaves the random
+    streams, and so the results, of the paper's directions unchanged.
+    """
+    directions = [d for d in DIRECTIONS if d[0] == "training" or "testing" in test_tracks]
+    for track in test_tracks:
+        if track != "testing":
+            directions += [(track, False, "ccw"), (track, True, "cw")]
+    return directions
+
+
+def check_test_tracks(test_tracks: tuple[str, ...]) -> None:
+    """Raise (a one-line ``LfdTrackError``/``ValueError``) unless every test track is a loop."""
+    for track in test_tracks:
+        if not load_track(track).closed:
+            raise ValueError(f"test track '{track}' is not a loop (laps need a closed track)")
 
 
 def repetition_seeds(seed: int, repetitions: int) -> list[int]:
@@ -173,7 +204,7 @@ def run_repetition(
     t0 = time.perf_counter()
     outcomes: list[TrialOutcome] = []
     trial_rng = np.random.default_rng(trial_seed)
-    for track, reverse, direction in DIRECTIONS:
+    for track, reverse, direction in trial_directions(config.test_tracks):
         env = LfDTrackEnv(track=track, reverse=reverse, preset=config.preset)
         corner_order = tuple(c.label for c in env.track.corners)
         env_seed = int(trial_rng.integers(0, 2**62))

@@ -2,6 +2,8 @@
 
 import dataclasses
 import hashlib
+import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -185,3 +187,40 @@ def test_every_method_gives_the_same_results_with_one_or_two_workers(method, tmp
         assert [o.to_dict() for o in a.outcomes] == [o.to_dict() for o in b.outcomes]
     first = (tmp_path / "one" / "rep_00" / "controller.json").read_bytes()
     assert first == (tmp_path / "two" / "rep_00" / "controller.json").read_bytes()
+
+
+def test_trial_directions_put_extra_loops_last():
+    from lfd_track.benchmark.runner import DIRECTIONS, trial_directions
+
+    assert trial_directions(("testing",)) == list(DIRECTIONS)
+    extra = trial_directions(("testing", "loop_x"))
+    assert extra[:4] == list(DIRECTIONS)
+    assert extra[4:] == [("loop_x", False, "ccw"), ("loop_x", True, "cw")]
+    assert [d[0] for d in trial_directions(("loop_x",))] == ["training"] * 2 + ["loop_x"] * 2
+
+
+def test_extra_test_tracks_are_lapped_both_ways_and_reported_per_track(tmp_path):
+    from lfd_track._data import resolve_data_file
+    from lfd_track.benchmark.report import write_benchmark_outputs
+
+    text = Path(resolve_data_file("tracks", "testing")).read_text()
+    loop = tmp_path / "other_loop.toml"
+    loop.write_text(text.replace('name = "testing"', 'name = "other_loop"'))
+    config = BenchmarkConfig(
+        repetitions=1,
+        trials_per_direction=1,
+        human=HumanConfig(legs=1),
+        ga=GAConfig(generations=5),
+        test_tracks=("testing", str(loop)),
+    )
+    reps = run_benchmark(config, tmp_path / "work")
+    tracks = [(o.track, o.direction) for o in reps[0].outcomes]
+    assert tracks[-2:] == [(str(loop), "ccw"), (str(loop), "cw")]
+    write_benchmark_outputs(tmp_path / "out", config, reps, wall_s=1.0, workers=1)
+    results = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert results["test_tracks"][str(loop)]["laps"] == 2
+    assert results["testing_track"]["laps"] == 2  # the paper's tables keep the testing track
+    assert results["method"] == "paper" and results["human_effort"]["total"]["commands"] > 0
+    assert "Extra test loops" in (tmp_path / "out" / "report.md").read_text()
+    with pytest.raises(ValueError, match="twice"):
+        BenchmarkConfig(test_tracks=("testing", "testing"))
