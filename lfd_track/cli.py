@@ -255,7 +255,7 @@ def _cmd_drive(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------------- benchmark
 def _cmd_benchmark(args: argparse.Namespace) -> int:
     from .benchmark.report import write_benchmark_outputs
-    from .benchmark.runner import BenchmarkConfig, run_benchmark
+    from .benchmark.runner import BenchmarkConfig, check_test_tracks, run_benchmark
     from .demo.demonstrator import HumanConfig
     from .presets import load_preset
     from .progress import ProgressBar
@@ -269,8 +269,16 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         preset=args.preset,
         human=HumanConfig(careful=not args.careless),
         keep_learning=args.keep_learning,
+        method=args.method,
+        test_tracks=("testing", *args.test_track),
     )
-    load_preset(args.preset)  # a bad preset fails here, before anything is created
+    load_preset(args.preset)  # a bad preset or track fails here, before anything is created
+    try:
+        check_test_tracks(config.test_tracks)
+    except ValueError as exc:
+        raise LfdTrackError(
+            str(exc)
+        ) from None  # a bad preset fails here, before anything is created
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     work = out / "repetitions"
@@ -296,6 +304,8 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
 
 # --------------------------------------------------------------------------------- parser
 def build_parser() -> argparse.ArgumentParser:
+    from .benchmark.methods import METHODS
+
     """The ``lfd-track`` argument parser."""
     parser = _Parser(
         prog="lfd-track",
@@ -385,6 +395,22 @@ def build_parser() -> argparse.ArgumentParser:
         help="runs per direction per repetition (default 3; 1 with --quick)",
     )
     bench.add_argument("--seed", type=_seed, default=0, help="benchmark seed")
+    bench.add_argument(
+        "--test-track",
+        action="append",
+        default=[],
+        metavar="TRACK",
+        help="also lap this loop (name or .toml path) both ways, as many laps as on the testing"
+        " track; repeatable; results per track in results.json",
+    )
+    bench.add_argument(
+        "--method",
+        choices=METHODS,
+        default="paper",
+        help="how each repetition learns: paper (demonstrate, then evolve), online (evolve while"
+        " demonstrating, policy takes over, human corrects), hg-dagger (rounds of runs with"
+        " interventions), bc, cma-es (default paper)",
+    )
     bench.add_argument("--workers", type=_positive_int, default=1, help="parallel processes")
     bench.add_argument("--preset", default="paper", help="environment preset name or TOML path")
     bench.add_argument(

@@ -7,6 +7,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from .teaching.perception import Perception
 from .vision.grid import N_REGIONS
 from .vision.road_library import RoadLibrary
 
@@ -19,21 +20,21 @@ class RoadValueObservation(gym.ObservationWrapper):
 
     Args:
         env: env whose observations are camera frames.
-        library: the road library (shared, not copied: its usage statistics update).
-        learn: also run Algorithm 1 on every frame (safe box) before computing its road values.
+        library: the road library (shared, not copied).
+        learn: also run Algorithm 1 on every frame (safe box) before computing its road values
+            (learning rule ``always``); otherwise the library is ``frozen`` (not even its
+            selection counts change).
     """
 
     def __init__(self, env: gym.Env, library: RoadLibrary, learn: bool = False) -> None:
         super().__init__(env)
         self.library = library
         self.learn = bool(learn)
+        self.perception = Perception(library, "always" if learn else "frozen")
         self.observation_space = gym.spaces.Box(-1.0, 1.0, (N_REGIONS,), dtype=np.float32)
 
     def observation(self, observation: Any) -> np.ndarray:
         """Road values (40,) float32 of one frame."""
-        frame = np.asarray(observation)
-        if self.learn:
-            self.library.learn(frame)
-        values = self.library.road_values(frame)
+        values = self.perception.perceive(np.asarray(observation)).values
         # Correlations can exceed 1 by a rounding error; keep observations inside the space.
         return np.clip(values, -1.0, 1.0).astype(np.float32)

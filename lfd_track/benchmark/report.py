@@ -47,6 +47,34 @@ def demonstration_section(reps: list[RepetitionResult]) -> str:
     return "\n".join(lines)
 
 
+def effort_section(results: dict[str, Any]) -> str:
+    """Markdown on the human's effort and the robot's driving while learning (all methods)."""
+    total = results["human_effort"]["total"]
+    return "\n".join(
+        [
+            f"## Learning method `{results['method']}`: human effort (all repetitions)",
+            "",
+            "| human commands | corrections | takeovers | driving while learning [s] "
+            "| of which the policy drove [s] |",
+            "|---|---|---|---|---|",
+            f"| {total['commands']} | {total['corrections']} | {total['takeovers']} "
+            f"| {total['learning_drive_s']:.1f} | {total['autonomous_drive_s']:.1f} |",
+            "",
+        ]
+    )
+
+
+def test_tracks_section(tracks: dict[str, Any]) -> str:
+    """Markdown table of the extra test loops: full laps per direction."""
+    lines = ["## Extra test loops", "", "| track | ccw | cw | all |", "|---|---|---|---|"]
+    for name, section in tracks.items():
+        cells = [f"{section[d]['successes']}/{section[d]['laps']}" for d in ("ccw", "cw")]
+        lines.append(
+            f"| {name} | {cells[0]} | {cells[1]} | {section['successes']}/{section['laps']} |"
+        )
+    return "\n".join([*lines, ""])
+
+
 def write_benchmark_outputs(
     out: Path, config: BenchmarkConfig, reps: list[RepetitionResult], *, wall_s: float, workers: int
 ) -> str:
@@ -55,8 +83,7 @@ def write_benchmark_outputs(
     timing: dict[str, Any] = {
         "wall": wall_s,
         "workers": workers,
-        "demonstration_sum": sum(r.timing_s["demonstration"] for r in reps),
-        "evolution_sum": sum(r.timing_s["evolution"] for r in reps),
+        "learning_sum": sum(r.timing_s["learning"] for r in reps),
         "trials_sum": sum(r.timing_s["trials"] for r in reps),
     }
     results = build_results(
@@ -66,6 +93,20 @@ def write_benchmark_outputs(
     results["demonstrations"] = [dict(r.demo, repetition=r.index) for r in reps]
     results["training_accuracy"] = [r.training_accuracy for r in reps]
     results["best_fitness"] = [r.fitness_best[-1] if r.fitness_best else None for r in reps]
+    results["method"] = config.method
+    results["human_effort"] = {
+        "repetitions": [dict(r.effort, repetition=r.index) for r in reps],
+        "total": {
+            key: sum(r.effort.get(key, 0) for r in reps)
+            for key in (
+                "commands",
+                "corrections",
+                "takeovers",
+                "learning_drive_s",
+                "autonomous_drive_s",
+            )
+        },
+    }
 
     pictures = []
     for track_name in ("training", "testing"):
@@ -106,7 +147,9 @@ def write_benchmark_outputs(
     )
 
     write_results_json(out / "results.json", results)
-    extra = [demonstration_section(reps)]
+    extra = [demonstration_section(reps), effort_section(results)]
+    if results.get("test_tracks"):
+        extra.append(test_tracks_section(results["test_tracks"]))
     if not config.human.careful:
         extra.insert(
             0,

@@ -21,17 +21,39 @@ from typing import Any
 import numpy as np
 
 from ..controller import Controller
-from ..demo.dataset import load_demonstration
-from ..demo.demonstrator import HumanConfig, run_demonstration
+from ..demo.demonstrator import HumanConfig
 from ..env import LfDTrackEnv
-from ..learning.fitness import training_accuracy
-from ..learning.ga import GAConfig, evolve
+from ..learning.bc import BCConfig
+from ..learning.cmaes import CMAESConfig
+from ..learning.ga import GAConfig
 from ..teaching.arbiter import Arbiter
 from ..teaching.loop import TeachingLoop
 from ..teaching.observers import CallbackObserver, TrajectoryObserver
 from ..teaching.perception import Perception
-from ..vision.road_library import RoadLibrary
+from ..world.track import load_track
+from .methods import (
+    METHODS,
+    HGDaggerConfig,
+    OnlineConfig,
+    learn_baseline,
+    learn_hg_dagger,
+    learn_online,
+    learn_paper,
+)
 from .tables import TrialOutcome
+
+__all__ = [
+    "DIRECTIONS",
+    "METHODS",
+    "BenchmarkConfig",
+    "RepetitionResult",
+    "config_dict",
+    "repetition_seeds",
+    "run_benchmark",
+    "run_repetition",
+    "run_trial",
+    "trial_directions",
+]
 
 #: (track, reverse, direction name in the tables), in the order trials are run.
 DIRECTIONS: tuple[tuple[str, bool, str], ...] = (
@@ -53,8 +75,23 @@ class BenchmarkConfig:
     human: HumanConfig = HumanConfig()
     ga: GAConfig = GAConfig()
     keep_learning: bool = False  # let the road library keep learning during autonomous runs
+    method: str = "paper"  # how the controller is learned: one of methods.METHODS
+    online: OnlineConfig = OnlineConfig()  # settings of method "online"
+    hg_dagger: HGDaggerConfig = HGDaggerConfig()  # settings of method "hg-dagger"
+    bc: BCConfig = BCConfig()  # settings of method "bc" (backprop on the same network)
+    cmaes: CMAESConfig = CMAESConfig()  # settings of method "cma-es"
+    test_tracks: tuple[str, ...] = ("testing",)  # loops (names or paths) lapped both ways
 
     def __post_init__(self) -> None:
+        if isinstance(self.test_tracks, str) or not all(
+            isinstance(t, str) and t for t in self.test_tracks
+        ):
+            raise ValueError("test_tracks must be a list of track names or paths")
+        if len(set(self.test_tracks)) != len(self.test_tracks):
+            raise ValueError("test_tracks lists a track twice")
+        object.__setattr__(self, "test_tracks", tuple(self.test_tracks))
+        if self.method not in METHODS:
+            raise ValueError(f"unknown method '{self.method}' (choose from {', '.join(METHODS)})")
         if self.repetitions < 1:
             raise ValueError(f"repetitions must be >= 1, got {self.repetitions}")
         if self.trials_per_direction < 1:
@@ -72,6 +109,29 @@ class RepetitionResult:
     fitness_mean: list[float]
     training_accuracy: float
     timing_s: dict[str, float] = field(default_factory=dict)
+    effort: dict[str, Any] = field(default_factory=dict)
+    """Human commands, corrections, takeovers and driving seconds during learning."""
+
+
+def trial_directions(test_tracks: tuple[str, ...]) -> list[tuple[str, bool, str]]:
+    """(track, reverse, direction) of every trial direction, in the order they are run.
+
+    The training track's two directions, the testing track's (if listed), then each other loop
+    counter-clockwise and clockwise: extra loops come last, so adding one leaves the random
+    streams, and so the results, of the paper's directions unchanged.
+    """
+    directions = [d for d in DIRECTIONS if d[0] == "training" or "testing" in test_tracks]
+    for track in test_tracks:
+        if track != "testing":
+            directions += [(track, False, "ccw"), (track, True, "cw")]
+    return directions
+
+
+def check_test_tracks(test_tracks: tuple[str, ...]) -> None:
+    """Raise (a one-line ``LfdTrackError``/``ValueError``) unless every test track is a loop."""
+    for track in test_tracks:
+        if not load_track(track).closed:
+            raise ValueError(f"test track '{track}' is not a loop (laps need a closed track)")
 
 
 def repetition_seeds(seed: int, repetitions: int) -> list[int]:
@@ -125,31 +185,26 @@ def run_repetition(
     timing: dict[str, float] = {}
 
     t0 = time.perf_counter()
-    demo_path = rep_dir / "demonstration.lfdemo"
-    summary = run_demonstration(
-        demo_path,
-        seed=demo_seed,
-        preset=config.preset,
-        human=config.human,
-        fsync=False,
-        overwrite=True,
-    )
-    demo = load_demonstration(demo_path)
-    timing["demonstration"] = time.perf_counter() - t0
-
-    t0 = time.perf_counter()
-    result = evolve(demo.road_values, demo.commands, config.ga, np.random.default_rng(ga_seed))
-    library = RoadLibrary.from_dict(demo.metadata["road_library"])
-    controller = Controller.from_evolution(library, result, seed=ga_seed)
+    common = dict(demo_seed=demo_seed, ga_seed=ga_seed, preset=config.preset, human=config.human)
+    if config.method == "online":
+        learned = learn_online(rep_dir, **common, ga=config.ga, online=config.online)
+    elif config.method == "hg-dagger":
+        learned = learn_hg_dagger(rep_dir, **common, ga=config.ga, hg=config.hg_dagger)
+    elif config.method == "bc":
+        learned = learn_baseline(rep_dir, **common, learner=config.bc)
+    elif config.method == "cma-es":
+        learned = learn_baseline(rep_dir, **common, learner=config.cmaes)
+    else:
+        learned = learn_paper(rep_dir, **common, ga=config.ga)
+    controller = learned.controller
     controller.learn = config.keep_learning
     controller.save(rep_dir / "controller.json")
-    accuracy = training_accuracy(result.best_weights, demo.road_values, demo.commands)
-    timing["evolution"] = time.perf_counter() - t0
+    timing["learning"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
     outcomes: list[TrialOutcome] = []
     trial_rng = np.random.default_rng(trial_seed)
-    for track, reverse, direction in DIRECTIONS:
+    for track, reverse, direction in trial_directions(config.test_tracks):
         env = LfDTrackEnv(track=track, reverse=reverse, preset=config.preset)
         corner_order = tuple(c.label for c in env.track.corners)
         env_seed = int(trial_rng.integers(0, 2**62))
@@ -182,18 +237,12 @@ def run_repetition(
     return RepetitionResult(
         index=index,
         outcomes=outcomes,
-        demo={
-            "cases": summary.n_cases,
-            "counts": summary.counts,
-            "turnarounds": list(summary.turnarounds),
-            "library_models": summary.library_models,
-            "library_types": summary.library_types,
-            "learned_off_felt": summary.learned_off_felt,
-        },
-        fitness_best=result.best_history.tolist(),
-        fitness_mean=result.mean_history.tolist(),
-        training_accuracy=accuracy,
+        demo=learned.demo,
+        fitness_best=learned.fitness_best,
+        fitness_mean=learned.fitness_mean,
+        training_accuracy=learned.training_accuracy,
         timing_s=timing,
+        effort=learned.effort,
     )
 
 
@@ -232,4 +281,9 @@ def run_benchmark(
 
 def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
     """JSON-friendly form of a benchmark config (stored in results.json)."""
-    return dataclasses.asdict(config)
+    data = dataclasses.asdict(config)
+    data["online"] = config.online.to_dict()
+    data["hg_dagger"] = config.hg_dagger.to_dict()
+    data["bc"] = config.bc.to_dict()
+    data["cmaes"] = config.cmaes.to_dict()
+    return data

@@ -40,6 +40,8 @@ from .paper import (
 RESULTS_SCHEMA = 1
 FAILURE_KINDS = ("reversed", "off_track", "timeout")
 """Why a trial ended unsuccessfully: the paper's two failures, plus the step budget running out."""
+LOOP_DIRECTIONS = ("cw", "ccw")
+"""Directions of a loop track (the testing track's and those of extra test loops)."""
 _FLOAT_DECIMALS = 6  # results.json precision: byte-stable and far below any meaningful difference
 
 
@@ -48,7 +50,7 @@ class TrialOutcome:
     """How one autonomous trial went (one run on the training track or one lap on the loop)."""
 
     track: str
-    """"training" or "testing"."""
+    """"training", "testing", or the name (or path) of an extra test loop."""
     direction: str
     """"direction_1"/"direction_2" (training) or "cw"/"ccw" (testing)."""
     corner_order: tuple[str, ...]
@@ -73,10 +75,12 @@ class TrialOutcome:
         for name in ("corner_order", "corners_reached", "corners_negotiated"):
             object.__setattr__(self, name, tuple(str(c) for c in getattr(self, name)))
         where = f"trial {self.track}/{self.direction} rep {self.repetition} #{self.trial}"
-        if self.track not in DIRECTIONS:
-            raise ValueError(f"{where}: track must be one of {sorted(DIRECTIONS)}")
-        if self.direction not in DIRECTIONS[self.track]:
-            raise ValueError(f"{where}: direction must be one of {DIRECTIONS[self.track]}")
+        if not self.track:
+            raise ValueError(f"{where}: track must be named")
+        # Any other track is an extra loop (BenchmarkConfig.test_tracks), driven both ways.
+        allowed = DIRECTIONS.get(self.track, LOOP_DIRECTIONS)
+        if self.direction not in allowed:
+            raise ValueError(f"{where}: direction must be one of {allowed}")
         order = self.corner_order
         if not order or len(set(order)) != len(order):
             raise ValueError(f"{where}: corner_order must list distinct corners, got {order}")
@@ -147,7 +151,7 @@ def _direction_results(track: str, direction: str, trials: list[TrialOutcome]) -
     orders = {t.corner_order for t in trials}
     if len(orders) > 1:
         raise ValueError(f"{track}/{direction}: trials disagree on the corner order: {orders}")
-    order = orders.pop() if orders else CORNER_ORDER[direction]
+    order = orders.pop() if orders else CORNER_ORDER.get(direction, ())
     corners: dict[str, Any] = {}
     for index, label in enumerate(order):
         charged = [t for t in trials if t.charged_corner == label]
@@ -161,7 +165,7 @@ def _direction_results(track: str, direction: str, trials: list[TrialOutcome]) -
         }
     successes = sum(t.success for t in trials)
     return {
-        TRIAL_COUNT_KEYS[track]: len(trials),
+        TRIAL_COUNT_KEYS.get(track, "laps"): len(trials),
         "successes": successes,
         "success_rate": _rate(successes, len(trials)),
         "corner_order": list(order),
@@ -171,6 +175,21 @@ def _direction_results(track: str, direction: str, trials: list[TrialOutcome]) -
         ),
         "failure_kinds": {kind: sum(t.failure == kind for t in trials) for kind in FAILURE_KINDS},
     }
+
+
+def _loop_results(track: str, outcomes: list[TrialOutcome]) -> dict[str, Any]:
+    """Results of one extra test loop: each direction as on the testing track, plus totals."""
+    section: dict[str, Any] = {}
+    total = successes = 0
+    for direction in LOOP_DIRECTIONS:
+        trials = [t for t in outcomes if t.track == track and t.direction == direction]
+        section[direction] = _direction_results(track, direction, trials)
+        total += len(trials)
+        successes += section[direction]["successes"]
+    section["laps"] = total
+    section["successes"] = successes
+    section["success_rate"] = _rate(successes, total)
+    return section
 
 
 def build_results(
@@ -207,6 +226,9 @@ def build_results(
         section["successes"] = successes
         section["success_rate"] = _rate(successes, total)
         results[track_key] = section
+    extra = sorted({t.track for t in outcomes} - set(TRACK_RESULT_KEYS))
+    if extra:
+        results["test_tracks"] = {name: _loop_results(name, outcomes) for name in extra}
     results["paper"] = paper_results()
     results["timing_s"] = dict(timing_s)
     results["outcomes"] = [t.to_dict() for t in outcomes]

@@ -193,23 +193,29 @@ def _make_env(args: argparse.Namespace, **kwargs: Any) -> Any:
 
 def _cmd_drive(args: argparse.Namespace) -> int:
     from ..controller import Controller
+    from ..teaching import Arbiter, Perception, TeachingLoop
 
     controller = Controller.load(args.controller)
     env = _make_env(args)
     try:
-        obs, _ = env.reset()
-        controller.reset()
+        # The teaching loop with the controller as the only commander.
+        loop = TeachingLoop(
+            env,
+            Perception(controller.library, "always" if controller.learn else "frozen"),
+            Arbiter("policy"),
+            policy=controller.commander(),
+        )
+        loop.reset()
         step = 0
         while args.steps is None or step < args.steps:
-            action = controller.act(obs)
-            obs, _, terminated, _, info = env.step(action)
+            info = loop.step().info_after
             step += 1
             print(
                 f"step {step}: {info['command']} (board {info['board_state']}, "
                 f"rtt {info['link']['rtt_ms']:.0f} ms)",
                 flush=True,
             )
-            if terminated:
+            if loop.terminated:
                 return _fail(f"stopped after {step} steps: {info['error']}")
         print(f"done: {step} steps; motors stopped")
         return EXIT_OK

@@ -106,11 +106,12 @@ def _last_key(text: str) -> str | None:
 
 
 class DemonstrationRecorder:
-    """Adapter from tele-operated (frame, command) pairs to a demonstration file.
+    """The teleop's recording parts: a road library with its learning rule, and the file.
 
-    The library learns from each frame (unless paused) as the paper's robot did while a careful
-    human drove; the first ``library_only`` commands only build the library. Everything else is
-    written through ``lfd_track.demo.dataset.DemonstrationWriter``.
+    The library learns from each commanded frame (rule ``careful``; ``learning = False`` switches
+    to ``paused``) as the paper's robot did while a careful human drove; the first
+    ``library_only`` commands only build the library. It is an observer of the teaching loop:
+    cases go through ``lfd_track.demo.dataset.DemonstrationWriter``.
     """
 
     def __init__(
@@ -123,35 +124,36 @@ class DemonstrationRecorder:
         overwrite: bool = False,
     ) -> None:
         from ..demo.dataset import DemonstrationWriter
+        from ..teaching.observers import Recorder
+        from ..teaching.perception import Perception
         from ..vision.road_library import RoadLibrary
 
         self.library = RoadLibrary(bins=bins)
+        self.perception = Perception(self.library, "careful")
         self.library_only = int(library_only)
-        self.learning = True
-        self.commands_seen = 0
         meta = {"source": "hardware teleop", **dict(metadata or {})}
         self._writer = DemonstrationWriter(path, meta, bins, overwrite=overwrite)
+        self._recorder = Recorder(self._writer, lambda step: {"phase": "drive", "step": None})
+
+    @property
+    def learning(self) -> bool:
+        """Whether the library learns from commanded frames (False: paused by the operator)."""
+        return self.perception.rule == "careful"
+
+    @learning.setter
+    def learning(self, value: bool) -> None:
+        self.perception.rule = "careful" if value else "paused"
 
     @property
     def n_cases(self) -> int:
         """Cases written so far."""
         return self._writer.n_cases
 
-    def record(self, frame: np.ndarray, command: Command) -> bool:
-        """Learn from ``frame`` (RGB uint8 (480, 640, 3)), record ``command``; True if written."""
-        learned = False
-        if self.learning:
-            self.library.learn(frame)
-            learned = True
-        self.commands_seen += 1
-        if self.commands_seen <= self.library_only:
-            return False
-        histograms = self.library.region_histograms(frame)
-        values = self.library.road_values_from_histograms(histograms)
-        self._writer.append(
-            int(command), values, histograms, phase="drive", learned=learned, step=None
-        )
-        return True
+    def start(self, info: dict[str, Any]) -> None:
+        self._recorder.start(info)
+
+    def observe(self, step: Any) -> None:
+        self._recorder.observe(step)
 
     def close(self) -> None:
         """Write the footer with the record-time library snapshot."""
@@ -176,14 +178,29 @@ def run_teleop(
 ) -> int:
     """Drive ``env`` (a reset ``HardwareEnv``) from ``keys``, recording each command.
 
-    ``observation``: the frame ``env.reset()`` returned, RGB uint8 (480, 640, 3).
+    ``observation``: the frame ``env.reset()`` returned, RGB uint8 (480, 640, 3). An arrangement
+    of the teaching loop: the keys feed a :class:`~lfd_track.teaching.QueueCommander`, the
+    arbiter lets only the human drive, the recorder observes.
 
     Returns the number of commands sent. Stops the robot and returns on ``q``, at
     ``max_commands``, or when the episode ends (its failure is reported through ``say``).
     """
-    obs = observation
-    sent = 0
-    while max_commands is None or sent < max_commands:
+    from ..teaching import Arbiter, Perception, QueueCommander, TeachingLoop
+    from ..vision.road_library import RoadLibrary
+
+    human = QueueCommander(library_only=recorder.library_only if recorder is not None else 0)
+    perception = (
+        recorder.perception if recorder is not None else Perception(RoadLibrary(), "frozen")
+    )
+    loop = TeachingLoop(
+        env,
+        perception,
+        Arbiter("human"),
+        human=human,
+        observers=[recorder] if recorder is not None else [],
+    )
+    loop.attach(observation)
+    while max_commands is None or loop.counts.steps < max_commands:
         key = keys.poll(0.1)
         if key is None:
             continue
@@ -199,12 +216,11 @@ def run_teleop(
             continue
         if not isinstance(action, Command):
             continue
-        if recorder is not None:
-            recorder.record(obs, action)
-        obs, _, terminated, _, info = env.step(int(action))
-        sent += 1
-        if terminated:
-            say(f"stopped: {info.get('error', info['failure'])}")
+        human.push(action)
+        step = loop.step()
+        if loop.terminated:
+            info = step.info_after
+            say(f"stopped: {info.get('error', info.get('failure'))}")
             break
     env.unwrapped.link.stop()
-    return sent
+    return loop.counts.steps

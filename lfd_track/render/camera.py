@@ -18,10 +18,11 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from ..frame import safe_box_slices
 from .texture import GroundTexture
 
-#: The "safe box" (DESIGN §3.4): 50 × 50 px at the bottom centre, x 295–344, y 430–479.
-SAFE_BOX = (slice(430, 480), slice(295, 345))
+#: The safe box as (row, column) slices, from its one owner :data:`lfd_track.frame.SAFE_BOX`.
+SAFE_BOX = safe_box_slices()
 #: Rec. 601 luma weights of R, G, B, used to meter brightness.
 _LUMA = np.array([0.299, 0.587, 0.114])
 #: Samples (columns, rows) the auto-exposure meter reads per frame.

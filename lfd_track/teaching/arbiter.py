@@ -43,6 +43,8 @@ class Arbiter:
         threshold: share of those K the policy must have agreed with to take over (0..1].
         auto_accept: with False an earned takeover is only *offered* (:attr:`offer`) until
             :meth:`accept` is called (a person confirming on a teaching station).
+        initial_driver: who drives at the start of an episode in takeover mode (``"policy"``:
+            the robot drives and the human intervenes, as in HG-DAgger).
     """
 
     def __init__(
@@ -52,6 +54,7 @@ class Arbiter:
         window: int = 10,
         threshold: float = 0.9,
         auto_accept: bool = True,
+        initial_driver: str = "human",
     ) -> None:
         if mode not in ARBITER_MODES:
             raise ValueError(f"arbiter mode must be one of {', '.join(ARBITER_MODES)}")
@@ -59,11 +62,16 @@ class Arbiter:
             raise ValueError(f"takeover window must be >= 1, got {window}")
         if not 0.0 < threshold <= 1.0:
             raise ValueError(f"takeover threshold must be in (0, 1], got {threshold}")
+        if initial_driver not in ("human", "policy"):
+            raise ValueError("initial_driver must be 'human' or 'policy'")
         self.mode = mode
+        self.initial_driver = "policy" if mode == "policy" else initial_driver
+        if mode == "human":
+            self.initial_driver = "human"
         self.window = int(window)
         self.threshold = float(threshold)
         self.auto_accept = bool(auto_accept)
-        self.driving = "policy" if mode == "policy" else "human"
+        self.driving = self.initial_driver
         self._agreement: deque[bool] = deque(maxlen=self.window)
         self.offer = False
         self._accepted = False
@@ -86,7 +94,7 @@ class Arbiter:
 
     def reset(self) -> None:
         """Start of an episode: the human drives again (takeover mode) and agreement is cleared."""
-        self.driving = "policy" if self.mode == "policy" else "human"
+        self.driving = self.initial_driver
         self._agreement.clear()
         self.offer = self._accepted = False
 

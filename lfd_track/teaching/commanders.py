@@ -30,6 +30,14 @@ class Commander(Protocol):
         """The command this commander wants now, or ``None`` for no opinion."""
 
 
+# Optional members a commander may have, read by the loop with getattr:
+#   has_input -> bool: False means propose() would certainly return None now; a loop where only
+#       the human drives then waits without perceiving the frame (so waiting never teaches the
+#       library the same frame twice).
+#   records -> bool: whether the command just proposed is a teaching case (default True).
+#   finished(info) -> bool: a scripted human whose script is over ends the loop's run().
+
+
 class PolicyCommander:
     """A 40-5-3 MLP driving from road values (paper §4.2.3): the largest output wins.
 
@@ -65,11 +73,26 @@ class QueueCommander:
 
     :meth:`push` may be called from any thread; :meth:`propose` hands the latest pushed command
     to the loop once (then ``None`` until the next push), so a held key or a button is one command.
+    The first ``library_only`` commands taken only build the road library (not teaching cases,
+    DESIGN §6).
     """
 
-    def __init__(self) -> None:
+    def __init__(self, library_only: int = 0) -> None:
         self._lock = threading.Lock()
         self._pending: Command | None = None
+        self.library_only = int(library_only)
+        self.taken = 0
+        """Commands handed to the loop so far."""
+
+    @property
+    def has_input(self) -> bool:
+        """Whether a pushed command waits (with none, a human-only loop does not even look)."""
+        return self._pending is not None
+
+    @property
+    def records(self) -> bool:
+        """Whether the command just taken is a teaching case (past the library-only ones)."""
+        return self.taken > self.library_only
 
     def push(self, command: Command | int) -> None:
         """Set the command the human gives next (replaces one not yet taken)."""
@@ -83,4 +106,5 @@ class QueueCommander:
     def propose(self, moment: Moment) -> Command | None:
         with self._lock:
             command, self._pending = self._pending, None
+        self.taken += command is not None
         return command

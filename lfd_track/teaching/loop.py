@@ -118,12 +118,14 @@ class TeachingLoop:
         self.frame: np.ndarray | None = None
         self.info: dict[str, Any] = {}
         self.episode_over = False
+        self.terminated = False
+        """The env reported a terminal state (failure, success, a hardware fault)."""
         self._episode_steps = 0
 
-    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> None:
-        """Reset the env and every part's per-episode state."""
-        self.frame, self.info = self.env.reset(seed=seed, options=options)
-        self.episode_over = False
+    def attach(self, frame: np.ndarray, info: dict[str, Any] | None = None) -> None:
+        """Start from an env the caller already reset (its first frame and info)."""
+        self.frame, self.info = frame, dict(info or {})
+        self.episode_over = self.terminated = False
         self._episode_steps = 0
         self.arbiter.reset()
         for part in (self.human, self.policy):
@@ -131,6 +133,11 @@ class TeachingLoop:
                 part.reset()
         for observer in self.observers:
             observer.start(self.info)
+
+    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> None:
+        """Reset the env and every part's per-episode state."""
+        frame, info = self.env.reset(seed=seed, options=options)
+        self.attach(frame, info)
 
     @property
     def done(self) -> bool:
@@ -144,6 +151,8 @@ class TeachingLoop:
         """Perceive the current frame, ask the commanders, execute the arbiter's command."""
         if self.frame is None:
             raise RuntimeError("call reset() before step()")
+        if self.arbiter.driving == "human" and not getattr(self.human, "has_input", True):
+            return self._waiting()
         percept = self.perception.perceive(self.frame, self.info.get("safe_box_on_felt"))
         moment = Moment(
             step=self._episode_steps,
@@ -160,6 +169,7 @@ class TeachingLoop:
         is_case = decision.driver == "human" and bool(getattr(self.human, "records", True))
         frame, _, terminated, truncated, info = self.env.step(int(decision.command))
         self.frame, self.info = frame, info
+        self.terminated = bool(terminated)
         self.episode_over = self.episode_over or bool(terminated or truncated)
         self._episode_steps += 1
         c = self.counts
@@ -173,6 +183,13 @@ class TeachingLoop:
         for observer in self.observers:
             observer.observe(step)
         return step
+
+    def _waiting(self) -> Step:
+        """A step where nobody commands and nothing is perceived (the human has no input)."""
+        none = Decision(None, None)
+        moment = Moment(self._episode_steps, self.frame, np.zeros(0), self.info, "human")
+        percept = Percept(np.zeros(0), np.zeros(0, dtype=np.float32), False, None)
+        return Step(moment, percept, None, None, none, is_case=False)
 
     def run(self, max_steps: int | None = None) -> LoopCounts:
         """Step until :attr:`done` (or ``max_steps`` commands, then ``RuntimeError``)."""

@@ -13,7 +13,9 @@ keeps watching and intervenes by the rule in :class:`InterventionConfig`.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -78,19 +80,27 @@ class InterventionConfig:
     0.225 m: 3.75 cm of play each side before any overhang)."""
     progress_drop_m: float = 0.10
     """[m] progress fell this far below its maximum on the leg (the robot turned back)."""
+    stall_commands: int = 8
+    """The policy drove this many commands in a row ..."""
+    stall_progress_m: float = 0.05
+    """[m] ... and gained less progress than this (dithering left/right in place)."""
 
     def __post_init__(self) -> None:
-        for name in ("heading_error_deg", "tread_overhang_m", "progress_drop_m"):
+        if isinstance(self.stall_commands, bool) or self.stall_commands < 1:
+            raise ValueError("stall_commands must be an integer >= 1")
+        for name in (
+            "heading_error_deg",
+            "tread_overhang_m",
+            "progress_drop_m",
+            "stall_progress_m",
+        ):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
 
     def to_dict(self) -> dict[str, float]:
-        return {
-            "heading_error_deg": self.heading_error_deg,
-            "tread_overhang_m": self.tread_overhang_m,
-            "progress_drop_m": self.progress_drop_m,
-        }
+        """Plain JSON-friendly dict."""
+        return dataclasses.asdict(self)
 
 
 class ScriptedHuman:
@@ -153,6 +163,14 @@ class Watcher:
             return "progress"
         return None
 
+    def stalled(self, recent_progress_m: deque[float]) -> bool:
+        """Whether the policy drove ``stall_commands`` commands without real progress."""
+        cfg = self.config
+        return (
+            len(recent_progress_m) > cfg.stall_commands
+            and recent_progress_m[-1] - recent_progress_m[0] < cfg.stall_progress_m
+        )
+
 
 class ProtocolHuman:
     """The demonstration protocol as a commander (needs the privileged pose in ``info``).
@@ -185,7 +203,15 @@ class ProtocolHuman:
         self._dead_band = math.radians(config.dead_band_deg)
         self._next_turn = Command.LEFT if config.first_turnaround == "left" else Command.RIGHT
         self.turnarounds: list[str] = []
-        self.interventions: dict[str, int] = {"heading": 0, "edge": 0, "progress": 0, "turn": 0}
+        self.interventions: dict[str, int] = {
+            "heading": 0,
+            "edge": 0,
+            "progress": 0,
+            "stall": 0,
+            "turn": 0,
+        }
+        stall = intervention.stall_commands if intervention is not None else 1
+        self._watched: deque[float] = deque(maxlen=stall + 1)
         self.leg = 0
         self.phase = PHASE_LIBRARY_ONLY
         self.progress_m = 0.0
@@ -253,6 +279,7 @@ class ProtocolHuman:
         if self._state == "drive":
             self.phase = PHASE_DRIVE if self.records else PHASE_LIBRARY_ONLY
             if watching:
+                self._watched.append(self.progress_m)
                 why = self.watcher.reason(
                     self.legs[self.leg % 2],
                     self._driver,
@@ -260,9 +287,12 @@ class ProtocolHuman:
                     self._max_progress,
                     pose,
                 )
+                if why is None and self.watcher.stalled(self._watched):
+                    why = "stall"
                 if why is None:
                     return None
                 self.interventions[why] += 1
+            self._watched.clear()
             return self.person.decide(self._driver, pose, self.progress_m)
         self._turns += 1
         self.phase = PHASE_TURNAROUND

@@ -34,6 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 import pymunk
 
+from .dimensions import ROVER_BODY_WIDTH_M
+
 _TWO_PI = 2.0 * math.pi
 
 
@@ -41,7 +43,7 @@ _TWO_PI = 2.0 * math.pi
 class RoverConfig:
     """Geometry, drive train, floor contact and noise of the tracked rover."""
 
-    body_width_m: float = 0.225  # [m] outer width across both treads
+    body_width_m: float = ROVER_BODY_WIDTH_M  # [m] outer width across both treads
     body_length_m: float = 0.245  # [m] length; the treads run the full length
     mass_kg: float = 1.5  # [kg] chassis, batteries, controller board and phone
     tread_width_m: float = 0.04  # [m] each tread is the outer strip of this width on its side

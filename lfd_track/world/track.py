@@ -14,9 +14,10 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import LfdTrackError
+from .dimensions import ROVER_BODY_WIDTH_M
 
-#: Rover body width [m]; a track narrower than this cannot be driven.
-ROVER_WIDTH_M = 0.225
+#: Rover body width [m] (owned by :mod:`lfd_track.world.dimensions`).
+ROVER_WIDTH_M = ROVER_BODY_WIDTH_M
 #: Largest coordinate accepted in a track file [m] (a floor, not a continent).
 MAX_COORDINATE_M = 1000.0
 

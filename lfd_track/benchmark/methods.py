@@ -1,0 +1,537 @@
+"""How a repetition learns its controller: the paper's offline pipeline, or interactive methods.
+
+Every method is an arrangement of the teaching loop (:mod:`lfd_track.teaching`) and ends with a
+controller plus a record of the human's effort, counted the same way for every method:
+
+* ``commands`` — commands the human gave (demonstration, library-only ones included, and
+  corrections / interventions);
+* ``corrections`` — times the human took control back from a driving policy;
+* ``takeovers`` — times the policy took control;
+* ``learning_drive_s`` — simulated seconds the robot drove while learning (whoever drove);
+* ``autonomous_drive_s`` — of those, the seconds the policy drove.
+
+Methods:
+
+* ``paper`` — demonstration, then the GA offline (DESIGN §6, paper §4.2.5).
+* ``online`` — the GA runs ``generations_per_case`` ask/tell generations per new case while the
+  scripted human demonstrates; once the policy agreed with the human on at least ``threshold`` of
+  the last ``window`` commands it drives, and the human watches, taking control back by the
+  intervention rule (:class:`~lfd_track.teaching.scripted.InterventionConfig`); corrections are
+  flagged cases and learned like the rest. The controller is the best individual of the run.
+* ``bc`` / ``cma-es`` — the paper's demonstration, then the same network fitted to its cases by
+  backprop (:func:`~lfd_track.learning.bc.fit_bc`) or by CMA-ES on Algorithm 3
+  (:func:`~lfd_track.learning.cmaes.fit_cmaes`) instead of the GA.
+* ``hg-dagger`` — the paper's demonstration and GA, then ``rounds`` rounds of autonomous runs on
+  the training track (one each way) with the human intervening by the same rule; the
+  interventions of every round are aggregated and the GA re-run on all cases after each round.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, TypeVar
+
+import numpy as np
+
+from ..controller import Controller
+from ..demo.dataset import DemonstrationWriter, load_demonstration
+from ..demo.demonstrator import HumanConfig, protocol_human, run_demonstration
+from ..env import LfDTrackEnv
+from ..learning.bc import BCConfig, fit_bc
+from ..learning.cmaes import CMAESConfig, fit_cmaes
+from ..learning.fitness import imitation_fitness, training_accuracy
+from ..learning.ga import (
+    GAConfig,
+    evolve,
+    ga_ask,
+    ga_init,
+    ga_rescore,
+    ga_result,
+    ga_tell,
+)
+from ..presets import Preset
+from ..teaching.arbiter import Arbiter
+from ..teaching.commanders import PolicyCommander
+from ..teaching.loop import LoopCounts, Step, TeachingLoop
+from ..teaching.observers import CaseBuffer, Recorder
+from ..teaching.perception import Perception
+from ..teaching.scripted import InterventionConfig, ProtocolHuman
+from ..vision.road_library import RoadLibrary
+from ..world.track import load_track
+
+METHODS = ("paper", "online", "hg-dagger", "bc", "cma-es")
+
+_C = TypeVar("_C")
+
+
+def _from_dict(cls: type[_C], data: Any, what: str) -> _C:
+    if not isinstance(data, dict):
+        raise ValueError(f"{what} settings must be an object")
+    names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    unknown = sorted(set(data) - names)
+    if unknown:
+        raise ValueError(f"unknown {what} setting '{unknown[0]}'")
+    values = dict(data)
+    if "intervention" in values and isinstance(values["intervention"], dict):
+        values["intervention"] = _from_dict(InterventionConfig, values["intervention"], what)
+    try:
+        return cls(**values)
+    except TypeError as exc:
+        raise ValueError(f"{what}: {exc}") from None
+
+
+@dataclass(frozen=True)
+class OnlineConfig:
+    """Settings of the ``online`` method (evolution during the demonstration, with takeover)."""
+
+    generations_per_case: int = 2
+    """GA generations (ask/tell, population re-scored on all cases so far) after each new case."""
+    window: int = 10
+    """K: the takeover agreement is measured over the human's last K commands."""
+    threshold: float = 0.9
+    """Share of those K the policy must have agreed with to drive (9 of 10 by default)."""
+    intervention: InterventionConfig = field(default_factory=InterventionConfig)
+    """When the watching human takes control back."""
+
+    def __post_init__(self) -> None:
+        if isinstance(self.generations_per_case, bool) or self.generations_per_case < 1:
+            raise ValueError("online generations_per_case must be an integer >= 1")
+        if isinstance(self.window, bool) or self.window < 1:
+            raise ValueError("online window must be an integer >= 1")
+        if not 0.0 < self.threshold <= 1.0:
+            raise ValueError("online threshold must be in (0, 1]")
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON-friendly dict."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> OnlineConfig:
+        """Inverse of :meth:`to_dict`; unknown keys or bad values raise ``ValueError``."""
+        return _from_dict(cls, data, "online")
+
+
+@dataclass(frozen=True)
+class HGDaggerConfig:
+    """Settings of the ``hg-dagger`` method (rounds of autonomous runs with interventions)."""
+
+    rounds: int = 3
+    """R: rounds of autonomous runs, each followed by re-evolving on all cases."""
+    window: int = 10
+    """K: after an intervention, the policy drives again once it agreed on the last K."""
+    threshold: float = 0.9
+    """Share of those K the policy must have agreed with to drive again."""
+    intervention: InterventionConfig = field(default_factory=InterventionConfig)
+    """When the watching human takes control."""
+
+    def __post_init__(self) -> None:
+        if isinstance(self.rounds, bool) or self.rounds < 1:
+            raise ValueError("hg-dagger rounds must be an integer >= 1")
+        if isinstance(self.window, bool) or self.window < 1:
+            raise ValueError("hg-dagger window must be an integer >= 1")
+        if not 0.0 < self.threshold <= 1.0:
+            raise ValueError("hg-dagger threshold must be in (0, 1]")
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON-friendly dict."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> HGDaggerConfig:
+        """Inverse of :meth:`to_dict`; unknown keys or bad values raise ``ValueError``."""
+        return _from_dict(cls, data, "hg-dagger")
+
+
+@dataclass
+class Learned:
+    """What the learning part of a repetition produced."""
+
+    controller: Controller
+    demo: dict[str, Any]
+    """Demonstration summary (cases, counts, library …) for results.json."""
+    fitness_best: list[float]
+    fitness_mean: list[float]
+    training_accuracy: float
+    effort: dict[str, Any]
+    """Human effort and robot driving during learning (see the module docstring)."""
+
+
+def effort_record(counts: LoopCounts, period_s: float, **extra: Any) -> dict[str, Any]:
+    """The effort fields of results.json from a loop's counts (``period_s``: one command [s])."""
+    return {
+        "commands": counts.human_commands,
+        "corrections": counts.corrections,
+        "takeovers": counts.takeovers,
+        "learning_drive_s": round(counts.steps * period_s, 6),
+        "autonomous_drive_s": round(counts.policy_commands * period_s, 6),
+        **extra,
+    }
+
+
+def _add(total: LoopCounts, part: LoopCounts) -> None:
+    for f in dataclasses.fields(LoopCounts):
+        setattr(total, f.name, getattr(total, f.name) + getattr(part, f.name))
+
+
+# ------------------------------------------------------------------------------------ paper
+def learn_paper(
+    rep_dir: Path,
+    *,
+    demo_seed: int,
+    ga_seed: int,
+    preset: str | Preset,
+    human: HumanConfig,
+    ga: GAConfig,
+) -> Learned:
+    """The paper: record a demonstration, then evolve offline (200 generations by default)."""
+    demo_path = rep_dir / "demonstration.lfdemo"
+    summary = run_demonstration(
+        demo_path, seed=demo_seed, preset=preset, human=human, fsync=False, overwrite=True
+    )
+    demo = load_demonstration(demo_path)
+    result = evolve(demo.road_values, demo.commands, ga, np.random.default_rng(ga_seed))
+    library = RoadLibrary.from_dict(demo.metadata["road_library"])
+    controller = Controller.from_evolution(library, result, seed=ga_seed)
+    period = _period_s(preset)
+    return Learned(
+        controller=controller,
+        demo={
+            "cases": summary.n_cases,
+            "counts": summary.counts,
+            "turnarounds": list(summary.turnarounds),
+            "library_models": summary.library_models,
+            "library_types": summary.library_types,
+            "learned_off_felt": summary.learned_off_felt,
+        },
+        fitness_best=result.best_history.tolist(),
+        fitness_mean=result.mean_history.tolist(),
+        training_accuracy=training_accuracy(result.best_weights, demo.road_values, demo.commands),
+        effort={
+            "commands": summary.commands,
+            "corrections": 0,
+            "takeovers": 0,
+            "learning_drive_s": round(summary.commands * period, 6),
+            "autonomous_drive_s": 0.0,
+        },
+    )
+
+
+def learn_baseline(
+    rep_dir: Path,
+    *,
+    demo_seed: int,
+    ga_seed: int,
+    preset: str | Preset,
+    human: HumanConfig,
+    learner: BCConfig | CMAESConfig,
+) -> Learned:
+    """The paper's demonstration, then BC or CMA-ES instead of the GA (same cases, same seed)."""
+    demo_path = rep_dir / "demonstration.lfdemo"
+    summary = run_demonstration(
+        demo_path, seed=demo_seed, preset=preset, human=human, fsync=False, overwrite=True
+    )
+    demo = load_demonstration(demo_path)
+    fit = fit_bc if isinstance(learner, BCConfig) else fit_cmaes
+    result = fit(demo.road_values, demo.commands, learner, np.random.default_rng(ga_seed))
+    library = RoadLibrary.from_dict(demo.metadata["road_library"])
+    controller = Controller(
+        library,
+        result.weights,
+        bias=learner.bias,
+        seed=ga_seed,
+        fitness_history=result.history.tolist(),
+    )
+    period = _period_s(preset)
+    return Learned(
+        controller=controller,
+        demo={
+            "cases": summary.n_cases,
+            "counts": summary.counts,
+            "turnarounds": list(summary.turnarounds),
+            "library_models": summary.library_models,
+            "library_types": summary.library_types,
+            "learned_off_felt": summary.learned_off_felt,
+            "learner": result.learner,
+        },
+        fitness_best=result.history.tolist(),
+        fitness_mean=[],
+        training_accuracy=training_accuracy(result.weights, demo.road_values, demo.commands),
+        effort={
+            "commands": summary.commands,
+            "corrections": 0,
+            "takeovers": 0,
+            "learning_drive_s": round(summary.commands * period, 6),
+            "autonomous_drive_s": 0.0,
+        },
+    )
+
+
+def _period_s(preset: str | Preset) -> float:
+    from ..presets import load_preset
+
+    p = preset if isinstance(preset, Preset) else load_preset(preset)
+    return float(p.rover.control_period_s)
+
+
+# ------------------------------------------------------------------------------------ online
+class OnlineGA:
+    """Learner feed: the GA in ask/tell form, running generations as teaching cases arrive.
+
+    After each new case the population and the best-so-far are re-scored on all cases so far,
+    then ``generations_per_case`` generations run; the policy commander then drives with the best
+    individual. :attr:`generation` and :attr:`best_fitness` are readable at any time.
+    """
+
+    def __init__(
+        self,
+        config: GAConfig,
+        rng: np.random.Generator,
+        generations_per_case: int,
+        policy: PolicyCommander,
+    ) -> None:
+        self.config = config
+        self.rng = rng
+        self.rng_state = rng.bit_generator.state
+        self.generations_per_case = generations_per_case
+        self.policy = policy
+        self.cases = CaseBuffer()
+        self.state = ga_init(config, rng)
+
+    @property
+    def generation(self) -> int:
+        return self.state.generation
+
+    @property
+    def best_fitness(self) -> float:
+        return self.state.best_fitness
+
+    def start(self, info: dict[str, Any]) -> None:
+        pass
+
+    def observe(self, step: Step) -> None:
+        if not step.is_case:
+            return
+        self.cases.observe(step)
+        x, a = self.cases.arrays()
+        cfg = self.config
+        state = self.state
+        if state.generation > 0:
+            state = ga_rescore(state, x, a, cfg)
+        for _ in range(self.generations_per_case):
+            children = ga_ask(state, cfg, self.rng)
+            fitness = imitation_fitness(children, x, a, cfg.threshold, bias=cfg.bias)
+            state = ga_tell(state, children, fitness)
+        self.state = state
+        self.policy.weights = np.array(state.best_weights)
+
+
+def learn_online(
+    rep_dir: Path,
+    *,
+    demo_seed: int,
+    ga_seed: int,
+    preset: str | Preset,
+    human: HumanConfig,
+    ga: GAConfig,
+    online: OnlineConfig,
+) -> Learned:
+    """Demonstrate on the training track while the GA learns; the policy takes over when it agrees.
+
+    The protocol, the human's random stream and the env seed are the paper's (same
+    ``demo_seed``); the cases, including flagged corrections, are written to
+    ``rep_dir/demonstration.lfdemo`` (the footer lists the correction case indices).
+    """
+    rng = np.random.default_rng(demo_seed)
+    env_seed = int(rng.integers(2**31 - 1))
+    env = LfDTrackEnv(track="training", preset=preset, max_steps=10**9)
+    person = protocol_human(
+        "training", human, rng, intervention=online.intervention, rover=env.preset.rover
+    )
+    library = RoadLibrary()
+    policy = PolicyCommander(None)
+    feed = OnlineGA(ga, np.random.default_rng(ga_seed), online.generations_per_case, policy)
+    metadata = {
+        "kind": "simulated",
+        "method": "online",
+        "track": "training",
+        "seed": demo_seed,
+        "env_seed": env_seed,
+        "preset": preset if isinstance(preset, str) else preset.name,
+        "human": dataclasses.asdict(human),
+        "online": online.to_dict(),
+        "bins": library.bins,
+    }
+    path = rep_dir / "demonstration.lfdemo"
+    with DemonstrationWriter(path, metadata, bins=library.bins, fsync=False, overwrite=True) as w:
+        recorder = Recorder(
+            w,
+            lambda step: {
+                "pose": step.moment.pose,
+                "progress_m": person.progress_m,
+                "phase": "correction" if step.decision.correction else person.phase,
+                "step": step.moment.step,
+            },
+        )
+        loop = TeachingLoop(
+            env,
+            Perception(library, "careful" if human.careful else "always"),
+            Arbiter("takeover", window=online.window, threshold=online.threshold),
+            human=person,
+            policy=policy,
+            observers=[recorder, feed],
+            stop_on_episode_end=False,
+        )
+        loop.reset(seed=env_seed)
+        loop.run(max_steps=human.max_commands)
+        x, a = feed.cases.arrays()
+        state = ga_rescore(feed.state, x, a, ga)  # the best of the run on every case
+        corrections = [i for i, c in enumerate(feed.cases.corrections) if c]
+        w.close(
+            {
+                "road_library": library.to_dict(),
+                "turnarounds": person.turnarounds,
+                "library_models": library.n_models,
+                "library_types": library.n_types,
+                "commands": loop.counts.steps,
+                "correction_cases": corrections,
+                "interventions": dict(person.interventions),
+            }
+        )
+    env.close()
+    result = ga_result(state, ga, feed.rng_state)
+    controller = Controller.from_evolution(library, result, seed=ga_seed)
+    counts = np.bincount(a, minlength=3)
+    return Learned(
+        controller=controller,
+        demo={
+            "cases": int(len(a)),
+            "counts": {"forward": int(counts[0]), "left": int(counts[1]), "right": int(counts[2])},
+            "turnarounds": list(person.turnarounds),
+            "library_models": library.n_models,
+            "library_types": library.n_types,
+            "correction_cases": len(corrections),
+            "interventions": dict(person.interventions),
+            "generations": state.generation,
+        },
+        fitness_best=list(state.best_history),
+        fitness_mean=list(state.mean_history),
+        training_accuracy=training_accuracy(state.best_weights, x, a),
+        effort=effort_record(loop.counts, float(env.preset.rover.control_period_s)),
+    )
+
+
+# ------------------------------------------------------------------------------------ hg-dagger
+def learn_hg_dagger(
+    rep_dir: Path,
+    *,
+    demo_seed: int,
+    ga_seed: int,
+    preset: str | Preset,
+    human: HumanConfig,
+    ga: GAConfig,
+    hg: HGDaggerConfig,
+) -> Learned:
+    """The paper's demonstration and GA, then rounds of runs with interventions and re-evolving.
+
+    Each round drives the current controller once each way on the training track (library
+    frozen) with the scripted human watching; intervention cases of round r are written to
+    ``rep_dir/interventions_r<r>.lfdemo`` and added to the training set before the GA runs again
+    (same settings, continuing the GA's random stream).
+    """
+    paper = learn_paper(
+        rep_dir, demo_seed=demo_seed, ga_seed=ga_seed, preset=preset, human=human, ga=ga
+    )
+    demo = load_demonstration(rep_dir / "demonstration.lfdemo")
+    inputs = [np.asarray(demo.road_values, dtype=np.float64)]
+    actions = [np.asarray(demo.commands, dtype=np.intp)]
+    controller = paper.controller
+    library = controller.library
+    ga_rng = np.random.default_rng([ga_seed, 1])
+    round_rng = np.random.default_rng([demo_seed, 1])
+    totals = LoopCounts()
+    per_round: list[dict[str, Any]] = []
+    fitness_best, fitness_mean = list(paper.fitness_best), list(paper.fitness_mean)
+    period = _period_s(preset)
+    for r in range(1, hg.rounds + 1):
+        buffer = CaseBuffer()
+        round_counts = LoopCounts()
+        human_rng = np.random.default_rng(int(round_rng.integers(2**62)))
+        path = rep_dir / f"interventions_r{r}.lfdemo"
+        metadata = {"kind": "simulated", "method": "hg-dagger", "round": r, "bins": library.bins}
+        with DemonstrationWriter(
+            path, metadata, bins=library.bins, fsync=False, overwrite=True
+        ) as w:
+            for reverse in (False, True):
+                env = LfDTrackEnv(track="training", reverse=reverse, preset=preset)
+                legs = (env.track, load_track("training", reverse=not reverse))
+                person = ProtocolHuman(
+                    legs,
+                    dataclasses.replace(human, legs=1, library_only_commands=0),
+                    human_rng,
+                    intervention=hg.intervention,
+                    rover=env.preset.rover,
+                )
+                loop = TeachingLoop(
+                    env,
+                    Perception(library, "frozen"),
+                    Arbiter(
+                        "takeover",
+                        window=hg.window,
+                        threshold=hg.threshold,
+                        initial_driver="policy",
+                    ),
+                    human=person,
+                    policy=controller.commander(),
+                    observers=[
+                        buffer,
+                        Recorder(
+                            w,
+                            lambda s, p=person: {
+                                "pose": s.moment.pose,
+                                "progress_m": p.progress_m,
+                                "phase": "correction" if s.decision.correction else "intervention",
+                                "step": s.moment.step,
+                            },
+                        ),
+                    ],
+                )
+                loop.reset(seed=int(round_rng.integers(2**62)))
+                loop.run()
+                _add(round_counts, loop.counts)
+                env.close()
+            w.close({"round": r, "cases": len(buffer.commands)})
+        _add(totals, round_counts)
+        x, a = buffer.arrays()
+        inputs.append(x)
+        actions.append(a)
+        all_x, all_a = np.concatenate(inputs), np.concatenate(actions)
+        result = evolve(all_x, all_a, ga, ga_rng)
+        controller = Controller.from_evolution(library, result, seed=ga_seed)
+        fitness_best += result.best_history.tolist()
+        fitness_mean += result.mean_history.tolist()
+        per_round.append(
+            {
+                "round": r,
+                "intervention_cases": int(len(a)),
+                "corrections": round_counts.corrections,
+                "autonomous_drive_s": round(round_counts.policy_commands * period, 6),
+            }
+        )
+    all_x, all_a = np.concatenate(inputs), np.concatenate(actions)
+    effort = dict(paper.effort)
+    effort["commands"] += totals.human_commands
+    effort["corrections"] += totals.corrections
+    effort["takeovers"] += totals.takeovers
+    effort["learning_drive_s"] = round(effort["learning_drive_s"] + totals.steps * period, 6)
+    effort["autonomous_drive_s"] = round(totals.policy_commands * period, 6)
+    demo_record = dict(paper.demo, rounds=per_round, cases=int(len(all_a)))
+    return Learned(
+        controller=controller,
+        demo=demo_record,
+        fitness_best=fitness_best,
+        fitness_mean=fitness_mean,
+        training_accuracy=training_accuracy(controller.weights, all_x, all_a),
+        effort=effort,
+    )

@@ -1,0 +1,226 @@
+"""The learning methods of the benchmark: paper unchanged, online takeover, hg-dagger rounds."""
+
+import dataclasses
+import hashlib
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from lfd_track.benchmark.methods import (
+    HGDaggerConfig,
+    OnlineConfig,
+    learn_baseline,
+    learn_hg_dagger,
+    learn_online,
+    learn_paper,
+)
+from lfd_track.benchmark.runner import (
+    BenchmarkConfig,
+    repetition_seeds,
+    run_benchmark,
+    run_repetition,
+)
+from lfd_track.demo.dataset import load_demonstration
+from lfd_track.demo.demonstrator import HumanConfig
+from lfd_track.learning.bc import BCConfig
+from lfd_track.learning.cmaes import CMAESConfig
+from lfd_track.learning.ga import GAConfig
+
+
+def _seeds(benchmark_seed=0):
+    """(demo, ga, trial) seeds of repetition 0, drawn as the runner draws them."""
+    rng = np.random.default_rng(repetition_seeds(benchmark_seed, 1)[0])
+    return tuple(int(x) for x in rng.integers(0, 2**62, size=3))
+
+
+def test_paper_repetition_is_unchanged_by_the_loop_refactor(tmp_path):
+    # Reference computed with the wave-1 code (separate demonstrator, runner and Controller
+    # loops, closed-loop evolve) for this exact configuration.
+    config = BenchmarkConfig(repetitions=1, trials_per_direction=1, ga=GAConfig(generations=30))
+    result = run_repetition(0, 12345, config, str(tmp_path))
+    digest = hashlib.sha256()
+    for o in result.outcomes:
+        key = (o.direction, o.corners_reached, o.corners_negotiated, o.failure, o.success, o.steps)
+        digest.update(repr(key).encode())
+        digest.update(o.trajectory.tobytes())
+    digest.update(np.asarray(result.fitness_best).tobytes())
+    assert result.demo["cases"] == 172
+    assert result.training_accuracy == 0.7325581395348837
+    assert digest.hexdigest()[:16] == "48da32528a3285fb"
+    assert result.effort == {
+        "commands": 182,
+        "corrections": 0,
+        "takeovers": 0,
+        "learning_drive_s": pytest.approx(182 * 0.4),
+        "autonomous_drive_s": 0.0,
+    }
+
+
+@pytest.fixture(scope="module")
+def online_run(tmp_path_factory):
+    demo_seed, ga_seed, _ = _seeds(0)
+    out = tmp_path_factory.mktemp("online")
+    learned = learn_online(
+        out,
+        demo_seed=demo_seed,
+        ga_seed=ga_seed,
+        preset="paper",
+        human=HumanConfig(),
+        ga=GAConfig(),
+        online=OnlineConfig(),
+    )
+    return out, learned
+
+
+def test_online_takes_over_and_learns_flagged_corrections(online_run):
+    out, learned = online_run
+    effort = learned.effort
+    assert effort["takeovers"] >= 1 and effort["autonomous_drive_s"] > 0
+    assert effort["corrections"] >= 1
+    demo = load_demonstration(out / "demonstration.lfdemo")
+    flagged = demo.metadata["correction_cases"]
+    assert len(flagged) == learned.demo["correction_cases"] >= 1
+    assert all(demo.phases[i] == "correction" for i in flagged)
+    # Cases are only what the human gave: fewer than the commands the robot executed.
+    assert demo.n_cases < effort["learning_drive_s"] / 0.4
+    # The GA ran generations_per_case generations for every case, and the controller is the best.
+    assert learned.demo["generations"] == 2 * demo.n_cases
+    assert learned.fitness_best and learned.training_accuracy > 0.5
+
+
+def test_online_is_deterministic(online_run, tmp_path):
+    _, first = online_run
+    demo_seed, ga_seed, _ = _seeds(0)
+    again = learn_online(
+        tmp_path,
+        demo_seed=demo_seed,
+        ga_seed=ga_seed,
+        preset="paper",
+        human=HumanConfig(),
+        ga=GAConfig(),
+        online=OnlineConfig(),
+    )
+    np.testing.assert_array_equal(again.controller.weights, first.controller.weights)
+    assert again.effort == first.effort
+
+
+def test_hg_dagger_adds_intervention_cases_every_round(tmp_path):
+    demo_seed, ga_seed, _ = _seeds(0)
+    kwargs = dict(demo_seed=demo_seed, ga_seed=ga_seed, preset="paper", human=HumanConfig())
+    hg = HGDaggerConfig(rounds=2)
+    learned = learn_hg_dagger(tmp_path / "a", **kwargs, ga=GAConfig(generations=20), hg=hg)
+    rounds = learned.demo["rounds"]
+    assert [r["round"] for r in rounds] == [1, 2]
+    assert all(r["intervention_cases"] > 0 for r in rounds)
+    demo_cases = load_demonstration(tmp_path / "a" / "demonstration.lfdemo").n_cases
+    assert learned.demo["cases"] == demo_cases + sum(r["intervention_cases"] for r in rounds)
+    for r in rounds:
+        file = load_demonstration(tmp_path / "a" / f"interventions_r{r['round']}.lfdemo")
+        assert file.n_cases == r["intervention_cases"] and file.metadata["round"] == r["round"]
+    # re-evolved after each round: the GA history holds 1 + R runs
+    assert len(learned.fitness_best) == 20 * (1 + len(rounds))
+    assert learned.effort["corrections"] >= len(rounds)
+    again = learn_hg_dagger(tmp_path / "b", **kwargs, ga=GAConfig(generations=20), hg=hg)
+    np.testing.assert_array_equal(again.controller.weights, learned.controller.weights)
+
+
+def test_method_settings_round_trip_and_refuse_unknown_keys():
+    online = OnlineConfig(window=6, threshold=0.5)
+    assert OnlineConfig.from_dict(online.to_dict()) == online
+    hg = HGDaggerConfig(rounds=5)
+    assert HGDaggerConfig.from_dict(hg.to_dict()) == hg
+    with pytest.raises(ValueError, match="unknown online setting 'k'"):
+        OnlineConfig.from_dict({"k": 3})
+    with pytest.raises(ValueError, match="threshold"):
+        dataclasses.replace(online, threshold=0)
+    with pytest.raises(ValueError, match="unknown method"):
+        BenchmarkConfig(method="magic")
+
+
+def test_bc_reaches_at_least_the_ga_training_accuracy_on_the_same_cases(tmp_path):
+    demo_seed, ga_seed, _ = _seeds(0)
+    kwargs = dict(demo_seed=demo_seed, ga_seed=ga_seed, preset="paper", human=HumanConfig())
+    paper = learn_paper(tmp_path / "ga", **kwargs, ga=GAConfig())
+    bc = learn_baseline(tmp_path / "bc", **kwargs, learner=BCConfig())
+    assert bc.demo["cases"] == paper.demo["cases"]  # the same demonstration
+    assert bc.demo["learner"] == "bc"
+    assert bc.training_accuracy >= paper.training_accuracy
+    assert bc.effort == paper.effort  # same human effort: only the learner differs
+
+
+def test_cma_es_is_wired_in_as_a_method(tmp_path):
+    demo_seed, ga_seed, _ = _seeds(0)
+    learned = learn_baseline(
+        tmp_path,
+        demo_seed=demo_seed,
+        ga_seed=ga_seed,
+        preset="paper",
+        human=HumanConfig(legs=1),
+        learner=CMAESConfig(generations=5),
+    )
+    assert learned.demo["learner"] == "cma-es" and len(learned.fitness_best) == 5
+    assert learned.controller.weights.shape == (215,)
+
+
+_QUICK = dict(
+    repetitions=1,
+    trials_per_direction=1,
+    human=HumanConfig(legs=1),
+    ga=GAConfig(generations=10),
+    online=OnlineConfig(window=4, threshold=0.75),
+    hg_dagger=HGDaggerConfig(rounds=1),
+    bc=BCConfig(epochs=50),
+    cmaes=CMAESConfig(generations=3),
+)
+
+
+@pytest.mark.parametrize("method", ["online", "hg-dagger", "bc", "cma-es"])
+def test_every_method_gives_the_same_results_with_one_or_two_workers(method, tmp_path):
+    config = BenchmarkConfig(method=method, **_QUICK)
+    one = run_benchmark(config, tmp_path / "one", workers=1)
+    two = run_benchmark(config, tmp_path / "two", workers=2)
+    for a, b in zip(one, two, strict=True):
+        assert a.effort == b.effort and a.demo == b.demo
+        assert a.fitness_best == b.fitness_best
+        assert [o.to_dict() for o in a.outcomes] == [o.to_dict() for o in b.outcomes]
+    first = (tmp_path / "one" / "rep_00" / "controller.json").read_bytes()
+    assert first == (tmp_path / "two" / "rep_00" / "controller.json").read_bytes()
+
+
+def test_trial_directions_put_extra_loops_last():
+    from lfd_track.benchmark.runner import DIRECTIONS, trial_directions
+
+    assert trial_directions(("testing",)) == list(DIRECTIONS)
+    extra = trial_directions(("testing", "loop_x"))
+    assert extra[:4] == list(DIRECTIONS)
+    assert extra[4:] == [("loop_x", False, "ccw"), ("loop_x", True, "cw")]
+    assert [d[0] for d in trial_directions(("loop_x",))] == ["training"] * 2 + ["loop_x"] * 2
+
+
+def test_extra_test_tracks_are_lapped_both_ways_and_reported_per_track(tmp_path):
+    from lfd_track._data import resolve_data_file
+    from lfd_track.benchmark.report import write_benchmark_outputs
+
+    text = Path(resolve_data_file("tracks", "testing")).read_text()
+    loop = tmp_path / "other_loop.toml"
+    loop.write_text(text.replace('name = "testing"', 'name = "other_loop"'))
+    config = BenchmarkConfig(
+        repetitions=1,
+        trials_per_direction=1,
+        human=HumanConfig(legs=1),
+        ga=GAConfig(generations=5),
+        test_tracks=("testing", str(loop)),
+    )
+    reps = run_benchmark(config, tmp_path / "work")
+    tracks = [(o.track, o.direction) for o in reps[0].outcomes]
+    assert tracks[-2:] == [(str(loop), "ccw"), (str(loop), "cw")]
+    write_benchmark_outputs(tmp_path / "out", config, reps, wall_s=1.0, workers=1)
+    results = json.loads((tmp_path / "out" / "results.json").read_text())
+    assert results["test_tracks"][str(loop)]["laps"] == 2
+    assert results["testing_track"]["laps"] == 2  # the paper's tables keep the testing track
+    assert results["method"] == "paper" and results["human_effort"]["total"]["commands"] > 0
+    assert "Extra test loops" in (tmp_path / "out" / "report.md").read_text()
+    with pytest.raises(ValueError, match="twice"):
+        BenchmarkConfig(test_tracks=("testing", "testing"))

@@ -1,0 +1,108 @@
+import functools
+import threading
+
+import numpy as np
+import pytest
+
+from lfd_track.commands import Command
+from lfd_track.env import LfDTrackEnv
+from lfd_track.teaching import (
+    Arbiter,
+    Perception,
+    PolicyCommander,
+    QueueCommander,
+    TeachingLoop,
+    TrajectoryObserver,
+)
+from lfd_track.teaching.observers import CaseBuffer
+from lfd_track.vision.road_library import RoadLibrary
+
+
+@functools.cache
+def _road_frame():
+    env = LfDTrackEnv(track="training")
+    frame, _ = env.reset(seed=1)
+    env.close()
+    return frame
+
+
+def _library_with_road():
+    library = RoadLibrary()
+    frame = _road_frame()
+    library.learn(frame)
+    return library, frame
+
+
+def test_look_never_mutates_but_perceive_does():
+    library, frame = _library_with_road()
+    before = library.to_dict()
+    perception = Perception(library, "careful")
+    values = perception.look(frame)
+    assert library.to_dict() == before
+    perception.rule = "paused"
+    percept = perception.perceive(frame, box_on_felt=True)
+    np.testing.assert_array_equal(percept.values, values)
+    assert not percept.learned and library.to_dict() != before  # selections were counted
+
+
+@pytest.mark.parametrize(
+    ("rule", "box_on_felt", "learns"),
+    [
+        ("careful", True, True),
+        ("careful", False, False),
+        ("careful", None, True),
+        ("paused", True, False),
+        ("frozen", True, False),
+        ("always", False, True),
+    ],
+)
+def test_learning_rules(rule, box_on_felt, learns):
+    library, frame = _library_with_road()
+    n = library.n_models
+    stats = library.type_statistics()
+    percept = Perception(library, rule).perceive(frame, box_on_felt=box_on_felt)
+    assert percept.learned == learns
+    assert (library.n_models > n) == learns
+    if rule == "frozen":
+        assert library.type_statistics() == stats  # not even the selection counts
+    if rule == "paused":
+        assert library.type_statistics() != stats  # selections still count while teaching
+
+
+def test_bad_rule():
+    with pytest.raises(ValueError, match="careful"):
+        Perception(RoadLibrary(), "sometimes")
+
+
+def test_queue_commander_fed_from_another_thread_drives_the_loop_one_step_at_a_time():
+    library, _ = _library_with_road()
+    keys = QueueCommander()
+    cases = CaseBuffer()
+    trajectory = TrajectoryObserver()
+    env = LfDTrackEnv(track="training")
+    loop = TeachingLoop(
+        env,
+        Perception(library, "careful"),
+        Arbiter("human"),
+        human=keys,
+        observers=[cases, trajectory],
+    )
+    loop.reset(seed=3)
+    assert loop.step().command is None  # nobody pressed anything: the robot waits
+    assert loop.counts.steps == 0
+    pusher = threading.Thread(target=keys.push, args=(Command.LEFT,))
+    pusher.start()
+    pusher.join()
+    step = loop.step()
+    assert step.command == Command.LEFT and step.is_case
+    assert loop.step().command is None  # one push is one command
+    assert loop.counts.human_commands == 1 and cases.commands == [1]
+    assert trajectory.array().shape == (2, 2)
+    env.close()
+
+
+def test_policy_commander_without_weights_has_no_opinion():
+    policy = PolicyCommander(None)
+    assert policy.act_on_values(np.zeros(40)) is None
+    policy.weights = np.zeros(215)  # every output ties: first index with no previous command
+    assert policy.act_on_values(np.linspace(-1, 1, 40)) == Command.FORWARD
