@@ -345,7 +345,7 @@ def learn_online(
     """
     rng = np.random.default_rng(demo_seed)
     env_seed = int(rng.integers(2**31 - 1))
-    env = LfDTrackEnv(track="training", preset=preset, max_steps=10**9)
+    env = LfDTrackEnv(track="training", preset=preset, max_steps=10**9, continue_after_end=True)
     person = protocol_human(
         "training", human, rng, intervention=online.intervention, rover=env.preset.rover
     )

@@ -100,7 +100,7 @@ def test_bad_study_files_fail_with_one_line_naming_the_file(tmp_path, capsys, te
 
 def test_missing_study_file_and_bad_flags(tmp_path, capsys):
     assert main(["--quiet", "study", str(tmp_path / "none.toml"), "--out", str(tmp_path)]) == 1
-    assert "none.toml: cannot read" in capsys.readouterr().err
+    assert "none.toml: TOML file not found" in capsys.readouterr().err
     path = write_study(tmp_path)
     assert main(["study", str(path), "--out", str(tmp_path / "o"), "--address", "auto"]) == 1
     assert "--address needs --executor ray" in capsys.readouterr().err
