@@ -21,6 +21,9 @@ from ..errors import FileFormatError, LfdTrackError
 ROVER_WIDTH_M = 0.225
 #: Largest coordinate accepted in a track file [m] (a floor, not a continent).
 MAX_COORDINATE_M = 1000.0
+#: Shipped loops of our own design that no demonstration uses: a generalization set beside the
+#: paper's testing track (``tracks/README.md``).
+UNSEEN_TRACKS: tuple[str, ...] = ("notch", "bolt", "step")
 _TRACK_KEYS = {"name", "description", "closed", "width_m", "vertices", "corners"}
 
 
