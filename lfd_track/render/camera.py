@@ -249,6 +249,7 @@ class CameraModel:
             self._table = table
         self.cx = (c.width_px - 1) / 2.0
         self.cy = (c.height_px - 1) / 2.0 - c.principal_shift_px
+        self._footprint_rover: np.ndarray | None = None
         self.K = np.array(
             [[self.focal_px, 0.0, self.cx], [0.0, self.focal_px, self.cy], [0.0, 0.0, 1.0]]
         )
@@ -376,7 +377,16 @@ class CameraModel:
         lens bends the edges, so they are sampled (N = 4 × 24)."""
         w, h = self.config.width_px, self.config.height_px
         if self._table is not None:
-            return self.floor_points(self.edge_pixels(_EDGE_SAMPLES), pose)
+            # The camera is rigid on the rover: move the edge's floor points found once at the
+            # origin instead of inverting the lens for ~100 pixels every frame.
+            if self._footprint_rover is None:
+                self._footprint_rover = self.floor_points(
+                    self.edge_pixels(_EDGE_SAMPLES), np.zeros(3)
+                )
+            x, y, theta = (float(v) for v in pose)
+            ct, st = math.cos(theta), math.sin(theta)
+            rot = np.array([[ct, -st], [st, ct]])
+            return self._footprint_rover @ rot.T + np.array([x, y])
         corners = np.array([[-0.5, -0.5], [w - 0.5, -0.5], [w - 0.5, h - 0.5], [-0.5, h - 0.5]])
         return self.floor_points(corners, pose)
 

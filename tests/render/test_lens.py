@@ -242,3 +242,10 @@ def test_wide_side_regions_see_the_strip_a_sharp_corner_leads_into(track):
     cover = renderer.last_felt_coverage
     px = seen["wide"].astype(int)
     assert (cover[px[:, 1], px[:, 0]] >= 128).mean() > 0.95
+
+
+def test_lens_footprint_moves_rigidly_with_the_pose(wide):
+    cam = CameraModel(wide)
+    for pose in (np.array([0.3, -1.2, 2.5]), np.array([-2.0, 0.7, -0.4])):
+        direct = cam.floor_points(cam.edge_pixels(24), pose)
+        np.testing.assert_allclose(cam.footprint(pose), direct, atol=1e-9)
