@@ -56,9 +56,11 @@ class CameraConfig:
     height_m: float = 0.31
     """Height of the optical centre above the floor [m]."""
     pitch_deg: float = 30.0
-    """Downward tilt of the optical axis below horizontal [deg]."""
+    """Downward tilt of the optical axis below horizontal [deg] (negative: tilted up, possible
+    only with a frame shifted below the axis, ``principal_shift_px``)."""
     vfov_deg: float = 41.0
-    """Vertical field of view [deg]; the horizontal one follows from square pixels."""
+    """Vertical field of view [deg] of the centred frame (it sets the focal length through the
+    lens's mapping); the horizontal one follows from square pixels (``CameraModel.hfov_deg``)."""
     forward_offset_m: float = 0.0
     """Optical centre's distance ahead of the rover's pivot centre [m]."""
     lens: str = "pinhole"
