@@ -116,6 +116,19 @@ def summarise(reps: list[RepetitionResult]) -> dict[str, Any]:
     out["corner4"] = corner4
     other = [o for o in outcomes if o.track == "testing" and o.charged_corner not in (None, CORNER)]
     out["testing_failures_before_corner4"] = len(other)
+    # Every testing corner, for where the failures went when corner 4 is not the story.
+    corners: dict[str, Any] = {}
+    for direction in ("ccw", "cw"):
+        laps = [o for o in outcomes if o.track == "testing" and o.direction == direction]
+        order = laps[0].corner_order if laps else ()
+        corners[direction] = {
+            label: {
+                "reached": sum(len(o.corners_negotiated) >= i for o in laps),
+                "failures": sum(o.charged_corner == label for o in laps),
+            }
+            for i, label in enumerate(order)
+        }
+    out["testing_corners"] = corners
     out["demo_cases_mean"] = round(sum(r.demo["cases"] for r in reps) / len(reps), 1)
     out["training_accuracy_mean"] = round(sum(r.training_accuracy for r in reps) / len(reps), 4)
     return out
@@ -124,22 +137,27 @@ def summarise(reps: list[RepetitionResult]) -> dict[str, Any]:
 def markdown(data: dict[str, Any]) -> str:
     """The table of the README: one row per condition."""
     lines = [
-        f"Seeds {', '.join(map(str, data['seeds']))} × {data['repetitions']} repetitions per "
+        f"Seed{'s' if len(data['seeds']) > 1 else ''} {', '.join(map(str, data['seeds']))} × "
+        f"{data['repetitions']} repetitions per "
         "condition (training: 6 runs, testing: 6 laps per repetition). Corner-4 columns: "
         "failures / times reached, and the failures by kind.",
         "",
         "| condition | changes | training | testing (95 % CI) | corner 4 ccw | corner 4 cw "
-        "| timeouts | reversals | off track | wall |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "| corner 4 failure rate (95 % CI) | timeouts | reversals | off track | wall |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for name, row in data["conditions"].items():
         tr, te, c4 = row["training"], row["testing"], row["corner4"]
         low, high = te["ci95"]
+        fails, arrivals = c4["total"]["failures"], c4["total"]["reached"]
+        f_low, f_high = wilson(fails, arrivals)
         lines.append(
             f"| {name} | {row['changes']} | {tr['successes']}/{tr['trials']} "
             f"| {te['successes']}/{te['trials']} ({100 * low:.0f}–{100 * high:.0f} %) "
             f"| {c4['ccw']['failures']}/{c4['ccw']['reached']} "
             f"| {c4['cw']['failures']}/{c4['cw']['reached']} "
+            f"| {fails}/{arrivals} = {100 * fails / max(arrivals, 1):.0f} % "
+            f"({100 * f_low:.0f}–{100 * f_high:.0f} %) "
             f"| {c4['total']['kinds']['timeout']} | {c4['total']['kinds']['reversed']} "
             f"| {c4['total']['kinds']['off_track']} | {row['wall_s']:.0f} s |"
         )
@@ -152,7 +170,13 @@ def main() -> None:
     parser.add_argument("--repetitions", type=int, default=10)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--only", nargs="+", choices=sorted(CONDITIONS))
+    parser.add_argument(
+        "--table-only", action="store_true", help="rewrite the markdown from the JSON, run nothing"
+    )
     args = parser.parse_args()
+    if args.table_only:
+        MD_PATH.write_text(markdown(json.loads(JSON_PATH.read_text())))
+        return
     names = args.only or list(CONDITIONS)
     data: dict[str, Any] = {"seeds": args.seeds, "repetitions": args.repetitions, "conditions": {}}
     if args.only and JSON_PATH.exists():
