@@ -290,7 +290,8 @@ class LfDTrackEnv(gym.Env):
         return self._frame
 
     def camera_footprint(self, pose: np.ndarray) -> np.ndarray:
-        """(4, 2) floor polygon [m] the camera sees from ``pose`` (x, y, theta)."""
+        """(N, 2) floor polygon [m] the camera sees from ``pose`` (x, y, theta); N = 4 for an
+        ideal pinhole, more for a distorted lens (``CameraModel.footprint``)."""
         return self._camera_model.footprint(np.asarray(pose, dtype=np.float64))
 
 

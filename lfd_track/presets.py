@@ -71,9 +71,13 @@ BOUNDS: dict[str, tuple[float, float]] = {
     "camera.width_px": (640, 640),
     "camera.height_px": (480, 480),
     "camera.height_m": (0.05, 2.0),
-    "camera.pitch_deg": (1.0, 89.0),
+    # Pitch may tilt up when the frame is shifted below the lens axis; the camera model itself
+    # refuses any combination that shows the horizon.
+    "camera.pitch_deg": (-89.0, 89.0),
     "camera.vfov_deg": (10.0, 120.0),
     "camera.forward_offset_m": (-0.5, 0.5),
+    "camera.distortion": (-2.0, 2.0),
+    "camera.principal_shift_px": (-1920.0, 1920.0),
     # [sensor] a phone camera's processing
     "sensor.exposure_target": (10.0, 245.0),
     "sensor.exposure_lag_frames": (0.0, 100.0),

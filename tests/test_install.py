@@ -26,8 +26,12 @@ REPO = Path(__file__).resolve().parents[1]
 DATA_FILES = (
     "lfd_track/_data/tracks/testing.toml",
     "lfd_track/_data/tracks/training.toml",
+    "lfd_track/_data/tracks/notch.toml",
+    "lfd_track/_data/tracks/bolt.toml",
+    "lfd_track/_data/tracks/step.toml",
     "lfd_track/_data/envs/paper.toml",
     "lfd_track/_data/envs/randomized.toml",
+    "lfd_track/_data/envs/wide.toml",
 )
 
 # Runs in the child. argv: site folder of the installed wheel, the checkout, then the venv's

@@ -163,7 +163,7 @@ def draw_topdown(
 ) -> np.ndarray:
     """Top-down picture of ``track`` (H, W, 3) uint8 RGB.
 
-    ``pose`` (3,) draws the rover; ``trajectory`` (N, 2) [m] its path; ``footprint`` (4, 2) [m]
+    ``pose`` (3,) draws the rover; ``trajectory`` (N, 2) [m] its path; ``footprint`` (N, 2) [m]
     the camera's floor polygon (``CameraModel.footprint``). ``size_px`` is a width (height from
     the track's aspect) or a (width, height) pair.
     """

@@ -7,7 +7,8 @@ changes (never left straight after right or the reverse).
 
 :class:`ProtocolHuman` drives the protocol: the training track from the right end to the left end
 and back, twice; at each of the four arrivals it stops about 0.35 m before the end and pivots
-round, alternating left and right turn-arounds. While a policy drives (takeover), the same human
+round, alternating left and right turn-arounds (``HumanConfig.turnarounds`` changes that rule
+for ablations: always one way, or not recorded as cases). While a policy drives (takeover), the same human
 keeps watching and intervenes by the rule in :class:`InterventionConfig`.
 """
 
@@ -29,6 +30,8 @@ from .loop import Moment
 PHASE_LIBRARY_ONLY = "library_only"
 PHASE_DRIVE = "drive"
 PHASE_TURNAROUND = "turnaround"
+#: Turn-around rules of the protocol (``HumanConfig.turnarounds``).
+TURNAROUND_RULES = ("alternate", "one_sided", "unrecorded")
 
 
 @dataclass(frozen=True)
@@ -43,6 +46,9 @@ class HumanConfig:
     legs: int = 4  # end-to-end drives: right→left, left→right, twice
     stop_before_end_m: float = 0.35  # [m] where the human stops to turn round
     first_turnaround: str = "left"  # direction of the first turn-around; then they alternate
+    # Turn-around rule: "alternate" (left, right, left, ...), "one_sided" (always the first
+    # direction) or "unrecorded" (alternate, but the turn-around commands are not recorded).
+    turnarounds: str = "alternate"
     careful: bool = True  # pause library learning while the safe box is off the felt
     max_commands: int = 1000  # give up (error) after this many commands
 
@@ -55,6 +61,8 @@ class HumanConfig:
                 raise ValueError(f"{name} must be in [0, 1], got {value}")
         if self.first_turnaround not in ("left", "right"):
             raise ValueError("first_turnaround must be 'left' or 'right'")
+        if self.turnarounds not in TURNAROUND_RULES:
+            raise ValueError(f"turnarounds must be one of {', '.join(TURNAROUND_RULES)}")
         if self.legs < 1 or self.library_only_commands < 0:
             raise ValueError("legs must be >= 1 and library_only_commands >= 0")
 
@@ -228,7 +236,14 @@ class ProtocolHuman:
 
     @property
     def records(self) -> bool:
-        """Commands after the first ``library_only_commands`` are teaching cases."""
+        """Commands after the first ``library_only_commands`` are teaching cases (turn-around
+        commands not, under the ``"unrecorded"`` turn-around rule)."""
+        if self.phase == PHASE_TURNAROUND and self.config.turnarounds == "unrecorded":
+            return False
+        return self._past_library_only
+
+    @property
+    def _past_library_only(self) -> bool:
         return self._step >= self.config.library_only_commands
 
     def reset(self) -> None:
@@ -277,7 +292,7 @@ class ProtocolHuman:
         pose = moment.pose
         watching = moment.driving == "policy" and self.watcher is not None
         if self._state == "drive":
-            self.phase = PHASE_DRIVE if self.records else PHASE_LIBRARY_ONLY
+            self.phase = PHASE_DRIVE if self._past_library_only else PHASE_LIBRARY_ONLY
             if watching:
                 self._watched.append(self.progress_m)
                 why = self.watcher.reason(
@@ -308,6 +323,7 @@ class ProtocolHuman:
         self._back = (CentrelineDriver(back, self.config.driver), back_tracker.progress_m)
         self._direction = self._next_turn
         self.turnarounds.append(self._direction.name.lower())
-        self._next_turn = Command.RIGHT if self._direction == Command.LEFT else Command.LEFT
+        if self.config.turnarounds != "one_sided":
+            self._next_turn = Command.RIGHT if self._direction == Command.LEFT else Command.LEFT
         self._turns = 0
         self._state = "turn"

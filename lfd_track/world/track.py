@@ -20,6 +20,9 @@ from .dimensions import ROVER_BODY_WIDTH_M
 ROVER_WIDTH_M = ROVER_BODY_WIDTH_M
 #: Largest coordinate accepted in a track file [m] (a floor, not a continent).
 MAX_COORDINATE_M = 1000.0
+#: Shipped loops of our own design that no demonstration uses: a generalization set beside the
+#: paper's testing track (``tracks/README.md``).
+UNSEEN_TRACKS: tuple[str, ...] = ("notch", "bolt", "step")
 
 
 @dataclass(frozen=True)
