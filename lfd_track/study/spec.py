@@ -96,15 +96,16 @@ class Study:
     conditions: tuple[Condition, ...]
 
     def jobs(self) -> list[Job]:
-        """Every (condition, seed) job, condition by condition, seeds in file order."""
+        """Every (condition, seed) job, seed by seed (so a study stopped early still compares every
+        condition on the same seeds), conditions in file order."""
         return [
             Job(
                 condition=c.name,
                 seed=seed,
                 config=dataclasses.replace(c.config, seed=seed, repetitions=self.repetitions),
             )
-            for c in self.conditions
             for seed in self.seeds
+            for c in self.conditions
         ]
 
 

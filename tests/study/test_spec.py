@@ -40,12 +40,12 @@ population_size = 20
     jobs = study.jobs()
     assert [j.key for j in jobs] == [
         "paper/seed0",
-        "paper/seed1",
         "careless+long/seed0",
+        "paper/seed1",
         "careless+long/seed1",
     ]
     # Matched seeds: the same benchmark seed (so the same demonstration seeds) in each condition.
-    assert [j.config.seed for j in jobs] == [0, 1, 0, 1]
+    assert [j.config.seed for j in jobs] == [0, 0, 1, 1]
     assert all(j.config.repetitions == 1 for j in jobs)
 
 
