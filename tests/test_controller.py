@@ -219,3 +219,13 @@ def test_huge_integers_and_deep_nesting_are_one_line_errors(trained, tmp_path):
     assert '"seed":2,' in text
     path.write_text(text.replace('"seed":2,', '"seed":' + "7" * 5000 + ","))  # past int limit
     _expect_one_line_error(path, "not a valid controller file")
+
+
+def test_fifo_device_and_folder_are_refused_without_waiting(tmp_path):
+    import os
+
+    fifo = tmp_path / "c.json"
+    os.mkfifo(fifo)  # wave 1 waited forever for a writer
+    _expect_one_line_error(fifo, "not a regular file")
+    _expect_one_line_error("/dev/zero", "not a regular file")  # wave 1: MemoryError traceback
+    _expect_one_line_error(tmp_path, "is a folder")

@@ -154,14 +154,14 @@ def parse_track(
         raise _fail(source, f"'width_m' {width} m is wider than {MAX_WIDTH_M} m")
     raw = data.get("vertices")
     min_vertices = 3 if closed else 2
-    kind = "closed" if closed else "open"
+    kind = "a closed" if closed else "an open"
     if not isinstance(raw, list):
         raise _fail(source, "'vertices' must be a list of [x, y] pairs in metres")
     if len(raw) > MAX_VERTICES:
         raise _fail(source, f"{len(raw)} vertices, more than the {MAX_VERTICES} allowed")
     if len(raw) < min_vertices:
         raise _fail(
-            source, f"a {kind} track needs at least {min_vertices} vertices, got {len(raw)}"
+            source, f"{kind} track needs at least {min_vertices} vertices, got {len(raw)}"
         )
     if not all(
         isinstance(v, list)

@@ -540,3 +540,20 @@ def test_footer_that_disagrees_with_the_log_is_refused(tmp_path: Path) -> None:
     learned_at = next(o for o in _case_offsets(data) if data[o] == ord("L"))
     path.write_bytes(_with_payload(data, learned_at, 0, struct.pack("<hhh", 7, -1, -1)))
     _one_line_error(path, "does not apply")
+
+
+def test_fifo_device_and_deep_json_are_refused_naming_the_file(tmp_path: Path) -> None:
+    fifo = tmp_path / "demo.lfdemo"
+    os.mkfifo(fifo)  # wave 1 waited forever for a writer
+    _one_line_error(fifo, "not a regular file")
+    with pytest.raises(FileFormatError, match="^/dev/zero: not a regular file"):
+        load_demonstration("/dev/zero")  # wave 1: MemoryError traceback
+    good = tmp_path / "good.lfdemo"
+    _record(good, 1)
+    deep = tmp_path / "deep.lfdemo"
+    nested = (
+        lambda h: {**h, "metadata": {"x": 0}},
+        lambda b: b.replace(b"0}", b"[" * 200_000 + b"]" * 200_000 + b"}"),
+    )
+    deep.write_bytes(_rewrite_header(good.read_bytes(), *nested))
+    _one_line_error(deep, "header JSON is nested too deeply")
