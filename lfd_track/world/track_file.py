@@ -5,7 +5,8 @@ Limits (stated in ``tracks/README.md``): at most :data:`MAX_VERTICES` vertices, 
 :data:`~lfd_track.world.track.ROVER_WIDTH_M` to :data:`MAX_WIDTH_M` wide, files up to
 :data:`MAX_FILE_BYTES`. The self-intersection test is a uniform-grid broad phase followed by an
 exact, vectorised segment-distance test on the candidate pairs, so validation takes time about
-linear in the number of vertices (a 10,000-vertex track is checked in well under a second).
+linear in the number of vertices (``benchmarks/bench_track_validation.py``: 205 times faster than
+the wave-1 all-pairs check at 1,000 vertices, 564 times at 2,000).
 """
 
 from __future__ import annotations
@@ -160,9 +161,7 @@ def parse_track(
     if len(raw) > MAX_VERTICES:
         raise _fail(source, f"{len(raw)} vertices, more than the {MAX_VERTICES} allowed")
     if len(raw) < min_vertices:
-        raise _fail(
-            source, f"{kind} track needs at least {min_vertices} vertices, got {len(raw)}"
-        )
+        raise _fail(source, f"{kind} track needs at least {min_vertices} vertices, got {len(raw)}")
     if not all(
         isinstance(v, list)
         and len(v) == 2
