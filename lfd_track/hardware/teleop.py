@@ -132,7 +132,10 @@ class DemonstrationRecorder:
         self.perception = Perception(self.library, "careful")
         self.library_only = int(library_only)
         meta = {"source": "hardware teleop", **dict(metadata or {})}
-        self._writer = DemonstrationWriter(path, meta, bins, overwrite=overwrite)
+        # The library is logged as it changes, so an interrupted recording still trains.
+        self._writer = DemonstrationWriter(
+            path, meta, bins, overwrite=overwrite, library=self.library
+        )
         self._recorder = Recorder(self._writer, lambda step: {"phase": "drive", "step": None})
 
     @property
