@@ -289,18 +289,16 @@ def _histogram_problem(hists: np.ndarray) -> str:
 
 
 def _pose_problem(xyt: tuple[float, ...], progress_m: float) -> str:
-    known = [math.isfinite(v) for v in xyt]
-    if (
-        any(math.isnan(v) for v in xyt)
-        and any(known)
-        or not all(known)
-        and not all(math.isnan(v) for v in xyt)
-    ):
+    unknown = [math.isnan(v) for v in xyt]
+    if any(unknown) and not all(unknown):
         return f"pose must be three finite numbers or unknown (all NaN), got {xyt}"
-    if all(known) and max(abs(xyt[0]), abs(xyt[1])) > MAX_POSITION_M:
-        return f"pose {xyt[:2]} is more than {MAX_POSITION_M:g} m from the origin"
-    if all(known) and abs(xyt[2]) > 1e6:
-        return f"pose heading {xyt[2]} rad is not plausible"
+    if not all(unknown):
+        if not all(math.isfinite(v) for v in xyt):
+            return f"pose must be three finite numbers or unknown (all NaN), got {xyt}"
+        if max(abs(xyt[0]), abs(xyt[1])) > MAX_POSITION_M:
+            return f"pose {xyt[:2]} is more than {MAX_POSITION_M:g} m from the origin"
+        if abs(xyt[2]) > 1e6:
+            return f"pose heading {xyt[2]} rad is not plausible"
     if not math.isnan(progress_m) and not abs(progress_m) <= MAX_POSITION_M:
         return f"progress {progress_m} m must be finite and within {MAX_POSITION_M:g} m"
     return ""
@@ -428,7 +426,7 @@ class DemonstrationWriter:
         learned: bool = False,
         step: int | None = None,
         source: str = "demonstration",
-        round: int = 0,  # noqa: A002 - the file's field name
+        round: int = 0,  # the file's field name (shadows the builtin only in here)
     ) -> None:
         """Append one case and make it durable before returning.
 
