@@ -28,7 +28,7 @@ def read_regular_file(path: str | Path, max_bytes: int, what: str) -> bytes:
     try:
         fd = os.open(path, flags)
     except FileNotFoundError:
-        raise FileFormatError(path, f"cannot read {what} file (file not found)") from None
+        raise FileFormatError(path, f"{what} file not found") from None
     except OSError as exc:
         if exc.errno == errno.ENXIO:  # a FIFO or socket with nobody at the other end
             raise FileFormatError(path, f"not a regular file (expected a {what} file)") from None
