@@ -1,25 +1,39 @@
 /*
  * lfd_rover_sim: runs the rover firmware unchanged on simavr (ATmega328P, 16 MHz, headless).
  *
- *   lfd_rover_sim --log motors.csv [--mcu atmega328p] [--freq 16000000] firmware.elf
+ *   lfd_rover_sim --log motors.csv [--control] [--mcu atmega328p] [--freq 16000000] firmware.elf
  *
  * - UART0 is bridged to a fresh pseudo-terminal; the only line on stdout, "PTY <path>", tells
  *   the host where to connect (simavr's own messages go to stderr). The line is 9600 baud 8N1
  *   on the firmware side; the pty itself ignores baud rates.
- * - Simulated time is throttled to the wall clock, so a 300 ms firmware timeout is 300 ms for
- *   the host too. If the host machine stalls, the lost time is dropped rather than caught up,
- *   so the simulation never runs faster than real time.
+ * - Simulated time is paced to the wall clock, so a 300 ms firmware timeout is 300 ms for the
+ *   host too: the simulation runs in 200 us slices and sleeps before the next slice until the
+ *   wall clock has caught up, whatever the UART is doing (a flood of host bytes included). If the
+ *   host machine stalls, the lost time is dropped rather than caught up, so the simulation never
+ *   runs faster than real time.
  * - Every change of the motor outputs is appended to the log as
  *   "t_us,left_pwm,left_dir,right_pwm,right_dir" with the simulated time in microseconds
- *   (monotonic across resets); a line "# reset t_us" marks each board reset. The log is
- *   flushed after every line.
+ *   (monotonic across resets); a line "# reset t_us CAUSE" marks each board reset, whatever
+ *   caused it: CAUSE is the reset flag the MCU status register (MCUSR) holds after it,
+ *   "power-on", "external" (reset pin), "brown-out" or "watchdog" (the AVR hardware watchdog
+ *   timed out). The log is flushed after every line.
  *   left_pwm/right_pwm: duty 0..255 on D5 (E1, OC0B) / D6 (E2, OC0A): the compare value
  *   while the pin is driven by Timer0 PWM, else 255/0 for a plain high/low output, 0 when the
  *   pin is not an output. left_dir/right_dir: level of D4 (M1) / D7 (M2), 0 unless an output.
- * - SIGUSR1 resets the simulated board (like pressing its reset button). Host bytes are held
- *   back for 2 ms of simulated time after boot and after every reset, so none is lost while the
- *   firmware is still starting; they are delivered, in order, afterwards. SIGTERM or SIGINT
- *   stops the simulation cleanly, as does the exit of the process that started it.
+ * - SIGUSR1 resets the simulated board through its reset pin (like pressing its reset button).
+ *   With --control, stdin takes one command per line (the Python helper uses this):
+ *     reset external | reset power-on | reset brown-out
+ *                       reset the board with that cause; power-on also scrambles the SRAM
+ *                       and registers, as their contents are undefined after power-up
+ *     hang              the firmware stops executing instructions, as if stuck in a loop with
+ *                       interrupts off, while the timers run on: the watchdog, if enabled,
+ *                       resets the board, which then runs normally again
+ *     mark              append "# mark t_us" to the log (the simulated time now)
+ *   and the end of stdin stops the harness.
+ *   Host bytes are held back for 2 ms of simulated time after boot and after every reset, so
+ *   none is lost while the firmware is still starting; they are delivered, in order,
+ *   afterwards. SIGTERM or SIGINT stops the simulation cleanly, as does the exit of the process
+ *   that started it.
  */
 #define _GNU_SOURCE
 #include <errno.h>
@@ -40,6 +54,7 @@
 #include "sim_elf.h"
 #include "sim_io.h"
 #include "sim_irq.h"
+#include "sim_regbit.h"
 
 /* ATmega328P data-space addresses (I/O register + 0x20) of the registers behind the motor pins. */
 enum {
@@ -84,7 +99,18 @@ typedef struct {
 	uint64_t sim_cycles; /* monotonic across resets */
 	uint64_t input_hold_until; /* sim_cycles before which host bytes are not injected */
 	avr_cycle_count_t last_cycle;
+	avr_io_t reset_watch;  /* a pseudo peripheral whose reset hook sees every board reset */
+	int reset_seen;        /* a reset happened and is not logged yet */
+	int hung;              /* the "hang" command is in effect */
+	void (*normal_run)(avr_t *avr);
+	int control;           /* stdin carries commands (--control) */
+	char control_buf[128];
+	size_t control_len;
+	uint32_t scramble;     /* xorshift state for the power-on SRAM contents */
+	uint64_t hold_cycles;  /* how long host bytes are held back after a reset */
 } harness_t;
+
+static harness_t *the_harness; /* for simavr callbacks that carry no parameter */
 
 static volatile sig_atomic_t stop_requested = 0;
 static volatile sig_atomic_t reset_requested = 0;
@@ -184,6 +210,33 @@ static void sample_motors(harness_t *h) {
 	}
 }
 
+/* simavr calls every peripheral's reset hook from avr_reset(), whatever started it: the harness,
+ * or the watchdog timing out inside avr_run(). Only note it here: the flags in MCUSR are final
+ * once avr_reset() has returned. */
+static void on_board_reset(avr_io_t *io) {
+	(void)io;
+	the_harness->reset_seen = 1;
+}
+
+static const char *reset_cause(harness_t *h) {
+	if (avr_regbit_get(h->avr, h->avr->reset_flags.wdrf))
+		return "watchdog";
+	if (avr_regbit_get(h->avr, h->avr->reset_flags.borf))
+		return "brown-out";
+	if (avr_regbit_get(h->avr, h->avr->reset_flags.extrf))
+		return "external";
+	if (avr_regbit_get(h->avr, h->avr->reset_flags.porf))
+		return "power-on";
+	return "unknown";
+}
+
+/* A firmware stuck with interrupts off: no instruction runs, the cycle timers (the watchdog's
+ * among them) do. */
+static void hung_run(avr_t *avr) {
+	avr_cycle_count_t next = avr_cycle_timer_process(avr);
+	avr->cycle += next > 0 ? next : 1;
+}
+
 static void advance_clock(harness_t *h) {
 	avr_cycle_count_t c = h->avr->cycle;
 	/* simavr versions differ on whether a reset rewinds the cycle counter; never go back. */
@@ -246,7 +299,9 @@ static void pump_pty(harness_t *h) {
 	}
 }
 
-/* Waits until the simulation is no longer ahead of the wall clock, waking early for host input. */
+/* Sleeps until the wall clock has caught up with the simulation. Nothing wakes it early: host
+ * bytes wait in the pty (at most one slice, 200 us) and are read before the next slice, so
+ * however busy the UART is, simulated time never runs ahead of the wall clock. */
 static void throttle(harness_t *h, int64_t *wall_origin_ns) {
 	int64_t sim_ns = (int64_t)(h->sim_cycles * 1000000000ULL / h->avr->frequency);
 	int64_t ahead = sim_ns - (now_ns() - *wall_origin_ns);
@@ -256,13 +311,102 @@ static void throttle(harness_t *h, int64_t *wall_origin_ns) {
 	}
 	if (ahead <= 0)
 		return;
-	struct pollfd pfd = {.fd = h->master_fd, .events = POLLIN};
-	struct timespec timeout = {.tv_sec = ahead / 1000000000LL, .tv_nsec = ahead % 1000000000LL};
-	ppoll(&pfd, 1, &timeout, NULL);
+	int64_t wake_ns = *wall_origin_ns + sim_ns;
+	struct timespec until = {.tv_sec = wake_ns / 1000000000LL, .tv_nsec = wake_ns % 1000000000LL};
+	while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &until, NULL) == EINTR &&
+	       !stop_requested && !reset_requested)
+		;
+}
+
+static uint8_t next_random(harness_t *h) {
+	uint32_t x = h->scramble;
+	x ^= x << 13;
+	x ^= x >> 17;
+	x ^= x << 5;
+	h->scramble = x;
+	return (uint8_t)x;
+}
+
+/* Logs a reset that has just happened (whoever caused it) and restarts the host input. */
+static void after_reset(harness_t *h) {
+	h->reset_seen = 0;
+	if (h->hung) {
+		/* The watchdog's reset restores the run hook it saw when it fired, the hung one. */
+		h->hung = 0;
+		h->avr->run = h->normal_run;
+	}
+	h->uart_xoff = 0;
+	h->to_board.len = 0;
+	advance_clock(h);
+	h->input_hold_until = h->sim_cycles + h->hold_cycles;
+	fprintf(h->log, "# reset %llu %s\n", (unsigned long long)sim_time_us(h), reset_cause(h));
+	fflush(h->log);
+}
+
+/* Resets the board from outside: "external" (reset pin), "power-on" or "brown-out". */
+static void reset_board(harness_t *h, const char *cause) {
+	avr_t *avr = h->avr;
+	avr_reset(avr); /* clears every I/O register, MCUSR included */
+	if (strcmp(cause, "power-on") == 0) {
+		/* Registers and SRAM hold no defined values after power-up; simavr keeps them. */
+		for (uint32_t a = 0; a < 32; a++)
+			avr->data[a] = next_random(h);
+		for (uint32_t a = avr->ioend + 1u; a <= avr->ramend; a++)
+			avr->data[a] = next_random(h);
+		avr_regbit_set(avr, avr->reset_flags.porf);
+	} else if (strcmp(cause, "brown-out") == 0) {
+		avr_regbit_set(avr, avr->reset_flags.borf);
+	} else {
+		avr_regbit_set(avr, avr->reset_flags.extrf);
+	}
+	after_reset(h);
+}
+
+static void run_command(harness_t *h, const char *line) {
+	if (strcmp(line, "reset external") == 0 || strcmp(line, "reset power-on") == 0 ||
+	    strcmp(line, "reset brown-out") == 0) {
+		reset_board(h, line + strlen("reset "));
+	} else if (strcmp(line, "hang") == 0) {
+		if (!h->hung) {
+			h->normal_run = h->avr->run;
+			h->avr->run = hung_run;
+			h->hung = 1;
+		}
+	} else if (strcmp(line, "mark") == 0) {
+		fprintf(h->log, "# mark %llu\n", (unsigned long long)sim_time_us(h));
+		fflush(h->log);
+	} else {
+		fprintf(stderr, "lfd_rover_sim: unknown command %s\n", line);
+	}
+}
+
+/* Runs the complete command lines waiting on stdin; nonzero once stdin has ended. */
+static int read_control(harness_t *h) {
+	for (;;) {
+		size_t room = sizeof h->control_buf - 1 - h->control_len;
+		ssize_t n = read(STDIN_FILENO, h->control_buf + h->control_len, room);
+		if (n == 0)
+			return 1;
+		if (n < 0)
+			return errno == EAGAIN || errno == EINTR ? 0 : 1;
+		h->control_len += (size_t)n;
+		char *start = h->control_buf;
+		char *newline;
+		while ((newline = memchr(start, '\n', h->control_len - (size_t)(start - h->control_buf)))) {
+			*newline = '\0';
+			run_command(h, start);
+			start = newline + 1;
+		}
+		h->control_len -= (size_t)(start - h->control_buf);
+		memmove(h->control_buf, start, h->control_len);
+		if (h->control_len == sizeof h->control_buf - 1)
+			h->control_len = 0; /* an over-long line: drop it */
+	}
 }
 
 static void usage(const char *argv0) {
-	fprintf(stderr, "usage: %s --log PATH [--mcu NAME] [--freq HZ] FIRMWARE.elf\n", argv0);
+	fprintf(stderr, "usage: %s --log PATH [--control] [--mcu NAME] [--freq HZ] FIRMWARE.elf\n",
+		argv0);
 }
 
 int main(int argc, char **argv) {
@@ -271,15 +415,18 @@ int main(int argc, char **argv) {
 	uint32_t freq = 16000000;
 	static const struct option options[] = {
 		{"log", required_argument, NULL, 'l'},
+		{"control", no_argument, NULL, 'c'},
 		{"mcu", required_argument, NULL, 'm'},
 		{"freq", required_argument, NULL, 'f'},
 		{"help", no_argument, NULL, 'h'},
 		{NULL, 0, NULL, 0},
 	};
 	int opt;
-	while ((opt = getopt_long(argc, argv, "l:m:f:h", options, NULL)) != -1) {
+	int control = 0;
+	while ((opt = getopt_long(argc, argv, "l:cm:f:h", options, NULL)) != -1) {
 		switch (opt) {
 		case 'l': log_path = optarg; break;
+		case 'c': control = 1; break;
 		case 'm': mcu = optarg; break;
 		case 'f': freq = (uint32_t)strtoul(optarg, NULL, 10); break;
 		default: usage(argv[0]); return opt == 'h' ? 0 : 2;
@@ -300,6 +447,11 @@ int main(int argc, char **argv) {
 
 	harness_t h;
 	memset(&h, 0, sizeof h);
+	the_harness = &h;
+	h.control = control;
+	h.scramble = 0x9E3779B9u;
+	if (control)
+		fcntl(STDIN_FILENO, F_SETFL, fcntl(STDIN_FILENO, F_GETFL) | O_NONBLOCK);
 	h.log = fopen(log_path, "w");
 	if (!h.log) {
 		fprintf(stderr, "lfd_rover_sim: cannot open log %s: %s\n", log_path, strerror(errno));
@@ -339,6 +491,9 @@ int main(int argc, char **argv) {
 		return 1;
 	}
 	avr_irq_register_notify(uart_out, on_uart_output, &h);
+	h.reset_watch.kind = "lfd_rover_sim reset watch";
+	h.reset_watch.reset = on_board_reset;
+	avr_register_io(h.avr, &h.reset_watch);
 	avr_irq_register_notify(xon, on_uart_xon, &h);
 	avr_irq_register_notify(xoff, on_uart_xoff, &h);
 
@@ -362,8 +517,8 @@ int main(int argc, char **argv) {
 	fclose(announce);
 
 	const avr_cycle_count_t slice = (avr_cycle_count_t)freq / 1000000 * SLICE_US;
-	const uint64_t hold_cycles = (uint64_t)freq / 1000000 * INPUT_HOLD_AFTER_RESET_US;
-	h.input_hold_until = hold_cycles;
+	h.hold_cycles = (uint64_t)freq / 1000000 * INPUT_HOLD_AFTER_RESET_US;
+	h.input_hold_until = h.hold_cycles;
 	int64_t wall_origin_ns = now_ns();
 	int exit_code = 0;
 	unsigned slices = 0;
@@ -373,14 +528,10 @@ int main(int argc, char **argv) {
 			break;
 		if (reset_requested) {
 			reset_requested = 0;
-			avr_reset(h.avr);
-			h.uart_xoff = 0;
-			h.to_board.len = 0;
-			advance_clock(&h);
-			h.input_hold_until = h.sim_cycles + hold_cycles;
-			fprintf(h.log, "# reset %llu\n", (unsigned long long)sim_time_us(&h));
-			fflush(h.log);
+			reset_board(&h, "external");
 		}
+		if (h.control && read_control(&h) != 0)
+			break;
 		uint64_t slice_end = h.sim_cycles + slice;
 		while (h.sim_cycles < slice_end) {
 			int state = avr_run(h.avr);
@@ -391,6 +542,8 @@ int main(int argc, char **argv) {
 				goto done;
 			}
 			advance_clock(&h);
+			if (h.reset_seen)
+				after_reset(&h);
 			sample_motors(&h);
 		}
 		pump_pty(&h);

@@ -1,9 +1,13 @@
 """Run the real rover firmware in simavr: build it, start the harness, talk to it over a pty.
 
-The firmware (``hardware/firmware/lfd_rover``) and the C harness (``hardware/sim``) live in the
-source checkout, not in the wheel. ``SimulatedBoard`` builds both on first use (``make``, with
-Debian's ``gcc-avr``/``arduino-mk`` and ``libsimavr-dev``), starts the harness, and exposes the
-pty path for ``serial.serial_for_url`` plus the motor log the harness writes with simulated time::
+The sources of the firmware (``hardware/firmware/lfd_rover``) and of the C harness
+(``hardware/sim``) ship inside the package (``lfd_track/_data/hardware`` in a wheel, the
+checkout's ``hardware/`` otherwise). ``SimulatedBoard`` copies them into a per-user cache folder
+keyed by a hash of their contents (``$XDG_CACHE_HOME/lfd-track`` or ``~/.cache/lfd-track``) and
+builds both there on first use (``make``, with Debian's ``gcc-avr``/``arduino-mk`` and
+``libsimavr-dev``), so nothing is written next to the installed package. It then starts the
+harness and exposes the pty path for ``serial.serial_for_url`` plus the motor log the harness
+writes with simulated time::
 
     with SimulatedBoard() as board:
         link = serial.serial_for_url(board.serial_url, baudrate=FIRMWARE_BAUD, timeout=0.1)
@@ -14,10 +18,10 @@ pty path for ``serial.serial_for_url`` plus the motor log the harness writes wit
 from __future__ import annotations
 
 import fcntl
+import hashlib
 import os
 import selectors
 import shutil
-import signal
 import subprocess
 import tempfile
 import time
@@ -29,8 +33,30 @@ from typing import NamedTuple
 FIRMWARE_BAUD = 9600
 """UART baud rate of the firmware (HC-05/06 factory default); the pty itself ignores it."""
 
-HARDWARE_DIR = Path(__file__).resolve().parents[2] / "hardware"
-"""``hardware/`` of the source checkout this package was imported from."""
+_PACKAGE_DIR = Path(__file__).resolve().parents[1]
+
+HARDWARE_SOURCES = (
+    "firmware/lfd_rover/lfd_rover.ino",
+    "firmware/lfd_rover/Makefile",
+    "sim/lfd_rover_sim.c",
+    "sim/Makefile",
+)
+"""Files, relative to the hardware folder, that the simulated board is built from."""
+
+
+def _find_hardware_dir() -> Path:
+    for candidate in (_PACKAGE_DIR / "_data" / "hardware", _PACKAGE_DIR.parent / "hardware"):
+        if all((candidate / name).is_file() for name in HARDWARE_SOURCES):
+            return candidate
+    return _PACKAGE_DIR / "_data" / "hardware"
+
+
+HARDWARE_DIR = _find_hardware_dir()
+"""Hardware sources this package uses: ``lfd_track/_data/hardware`` of a wheel, else the source
+checkout's ``hardware/`` (the wheel's copy holds only ``HARDWARE_SOURCES``)."""
+
+RESET_CAUSES = ("power-on", "external", "brown-out", "watchdog")
+"""Reset causes the harness logs (from the MCU status register after the reset)."""
 
 ARDUINO_DIR = Path("/usr/share/arduino")
 SIMAVR_INCLUDE = Path("/usr/include/simavr")
@@ -57,6 +83,13 @@ class MotorSample(NamedTuple):
     right_dir: int  # level of M2 (D7); 0 = forward
 
 
+class BoardReset(NamedTuple):
+    """One ``# reset`` line of the motor log: when (simulated seconds) and why."""
+
+    t_s: float
+    cause: str  # one of RESET_CAUSES, or "unknown" (no flag set in the MCU status register)
+
+
 def missing_tools() -> list[str]:
     """Messages, one per missing tool or library, naming the package that provides it."""
     missing = []
@@ -76,11 +109,56 @@ def missing_tools() -> list[str]:
         missing.append(f"simavr headers not found: {_APT_HARNESS}")
     if not Path("/usr/include/libelf.h").is_file():
         missing.append(f"libelf headers not found: {_APT_HARNESS}")
-    if not HARDWARE_DIR.is_dir():
+    absent = [name for name in HARDWARE_SOURCES if not (HARDWARE_DIR / name).is_file()]
+    if absent:
         missing.append(
-            f"{HARDWARE_DIR} not found: the firmware sources ship with the source checkout only"
+            f"firmware/harness sources {', '.join(absent)} not found in {HARDWARE_DIR}: "
+            "reinstall lfd-track"
         )
     return missing
+
+
+def cache_dir() -> Path:
+    """Per-user cache folder: ``$XDG_CACHE_HOME/lfd-track``, else ``~/.cache/lfd-track``."""
+    base = os.environ.get("XDG_CACHE_HOME", "")
+    root = Path(base) if os.path.isabs(base) else Path.home() / ".cache"
+    return root / "lfd-track"
+
+
+def source_digest(source_dir: str | os.PathLike[str] | None = None) -> str:
+    """First 16 hex digits of a SHA-256 over the names and contents of ``HARDWARE_SOURCES``."""
+    root = Path(source_dir) if source_dir is not None else HARDWARE_DIR
+    digest = hashlib.sha256()
+    for name in HARDWARE_SOURCES:
+        data = (root / name).read_bytes()
+        digest.update(f"{name}\0{len(data)}\0".encode())
+        digest.update(data)
+    return digest.hexdigest()[:16]
+
+
+def default_build_dir() -> Path:
+    """Where ``SimulatedBoard`` builds by default: ``cache_dir()/simavr-<source_digest()>``."""
+    return cache_dir() / f"simavr-{source_digest()}"
+
+
+def _stage_sources(subdir: str, out: Path) -> Path:
+    """Copy ``HARDWARE_DIR/subdir``'s build sources to ``out/src``; return that folder.
+
+    Only files whose contents differ are rewritten, so make's timestamps stay meaningful.
+    """
+    staged = out / "src"
+    staged.mkdir(parents=True, exist_ok=True)
+    prefix = subdir.rstrip("/") + "/"
+    for name in HARDWARE_SOURCES:
+        if not name.startswith(prefix):
+            continue
+        source, target = HARDWARE_DIR / name, staged / name[len(prefix) :]
+        data = source.read_bytes()
+        if not target.is_file() or target.read_bytes() != data:
+            tmp = target.with_name(target.name + ".tmp")
+            tmp.write_bytes(data)
+            tmp.replace(target)
+    return staged
 
 
 @contextmanager
@@ -117,11 +195,15 @@ def _require_tools() -> None:
 
 
 def build_firmware(out_dir: str | os.PathLike[str]) -> Path:
-    """Build the firmware with arduino-mk into ``out_dir``; return the ELF path."""
+    """Build the firmware with arduino-mk into ``out_dir``; return the ELF path.
+
+    The sources are copied to ``out_dir/src`` first: the package folder is never written to.
+    """
     _require_tools()
     out = Path(out_dir).resolve()
     with _build_lock(out):
-        _run_make("firmware", HARDWARE_DIR / "firmware" / "lfd_rover", f"OBJDIR={out}")
+        source = _stage_sources("firmware/lfd_rover", out)
+        _run_make("firmware", source, f"OBJDIR={out}")
     elf = out / "lfd_rover.elf"
     if not elf.is_file():
         raise SimavrError(f"building the firmware did not produce {elf}")
@@ -129,15 +211,33 @@ def build_firmware(out_dir: str | os.PathLike[str]) -> Path:
 
 
 def build_harness(out_dir: str | os.PathLike[str]) -> Path:
-    """Build the simavr harness into ``out_dir``; return the executable path."""
+    """Build the simavr harness into ``out_dir``; return the executable path.
+
+    The sources are copied to ``out_dir/src`` first: the package folder is never written to.
+    """
     _require_tools()
     out = Path(out_dir).resolve()
     with _build_lock(out):
-        _run_make("simavr harness", HARDWARE_DIR / "sim", f"OUT_DIR={out}")
+        source = _stage_sources("sim", out)
+        _run_make("simavr harness", source, f"OUT_DIR={out}")
     exe = out / "lfd_rover_sim"
     if not exe.is_file():
         raise SimavrError(f"building the harness did not produce {exe}")
     return exe
+
+
+def parse_resets(text: str) -> list[BoardReset]:
+    """The board resets recorded in a motor log, oldest first (a torn last line skipped).
+
+    Lines written by older harnesses name no cause; they are read as ``"external"``.
+    """
+    resets = []
+    for line in text.split("\n")[:-1]:
+        if line.startswith("# reset "):
+            fields = line.split()
+            cause = fields[3] if len(fields) > 3 else "external"
+            resets.append(BoardReset(int(fields[2]) * 1e-6, cause))
+    return resets
 
 
 def parse_motor_log(text: str, since_reset: bool = False) -> list[MotorSample]:
@@ -162,7 +262,8 @@ class SimulatedBoard:
     """The rover firmware running in simavr, reachable at ``serial_url``; a context manager.
 
     Arguments:
-        build_dir: where firmware and harness are built (default ``hardware/build``).
+        build_dir: where firmware and harness are built (default ``default_build_dir()``, a
+            per-user cache folder keyed by the sources' hash).
         start_timeout_s: how long to wait for the harness to announce its pty.
         keep_files: leave the run folder (motor log, harness stderr) in place on ``close()``;
             by default it is removed.
@@ -174,7 +275,7 @@ class SimulatedBoard:
         start_timeout_s: float = 30.0,
         keep_files: bool = False,
     ) -> None:
-        self._build_dir = Path(build_dir) if build_dir is not None else HARDWARE_DIR / "build"
+        self._build_dir = Path(build_dir) if build_dir is not None else None
         self._start_timeout_s = start_timeout_s
         self._keep_files = keep_files
         self._proc: subprocess.Popen[bytes] | None = None
@@ -210,15 +311,17 @@ class SimulatedBoard:
         """Build if needed, start the harness and wait until its pty exists."""
         if self._proc is not None:
             return self
-        elf = build_firmware(self._build_dir / "firmware")
-        exe = build_harness(self._build_dir / "sim")
+        _require_tools()
+        build_dir = self._build_dir if self._build_dir is not None else default_build_dir()
+        elf = build_firmware(build_dir / "firmware")
+        exe = build_harness(build_dir / "sim")
         self._run_dir = Path(tempfile.mkdtemp(prefix="lfd-rover-sim-"))
         stderr_path = self._run_dir / "harness.stderr"
         try:
             with open(stderr_path, "wb") as stderr:
                 self._proc = subprocess.Popen(
-                    [str(exe), "--log", str(self.log_path), str(elf)],
-                    stdin=subprocess.DEVNULL,
+                    [str(exe), "--log", str(self.log_path), "--control", str(elf)],
+                    stdin=subprocess.PIPE,
                     stdout=subprocess.PIPE,
                     stderr=stderr,
                 )
@@ -253,25 +356,73 @@ class SimulatedBoard:
             raise SimavrError(f"unexpected first line from the simavr harness: {line!r}")
         return line[len("PTY ") :]
 
-    def reset(self, timeout_s: float = 5.0) -> None:
-        """Reset the simulated board, as its reset button would, and return once it has happened.
+    def reset(self, timeout_s: float = 5.0, cause: str = "external") -> None:
+        """Reset the simulated board and return once it has happened.
 
-        The firmware then boots again (motors off, boot frame sent). Host bytes written after
-        this returns are not lost to the reboot: the harness holds host input back for 2 ms of
-        simulated time after a reset, until the firmware's UART is listening.
+        ``cause``: ``"external"`` (its reset button or pin), ``"power-on"`` (a power cycle: the
+        SRAM comes up scrambled) or ``"brown-out"``; the firmware sees it in its MCU status
+        register. The firmware then boots again (motors off, boot frame sent). Host bytes
+        written after this returns are not lost to the reboot: the harness holds host input
+        back for 2 ms of simulated time after a reset, until the firmware's UART is listening.
         """
-        if self._proc is None or self._proc.poll() is not None:
-            raise SimavrError("the simulated board is not running")
-        resets_before = self._count_resets()
-        self._proc.send_signal(signal.SIGUSR1)
+        if cause not in ("external", "power-on", "brown-out"):
+            raise ValueError(f"cause must be external, power-on or brown-out, got {cause!r}")
+        self._command_and_wait_for_reset(f"reset {cause}", timeout_s)
+
+    def hang(self, timeout_s: float = 5.0) -> BoardReset:
+        """Freeze the firmware, as a main loop stuck with interrupts off would be; return its reset.
+
+        No instruction runs while the timers do, so an enabled AVR watchdog resets the board;
+        the board runs normally from then on. Raises ``SimavrError`` if no reset came within
+        ``timeout_s`` (wall seconds), i.e. the firmware left the watchdog off.
+        """
+        return self._command_and_wait_for_reset("hang", timeout_s)
+
+    def mark(self, timeout_s: float = 5.0) -> float:
+        """The board's simulated time now, in seconds (written to the log as ``# mark``)."""
+        marks_before = self._log_text().count("\n# mark ")
+        self._command("mark")
         deadline = time.monotonic() + timeout_s
-        while self._count_resets() == resets_before:
-            if time.monotonic() > deadline or self._proc.poll() is not None:
-                raise SimavrError(f"the simulated board did not reset within {timeout_s} s")
+        while True:
+            text = self._log_text()
+            if text.count("\n# mark ") > marks_before:
+                last = text[text.rindex("\n# mark ") + 1 :].split("\n", 1)[0]
+                return int(last.split()[2]) * 1e-6
+            self._check_alive(deadline, "write a mark")
             time.sleep(0.001)  # polling the log file, which has no change notification
 
-    def _count_resets(self) -> int:
-        return self.log_path.read_text().count("\n# reset ")
+    def resets(self) -> list[BoardReset]:
+        """Every board reset so far (the initial power-up excluded), oldest first."""
+        return parse_resets(self._log_text())
+
+    def _command(self, line: str) -> None:
+        if self._proc is None or self._proc.poll() is not None or self._proc.stdin is None:
+            raise SimavrError("the simulated board is not running")
+        try:
+            self._proc.stdin.write(line.encode("ascii") + b"\n")
+            self._proc.stdin.flush()
+        except OSError as exc:
+            raise SimavrError(f"the simulated board is not running ({exc})") from None
+
+    def _check_alive(self, deadline: float, what: str) -> None:
+        if self._proc is None or self._proc.poll() is not None:
+            raise SimavrError(f"the simulated board stopped before it could {what}")
+        if time.monotonic() > deadline:
+            raise SimavrError(f"the simulated board did not {what} in time")
+
+    def _command_and_wait_for_reset(self, line: str, timeout_s: float) -> BoardReset:
+        resets_before = len(self.resets())
+        self._command(line)
+        deadline = time.monotonic() + timeout_s
+        while True:
+            resets = self.resets()
+            if len(resets) > resets_before:
+                return resets[-1]
+            self._check_alive(deadline, f"reset ({line})")
+            time.sleep(0.001)  # polling the log file, which has no change notification
+
+    def _log_text(self) -> str:
+        return self.log_path.read_text()
 
     def motor_log(self, since_reset: bool = False) -> list[MotorSample]:
         """Motor-output changes so far, oldest first, with simulated time in seconds.
@@ -287,6 +438,11 @@ class SimulatedBoard:
         """
         proc, self._proc = self._proc, None
         if proc is not None:
+            if proc.stdin is not None:
+                try:
+                    proc.stdin.close()  # the end of its command input also stops the harness
+                except OSError:
+                    pass
             if proc.poll() is None:
                 proc.terminate()
                 try:

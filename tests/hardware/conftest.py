@@ -103,14 +103,16 @@ class BoardLink:
         """Send a frame and return the board's reply to it."""
         return self.reply_to(self.send(frame_type, *args))
 
-    def reset(self) -> protocol.Frame:
+    def reset(self, cause: str = "external") -> protocol.Frame:
         """Reset the board; return its boot frame once every frame from before it is consumed.
+
+        ``cause``: see ``SimulatedBoard.reset`` (an external reset keeps a latched e-stop).
 
         The ping sent after the reset is answered only after the new boot frame went out, so
         reading up to its ack skips stale frames, including a late boot frame from an earlier
         boot, and leaves the stream empty.
         """
-        self.board.reset()
+        self.board.reset(cause=cause)
         seq = self.send(protocol.PING)
         _, skipped = self.wait_for(lambda f: f.type == protocol.ACK and f.seq == seq)
         boots = [f for f in skipped if f.type == protocol.BOOT]
@@ -132,6 +134,6 @@ def board_link(simulated_board: SimulatedBoard) -> Iterator[BoardLink]:
 
 @pytest.fixture
 def rover(board_link: BoardLink) -> BoardLink:
-    """The board freshly reset (motors off, default lease, no e-stop) for one test."""
-    board_link.reset()
+    """The board freshly powered up (motors off, default lease, no e-stop) for one test."""
+    board_link.reset(cause="power-on")
     return board_link
