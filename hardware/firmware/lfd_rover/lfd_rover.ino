@@ -8,11 +8,16 @@
 //     E,<seq>          emergency stop: motors off, latched until C
 //     C,<seq>          clear the e-stop; motors stay off until the next drive frame
 //     T,<seq>,<ms>     set the lease (software watchdog) period, 50..2000 ms
+//     V,<seq>          version query: acked with two more fields, the version and reset cause
 //   board -> host
 //     $A,<seq>,<state>,<flags>*CRC   ack; state = F/L/R/S (drive now applied) or X (e-stopped)
+//     $A,<seq>,<state>,<flags>,<version>,<cause>*CRC   the ack to V
 //     $N,<seq>,<reason>*CRC          reject; reason = CRC FRAME ARG ESTOP TYPE LONG
-//     $B,0,<version>*CRC             sent once after every reset
+//     $B,0,<version>,<cause>,<flags>*CRC   sent once after every reset
 //     $W,0,S*CRC                     the lease ran out and the motors were stopped
+//
+// Reset cause, from the MCU status register read at boot: PWR power-on, EXT reset pin, BOD
+// brown-out, WDT hardware watchdog, ? none recorded (a bootloader cleared the register).
 //
 // CRC is CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF) over the bytes between '$' and '*',
 // written as 4 upper-case hex digits; lower-case digits are accepted on input.
@@ -20,6 +25,7 @@
 // Ack flags, a decimal bitfield:
 //   bit 0 (1)  e-stop latched
 //   bit 1 (2)  the lease ran out and stopped the motors since the last accepted drive frame
+//   bit 2 (4)  replies were dropped since the last ack (sent while the transmit buffer was full)
 //
 // NAK seq: the frame's own seq when its second field is a valid seq (0..65535), else 0. For CRC
 // failures this seq is only a hint, since the bytes it was read from failed the check.
@@ -30,16 +36,25 @@
 // arrives. The receive buffer is a
 // fixed 33 bytes.
 //
+// Load: each pass of loop() kicks the hardware watchdog, checks the lease, and reads at most
+// one line's worth of bytes, handling at most one complete line. A reply is only queued when it
+// fits the transmit buffer at once; otherwise it is dropped (the frame itself still takes
+// effect, and the next ack sets flag 4), so a pass never waits on the 9600 baud link and no
+// flood of any input can starve the watchdog or delay the lease.
+//
 // Safety: a drive frame is a lease. Motors stop when no accepted drive frame arrived within the
 // lease period (default 300 ms); they are off at reset until the first drive frame; a ping never
 // starts motion; drive frames (stop included) are refused with ESTOP while the e-stop is
 // latched, and clearing it leaves the motors off. The AVR hardware watchdog (250 ms) resets the
-// board if the main loop ever hangs. None of this replaces the physical motor-power switch.
+// board if the main loop ever hangs. The e-stop latch survives every reset except power-on: it
+// is kept in RAM the C runtime does not clear (.noinit), and a watchdog or brown-out reset
+// latches it even if it was clear (the board stopped for a fault; the host must look before it
+// drives again). None of this replaces the physical motor-power switch.
 
 #include <avr/wdt.h>
 #include <util/crc16.h>
 
-static const char FIRMWARE_VERSION[] = "1.0";
+static const char FIRMWARE_VERSION[] = "1.1";
 static const unsigned long SERIAL_BAUD = 9600;  // HC-05/06 factory default
 
 // DFRobot Romeo motor driver pins.
@@ -67,6 +82,7 @@ static const uint8_t RX_CAPACITY = MAX_LINE_BYTES + 1;
 
 static const uint8_t FLAG_ESTOP = 1;
 static const uint8_t FLAG_LEASE_EXPIRED = 2;
+static const uint8_t FLAG_REPLIES_DROPPED = 4;
 
 static const char STATE_ESTOP = 'X';
 
@@ -84,13 +100,69 @@ static uint16_t lease_ms = LEASE_DEFAULT_MS;
 static unsigned long last_drive_ms = 0;
 static uint8_t left_dir_now = DIR_FORWARD;
 static uint8_t right_dir_now = DIR_FORWARD;
+static bool replies_dropped = false;
+static const char *reset_cause = "?";
 
-// The watchdog stays enabled across a watchdog reset (at the shortest timeout), so it must be
-// turned off before the C runtime and Arduino init() run, or the board would reset forever.
-void disable_watchdog_early(void) __attribute__((naked, used, section(".init3")));
-void disable_watchdog_early(void) {
+// MCUSR as it was at reset. Written in .init3, before the C runtime clears .bss (.init4), so it
+// lives in .noinit.
+static uint8_t reset_flags __attribute__((section(".noinit")));
+
+// The e-stop latch as last set, in RAM that no reset clears and the C runtime leaves alone. It
+// counts only while magic and check match, which random power-up RAM does about once in 2^31.
+struct LatchRecord {
+  uint16_t magic;
+  uint8_t latched;
+  uint8_t check;
+};
+static const uint16_t LATCH_MAGIC = 0x4C46;  // "LF"
+static LatchRecord latch_record __attribute__((section(".noinit")));
+
+// The watchdog stays enabled across a watchdog reset (at the shortest timeout, 16 ms), so it
+// must be turned off before the C runtime and Arduino init() run, or the board would reset
+// forever; and WDE cannot be cleared while WDRF is set, so MCUSR is saved and cleared first
+// (the avr-libc <avr/wdt.h> recipe). setup() re-arms the watchdog.
+void save_reset_flags_and_disable_watchdog(void) __attribute__((naked, used, section(".init3")));
+void save_reset_flags_and_disable_watchdog(void) {
+  reset_flags = MCUSR;
   MCUSR = 0;
   wdt_disable();
+}
+
+static const uint8_t LATCH_CHECK = 0xA5;
+
+static void remember_latch(bool latched) {
+  latch_record.magic = LATCH_MAGIC;
+  latch_record.latched = latched ? 1 : 0;
+  latch_record.check = latch_record.latched ^ LATCH_CHECK;
+}
+
+// True if a valid record says latched (a record left by an earlier run, not power-up noise).
+static bool remembered_latch() {
+  return latch_record.magic == LATCH_MAGIC && latch_record.latched == 1 &&
+         latch_record.check == (1 ^ LATCH_CHECK);
+}
+
+// Decides the latch at boot from the reset cause; a power-on is the only reset that clears it.
+static bool latch_after_reset() {
+  if (reset_flags & _BV(PORF)) {
+    reset_cause = "PWR";
+    return false;
+  }
+  if (reset_flags & _BV(WDRF)) {
+    reset_cause = "WDT";
+    return true;
+  }
+  if (reset_flags & _BV(BORF)) {
+    reset_cause = "BOD";
+    return true;
+  }
+  reset_cause = (reset_flags & _BV(EXTRF)) ? "EXT" : "?";
+  return remembered_latch();
+}
+
+static void set_estop(bool latched) {
+  estop_latched = latched;
+  remember_latch(latched);
 }
 
 static void set_motors(char command) {
@@ -139,9 +211,14 @@ static void write_hex4(uint16_t value) {
   }
 }
 
-// Sends "$<body>*<CRC>\n".
+// Sends "$<body>*<CRC>\n" if it fits the transmit buffer now, else drops it (and says so in the
+// next ack's flags): the caller never waits for the link.
 static void send_frame(const char *body) {
   uint8_t len = strlen(body);
+  if (Serial.availableForWrite() < len + 7) {
+    replies_dropped = true;
+    return;
+  }
   Serial.write('$');
   Serial.write((const uint8_t *)body, len);
   Serial.write('*');
@@ -152,12 +229,24 @@ static void send_frame(const char *body) {
 static char current_state() { return estop_latched ? STATE_ESTOP : drive_state; }
 
 static uint8_t current_flags() {
-  return (estop_latched ? FLAG_ESTOP : 0) | (lease_expired ? FLAG_LEASE_EXPIRED : 0);
+  return (estop_latched ? FLAG_ESTOP : 0) | (lease_expired ? FLAG_LEASE_EXPIRED : 0) |
+         (replies_dropped ? FLAG_REPLIES_DROPPED : 0);
 }
 
 static void send_ack(uint16_t seq) {
   char body[24];
-  snprintf(body, sizeof body, "A,%u,%c,%u", seq, current_state(), current_flags());
+  uint8_t flags = current_flags();
+  replies_dropped = false;  // reported now (or this ack is dropped too and sets it again)
+  snprintf(body, sizeof body, "A,%u,%c,%u", seq, current_state(), flags);
+  send_frame(body);
+}
+
+static void send_version(uint16_t seq) {
+  char body[32];
+  uint8_t flags = current_flags();
+  replies_dropped = false;
+  snprintf(body, sizeof body, "A,%u,%c,%u,%s,%s", seq, current_state(), flags, FIRMWARE_VERSION,
+           reset_cause);
   send_frame(body);
 }
 
@@ -308,7 +397,7 @@ static void handle_line() {
         send_nak(seq, "ARG");
         return;
       }
-      estop_latched = true;
+      set_estop(true);
       drive_state = 'S';
       set_motors('S');
       send_ack(seq);
@@ -318,7 +407,7 @@ static void handle_line() {
         send_nak(seq, "ARG");
         return;
       }
-      estop_latched = false;  // motors were stopped when it latched and stay stopped
+      set_estop(false);  // motors were stopped when it latched and stay stopped
       send_ack(seq);
       return;
     case 'T': {
@@ -332,13 +421,21 @@ static void handle_line() {
       send_ack(seq);
       return;
     }
+    case 'V':
+      if (args != 0) {
+        send_nak(seq, "ARG");
+        return;
+      }
+      send_version(seq);
+      return;
     default:
       send_nak(seq, "TYPE");
       return;
   }
 }
 
-static void receive_byte(char c) {
+// Takes one received byte; true when it completed (and handled) a line.
+static bool receive_byte(char c) {
   if (c == '$') {  // always resynchronise on '$'
     rx_buf[0] = c;
     rx_len = 1;
@@ -352,6 +449,7 @@ static void receive_byte(char c) {
     rx_len = 0;
     rx_in_frame = false;
     rx_overflow = false;
+    return true;
   } else if (rx_overflow) {
     // drop the rest of an over-long line
   } else if (rx_len >= RX_CAPACITY) {
@@ -359,6 +457,7 @@ static void receive_byte(char c) {
   } else {
     rx_buf[rx_len++] = c;
   }
+  return false;
 }
 
 static void check_lease() {
@@ -378,17 +477,22 @@ void setup() {
   pinMode(PIN_LEFT_PWM, OUTPUT);
   pinMode(PIN_RIGHT_PWM, OUTPUT);
   set_motors('S');
+  set_estop(latch_after_reset());
   Serial.begin(SERIAL_BAUD);
   wdt_enable(WDTO_250MS);
-  char body[16];
-  snprintf(body, sizeof body, "B,0,%s", FIRMWARE_VERSION);
+  char body[24];
+  snprintf(body, sizeof body, "B,0,%s,%s,%u", FIRMWARE_VERSION, reset_cause, current_flags());
   send_frame(body);
 }
 
+// Bytes read per pass at most: one maximal line with its newline. At 16 MHz a pass takes well
+// under a millisecond, so the receiver (64-byte buffer, ~1 byte per ms at 9600 baud) keeps up.
+static const uint8_t READ_BUDGET = RX_CAPACITY + 1;
+
 void loop() {
   wdt_reset();
-  while (Serial.available() > 0) {
-    receive_byte((char)Serial.read());
-  }
   check_lease();
+  for (uint8_t budget = READ_BUDGET; budget > 0 && Serial.available() > 0; budget--) {
+    if (receive_byte((char)Serial.read())) break;  // at most one line handled per pass
+  }
 }
