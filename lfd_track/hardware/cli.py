@@ -113,13 +113,27 @@ def _cmd_check(args: argparse.Namespace) -> int:
             flush=True,
         )
     with link:
-        # The firmware names its version only in the boot frame (the ack format is fixed), so a
-        # board that booted before the port opened cannot tell it.
-        version = link.firmware_version or (
-            "unknown (the board's boot frame was not seen; reset or power-cycle the board while "
-            "check waits for it with --boot-wait S)"
-        )
+        # Firmware 1.1 and later answer the version query V at any time; older firmware names
+        # its version only in the boot frame, which a board that booted before the port opened
+        # has already sent.
+        board = link.query_version()
+        if board is not None:
+            version = f"{board.version} (last reset: {board.reset_cause_text})"
+        elif link.firmware_version:
+            version = f"{link.firmware_version} (from its boot frame)"
+        else:
+            version = (
+                "unknown (the board does not answer the version query, so its firmware is older "
+                "than 1.1, and its boot frame was not seen; reset or power-cycle the board while "
+                "check waits for it with --boot-wait S)"
+            )
         print(f"connected to {args.serial}; firmware version: {version}")
+        was_latched = link.ping().estopped
+        if was_latched:
+            print(
+                "note: the board's e-stop was latched when check connected (the board boots "
+                "latched after a watchdog or brown-out reset); check leaves it latched"
+            )
         rtts = [link.ping().rtt_ms for _ in range(args.pings)]
         stats = link.stats()
         print(
@@ -145,8 +159,12 @@ def _cmd_check(args: argparse.Namespace) -> int:
                 problems.append("the board accepted a 10 ms watchdog period")
         finally:
             link.set_watchdog_ms(args.watchdog_ms)
-        if args.lease_test:
+        if args.lease_test and not was_latched:
             problems += _lease_test(link, args.watchdog_ms)
+        elif args.lease_test:
+            print("lease test skipped: it would need the e-stop cleared")
+        if was_latched and not link.estop().estopped:
+            problems.append("the e-stop could not be latched again")
         for problem in problems:
             print(f"FAIL: {problem}")
         if not problems:
@@ -266,8 +284,9 @@ def _add_link_options(parser: argparse.ArgumentParser) -> None:
         type=float,
         default=0.0,
         metavar="S",
-        help="seconds to wait for the board's boot frame, which names the firmware version "
-        "(a USB Arduino resets on open, try 2; reset other boards by hand during the wait)",
+        help="seconds to wait for the board's boot frame (firmware 1.1 and later also answer "
+        "a version query; older firmware names its version only in the boot frame: a USB Arduino "
+        "resets on open, try 2; reset other boards by hand during the wait)",
     )
     parser.add_argument(
         "--watchdog-ms", type=int, default=300, help="board motor watchdog [ms] (default 300)"

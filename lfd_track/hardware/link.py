@@ -33,6 +33,8 @@ ESTOPPED = "X"  # ack state while the board's e-stop is latched
 DEFAULT_BAUD = 9600  # the firmware's UART rate (HC-05/06 factory default)
 FLAG_ESTOP = 1  # ack flags are a decimal bitfield
 FLAG_LEASE_EXPIRED = 2  # the watchdog stopped the motors since the last accepted drive frame
+FLAG_REPLIES_DROPPED = 4  # the board dropped replies (its transmit buffer was full) since
+# its last ack (firmware 1.1 and later)
 
 
 class LinkError(LfdTrackError):
@@ -46,7 +48,8 @@ class Ack:
     ``state`` is the motor state the board reports (``F``/``L``/``R``/``S``, or ``X`` while its
     e-stop is latched); ``flags`` is its decimal bitfield (``FLAG_ESTOP``, ``FLAG_LEASE_EXPIRED``).
     A request the board refused (a NAK) has ``rejected`` set to the reason and ``state`` set to
-    the last state the board reported (``X`` when refused for an e-stop).
+    the last state the board reported (``X`` when refused for an e-stop). ``info`` holds any
+    further fields of the ack (the version query's firmware version and reset cause).
     """
 
     seq: int
@@ -55,6 +58,7 @@ class Ack:
     flags: str = ""
     rejected: str | None = None
     rtt_ms: float = 0.0  # round-trip time [ms]
+    info: tuple[str, ...] = ()
 
     @property
     def accepted(self) -> bool:
@@ -78,6 +82,25 @@ class Ack:
     def lease_expired(self) -> bool:
         """True if the board's watchdog stopped the motors since its last accepted drive."""
         return self._flag(FLAG_LEASE_EXPIRED)
+
+    @property
+    def replies_dropped(self) -> bool:
+        """True if the board dropped replies since its last ack (it was sent frames too fast)."""
+        return self._flag(FLAG_REPLIES_DROPPED)
+
+
+@dataclass(frozen=True)
+class BoardVersion:
+    """The answer to a version query: firmware version, why the board last reset, its ack."""
+
+    version: str
+    reset_cause: str  # a key of ``protocol.RESET_CAUSES`` (``WDT``, ``PWR``, ...)
+    ack: Ack
+
+    @property
+    def reset_cause_text(self) -> str:
+        """The reset cause in words (``hardware watchdog``, ``power-on``, ...)."""
+        return protocol.RESET_CAUSES.get(self.reset_cause, f"unknown ({self.reset_cause})")
 
 
 @dataclass
@@ -177,6 +200,7 @@ class RobotLink:
         self._stop_event = threading.Event()
         self._thread: threading.Thread | None = None
         self.firmware_version: str | None = None
+        self.reset_cause: str | None = None  # from the boot frame or a version query
 
     # ------------------------------------------------------------------ lifecycle
     def __enter__(self) -> RobotLink:
@@ -310,6 +334,19 @@ class RobotLink:
         """Ping the board (never starts motion); returns its ack with the round-trip time."""
         return self._checked(protocol.PING, ())
 
+    def query_version(self) -> BoardVersion | None:
+        """Ask the board for its firmware version and last reset cause (``V``; never moves).
+
+        Works whenever the board runs, unlike the boot frame, which is only seen if the port was
+        open when the board started. Sets ``firmware_version`` and ``reset_cause``. Returns None
+        if the board does not know the query (firmware before 1.1 rejects it as ``TYPE``).
+        """
+        ack = self._checked(protocol.VERSION, ())
+        if not ack.accepted or len(ack.info) < 2:
+            return None
+        self.firmware_version, self.reset_cause = ack.info[0], ack.info[1]
+        return BoardVersion(ack.info[0], ack.info[1], ack)
+
     def estop(self) -> Ack:
         """Latch the board's emergency stop (motors off until ``clear_estop()`` and a new drive)."""
         with self._lease_lock:
@@ -433,6 +470,11 @@ class RobotLink:
                         self._state = STOP  # a fresh board has its motors off
                         if item.args:
                             self.firmware_version = item.args[0]
+                        if len(item.args) >= 3:  # firmware 1.1: reset cause, flags
+                            self.reset_cause = item.args[1]
+                            flags = item.args[2]
+                            if flags.isdigit() and int(flags) & FLAG_ESTOP:
+                                self._state = ESTOPPED  # booted latched (e.g. after a fault)
                     elif item.type == protocol.WATCHDOG_STOP:
                         self._stats.watchdog_stops += 1
                         self._state = STOP
@@ -478,7 +520,7 @@ class RobotLink:
                     state = frame.args[0] if frame.args else self._state
                     flags = frame.args[1] if len(frame.args) > 1 else ""
                     self._state = state
-                    return Ack(seq, requested, state, flags, None, rtt_ms)
+                    return Ack(seq, requested, state, flags, None, rtt_ms, frame.args[2:])
                 reason = frame.args[0] if frame.args else "?"
                 if reason in (protocol.REASON_CRC, protocol.REASON_FRAME):
                     # Our frame was damaged on the way: resend. Counts as a failure so a link

@@ -19,10 +19,11 @@ PING = "H"
 ESTOP = "E"  # latched emergency stop
 CLEAR = "C"  # clear the e-stop (does not restart motion)
 SET_WATCHDOG = "T"  # arg: period in ms, 50..2000
+VERSION = "V"  # version query: acked with two more args, firmware version and reset cause
 # Board -> host frame types.
 ACK = "A"  # args: state, flags
 NAK = "N"  # arg: reason
-BOOT = "B"  # seq 0, arg: firmware version
+BOOT = "B"  # seq 0, args: firmware version, reset cause, flags (version only before 1.1)
 WATCHDOG_STOP = "W"  # seq 0, arg: S
 
 DRIVE_ARGS = ("F", "L", "R", "S")
@@ -38,6 +39,15 @@ REASON_ESTOP = "ESTOP"
 REASON_TYPE = "TYPE"
 REASON_LONG = "LONG"
 REASONS = (REASON_CRC, REASON_FRAME, REASON_ARG, REASON_ESTOP, REASON_TYPE, REASON_LONG)
+
+# Reset causes in boot frames and version replies (from the board's MCU status register).
+RESET_CAUSES = {
+    "PWR": "power-on",
+    "EXT": "reset pin",
+    "BOD": "brown-out",
+    "WDT": "hardware watchdog",
+    "?": "not recorded",  # a bootloader cleared the register before the firmware read it
+}
 
 
 def crc16(body: bytes) -> int:

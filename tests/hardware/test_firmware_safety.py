@@ -131,7 +131,9 @@ def test_every_drive_frame_of_a_flood_is_obeyed_and_the_lease_runs_from_the_last
     seqs = [rover.next_seq() for _ in range(FLOOD_FRAMES)]
     # F, L, R, ... back to back: each must reach the motors, in order, acked or not.
     commands = ["FLR"[i % 3] for i in range(FLOOD_FRAMES)]
-    rover.write(b"".join(protocol.encode_frame("D", s, c) for s, c in zip(seqs, commands)))
+    rover.write(
+        b"".join(protocol.encode_frame("D", s, c) for s, c in zip(seqs, commands, strict=True))
+    )
     deadline = time.monotonic() + SETTLE_TIMEOUT_S
     while stream.settle().args[0] != "S":  # until the lease has run out
         assert time.monotonic() < deadline, "the motors never stopped"

@@ -9,11 +9,13 @@ import shutil
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
 import pytest
+import serial
 
 import lfd_track  # noqa: F401 - registers the environments
 from lfd_track.hardware import protocol
@@ -290,8 +292,16 @@ def test_cli_check_explains_an_unknown_firmware_version(capsys) -> None:
         code = _run_cli("check", "--serial", board.url, "--pings", "1")
     out = capsys.readouterr().out
     assert code == 0, out
-    assert "firmware version: unknown (the board's boot frame was not seen;" in out
+    assert "firmware version: unknown (the board does not answer the version query," in out
     assert "--boot-wait S" in out
+
+
+def test_cli_check_asks_for_the_version_without_a_reset(capsys) -> None:
+    with FakeBoard(boot=False, version="fake-1.1") as board:  # booted before the port opened
+        code = _run_cli("check", "--serial", board.url, "--pings", "1")
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "firmware version: fake-1.1 (last reset: reset pin)" in out
 
 
 def test_cli_check_boot_wait_sees_a_board_reset_during_the_wait(capsys) -> None:
@@ -360,10 +370,34 @@ def test_teleop_records_a_demonstration(tmp_path: Path) -> None:
 
 @pytest.mark.simavr
 def test_cli_check_with_lease_test_on_the_simulated_firmware(simulated_board, capsys) -> None:
+    simulated_board.reset(cause="power-on")
     code = _run_cli("check", "--serial", simulated_board.serial_url, "--pings", "3", "--lease-test")
     out = capsys.readouterr().out
     assert code == 0, out
+    # No boot wait and no reset: the version comes from the version query.
+    assert "firmware version: 1.1 (last reset: power-on)" in out
     assert "lease watchdog stopped the motors" in out and "OK:" in out
+
+
+@pytest.mark.simavr
+def test_cli_check_leaves_a_latch_from_a_watchdog_reset_latched(simulated_board, capsys) -> None:
+    simulated_board.reset(cause="power-on")
+    simulated_board.hang()  # the watchdog resets the board, which boots latched
+    code = _run_cli("check", "--serial", simulated_board.serial_url, "--pings", "2", "--lease-test")
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "firmware version: 1.1 (last reset: hardware watchdog)" in out
+    assert "e-stop was latched when check connected" in out and "lease test skipped" in out
+    port = serial.serial_for_url(simulated_board.serial_url, baudrate=9600, timeout=0.05)
+    try:
+        port.write(protocol.encode_frame(protocol.PING, 9))
+        parser, replies = protocol.FrameParser(), []
+        deadline = time.monotonic() + 5.0
+        while not replies and time.monotonic() < deadline:
+            replies = [f for f in parser.feed(port.read(64)) if getattr(f, "seq", None) == 9]
+        assert replies and replies[0].args == ("X", "1"), replies
+    finally:
+        port.close()
 
 
 def _processes_mentioning(text: str) -> list[int]:

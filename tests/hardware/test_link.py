@@ -28,7 +28,8 @@ class FakeBoard:
 
     ``mode``: ``"ok"``, ``"silent"`` (reads but never replies), ``"corrupt"`` (replies with a bad
     CRC) or ``"disconnect"`` (closes the connection on the next frame). ``fault_after``: the number
-    of frames answered normally before ``mode`` applies. ``boot_delay_s``: when the boot frame
+    of frames answered normally before ``mode`` applies. ``version``: answer the version query
+    ``V`` with it (and reset cause ``EXT``) like firmware 1.1; without it ``V`` gets a plain ack. ``boot_delay_s``: when the boot frame
     goes out after the connection opens (if ``boot``), as if the board were reset then; frames
     are answered before it too. Every frame received is recorded with its
     arrival time in ``received``. ``lease_lapses`` counts the times the real firmware's watchdog
@@ -44,12 +45,14 @@ class FakeBoard:
         boot: bool = True,
         boot_delay_s: float = 0.05,
         on_frame=None,
+        version: str | None = None,
     ) -> None:
         self.mode = mode
         self.fault_after = fault_after
         self.boot = boot
         self.boot_delay_s = boot_delay_s
         self.on_frame = on_frame
+        self.version = version
         self.received: list[tuple[float, protocol.Frame]] = []
         self.state = "S"
         self.estopped = False
@@ -134,6 +137,10 @@ class FakeBoard:
                 self._reply(conn, protocol.NAK, frame.seq, protocol.REASON_ARG)
                 return True
             self.watchdog_ms = ms
+        elif frame.type == protocol.VERSION and self.version is not None:
+            flags = "1" if self.estopped else "0"
+            self._reply(conn, protocol.ACK, frame.seq, self.state, flags, self.version, "EXT")
+            return True
         self._reply(conn, protocol.ACK, frame.seq, self.state, "1" if self.estopped else "0")
         return True
 
@@ -300,6 +307,10 @@ class ScriptedPort:
     def in_waiting(self) -> int:
         return len(self._replies)
 
+    def reply(self, data: bytes) -> None:
+        """Queue more bytes from the board."""
+        self._replies += data
+
     def read(self, n: int) -> bytes:
         out = bytes(self._replies[:n])
         del self._replies[:n]
@@ -350,3 +361,45 @@ def test_valid_ack_is_found_among_noise(before: bytes, after: bytes) -> None:
         assert (reply.seq, reply.state, reply.accepted) == (1, "F", True)
     assert link._parser.buffered <= protocol.MAX_LINE_BYTES + 1
     link.close()
+
+
+def test_query_version_reads_version_and_reset_cause() -> None:
+    with (
+        FakeBoard(boot=False, version="fake-1.1") as board,
+        make_link(board, boot_wait_s=0) as link,
+    ):
+        assert link.firmware_version is None  # no boot frame seen
+        answer = link.query_version()
+        assert answer is not None and (answer.version, answer.reset_cause) == ("fake-1.1", "EXT")
+        assert answer.reset_cause_text == "reset pin" and answer.ack.accepted
+        assert (link.firmware_version, link.reset_cause) == ("fake-1.1", "EXT")
+
+
+def test_query_version_of_firmware_without_it_is_none() -> None:
+    # Firmware 1.0 rejects the unknown type; a plain ack carries no version either.
+    port = ScriptedPort(protocol.encode_frame(protocol.NAK, 1, protocol.REASON_TYPE))
+    link = RobotLink("scripted", ack_timeout_s=0.05, port_factory=lambda: port)
+    link.open()
+    assert link.query_version() is None and link.firmware_version is None
+    with FakeBoard(boot=False) as board, make_link(board, boot_wait_s=0) as link:
+        assert link.query_version() is None
+
+
+def test_a_boot_frame_names_the_reset_cause_and_a_latched_boot() -> None:
+    boot = protocol.encode_frame(protocol.BOOT, 0, "1.1", "WDT", "1")
+    port = ScriptedPort(boot)
+    link = RobotLink("scripted", ack_timeout_s=0.05, port_factory=lambda: port)
+    link.open()
+    link.poll()
+    assert (link.firmware_version, link.reset_cause, link.state) == ("1.1", "WDT", "X")
+    port.reply(protocol.encode_frame(protocol.NAK, 1, protocol.REASON_ESTOP))
+    refused = link.drive("F")
+    assert refused.rejected == protocol.REASON_ESTOP and refused.estopped
+
+
+def test_ack_flags_report_dropped_replies() -> None:
+    port = ScriptedPort(protocol.encode_frame(protocol.ACK, 1, "S", "4"))
+    link = RobotLink("scripted", ack_timeout_s=0.05, port_factory=lambda: port)
+    link.open()
+    ack = link.ping()
+    assert ack.replies_dropped and not ack.estopped and not ack.lease_expired
