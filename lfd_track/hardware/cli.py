@@ -321,7 +321,11 @@ def add_hardware_parser(subparsers: Any) -> argparse.ArgumentParser:
     sim = commands.add_parser(
         "sim", help="run the firmware in simavr and print its serial URL (until Ctrl-C/SIGTERM)"
     )
-    sim.add_argument("--build-dir", default=None, help="build folder (default hardware/build)")
+    sim.add_argument(
+        "--build-dir",
+        default=None,
+        help="build folder (default: a per-user cache folder, ~/.cache/lfd-track/simavr-HASH)",
+    )
     sim.add_argument(
         "--keep-log",
         action="store_true",

@@ -1,0 +1,131 @@
+"""``lfd-track hardware sim`` and ``hardware check`` from a normal install, outside the checkout.
+
+The wheel is built from the checkout (offline, without build isolation) and installed with
+``--no-deps`` into a fresh venv made for this test; its dependencies (numpy, pyserial, ...) come
+from the test venv through a ``.pth`` file, which saves installing them again (a ``.pth`` file
+in the added folder, such as the test venv's editable install of this checkout, is not
+processed). Both commands run the venv's ``lfd-track`` script from a folder outside the
+checkout, with an empty per-user cache, so the simulated board is built from the sources inside
+the wheel.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import signal
+import subprocess
+import sys
+import sysconfig
+import venv
+from pathlib import Path
+
+import pytest
+
+from lfd_track.hardware.simavr import missing_tools
+
+pytestmark = pytest.mark.simavr
+
+REPO = Path(__file__).resolve().parents[2]
+# Failure guards only: every wait returns as soon as the awaited output arrives.
+BUILD_TIMEOUT_S = 120
+RUN_TIMEOUT_S = 60
+
+
+def _unavailable(message: str) -> None:
+    if os.environ.get("CI", "").lower() == "true":
+        pytest.fail(f"{message} (CI=true, so this is a failure, not a skip)", pytrace=False)
+    pytest.skip(message)
+
+
+def _offline_env(**extra: str) -> dict[str, str]:
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "VIRTUAL_ENV"))}
+    env.update(PIP_NO_INDEX="1", PIP_DISABLE_PIP_VERSION_CHECK="1", PYTHONNOUSERSITE="1")
+    env.update(extra)
+    return env
+
+
+@pytest.fixture(scope="module")
+def installed(tmp_path_factory) -> Path:
+    """A fresh venv with the checkout's wheel installed; returns its ``bin`` folder."""
+    missing = missing_tools()
+    if missing:
+        _unavailable(
+            "the simulated board needs the AVR toolchain and simavr: " + "; ".join(missing)
+        )
+    if importlib.util.find_spec("hatchling") is None:
+        _unavailable("the build backend hatchling is not installed (pip install hatchling)")
+    root = tmp_path_factory.mktemp("installed")
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "--no-index",
+         "--quiet", "-w", str(root / "wheel"), str(REPO)],
+        check=True, env=_offline_env(), timeout=BUILD_TIMEOUT_S,
+    )  # fmt: skip
+    (wheel,) = (root / "wheel").glob("lfd_track-*.whl")
+    env_dir = root / "venv"
+    venv.create(env_dir, with_pip=False, clear=True)
+    python = env_dir / "bin" / "python"
+    subprocess.run(
+        [sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps",
+         "--no-index", "--quiet", str(wheel)],
+        check=True, env=_offline_env(), timeout=BUILD_TIMEOUT_S,
+    )  # fmt: skip
+    site = subprocess.run(
+        [str(python), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
+        check=True, capture_output=True, text=True, env=_offline_env(),
+    ).stdout.strip()  # fmt: skip
+    deps = dict.fromkeys([sysconfig.get_path("purelib"), sysconfig.get_path("platlib")])
+    (Path(site) / "_test_dependencies.pth").write_text("\n".join(deps) + "\n")
+    return env_dir / "bin"
+
+
+def test_hardware_sim_and_check_run_from_the_installed_wheel(installed: Path, tmp_path) -> None:
+    workdir = tmp_path / "elsewhere"
+    workdir.mkdir()
+    cache = tmp_path / "cache"
+    env = _offline_env(XDG_CACHE_HOME=str(cache))
+    where = subprocess.run(
+        [str(installed / "python"), "-c",
+         "import lfd_track.hardware.simavr as s; print(s.__file__); print(s.HARDWARE_DIR)"],
+        check=True, capture_output=True, text=True, cwd=workdir, env=env,
+    ).stdout.split()  # fmt: skip
+    package_dir = installed.parent / "lib"
+    assert all(Path(p).is_relative_to(package_dir) for p in where), where  # not the checkout
+
+    sim = subprocess.Popen(
+        [str(installed / "lfd-track"), "hardware", "sim"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=workdir, env=env,
+    )  # fmt: skip
+    try:
+        lines: list[str] = []
+        while not lines or not lines[-1].startswith("press Ctrl-C"):
+            line = sim.stdout.readline()  # "" at once if the command died
+            assert line, f"hardware sim ended early: {lines} {sim.communicate()[1]}"
+            lines.append(line)
+        url = lines[0].split("serial URL: ", 1)[1].split()[0]
+        check = subprocess.run(
+            [str(installed / "lfd-track"), "hardware", "check", "--serial", url, "--pings", "3"],
+            capture_output=True, text=True, cwd=workdir, env=env, timeout=RUN_TIMEOUT_S,
+        )  # fmt: skip
+        assert check.returncode == 0, check.stdout + check.stderr
+        # The version comes from the version query: no boot wait, no reset.
+        assert "firmware version: 1.1 (last reset: power-on)" in check.stdout
+        assert "OK: ping, e-stop latch" in check.stdout
+        sim.send_signal(signal.SIGTERM)
+        _, err = sim.communicate(timeout=RUN_TIMEOUT_S)
+        assert sim.returncode == 0, err
+    finally:
+        if sim.poll() is None:
+            sim.kill()
+            sim.communicate()
+    # Built in the per-user cache, keyed by the sources' hash; nothing next to the package.
+    builds = list(cache.glob("lfd-track/simavr-*/firmware/lfd_rover.elf"))
+    assert len(builds) == 1, builds
+    assert list(cache.glob("lfd-track/simavr-*/sim/lfd_rover_sim"))
+    shipped = Path(where[1])
+    assert sorted(str(p.relative_to(shipped)) for p in shipped.rglob("*") if p.is_file()) == [
+        "firmware/lfd_rover/Makefile",
+        "firmware/lfd_rover/lfd_rover.ino",
+        "sim/Makefile",
+        "sim/lfd_rover_sim.c",
+    ]
