@@ -77,13 +77,23 @@ class FrameError:
 
 
 def encode_frame(frame_type: str, seq: int, *args: str) -> bytes:
-    """Encode one frame; raises ValueError if it would not fit ``MAX_LINE_BYTES``."""
-    if len(frame_type) != 1 or not frame_type.isalpha():
-        raise ValueError(f"frame type must be one letter, got {frame_type!r}")
-    if not 0 <= seq < SEQ_MODULO:
-        raise ValueError(f"seq must be in 0..{SEQ_MODULO - 1}, got {seq}")
+    """Encode one frame (newline included).
+
+    Raises ValueError, and nothing else, for anything that is not a valid frame: a type that is
+    not one ASCII letter, a seq that is not an int in 0..65535, an argument that is not a
+    non-empty ASCII string free of ``,*$`` and line breaks, or a line over ``MAX_LINE_BYTES``.
+    """
+    if not isinstance(frame_type, str) or len(frame_type) != 1 or not _is_ascii_letter(frame_type):
+        raise ValueError(f"frame type must be one ASCII letter, got {frame_type!r}")
+    if not isinstance(seq, int) or isinstance(seq, bool) or not 0 <= seq < SEQ_MODULO:
+        raise ValueError(f"seq must be an int in 0..{SEQ_MODULO - 1}, got {seq!r}")
     for arg in args:
-        if not arg or any(c in arg for c in ",*$\r\n") or not arg.isascii():
+        if (
+            not isinstance(arg, str)
+            or not arg
+            or any(c in arg for c in ",*$\r\n")
+            or not arg.isascii()
+        ):
             raise ValueError(f"bad frame argument {arg!r}")
     body = ",".join([frame_type, str(seq), *args]).encode("ascii")
     line = b"$" + body + b"*" + f"{crc16(body):04X}".encode("ascii")
@@ -92,27 +102,35 @@ def encode_frame(frame_type: str, seq: int, *args: str) -> bytes:
     return line + b"\n"
 
 
+_HEX_DIGITS = frozenset(b"0123456789abcdefABCDEF")
+
+
+def _is_ascii_letter(text: str) -> bool:
+    return text.isascii() and text.isalpha()
+
+
 def decode_line(line: bytes) -> Frame | FrameError:
-    """Decode one line that starts with ``$`` (newline and any ``\\r`` stripped)."""
+    """Decode one line that starts with ``$`` (newline and any ``\\r`` stripped); never raises.
+
+    Rejects exactly what the firmware rejects, for the same reason (``REASON_*``).
+    """
     line = line.rstrip(b"\r")
     if len(line) > MAX_LINE_BYTES:
         return FrameError(REASON_LONG, line)
     if not line.startswith(b"$") or line.count(b"*") != 1:
         return FrameError(REASON_FRAME, line)
     body, _, crc_text = line[1:].partition(b"*")
-    if len(crc_text) != 4:
+    # Exactly four hex digits: int(x, 16) alone would also take " ABC", "+ABC" or "A_BC".
+    if len(crc_text) != 4 or not _HEX_DIGITS.issuperset(crc_text):
         return FrameError(REASON_FRAME, line)
-    try:
-        crc = int(crc_text.decode("ascii"), 16)
-    except (UnicodeDecodeError, ValueError):
-        return FrameError(REASON_FRAME, line)
+    crc = int(crc_text, 16)
     if crc != crc16(body):
         return FrameError(REASON_CRC, line)
     try:
         fields = body.decode("ascii").split(",")
     except UnicodeDecodeError:
         return FrameError(REASON_FRAME, line)
-    if len(fields) < 2 or len(fields[0]) != 1 or not fields[0].isalpha():
+    if len(fields) < 2 or len(fields[0]) != 1 or not _is_ascii_letter(fields[0]):
         return FrameError(REASON_FRAME, line)
     if not fields[1].isdigit() or len(fields[1]) > 5 or int(fields[1]) >= SEQ_MODULO:
         return FrameError(REASON_FRAME, line)
