@@ -1,4 +1,4 @@
-"""Serial link from the host to the robot board, speaking the wire protocol of DESIGN §8.
+"""Serial link from the host to the robot board, speaking the wire protocol of ``protocol``.
 
 ``RobotLink`` wraps ``serial.serial_for_url`` (``/dev/rfcomm0`` for an HC-05/06, a pty path,
 ``socket://host:port``, ``loop://``). Every request is one frame with a fresh sequence number and

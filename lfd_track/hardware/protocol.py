@@ -1,4 +1,4 @@
-"""Line-framed ASCII wire protocol between host and robot board (DESIGN §8).
+"""Line-framed ASCII wire protocol between host and robot board (for users: hardware/README.md).
 
 Frame: ``$<type>,<seq>[,<arg>]*<CRC>\\n`` where CRC is CRC-16/CCITT-FALSE (poly 0x1021, init
 0xFFFF) over the bytes between ``$`` and ``*``, as 4 upper-case hex digits. A ``$`` always starts

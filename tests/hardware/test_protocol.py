@@ -1,4 +1,4 @@
-"""Wire codec (DESIGN §8): CRC, encoding, decoding, resynchronisation, bounds; fuzzed parser."""
+"""Wire codec: CRC, encoding, decoding, resynchronisation, bounds; fuzzed parser."""
 
 from __future__ import annotations
 
