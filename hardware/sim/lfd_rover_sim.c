@@ -24,7 +24,9 @@
  *   With --control, stdin takes one command per line (the Python helper uses this):
  *     reset external | reset power-on | reset brown-out
  *                       reset the board with that cause; power-on also scrambles the SRAM
- *                       and registers, as their contents are undefined after power-up
+ *                       and registers, as their contents are undefined after power-up;
+ *                       "reset CAUSE flags-cleared" leaves MCUSR zero, as a bootloader that
+ *                       clears it before starting the firmware does (logged cause "unknown")
  *     hang              the firmware stops executing instructions, as if stuck in a loop with
  *                       interrupts off, while the timers run on: the watchdog, if enabled,
  *                       resets the board, which then runs normally again
@@ -343,8 +345,9 @@ static void after_reset(harness_t *h) {
 	fflush(h->log);
 }
 
-/* Resets the board from outside: "external" (reset pin), "power-on" or "brown-out". */
-static void reset_board(harness_t *h, const char *cause) {
+/* Resets the board from outside: "external" (reset pin), "power-on" or "brown-out"; with
+ * flags_cleared, MCUSR stays zero. */
+static void reset_board(harness_t *h, const char *cause, int flags_cleared) {
 	avr_t *avr = h->avr;
 	avr_reset(avr); /* clears every I/O register, MCUSR included */
 	if (strcmp(cause, "power-on") == 0) {
@@ -353,7 +356,10 @@ static void reset_board(harness_t *h, const char *cause) {
 			avr->data[a] = next_random(h);
 		for (uint32_t a = avr->ioend + 1u; a <= avr->ramend; a++)
 			avr->data[a] = next_random(h);
-		avr_regbit_set(avr, avr->reset_flags.porf);
+		if (!flags_cleared)
+			avr_regbit_set(avr, avr->reset_flags.porf);
+	} else if (flags_cleared) {
+		/* MCUSR stays as avr_reset() left it: zero */
 	} else if (strcmp(cause, "brown-out") == 0) {
 		avr_regbit_set(avr, avr->reset_flags.borf);
 	} else {
@@ -363,9 +369,19 @@ static void reset_board(harness_t *h, const char *cause) {
 }
 
 static void run_command(harness_t *h, const char *line) {
-	if (strcmp(line, "reset external") == 0 || strcmp(line, "reset power-on") == 0 ||
-	    strcmp(line, "reset brown-out") == 0) {
-		reset_board(h, line + strlen("reset "));
+	static const char *const causes[] = {"external", "power-on", "brown-out"};
+	if (strncmp(line, "reset ", 6) == 0) {
+		char cause[32] = "";
+		char modifier[32] = "";
+		int fields = sscanf(line + 6, "%31s %31s", cause, modifier);
+		int known = 0;
+		for (size_t i = 0; i < sizeof causes / sizeof causes[0]; i++)
+			known |= strcmp(cause, causes[i]) == 0;
+		int cleared = fields == 2 && strcmp(modifier, "flags-cleared") == 0;
+		if (known && (fields == 1 || cleared))
+			reset_board(h, cause, cleared);
+		else
+			fprintf(stderr, "lfd_rover_sim: unknown command %s\n", line);
 	} else if (strcmp(line, "hang") == 0) {
 		if (!h->hung) {
 			h->normal_run = h->avr->run;
@@ -528,7 +544,7 @@ int main(int argc, char **argv) {
 			break;
 		if (reset_requested) {
 			reset_requested = 0;
-			reset_board(&h, "external");
+			reset_board(&h, "external", 0);
 		}
 		if (h.control && read_control(&h) != 0)
 			break;

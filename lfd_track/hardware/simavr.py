@@ -356,18 +356,23 @@ class SimulatedBoard:
             raise SimavrError(f"unexpected first line from the simavr harness: {line!r}")
         return line[len("PTY ") :]
 
-    def reset(self, timeout_s: float = 5.0, cause: str = "external") -> None:
+    def reset(
+        self, timeout_s: float = 5.0, cause: str = "external", flags_cleared: bool = False
+    ) -> None:
         """Reset the simulated board and return once it has happened.
 
         ``cause``: ``"external"`` (its reset button or pin), ``"power-on"`` (a power cycle: the
         SRAM comes up scrambled) or ``"brown-out"``; the firmware sees it in its MCU status
-        register. The firmware then boots again (motors off, boot frame sent). Host bytes
+        register, unless ``flags_cleared``, which leaves that register zero as a bootloader
+        that clears it does (the log then names the cause ``"unknown"``). The firmware then
+        boots again (motors off, boot frame sent). Host bytes
         written after this returns are not lost to the reboot: the harness holds host input
         back for 2 ms of simulated time after a reset, until the firmware's UART is listening.
         """
         if cause not in ("external", "power-on", "brown-out"):
             raise ValueError(f"cause must be external, power-on or brown-out, got {cause!r}")
-        self._command_and_wait_for_reset(f"reset {cause}", timeout_s)
+        modifier = " flags-cleared" if flags_cleared else ""
+        self._command_and_wait_for_reset(f"reset {cause}{modifier}", timeout_s)
 
     def hang(self, timeout_s: float = 5.0) -> BoardReset:
         """Freeze the firmware, as a main loop stuck with interrupts off would be; return its reset.

@@ -249,6 +249,22 @@ def test_only_power_on_clears_the_latch(rover: BoardLink) -> None:
     assert_ack_state(rover.request(protocol.DRIVE, "F"), "F")
 
 
+def test_without_reset_flags_the_latch_stays_as_it_was_and_power_up_noise_never_latches(
+    rover: BoardLink,
+) -> None:
+    """A bootloader may clear MCUSR first; then only the firmware's RAM record tells."""
+    assert_ack_state(rover.request(protocol.ESTOP), "X", 1)
+    rover.board.reset(cause="external", flags_cleared=True)
+    assert expect_boot(rover).args[1:] == ("?", "1")
+    assert rover.board.resets()[-1].cause == "unknown"
+    # A power-up leaves random RAM; it must never read as a latched e-stop.
+    for _ in range(5):
+        rover.board.reset(cause="power-on", flags_cleared=True)
+        assert expect_boot(rover).args[1:] == ("?", "0")
+    rover.board.reset(cause="external", flags_cleared=True)  # the record is now "clear"
+    assert expect_boot(rover).args[1:] == ("?", "0")
+
+
 def test_a_hung_board_is_reset_by_the_watchdog_within_its_period(rover: BoardLink) -> None:
     before = rover.board.mark()
     reset = rover.board.hang()
