@@ -97,7 +97,7 @@ FLOODS = {
     "version": lambda seqs: _frames("V", seqs),
     "bad-crc": _bad_crc,
     "unknown-type": lambda seqs: _frames("Q", seqs),
-    "too-long": lambda seqs: b"".join(b"$H,%d," % seq + b"9" * 40 + b"*0000\n" for seq in seqs),
+    "too-long": lambda seqs: b"".join(b"$H,%d," % seq + b"9" * 25 + b"*0000\n" for seq in seqs),
     "dollars": lambda seqs: b"$" * (14 * len(seqs)),
     "newlines": lambda seqs: b"$\n" * (7 * len(seqs)),
 }
@@ -354,7 +354,7 @@ flood_bytes = st.lists(
 
 
 @settings(
-    max_examples=12,
+    max_examples=25,
     deadline=None,
     derandomize=True,
     suppress_health_check=[HealthCheck.function_scoped_fixture],
@@ -362,7 +362,7 @@ flood_bytes = st.lists(
 @given(data=flood_bytes)
 def test_random_byte_floods_never_reset_the_board(board_link: BoardLink, data: bytes) -> None:
     resets = len(board_link.board.resets())
-    board_link.write(data[:400] + b"\n")
+    board_link.write(data[:600] + b"\n")
     Stream(board_link).settle()
     assert len(board_link.board.resets()) == resets, board_link.board.resets()[resets:]
 
