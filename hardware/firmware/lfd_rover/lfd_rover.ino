@@ -108,7 +108,7 @@ static const char *reset_cause = "?";
 static uint8_t reset_flags __attribute__((section(".noinit")));
 
 // The e-stop latch as last set, in RAM that no reset clears and the C runtime leaves alone. It
-// counts only while magic and check match, which random power-up RAM does about once in 2^31.
+// counts only while magic, value and check match, which random power-up RAM does once in 2^32.
 struct LatchRecord {
   uint16_t magic;
   uint8_t latched;
