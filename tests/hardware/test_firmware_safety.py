@@ -117,11 +117,14 @@ def test_no_flood_causes_a_watchdog_reset(rover: BoardLink, kind: str) -> None:
     assert all(f.type != protocol.BOOT for f in stream.frames)
 
 
+DROPPED = 4  # ack flag: replies were dropped; after a flood it depends on how the host wrote
+
+
 def assert_ack_state(frame: protocol.Frame, state: str, flags: int | None = None) -> None:
     assert frame.type == protocol.ACK, f"expected an ack, got {frame}"
     assert frame.args[0] == state, frame
     if flags is not None:
-        assert int(frame.args[1]) == flags, frame
+        assert int(frame.args[1]) & ~DROPPED == flags, frame
 
 
 def test_every_drive_frame_of_a_flood_is_obeyed_and_the_lease_runs_from_the_last(
