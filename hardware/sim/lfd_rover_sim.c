@@ -29,7 +29,8 @@
  *                       clears it before starting the firmware does (logged cause "unknown")
  *     hang              the firmware stops executing instructions, as if stuck in a loop with
  *                       interrupts off, while the timers run on: the watchdog, if enabled,
- *                       resets the board, which then runs normally again
+ *                       resets the board, which then runs normally again ("# hang t_us" is
+ *                       logged when it starts)
  *     mark              append "# mark t_us" to the log (the simulated time now)
  *   and the end of stdin stops the harness.
  *   Host bytes are held back for 2 ms of simulated time after boot and after every reset, so
@@ -387,6 +388,8 @@ static void run_command(harness_t *h, const char *line) {
 			h->normal_run = h->avr->run;
 			h->avr->run = hung_run;
 			h->hung = 1;
+			fprintf(h->log, "# hang %llu\n", (unsigned long long)sim_time_us(h));
+			fflush(h->log);
 		}
 	} else if (strcmp(line, "mark") == 0) {
 		fprintf(h->log, "# mark %llu\n", (unsigned long long)sim_time_us(h));

@@ -378,8 +378,10 @@ class SimulatedBoard:
         """Freeze the firmware, as a main loop stuck with interrupts off would be; return its reset.
 
         No instruction runs while the timers do, so an enabled AVR watchdog resets the board;
-        the board runs normally from then on. Raises ``SimavrError`` if no reset came within
-        ``timeout_s`` (wall seconds), i.e. the firmware left the watchdog off.
+        the board runs normally from then on. The log marks the start with ``# hang <t_us>``
+        (see ``hangs()``). Raises ``SimavrError`` if no reset came within ``timeout_s`` (wall
+        seconds), i.e. the watchdog was off: the firmware arms it in ``setup()``, so right
+        after a reset wait for the boot frame (or any reply) before calling this.
         """
         return self._command_and_wait_for_reset("hang", timeout_s)
 
@@ -395,6 +397,11 @@ class SimulatedBoard:
                 return int(last.split()[2]) * 1e-6
             self._check_alive(deadline, "write a mark")
             time.sleep(0.001)  # polling the log file, which has no change notification
+
+    def hangs(self) -> list[float]:
+        """Simulated times [s] at which ``hang()`` froze the firmware, oldest first."""
+        lines = self._log_text().split("\n")[:-1]
+        return [int(line.split()[2]) * 1e-6 for line in lines if line.startswith("# hang ")]
 
     def resets(self) -> list[BoardReset]:
         """Every board reset so far (the initial power-up excluded), oldest first."""

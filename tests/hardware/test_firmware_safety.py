@@ -269,12 +269,13 @@ def test_without_reset_flags_the_latch_stays_as_it_was_and_power_up_noise_never_
 
 
 def test_a_hung_board_is_reset_by_the_watchdog_within_its_period(rover: BoardLink) -> None:
-    before = rover.board.mark()
     reset = rover.board.hang()
     assert reset.cause == "watchdog"
-    # The firmware arms a 250 ms watchdog; the AVR's watchdog oscillator is not precise, but
-    # simavr's is, and the reset must come within one period of the hang.
-    assert reset.t_s - before <= 0.256 + 0.005  # WDTO_250MS is 32768 cycles at 128 kHz
+    # The firmware arms a 250 ms watchdog (WDTO_250MS: 32768 cycles of the 128 kHz watchdog
+    # oscillator, 256 ms; simavr's is exact, a real one is not) and kicks it every loop pass,
+    # so the reset comes within one period of the hang (plus one 200 us harness slice).
+    hung_at = rover.board.hangs()[-1]
+    assert 0 < reset.t_s - hung_at <= 0.256 + 0.001
     # After the reset the board runs (the watchdog was disabled early, then re-armed).
     expect_boot(rover)
     assert_ack_state(rover.request(protocol.PING), "X", 1)

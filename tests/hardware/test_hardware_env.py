@@ -379,25 +379,40 @@ def test_cli_check_with_lease_test_on_the_simulated_firmware(simulated_board, ca
     assert "lease watchdog stopped the motors" in out and "OK:" in out
 
 
+def _ping_reply(url: str, seq: int) -> protocol.Frame:
+    """Ping the board at ``url`` until it answers (it may still be booting); return the reply."""
+    port = serial.serial_for_url(url, baudrate=9600, timeout=0.05)
+    try:
+        parser = protocol.FrameParser()
+        deadline = time.monotonic() + 5.0  # failure guard
+        while time.monotonic() < deadline:
+            port.write(protocol.encode_frame(protocol.PING, seq))
+            reply_deadline = time.monotonic() + 0.5
+            while time.monotonic() < reply_deadline:
+                for item in parser.feed(port.read(64)):
+                    if isinstance(item, protocol.Frame) and item.seq == seq:
+                        return item
+        raise AssertionError(f"the board at {url} answered no ping")
+    finally:
+        port.close()
+
+
 @pytest.mark.simavr
 def test_cli_check_leaves_a_latch_from_a_watchdog_reset_latched(simulated_board, capsys) -> None:
     simulated_board.reset(cause="power-on")
+    _ping_reply(simulated_board.serial_url, 8)  # booted: its watchdog is armed
     simulated_board.hang()  # the watchdog resets the board, which boots latched
-    code = _run_cli("check", "--serial", simulated_board.serial_url, "--pings", "2", "--lease-test")
-    out = capsys.readouterr().out
-    assert code == 0, out
-    assert "firmware version: 1.1 (last reset: hardware watchdog)" in out
-    assert "e-stop was latched when check connected" in out and "lease test skipped" in out
-    port = serial.serial_for_url(simulated_board.serial_url, baudrate=9600, timeout=0.05)
     try:
-        port.write(protocol.encode_frame(protocol.PING, 9))
-        parser, replies = protocol.FrameParser(), []
-        deadline = time.monotonic() + 5.0
-        while not replies and time.monotonic() < deadline:
-            replies = [f for f in parser.feed(port.read(64)) if getattr(f, "seq", None) == 9]
-        assert replies and replies[0].args == ("X", "1"), replies
+        code = _run_cli(
+            "check", "--serial", simulated_board.serial_url, "--pings", "2", "--lease-test"
+        )
+        out = capsys.readouterr().out
+        assert code == 0, out
+        assert "firmware version: 1.1 (last reset: hardware watchdog)" in out
+        assert "e-stop was latched when check connected" in out and "lease test skipped" in out
+        assert _ping_reply(simulated_board.serial_url, 9).args == ("X", "1")
     finally:
-        port.close()
+        simulated_board.reset(cause="power-on")  # the next test gets an unlatched board
 
 
 def _processes_mentioning(text: str) -> list[int]:
