@@ -16,7 +16,13 @@ import numpy as np
 import pytest
 
 from lfd_track.hardware import protocol, simavr
-from lfd_track.hardware.simavr import MotorSample, SimulatedBoard, parse_motor_log
+from lfd_track.hardware.simavr import (
+    BoardReset,
+    MotorSample,
+    SimulatedBoard,
+    parse_motor_log,
+    parse_resets,
+)
 
 if TYPE_CHECKING:
     from conftest import BoardLink  # the fixture's type, defined in tests/hardware/conftest.py
@@ -373,6 +379,38 @@ def test_missing_tools_fail_under_ci_and_skip_otherwise(
     assert (result.returncode != 0) == (outcome == "error")
 
 
+def test_builds_go_to_a_per_user_cache_keyed_by_the_sources(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert simavr.cache_dir() == tmp_path / "xdg" / "lfd-track"
+    monkeypatch.setenv("XDG_CACHE_HOME", "relative/path")  # ignored, as the XDG spec says
+    assert simavr.cache_dir() == Path.home() / ".cache" / "lfd-track"
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert simavr.default_build_dir().parent == tmp_path / "xdg" / "lfd-track"
+    # The folder name follows the sources: any change gives a new one.
+    copy = tmp_path / "sources"
+    for name in simavr.HARDWARE_SOURCES:
+        (copy / name).parent.mkdir(parents=True, exist_ok=True)
+        (copy / name).write_bytes((simavr.HARDWARE_DIR / name).read_bytes())
+    assert simavr.source_digest(copy) == simavr.source_digest()
+    ino = copy / simavr.HARDWARE_SOURCES[0]
+    ino.write_bytes(ino.read_bytes() + b"\n")
+    assert simavr.source_digest(copy) != simavr.source_digest()
+
+
+def test_staging_rewrites_only_changed_sources(tmp_path: Path) -> None:
+    staged = simavr._stage_sources("sim", tmp_path)
+    assert sorted(p.name for p in staged.iterdir()) == ["Makefile", "lfd_rover_sim.c"]
+    source = staged / "lfd_rover_sim.c"
+    os.utime(source, (1_000_000, 1_000_000))
+    simavr._stage_sources("sim", tmp_path)
+    assert source.stat().st_mtime == 1_000_000  # unchanged content: make sees no change
+    source.write_text("stale")
+    simavr._stage_sources("sim", tmp_path)
+    assert source.read_bytes() == (simavr.HARDWARE_DIR / "sim/lfd_rover_sim.c").read_bytes()
+
+
 # --- the log parser -------------------------------------------------------------------------
 
 
@@ -394,3 +432,20 @@ def test_parse_motor_log_skips_comments_and_a_torn_last_line() -> None:
         MotorSample(0.002, 0, 0, 0, 0),
         MotorSample(0.002, 0, 0, 0, 0),
     ]
+
+
+def test_parse_resets_reads_cause_and_time() -> None:
+    text = (
+        "t_us,left_pwm,left_dir,right_pwm,right_dir\n"
+        "0,0,0,0,0\n"
+        "# reset 2000\n"  # a harness before causes were logged
+        "# reset 250000 watchdog\n"
+        "# mark 300000\n"
+        "# reset 400000 power-on\n"
+        "# reset 5000"
+    )
+    resets = parse_resets(text)
+    assert [r.cause for r in resets] == ["external", "watchdog", "power-on"]
+    # Scaled as parse_motor_log scales, so reset and sample times compare exactly.
+    assert [r.t_s for r in resets] == [t * 1e-6 for t in (2000, 250000, 400000)]
+    assert all(isinstance(r, BoardReset) for r in resets)
