@@ -11,6 +11,10 @@ sends stop, rather than driving on blindly.
 
 Link loss (a serial exception, ``max_consecutive_failures`` requests in a row without a valid
 reply, or more than ``max_corrupt_replies`` undecodable replies in a row) raises ``LinkError``.
+
+``query_version()`` asks firmware 1.1 and later for its version and the cause of its last reset
+at any time; the boot frame carries both too (and whether the board booted with its e-stop
+latched, as it does after a watchdog or brown-out reset).
 """
 
 from __future__ import annotations
