@@ -164,6 +164,32 @@ def markdown(data: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def replay(name: str, seed: int, count: int) -> str:
+    """Markdown list of where each testing lap of the first ``count`` repetitions ended."""
+    from lfd_track.benchmark.runner import repetition_seeds, run_repetition
+
+    changes, fields = CONDITIONS[name]
+    lines = [f"Condition `{name}` ({changes}), seed {seed}: testing laps of the first {count} "
+             "repetitions — outcome, failure kind, corner charged, commands, final (x, y) [m] "
+             "(laps start on corner 4 at (0, 0)).", ""]  # fmt: skip
+    with tempfile.TemporaryDirectory() as tmp:
+        Path(tmp, "paper_control_0.2s.toml").write_text(CONTROL_PERIOD_PRESET)
+        fields = {k: v.format(tmp=tmp) if isinstance(v, str) else v for k, v in fields.items()}
+        config = dataclasses.replace(BenchmarkConfig(seed=seed), **fields)
+        for index, rep_seed in enumerate(repetition_seeds(seed, count)):
+            result = run_repetition(index, rep_seed, config, tmp)
+            for o in result.outcomes:
+                if o.track != "testing" or o.trajectory is None:
+                    continue
+                x, y = (float(v) for v in o.trajectory[-1][:2])
+                lines.append(
+                    f"- rep {index} {o.direction} lap {o.trial}: "
+                    f"{'success' if o.success else o.failure}, corner {o.charged_corner}, "
+                    f"{o.steps} commands, ends at ({x:.2f}, {y:.2f})"
+                )
+    return "\n".join(lines) + "\n"
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--seeds", type=int, nargs="+", default=[0])
@@ -173,7 +199,21 @@ def main() -> None:
     parser.add_argument(
         "--table-only", action="store_true", help="rewrite the markdown from the JSON, run nothing"
     )
+    parser.add_argument(
+        "--replay",
+        type=int,
+        default=0,
+        metavar="N",
+        help="instead: list where the testing laps of the first N repetitions of each --only "
+        "condition ended (writes corner4_replay_<name>.md)",
+    )
     args = parser.parse_args()
+    if args.replay:
+        for name in args.only or ["wide"]:
+            text = replay(name, args.seeds[0], args.replay)
+            (RESULTS_DIR / f"corner4_replay_{name}.md").write_text(text)
+            print(text)
+        return
     if args.table_only:
         MD_PATH.write_text(markdown(json.loads(JSON_PATH.read_text())))
         return
