@@ -22,7 +22,13 @@ ran out, e.g. pivoting back and forth), ``reversed`` (turned the wrong way and d
 Run: ``.venv/bin/python benchmarks/corner4_ablation.py [--seeds 0] [--repetitions 10]
 [--workers 2] [--only NAME ...]`` — writes ``benchmarks/results/corner4_ablation.json`` and
 ``benchmarks/results/corner4_ablation.md`` after every condition (a rerun with ``--only`` replaces
-those conditions and keeps the others).
+those conditions and keeps the others). ``--table-only`` rewrites the markdown from the JSON;
+``--only wide --replay 2`` lists where each testing lap of the first two repetitions ended
+(``benchmarks/results/corner4_replay_wide.md``).
+
+Committed run: seed 0 × 10 repetitions, all six conditions in 44 minutes on a 2-core machine
+shared with other jobs (load average 9–22); ``wide`` was rerun alone after per-corner counts were
+added (same numbers, see the JSON's ``note``).
 """
 
 from __future__ import annotations
