@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from lfd_track.control.mlp import mlp_forward
-from lfd_track.learning.fitness import imitation_fitness
+from lfd_track.learning.fitness import category_weights, imitation_fitness, population_outputs
 
 
 def literal_algorithm_3(weights, inputs, actions, threshold=0.4):
@@ -84,3 +84,46 @@ def test_training_accuracy_counts_argmax_agreement():
     actions = predicted.copy()
     actions[:10] = (actions[:10] + 1) % 3  # ten deliberate disagreements
     assert training_accuracy(weights, inputs, actions) == pytest.approx(0.8)
+
+
+def reference_fitness(weights, inputs, actions, threshold=0.4):
+    """The first vectorised version: ``mlp_forward`` per network, then the scoring as written."""
+    outputs = mlp_forward(weights, inputs)  # (P, N, 3)
+    others_of = np.array([[1, 2], [0, 2], [0, 1]])
+    winning = np.take_along_axis(outputs, actions[None, :, None], axis=2)
+    others = np.take_along_axis(outputs, others_of[actions][None], axis=2)
+    diff = winning - others
+    score = np.where(diff >= threshold, 0.5, 0.5 * (diff / threshold))
+    return 1.0 - (score.sum(axis=2) @ category_weights(actions)) / 3.0
+
+
+# Population sizes and case counts around every special case of the stacked kernel: one case,
+# odd counts (last row recomputed), one network (padding), 40 x 150 (the GA), many rows (blocks).
+SHAPES = [(1, 1), (1, 2), (1, 9), (2, 3), (3, 13), (7, 64), (40, 150), (40, 151), (13, 701)]
+
+
+@pytest.mark.parametrize(("p", "n"), SHAPES)
+@pytest.mark.parametrize("bias", [False, True])
+def test_stacked_outputs_equal_mlp_forward_bit_for_bit(p, n, bias):
+    rng = np.random.default_rng(p * 1000 + n)
+    w = rng.uniform(-3, 3, (p, 223 if bias else 215))
+    x = rng.uniform(-0.1, 1, (n, 40))
+    np.testing.assert_array_equal(population_outputs(w, x, bias=bias), mlp_forward(w, x))
+
+
+@pytest.mark.parametrize(("p", "n"), SHAPES)
+def test_fitness_equals_reference_bit_for_bit(p, n):
+    # Bit for bit, not approximately: GA tournaments compare fitnesses, so a last-bit change
+    # would change which network wins and every generation after it.
+    rng = np.random.default_rng(p + n)
+    w = rng.uniform(-8, 8, (p, 215))
+    x = rng.uniform(-0.1, 1, (n, 40))
+    actions = rng.choice(3, size=n, p=[0.8, 0.1, 0.1])
+    np.testing.assert_array_equal(
+        imitation_fitness(w, x, actions), reference_fitness(w, x, actions)
+    )
+
+
+def test_fitness_rejects_wrong_weight_width():
+    with pytest.raises(ValueError, match="weights"):
+        imitation_fitness(np.zeros((2, 214)), np.zeros((3, 40)), np.array([0, 1, 2]))
