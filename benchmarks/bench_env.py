@@ -12,10 +12,17 @@ Three workloads, each stepped with its own policy and reset whenever an episode 
 
 The workloads are interleaved in rounds (lfdtrack, carracing, closed_loop, lfdtrack, ...), each
 running for ``--seconds`` of wall-clock time per round, so load from other processes falls on all
-of them alike; the first round is a warm-up and is not counted. Rates are median over rounds.
-Two rates are kept per workload: *with resets* (steps / all time, the throughput a training loop
-sees) and *steps only* (reset time excluded). Targets (DESIGN §9): lfdtrack / carracing >= 3 and
-closed_loop / carracing >= 1.5.
+of them alike; the first round is a warm-up and is not counted. Ratios are the median of the
+per-round ratios. Two rates are kept per workload: *with resets* (steps / all time, the throughput
+a training loop sees) and *steps only* (reset time excluded). Everything runs on one thread:
+OpenCV and the BLAS are pinned (``single_thread.pin_one_thread``), as CarRacing's Box2D and
+pygame are single-threaded anyway. Targets: lfdtrack / carracing >= 3 and closed_loop /
+carracing >= 1.5.
+
+Also measured: a per-step time budget (physics, texture warp, sensor noise, the rest of the camera
+pipeline, the env's bookkeeping, road values, MLP), and the throughput of
+``gymnasium.make_vec("LfDTrack-v0", num_envs=2, vectorization_mode="async")`` against one env in
+this process, interleaved the same way.
 
 Run: ``.venv/bin/python benchmarks/bench_env.py [--seconds N] [--rounds R]`` — prints a table and
 writes ``benchmarks/results/env.json``.
@@ -24,11 +31,9 @@ writes ``benchmarks/results/env.json``.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
-import os
-import platform
 import statistics
-import subprocess
 import sys
 import time
 from collections.abc import Callable
@@ -38,6 +43,7 @@ from pathlib import Path
 import cv2
 import gymnasium as gym
 import numpy as np
+from single_thread import load_average, machine, pin_one_thread, source_state
 
 import lfd_track  # noqa: F401  (registers LfDTrack-v0)
 from lfd_track.atomic import atomic_write_text
@@ -227,16 +233,22 @@ def run_for(workload: Workload, seconds: float) -> Sample:
 
 
 def component_times(library: RoadLibrary, seed: int, repeats: int) -> dict[str, float]:
-    """Median milliseconds per call of the pieces of a step, interleaved, via public APIs.
+    """Median milliseconds per call of the pieces of a closed-loop step, interleaved.
 
-    Shows where an env step goes (and what a reset costs, which a random policy pays every
-    few steps because it leaves the felt quickly).
+    Measured through public APIs: the texture warp is the renderer's own homography fed to the
+    same ``cv2.warpPerspective`` call; sensor noise is a full render minus a render with
+    ``noise_std = 0``; the rest of the camera pipeline (exposure meter, tone curve, vignetting and
+    white balance) is a noise-free render minus the warp; the env's bookkeeping (episode rules,
+    info dict) is an env step minus physics and render. The ``budget`` entries add up to a
+    closed-loop step.
     """
     rng = np.random.default_rng(seed)
     preset = load_preset("paper")
     ground = build_ground(load_track("testing"), preset.appearance, preset.lighting, rng)
     renderer = CameraRenderer(preset.camera, preset.sensor)
     renderer.reset(rng)
+    quiet = CameraRenderer(preset.camera, dataclasses.replace(preset.sensor, noise_std=0.0))
+    quiet.reset(rng)
     rover = Rover(preset.rover)
     rover.reset((0.5, 0.0, 0.0), rng)
     poses = [
@@ -250,6 +262,14 @@ def component_times(library: RoadLibrary, seed: int, repeats: int) -> dict[str, 
     racing = gym.make("CarRacing-v3")
     racing.reset(seed=seed)
     racing.action_space.seed(seed)
+    size = (preset.camera.width_px, preset.camera.height_px)
+    warp_flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
+
+    def warp(i: int) -> None:
+        inverse = np.linalg.inv(renderer.model.homography(poses[i % 8], ground))
+        cv2.warpPerspective(
+            ground.rgba, inverse, size, flags=warp_flags, borderMode=cv2.BORDER_REFLECT
+        )
 
     def clocked(fn: Callable[[int], object]) -> Callable[[int], float]:
         def call(i: int) -> float:
@@ -274,7 +294,9 @@ def component_times(library: RoadLibrary, seed: int, repeats: int) -> dict[str, 
 
     pieces: dict[str, Callable[[int], float]] = {
         "physics (Rover.step, 0.4 s)": clocked(lambda i: rover.step(i % 3, rng)),
+        "texture warp": clocked(warp),
         "camera render 640x480": clocked(lambda i: renderer.render(ground, poses[i % 8], rng)),
+        "camera render without noise": clocked(lambda i: quiet.render(ground, poses[i % 8], rng)),
         "renderer reset": clocked(lambda i: renderer.reset(rng)),
         "LfDTrack-v0 step": step_only(env, lambda i: int(rng.integers(3))),
         "LfDTrack-v0 reset (no seed)": clocked(lambda i: env.reset()),
@@ -289,7 +311,74 @@ def component_times(library: RoadLibrary, seed: int, repeats: int) -> dict[str, 
             times[name].append(piece(i))
     env.close()
     racing.close()
-    return {name: 1e3 * statistics.median(t) for name, t in times.items()}
+    ms = {name: 1e3 * statistics.median(t) for name, t in times.items()}
+    render, quiet_render = ms["camera render 640x480"], ms["camera render without noise"]
+    budget = {
+        "physics": ms["physics (Rover.step, 0.4 s)"],
+        "texture warp": ms["texture warp"],
+        "sensor noise": render - quiet_render,
+        "exposure, tone curve, vignetting, white balance": quiet_render - ms["texture warp"],
+        "env bookkeeping (episode rules, info)": ms["LfDTrack-v0 step"]
+        - ms["physics (Rover.step, 0.4 s)"]
+        - render,
+        "road values": ms["road values (100 models)"],
+        "MLP + action": ms["MLP + action"],
+    }
+    return {"pieces_ms": ms, "closed_loop_step_budget_ms": budget}
+
+
+def vector_scaling(seconds: float, rounds: int, seed: int) -> dict:
+    """Steps/s of ``make_vec(num_envs=2, async)`` against one env, interleaved, random actions.
+
+    Steps of the vector env count both sub-envs. Its workers are forked from this process, so
+    they inherit the one-thread settings.
+    """
+    single = gym.make("LfDTrack-v0")
+    single.reset(seed=seed)
+    vec = gym.make_vec("LfDTrack-v0", num_envs=2, vectorization_mode="async")
+    vec.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+
+    def run_single() -> float:
+        steps, t0 = 0, time.perf_counter()
+        while time.perf_counter() - t0 < seconds:
+            _, _, terminated, truncated, _ = single.step(int(rng.integers(3)))
+            steps += 1
+            if terminated or truncated:
+                single.reset()
+        return steps / (time.perf_counter() - t0)
+
+    def run_vec() -> float:
+        # Episodes restart inside the vector env (gymnasium's autoreset); every call counts.
+        steps, t0 = 0, time.perf_counter()
+        while time.perf_counter() - t0 < seconds:
+            vec.step(rng.integers(3, size=2))
+            steps += 2
+        return steps / (time.perf_counter() - t0)
+
+    rows = []
+    for r in range(rounds + 1):
+        if r % 2 == 0:
+            one = run_single()
+            two = run_vec()
+        else:
+            two = run_vec()
+            one = run_single()
+        if r > 0:  # round 0 warms up
+            rows.append({"one_env_steps_per_s": one, "two_async_envs_steps_per_s": two})
+    single.close()
+    vec.close()
+    return {
+        "seconds_per_slot": seconds,
+        "rounds": rows,
+        "one_env_steps_per_s": statistics.median(r["one_env_steps_per_s"] for r in rows),
+        "two_async_envs_steps_per_s": statistics.median(
+            r["two_async_envs_steps_per_s"] for r in rows
+        ),
+        "scaling": statistics.median(
+            r["two_async_envs_steps_per_s"] / r["one_env_steps_per_s"] for r in rows
+        ),
+    }
 
 
 def summarise(samples: list[Sample]) -> dict:
@@ -303,39 +392,14 @@ def summarise(samples: list[Sample]) -> dict:
     }
 
 
-def source_state() -> dict[str, object]:
-    """Commit of the checkout and its uncommitted package files (they are what was measured)."""
-
-    def git(*args: str) -> str:
-        try:
-            proc = subprocess.run(
-                ["git", *args], cwd=REPO, capture_output=True, text=True, timeout=10, check=True
-            )
-        except (OSError, subprocess.SubprocessError):
-            return ""
-        return proc.stdout
-
-    # Porcelain lines are "XY path"; the status columns may start with a space.
-    dirty = git("status", "--porcelain", "--", "lfd_track", "envs", "tracks")
-    return {
-        "commit": git("rev-parse", "HEAD").strip() or None,
-        "uncommitted": [line[3:] for line in dirty.splitlines()],
-    }
-
-
-def versions() -> dict[str, str]:
+def versions() -> dict[str, object]:
     import Box2D
     import pygame
     import pymunk
 
     return {
-        "python": platform.python_version(),
-        "processor": platform.machine(),
-        "cpus": str(os.cpu_count()),
+        **machine(),
         "gymnasium": gym.__version__,
-        "numpy": np.__version__,
-        "opencv": cv2.__version__,
-        "opencv_threads": str(cv2.getNumThreads()),
         "pymunk": pymunk.version,
         "box2d": getattr(Box2D, "__version__", "?"),
         "pygame": pygame.version.ver,
@@ -350,12 +414,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--component-repeats", type=int, default=30, help="calls per piece in the breakdown"
     )
+    parser.add_argument(
+        "--vector-rounds", type=int, default=3, help="rounds of the make_vec scaling (0: skip)"
+    )
     parser.add_argument("--output", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
-    if args.seconds <= 0 or args.rounds < 1 or args.component_repeats < 1:
-        parser.error("--seconds must be > 0, --rounds and --component-repeats >= 1")
+    if args.seconds <= 0 or args.rounds < 1 or args.component_repeats < 1 or args.vector_rounds < 0:
+        parser.error(
+            "--seconds must be > 0, --rounds and --component-repeats >= 1, --vector-rounds >= 0"
+        )
 
-    load_before = os.getloadavg()
+    pin_one_thread()
+    load_before = load_average()
     library = full_library(args.seed + 1)
     workloads: list[Workload] = [
         RandomLfDTrack(args.seed),
@@ -373,29 +443,31 @@ def main(argv: list[str] | None = None) -> int:
             print(f"round {round_index}/{args.rounds}: {rates} steps/s", file=sys.stderr)
     for w in workloads:
         w.close()
-    components_ms = component_times(library, args.seed + 3, args.component_repeats)
-    load_after = os.getloadavg()
+    components = component_times(library, args.seed + 3, args.component_repeats)
+    vector = (
+        vector_scaling(args.seconds, args.vector_rounds, args.seed + 4)
+        if args.vector_rounds
+        else None
+    )
+    load_after = load_average()
 
     summary = {name: summarise(s) for name, s in samples.items()}
 
-    def ratio(num: str, den: str, key: str) -> float:
-        return summary[num][key] / summary[den][key]
-
-    def per_round_ratio(num: str, den: str) -> float:
+    def per_round(num: str, den: str, rate: Callable[[Sample], float]) -> float:
         pairs = zip(samples[num], samples[den], strict=True)
-        return statistics.median(a.rate / b.rate for a, b in pairs)
+        return statistics.median(rate(a) / rate(b) for a, b in pairs)
+
+    def with_resets(x: Sample) -> float:
+        return x.rate
+
+    def step_only(x: Sample) -> float:
+        return x.step_only_rate
 
     ratios = {
-        "lfdtrack_over_carracing": ratio("lfdtrack", "carracing", "median_steps_per_s"),
-        "closed_loop_over_carracing": ratio("closed_loop", "carracing", "median_steps_per_s"),
-        "lfdtrack_over_carracing_step_only": ratio(
-            "lfdtrack", "carracing", "median_step_only_steps_per_s"
-        ),
-        "closed_loop_over_carracing_step_only": ratio(
-            "closed_loop", "carracing", "median_step_only_steps_per_s"
-        ),
-        "lfdtrack_over_carracing_per_round_median": per_round_ratio("lfdtrack", "carracing"),
-        "closed_loop_over_carracing_per_round_median": per_round_ratio("closed_loop", "carracing"),
+        "lfdtrack_over_carracing": per_round("lfdtrack", "carracing", with_resets),
+        "closed_loop_over_carracing": per_round("closed_loop", "carracing", with_resets),
+        "lfdtrack_over_carracing_step_only": per_round("lfdtrack", "carracing", step_only),
+        "closed_loop_over_carracing_step_only": per_round("closed_loop", "carracing", step_only),
     }
     met = {
         "lfdtrack_over_carracing": ratios["lfdtrack_over_carracing"] >= TARGET_ENV_RATIO,
@@ -422,9 +494,17 @@ def main(argv: list[str] | None = None) -> int:
         f" target >= {TARGET_LOOP_RATIO}x:"
         f" {'met' if met['closed_loop_over_carracing'] else 'NOT met'})"
     )
-    print("breakdown, median ms per call:")
-    for name, ms in components_ms.items():
-        print(f"  {name:<30} {ms:8.2f}")
+    print("closed-loop step budget, median ms:")
+    for name, ms in components["closed_loop_step_budget_ms"].items():
+        print(f"  {name:<48} {ms:8.2f}")
+    print("pieces, median ms per call:")
+    for name, ms in components["pieces_ms"].items():
+        print(f"  {name:<48} {ms:8.2f}")
+    if vector is not None:
+        print(
+            f"make_vec(num_envs=2, async): {vector['two_async_envs_steps_per_s']:.1f} steps/s vs"
+            f" one env {vector['one_env_steps_per_s']:.1f} -> {vector['scaling']:.2f}x"
+        )
     print(f"load average (1, 5, 15 min): before {load_before}, after {load_after}")
 
     result = {
@@ -437,6 +517,9 @@ def main(argv: list[str] | None = None) -> int:
                 " + 40-5-3 MLP with random weights choosing the action"
             ),
         },
+        "method": (
+            "interleaved rounds, median of per-round ratios; OpenCV and BLAS pinned to one thread"
+        ),
         "targets": {
             "lfdtrack_over_carracing": TARGET_ENV_RATIO,
             "closed_loop_over_carracing": TARGET_LOOP_RATIO,
@@ -446,12 +529,14 @@ def main(argv: list[str] | None = None) -> int:
         "seconds_per_slot": args.seconds,
         "rounds": args.rounds,
         "seed": args.seed,
-        "load_average_before": list(load_before),
-        "load_average_after": list(load_after),
+        "load_average_before": load_before,
+        "load_average_after": load_after,
         "machine": versions(),
         "source": source_state(),
         "results": summary,
-        "components_median_ms": components_ms,
+        "components_median_ms": components["pieces_ms"],
+        "closed_loop_step_budget_ms": components["closed_loop_step_budget_ms"],
+        "vector_env": vector,
     }
     atomic_write_text(args.output, json.dumps(result, indent=2) + "\n")
     print(f"wrote {args.output}")
