@@ -19,10 +19,10 @@ OpenCV and the BLAS are pinned (``single_thread.pin_one_thread``), as CarRacing'
 pygame are single-threaded anyway. Targets: lfdtrack / carracing >= 3 and closed_loop /
 carracing >= 1.5.
 
-Also measured: a per-step time budget (physics, texture warp, sensor noise, the rest of the camera
-pipeline, the env's bookkeeping, road values, MLP), and the throughput of
-``gymnasium.make_vec("LfDTrack-v0", num_envs=2, vectorization_mode="async")`` against one env in
-this process, interleaved the same way.
+Also measured: a per-step time budget (physics, texture warp, exposure and tone, vignetting and
+white balance, sensor noise, the rest of the render, the env's bookkeeping, road values, MLP),
+and the throughput of ``gymnasium.make_vec("LfDTrack-v0", num_envs=2,
+vectorization_mode="async")`` against one env in this process, interleaved the same way.
 
 Run: ``.venv/bin/python benchmarks/bench_env.py [--seconds N] [--rounds R]`` — prints a table and
 writes ``benchmarks/results/env.json``.
@@ -31,7 +31,6 @@ writes ``benchmarks/results/env.json``.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import statistics
 import sys
@@ -232,23 +231,23 @@ def run_for(workload: Workload, seconds: float) -> Sample:
     return Sample(steps, resets, clock() - t0, reset_s, time.process_time() - c0)
 
 
-def component_times(library: RoadLibrary, seed: int, repeats: int) -> dict[str, float]:
+def component_times(library: RoadLibrary, seed: int, repeats: int) -> dict[str, dict[str, float]]:
     """Median milliseconds per call of the pieces of a closed-loop step, interleaved.
 
-    Measured through public APIs: the texture warp is the renderer's own homography fed to the
-    same ``cv2.warpPerspective`` call; sensor noise is a full render minus a render with
-    ``noise_std = 0``; the rest of the camera pipeline (exposure meter, tone curve, vignetting and
-    white balance) is a noise-free render minus the warp; the env's bookkeeping (episode rules,
-    info dict) is an env step minus physics and render. The ``budget`` entries add up to a
-    closed-loop step.
+    Whole pieces (physics, render, env step, road values, MLP) are timed through public APIs.
+    Inside the render, the texture warp is the renderer's own homography fed to the same
+    ``cv2.warpPerspective`` call, and the later stages are the same OpenCV calls on arrays of
+    the frame's size: exposure and tone curve (``cvtColor`` + ``LUT``), vignetting and white
+    balance (``multiply``), sensor noise (saturating ``add`` + ``subtract`` of a noise frame).
+    The rest of the render (homography, margin check, exposure meter, Python) and the env's
+    bookkeeping (episode rules, info dict) are what remains of the measured totals. The
+    ``budget`` entries add up to a closed-loop step.
     """
     rng = np.random.default_rng(seed)
     preset = load_preset("paper")
     ground = build_ground(load_track("testing"), preset.appearance, preset.lighting, rng)
     renderer = CameraRenderer(preset.camera, preset.sensor)
     renderer.reset(rng)
-    quiet = CameraRenderer(preset.camera, dataclasses.replace(preset.sensor, noise_std=0.0))
-    quiet.reset(rng)
     rover = Rover(preset.rover)
     rover.reset((0.5, 0.0, 0.0), rng)
     poses = [
@@ -262,14 +261,36 @@ def component_times(library: RoadLibrary, seed: int, repeats: int) -> dict[str, 
     racing = gym.make("CarRacing-v3")
     racing.reset(seed=seed)
     racing.action_space.seed(seed)
-    size = (preset.camera.width_px, preset.camera.height_px)
+    height, width = preset.camera.height_px, preset.camera.width_px
     warp_flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
+    raw = np.empty((height, width, 4), dtype=np.uint8)
+    tone = np.clip(np.arange(256) * 1.1, 0, 255).astype(np.uint8)
+    gain_map = rng.integers(150, 230, (height, width, 3), dtype=np.uint8)
+    noise = rng.integers(0, 8, (2, height + 16, width + 16, 3), dtype=np.uint8)
 
     def warp(i: int) -> None:
         inverse = np.linalg.inv(renderer.model.homography(poses[i % 8], ground))
         cv2.warpPerspective(
-            ground.rgba, inverse, size, flags=warp_flags, borderMode=cv2.BORDER_REFLECT
+            ground.rgba,
+            inverse,
+            (width, height),
+            dst=raw,
+            flags=warp_flags,
+            borderMode=cv2.BORDER_REFLECT,
         )
+
+    def exposure_and_tone(i: int) -> None:
+        rgb = cv2.cvtColor(raw, cv2.COLOR_RGBA2RGB)
+        cv2.LUT(rgb.reshape(height, -1), tone)
+
+    def vignetting_and_white_balance(i: int) -> None:
+        cv2.multiply(frames[i % 8], gain_map, scale=1.0 / 200.0)
+
+    def sensor_noise(i: int) -> None:
+        frame = frames[i % 8].copy()
+        d = i % 16
+        cv2.add(frame, noise[0, d : d + height, d : d + width], dst=frame)
+        cv2.subtract(frame, noise[1, d : d + height, d : d + width], dst=frame)
 
     def clocked(fn: Callable[[int], object]) -> Callable[[int], float]:
         def call(i: int) -> float:
@@ -295,9 +316,10 @@ def component_times(library: RoadLibrary, seed: int, repeats: int) -> dict[str, 
     pieces: dict[str, Callable[[int], float]] = {
         "physics (Rover.step, 0.4 s)": clocked(lambda i: rover.step(i % 3, rng)),
         "texture warp": clocked(warp),
+        "exposure and tone curve": clocked(exposure_and_tone),
+        "vignetting and white balance": clocked(vignetting_and_white_balance),
+        "sensor noise": clocked(sensor_noise),
         "camera render 640x480": clocked(lambda i: renderer.render(ground, poses[i % 8], rng)),
-        "camera render without noise": clocked(lambda i: quiet.render(ground, poses[i % 8], rng)),
-        "renderer reset": clocked(lambda i: renderer.reset(rng)),
         "LfDTrack-v0 step": step_only(env, lambda i: int(rng.integers(3))),
         "LfDTrack-v0 reset (no seed)": clocked(lambda i: env.reset()),
         "region histograms": clocked(lambda i: library.region_histograms(frames[i % 8])),
@@ -312,15 +334,25 @@ def component_times(library: RoadLibrary, seed: int, repeats: int) -> dict[str, 
     env.close()
     racing.close()
     ms = {name: 1e3 * statistics.median(t) for name, t in times.items()}
-    render, quiet_render = ms["camera render 640x480"], ms["camera render without noise"]
+    # Redrawing the noise and white-balance pools (only when a world is rebuilt) churns ~15 MB;
+    # timed after the loop so it does not leave the other pieces with cold caches.
+    spare = CameraRenderer(preset.camera, preset.sensor)
+    ms["renderer reset (new pools)"] = 1e3 * statistics.median(
+        clocked(lambda i: spare.reset(rng))(i) for i in range(3)
+    )
+    render_stages = [
+        "texture warp",
+        "exposure and tone curve",
+        "vignetting and white balance",
+        "sensor noise",
+    ]
+    physics, render = ms["physics (Rover.step, 0.4 s)"], ms["camera render 640x480"]
     budget = {
-        "physics": ms["physics (Rover.step, 0.4 s)"],
-        "texture warp": ms["texture warp"],
-        "sensor noise": render - quiet_render,
-        "exposure, tone curve, vignetting, white balance": quiet_render - ms["texture warp"],
-        "env bookkeeping (episode rules, info)": ms["LfDTrack-v0 step"]
-        - ms["physics (Rover.step, 0.4 s)"]
-        - render,
+        "physics": physics,
+        **{name: ms[name] for name in render_stages},
+        "rest of the render (homography, meter, Python)": render
+        - sum(ms[name] for name in render_stages),
+        "env bookkeeping (episode rules, info)": ms["LfDTrack-v0 step"] - physics - render,
         "road values": ms["road values (100 models)"],
         "MLP + action": ms["MLP + action"],
     }
