@@ -33,6 +33,7 @@ from single_thread import load_average, machine, pin_one_thread, source_state
 
 from lfd_track.atomic import atomic_write_text
 from lfd_track.control.mlp import N_HIDDEN, N_INPUTS, N_OUTPUTS, n_weights
+from lfd_track.learning import fitness
 from lfd_track.learning.fitness import imitation_fitness
 from lfd_track.learning.ga import GAConfig, evolve
 from lfd_track.vision.road_library import RoadLibrary
@@ -132,6 +133,9 @@ def kernel_timing(inputs: np.ndarray, actions: np.ndarray, population: int, call
         gemm_s.append((time.perf_counter() - t0) / calls)
     fit, gemm = statistics.median(fit_s), statistics.median(gemm_s)
     return {
+        # False would mean this BLAS rounds the stacked products differently from mlp_forward,
+        # so the fitness falls back to one product per network (see population_outputs).
+        "stacked_form_used": fitness._stacked_form_matches(),
         "population": population,
         "cases": n,
         "multiply_adds": macs,

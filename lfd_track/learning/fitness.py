@@ -90,7 +90,7 @@ def imitation_fitness(
 
 def population_outputs(weights: np.ndarray, inputs: np.ndarray, *, bias: bool) -> np.ndarray:
     """Outputs of P networks on N inputs, (P, N, 3) float64, equal bit for bit to
-    ``mlp_forward(weights, inputs)`` with the OpenBLAS kernels this project is measured on.
+    ``mlp_forward(weights, inputs)``.
 
     ``weights``: (P, 215) or (P, 223) float64 (validated by the caller); ``inputs``: (N, 40)
     float64. ``mlp_forward`` multiplies (N, 40) @ (40, 5) once per network; here layer 1 is one
@@ -98,14 +98,47 @@ def population_outputs(weights: np.ndarray, inputs: np.ndarray, *, bias: bool) -
     result in place; both sigmoids work in place.
 
     Each product element is a sum over 40 terms whose rounding depends on the BLAS micro-kernel
-    that computes it. Both forms use the same kernels except in the last row when N is odd: there
-    ``mlp_forward``'s fifth column (hidden node 4) comes from a one-by-one edge kernel, a single
-    fused multiply-add chain, while the wide product uses a row kernel with four partial sums.
-    That row is recomputed from a two-row product, whose kernels are plain fused chains.
+    that computes it. With OpenBLAS's Haswell kernels both forms agree except in the last row when
+    N is odd: there ``mlp_forward``'s fifth column (hidden node 4) comes from a one-by-one edge
+    kernel, a single fused multiply-add chain, while the wide product uses a row kernel with four
+    partial sums; that row is recomputed from a two-row product, whose kernels are plain fused
+    chains. Other BLAS kernels may split sums differently, so the stacked form is checked once
+    per process against ``mlp_forward`` on shapes that exercise every case, and ``mlp_forward``
+    itself is used if any bit differs.
     """
-    p, n = weights.shape[0], inputs.shape[0]
-    if n == 1:  # a one-row product goes to different kernels; the reference is cheap here
+    if weights.shape[0] == 0 or inputs.shape[0] < 2 or not _stacked_form_matches():
+        # One row goes to different kernels (and the per-network form is cheap there).
         return mlp_forward(weights, inputs, bias=bias)
+    return _stacked_outputs(weights, inputs, bias=bias)
+
+
+_STACKED_MATCHES: bool | None = None
+
+
+def _stacked_form_matches() -> bool:
+    """Whether ``_stacked_outputs`` equals ``mlp_forward`` bit for bit with this process's BLAS.
+
+    Probes odd and even case counts, one and several row blocks, populations that do and do not
+    fill the padding, with and without biases; computed once and cached.
+    """
+    global _STACKED_MATCHES
+    if _STACKED_MATCHES is None:
+        matches = True
+        for p, n, bias in [(1, 9, False), (3, 13, True), (7, 64, False), (40, 151, False),
+                           (40, 150, True), (13, 701, False)]:  # fmt: skip
+            # Fixed, irregular values in the ranges the GA sees (no random stream involved).
+            w = 3.0 * np.sin(0.7 * np.arange(p * n_weights(bias)) + 1.0).reshape(p, -1)
+            x = 0.45 + 0.55 * np.cos(0.37 * np.arange(n * N_INPUTS)).reshape(n, N_INPUTS)
+            if not np.array_equal(_stacked_outputs(w, x, bias=bias), mlp_forward(w, x)):
+                matches = False
+                break
+        _STACKED_MATCHES = matches
+    return _STACKED_MATCHES
+
+
+def _stacked_outputs(weights: np.ndarray, inputs: np.ndarray, *, bias: bool) -> np.ndarray:
+    """The stacked form of :func:`population_outputs` (N >= 2)."""
+    p, n = weights.shape[0], inputs.shape[0]
     # Column j*5 + h holds network j's weights into hidden node h; padded with zero columns to a
     # multiple of 8 so no column falls to an edge kernel.
     cols = p * N_HIDDEN
