@@ -15,7 +15,7 @@ setup: $(BIN)/python
 setup-test: $(BIN)/python
 	$(BIN)/pip install --quiet -e ".[test]"
 
-# Speed benchmarks (benchmarks/*.py) also need DEAP and Box2D: `make setup-bench`.
+# Speed benchmarks (benchmarks/*.py) also need DEAP, Box2D and threadpoolctl: `make setup-bench`.
 setup-bench: $(BIN)/python
 	$(BIN)/pip install --quiet -e ".[test,bench]"
 

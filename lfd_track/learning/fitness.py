@@ -1,10 +1,10 @@
 """The paper's imitation fitness (Algorithm 3), evaluated for a whole population at once.
 
-The kernel runs the population's 40-5-3 networks as one stacked product per layer and keeps
-every intermediate in a buffer it fills in place: freshly allocated temporaries of this size
-(hundreds of kB) are returned to the operating system on free and cost a page fault per 4 kB on
-the next allocation, which used to dominate the run time. Its results equal
-``mlp_forward``-based evaluation bit for bit (``tests/learning/test_fitness.py``).
+The kernel runs the population's hidden layers as one stacked matrix product and works in place
+wherever it can: freshly allocated temporaries of this size (hundreds of kB) are returned to the
+operating system on free and cost a page fault per 4 kB on the next allocation, which used to
+dominate the run time. Its results equal ``mlp_forward``-based evaluation bit for bit
+(``tests/learning/test_fitness.py``).
 """
 
 from __future__ import annotations
