@@ -55,7 +55,7 @@ from ..presets import Preset
 from ..teaching.arbiter import Arbiter
 from ..teaching.commanders import PolicyCommander
 from ..teaching.loop import LoopCounts, Step, TeachingLoop
-from ..teaching.observers import CaseBuffer, Recorder
+from ..teaching.observers import CaseBuffer, LearningTally, Recorder
 from ..teaching.perception import Perception
 from ..teaching.scripted import InterventionConfig, ProtocolHuman
 from ..vision.road_library import RoadLibrary
@@ -364,6 +364,7 @@ def learn_online(
         "bins": library.bins,
     }
     path = rep_dir / "demonstration.lfdemo"
+    tally = LearningTally()
     with DemonstrationWriter(path, metadata, bins=library.bins, fsync=False, overwrite=True) as w:
         recorder = Recorder(
             w,
@@ -380,7 +381,7 @@ def learn_online(
             Arbiter("takeover", window=online.window, threshold=online.threshold),
             human=person,
             policy=policy,
-            observers=[recorder, feed],
+            observers=[recorder, feed, tally],
             stop_on_episode_end=False,
         )
         loop.reset(seed=env_seed)
@@ -411,6 +412,8 @@ def learn_online(
             "turnarounds": list(person.turnarounds),
             "library_models": library.n_models,
             "library_types": library.n_types,
+            "learned_off_felt": tally.learned_off_felt,
+            "off_felt_frames": tally.off_felt,
             "correction_cases": len(corrections),
             "interventions": dict(person.interventions),
             "generations": state.generation,

@@ -24,8 +24,8 @@ import numpy as np
 from ..env import LfDTrackEnv
 from ..presets import Preset
 from ..teaching.arbiter import Arbiter
-from ..teaching.loop import Step, TeachingLoop
-from ..teaching.observers import CallbackObserver, Recorder
+from ..teaching.loop import TeachingLoop
+from ..teaching.observers import CallbackObserver, LearningTally, Recorder
 from ..teaching.perception import Perception
 from ..teaching.scripted import (
     PHASE_DRIVE,
@@ -64,22 +64,6 @@ class DemonstrationSummary:
     off_felt_frames: int
     learned_off_felt: int
     commands: int
-
-
-class _LearningTally:
-    """Observer counting the careful-training rule at work (for the summary and the file)."""
-
-    def __init__(self) -> None:
-        self.learned = self.off_felt = self.learned_off_felt = 0
-
-    def start(self, info: dict[str, Any]) -> None:
-        pass
-
-    def observe(self, step: Step) -> None:
-        box_on_felt = bool(step.percept.box_on_felt)
-        self.learned += step.percept.learned
-        self.off_felt += not box_on_felt
-        self.learned_off_felt += step.percept.learned and not box_on_felt
 
 
 def protocol_human(
@@ -125,7 +109,7 @@ def run_demonstration(
         "human": dataclasses.asdict(human),
         "bins": library.bins,
     }
-    tally = _LearningTally()
+    tally = LearningTally()
     with DemonstrationWriter(
         out, metadata, bins=library.bins, fsync=fsync, overwrite=overwrite, library=library
     ) as writer:

@@ -106,3 +106,19 @@ class CallbackObserver:
 
     def observe(self, step: Step) -> None:
         self.on_step(step)
+
+
+class LearningTally:
+    """Counts the careful-training rule at work: frames learned, off the felt, learned off it."""
+
+    def __init__(self) -> None:
+        self.learned = self.off_felt = self.learned_off_felt = 0
+
+    def start(self, info: dict[str, Any]) -> None:
+        pass
+
+    def observe(self, step: Step) -> None:
+        box_on_felt = bool(step.percept.box_on_felt)
+        self.learned += step.percept.learned
+        self.off_felt += not box_on_felt
+        self.learned_off_felt += step.percept.learned and not box_on_felt

@@ -88,6 +88,8 @@ def test_online_takes_over_and_learns_flagged_corrections(online_run):
     # The GA ran generations_per_case generations for every case, and the controller is the best.
     assert learned.demo["generations"] == 2 * demo.n_cases
     assert learned.fitness_best and learned.training_accuracy > 0.5
+    # careful training holds while the policy drives too: frames off the felt are never learned
+    assert learned.demo["off_felt_frames"] > 0 and learned.demo["learned_off_felt"] == 0
 
 
 def test_online_is_deterministic(online_run, tmp_path):

@@ -88,8 +88,10 @@ def test_queue_commander_fed_from_another_thread_drives_the_loop_one_step_at_a_t
         observers=[cases, trajectory],
     )
     loop.reset(seed=3)
+    before = library.to_dict()
     assert loop.step().command is None  # nobody pressed anything: the robot waits
     assert loop.counts.steps == 0
+    assert library.to_dict() == before  # ... and waiting neither learns nor counts
     pusher = threading.Thread(target=keys.push, args=(Command.LEFT,))
     pusher.start()
     pusher.join()
