@@ -41,20 +41,13 @@ from ..demo.demonstrator import HumanConfig, protocol_human, run_demonstration
 from ..env import LfDTrackEnv
 from ..learning.bc import BCConfig, fit_bc
 from ..learning.cmaes import CMAESConfig, fit_cmaes
-from ..learning.fitness import imitation_fitness, training_accuracy
-from ..learning.ga import (
-    GAConfig,
-    evolve,
-    ga_ask,
-    ga_init,
-    ga_rescore,
-    ga_result,
-    ga_tell,
-)
+from ..learning.fitness import training_accuracy
+from ..learning.ga import GAConfig, evolve, ga_rescore, ga_result
 from ..presets import Preset
 from ..teaching.arbiter import Arbiter
 from ..teaching.commanders import PolicyCommander
-from ..teaching.loop import LoopCounts, Step, TeachingLoop
+from ..teaching.learner import GALearnerFeed
+from ..teaching.loop import LoopCounts, TeachingLoop
 from ..teaching.observers import CaseBuffer, LearningTally, Recorder
 from ..teaching.perception import Perception
 from ..teaching.scripted import InterventionConfig, ProtocolHuman
@@ -276,57 +269,6 @@ def _period_s(preset: str | Preset) -> float:
 
 
 # ------------------------------------------------------------------------------------ online
-class OnlineGA:
-    """Learner feed: the GA in ask/tell form, running generations as teaching cases arrive.
-
-    After each new case the population and the best-so-far are re-scored on all cases so far,
-    then ``generations_per_case`` generations run; the policy commander then drives with the best
-    individual. :attr:`generation` and :attr:`best_fitness` are readable at any time.
-    """
-
-    def __init__(
-        self,
-        config: GAConfig,
-        rng: np.random.Generator,
-        generations_per_case: int,
-        policy: PolicyCommander,
-    ) -> None:
-        self.config = config
-        self.rng = rng
-        self.rng_state = rng.bit_generator.state
-        self.generations_per_case = generations_per_case
-        self.policy = policy
-        self.cases = CaseBuffer()
-        self.state = ga_init(config, rng)
-
-    @property
-    def generation(self) -> int:
-        return self.state.generation
-
-    @property
-    def best_fitness(self) -> float:
-        return self.state.best_fitness
-
-    def start(self, info: dict[str, Any]) -> None:
-        pass
-
-    def observe(self, step: Step) -> None:
-        if not step.is_case:
-            return
-        self.cases.observe(step)
-        x, a = self.cases.arrays()
-        cfg = self.config
-        state = self.state
-        if state.generation > 0:
-            state = ga_rescore(state, x, a, cfg)
-        for _ in range(self.generations_per_case):
-            children = ga_ask(state, cfg, self.rng)
-            fitness = imitation_fitness(children, x, a, cfg.threshold, bias=cfg.bias)
-            state = ga_tell(state, children, fitness)
-        self.state = state
-        self.policy.weights = np.array(state.best_weights)
-
-
 def learn_online(
     rep_dir: Path,
     *,
@@ -351,7 +293,7 @@ def learn_online(
     )
     library = RoadLibrary()
     policy = PolicyCommander(None)
-    feed = OnlineGA(ga, np.random.default_rng(ga_seed), online.generations_per_case, policy)
+    feed = GALearnerFeed(ga, np.random.default_rng(ga_seed), online.generations_per_case, policy)
     metadata = {
         "kind": "simulated",
         "method": "online",

@@ -9,6 +9,7 @@ methods are arrangements of :class:`TeachingLoop`, not copies of it.
 
 from .arbiter import Arbiter, Decision
 from .commanders import Commander, PolicyCommander, QueueCommander
+from .learner import GALearnerFeed
 from .loop import Moment, Step, TeachingLoop
 from .observers import CallbackObserver, Observer, Recorder, TrajectoryObserver
 from .perception import LEARNING_RULES, Percept, Perception
@@ -19,6 +20,7 @@ __all__ = [
     "CallbackObserver",
     "Commander",
     "Decision",
+    "GALearnerFeed",
     "Moment",
     "Observer",
     "Percept",
