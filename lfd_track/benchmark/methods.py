@@ -12,7 +12,7 @@ controller plus a record of the human's effort, counted the same way for every m
 
 Methods:
 
-* ``paper`` — demonstration, then the GA offline (DESIGN §6, paper §4.2.5).
+* ``paper`` — demonstration, then the GA offline (the paper, §4.2.5).
 * ``online`` — the GA runs ``generations_per_case`` ask/tell generations per new case while the
   scripted human demonstrates; once the policy agreed with the human on at least ``threshold`` of
   the last ``window`` commands it drives, and the human watches, taking control back by the

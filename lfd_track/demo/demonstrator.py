@@ -1,4 +1,4 @@
-"""The paper's demonstration protocol on the simulated world (DESIGN §6), as a teaching loop.
+"""The paper's demonstration protocol (§4.2.5) on the simulated world, as a teaching loop.
 
 The scripted human (:mod:`lfd_track.teaching.scripted`) drives the protocol: 10 commands that only
 build the road library, then the training track from the right end to the left end and back,

@@ -74,7 +74,7 @@ class QueueCommander:
     :meth:`push` may be called from any thread; :meth:`propose` hands the latest pushed command
     to the loop once (then ``None`` until the next push), so a held key or a button is one command.
     The first ``library_only`` commands taken only build the road library (not teaching cases,
-    DESIGN §6).
+    as in the paper, §4.2.5).
     """
 
     def __init__(self, library_only: int = 0) -> None:

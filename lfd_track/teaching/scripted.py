@@ -1,4 +1,4 @@
-"""The scripted "human": the paper's demonstration protocol as a commander (DESIGN §6).
+"""The scripted "human": the paper's demonstration protocol as a commander (the paper, §4.2.5).
 
 The human is the privileged centreline driver (pure pursuit on the known track, not pixels) with
 human traits: a heading dead-band, an occasional reaction delay (acting on the previous frame's
