@@ -3,13 +3,13 @@
 A camera frame goes through a :class:`Perception` (the road library and its learning rule) to
 road values; :class:`Commander` s propose commands (a scripted human, keys, a policy; ``None``
 means no opinion); an :class:`Arbiter` decides who drives; :class:`Observer` s see every step
-(recorder, trajectory, learner feed). The demonstration, the benchmark trials and the online
+(recorder, trajectory, and the learner feed in :mod:`lfd_track.teaching.learner`, kept out of
+this package's namespace so that a policy importing a commander never imports a trainer). The demonstration, the benchmark trials and the online
 methods are arrangements of :class:`TeachingLoop`, not copies of it.
 """
 
 from .arbiter import Arbiter, Decision
 from .commanders import Commander, PolicyCommander, QueueCommander
-from .learner import GALearnerFeed
 from .loop import Moment, Step, TeachingLoop
 from .observers import CallbackObserver, Observer, Recorder, TrajectoryObserver
 from .perception import LEARNING_RULES, Percept, Perception
@@ -20,7 +20,6 @@ __all__ = [
     "CallbackObserver",
     "Commander",
     "Decision",
-    "GALearnerFeed",
     "Moment",
     "Observer",
     "Percept",
