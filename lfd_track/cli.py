@@ -435,6 +435,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_study_parser(sub)
 
+    from .web.cli import add_teach_parser
+
+    add_teach_parser(sub)
+
     try:
         from .hardware.cli import add_hardware_parser
     except ImportError:  # pragma: no cover - the hardware extra is part of the package

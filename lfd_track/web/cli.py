@@ -1,0 +1,163 @@
+"""``lfd-track teach``: open a teaching session and serve its page until Ctrl-C.
+
+``add_teach_parser(subparsers)`` registers the command (light: the web stack is imported only
+when the command runs).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from ..errors import LfdTrackError
+
+DEFAULT_HOST = "127.0.0.1"
+DEFAULT_PORT = 8765
+DEFAULT_FPS = 10.0
+"""[frames/s] rate at which the camera view is pushed to each page."""
+
+
+def run_teach(args: argparse.Namespace) -> int:
+    """The ``teach`` command: open the session, serve the page, close everything on exit."""
+    from .app import create_app, is_loopback, new_token
+    from .server import StationServer, bind_socket, station_url
+    from .session import open_session
+
+    if args.backend == "hardware" and not (args.camera and args.serial):
+        raise LfdTrackError("--backend hardware needs --camera URL and --serial URL")
+    if args.backend == "sim" and (args.camera or args.serial):
+        raise LfdTrackError("--camera and --serial are for --backend hardware")
+    out = Path(args.out)
+    if out.exists() and not args.force:
+        raise LfdTrackError(f"{out}: already exists (use --force to replace it)")
+    token = None if is_loopback(args.host) else new_token()
+    sock = bind_socket(args.host, args.port)
+    try:
+        session = open_session(args)
+    except BaseException:
+        sock.close()
+        raise
+    try:
+        server = StationServer(create_app(session, token=token, fps=args.fps), sock)
+        print(f"teaching station ({args.backend}): open {station_url(args.host, server.port, token)}")
+        if token:
+            print("the token in the URL is required: share it only with who may drive the robot")
+        print("recording to", out)
+        print("press Ctrl-C to stop", flush=True)
+        server.serve()
+    finally:
+        session.close()
+        sock.close()
+    status = session.status()
+    counts = status.get("counts", {})
+    print(
+        f"{out}: {status['cases']} cases ({counts.get('forward', 0)} forward, "
+        f"{counts.get('left', 0)} left, {counts.get('right', 0)} right"
+        + (f", {status['corrections']} corrections" if args.online else "")
+        + f"), library {status['library_models']} models"
+    )
+    return 0
+
+
+def _port(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a port number, got {text!r}") from None
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"port must be in 0..65535, got {value}")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not value > 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
+    return value
+
+
+def _count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {value}")
+    return value
+
+
+def add_teach_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Add ``teach`` to the main CLI (handler stored as ``func``)."""
+    teach = subparsers.add_parser(
+        "teach",
+        help="teach from a browser (laptop or phone): live view, buttons, recording",
+        description=(
+            "Serve a teaching page for the simulated or the real robot: live camera view with "
+            "road values, forward/left/right buttons and arrow keys, stop (space), pause library "
+            "learning; with --online the policy evolves as you teach and can take over. Every "
+            "case is written to --out as it is given (crash-safe .lfdemo, usable by evolve)."
+        ),
+    )
+    teach.add_argument(
+        "--backend", choices=("sim", "hardware"), default="sim", help="robot (default: sim)"
+    )
+    teach.add_argument(
+        "--track", default="training", help="simulator track name or TOML path (default: training)"
+    )
+    teach.add_argument("--preset", default="paper", help="simulator preset name or TOML path")
+    teach.add_argument("--seed", type=_count, default=0, help="seed of the world and the learner")
+    teach.add_argument("--camera", metavar="URL", help="phone camera stream (hardware)")
+    teach.add_argument("--serial", metavar="URL", help="serial port or pyserial URL (hardware)")
+    teach.add_argument(
+        "--period",
+        type=_positive_float,
+        default=None,
+        metavar="S",
+        help="control period [s] (default: the preset's, 0.4 s)",
+    )
+    teach.add_argument(
+        "--online",
+        action="store_true",
+        help="evolve a policy while you teach; it offers to take over when it agrees with you",
+    )
+    teach.add_argument(
+        "--generations-per-case",
+        type=_count,
+        default=None,
+        metavar="N",
+        help="with --online: GA generations run for each new case",
+    )
+    teach.add_argument(
+        "--library-only",
+        type=_count,
+        default=0,
+        metavar="N",
+        help="first N commands only build the road library and are not recorded (default 0)",
+    )
+    teach.add_argument("--out", required=True, help="demonstration file to write (.lfdemo)")
+    teach.add_argument("--force", action="store_true", help="replace an existing output file")
+    teach.add_argument(
+        "--host",
+        default=DEFAULT_HOST,
+        help="address to listen on (default 127.0.0.1; any other needs the printed token)",
+    )
+    teach.add_argument(
+        "--port", type=_port, default=DEFAULT_PORT, help="port (default 8765; 0 picks a free one)"
+    )
+    teach.add_argument(
+        "--fps", type=_positive_float, default=DEFAULT_FPS, help="live view frames/s (default 10)"
+    )
+    teach.set_defaults(func=run_teach)
+    return teach
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Stand-alone entry point: ``python -m lfd_track.web.server teach …``."""
+    from ..cli import main as cli_main
+
+    return cli_main(["teach", *(sys.argv[1:] if argv is None else argv)])
