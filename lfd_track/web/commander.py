@@ -1,0 +1,56 @@
+"""The browser as a commander of the teaching loop: button presses in, one command per period out."""
+
+from __future__ import annotations
+
+import threading
+from collections import deque
+
+from ..commands import Command
+
+MAX_QUEUED = 4
+"""Presses kept while the robot is busy; more are dropped (a frantic tapper does not queue a lap)."""
+
+
+class BrowserCommander:
+    """Commands from the page, as the paper's remote gave them: each press is one command.
+
+    ``press`` queues the command once and holds it; ``release`` lets go. Each control period the
+    loop asks :meth:`next_command`: a queued press first (so a quick tap still runs once), else
+    the held command (holding a button repeats it), else None (no opinion: the robot waits).
+    Thread-safe: the server thread presses, the loop thread asks.
+    """
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._queue: deque[Command] = deque(maxlen=MAX_QUEUED)
+        self._held: Command | None = None
+
+    def press(self, command: Command) -> None:
+        """A button went down: run ``command`` at least once, and while held."""
+        with self._lock:
+            self._queue.append(Command(command))
+            self._held = Command(command)
+
+    def release(self) -> None:
+        """The button went up."""
+        with self._lock:
+            self._held = None
+
+    def clear(self) -> None:
+        """Forget queued and held commands (stop, lease expiry, page closed)."""
+        with self._lock:
+            self._queue.clear()
+            self._held = None
+
+    @property
+    def pending(self) -> bool:
+        """True when :meth:`next_command` would return a command."""
+        with self._lock:
+            return bool(self._queue) or self._held is not None
+
+    def next_command(self) -> Command | None:
+        """The command for this control period, or None when the human gives none."""
+        with self._lock:
+            if self._queue:
+                return self._queue.popleft()
+            return self._held
