@@ -230,6 +230,9 @@ def create_app(
         body = (static / name).read_bytes()
         return Response(body, media_type=STATIC_FILES[name], headers=_SECURITY_HEADERS)
 
+    async def no_icon(request: Request) -> Response:
+        return Response(status_code=204)  # browsers ask for one; the page has none
+
     async def status(request: Request) -> Response:
         return JSONResponse(_json_status(session), headers={"Cache-Control": "no-store"})
 
@@ -311,6 +314,7 @@ def create_app(
             Route("/", index),
             Route("/static/{name}", static_file),
             Route("/api/status", status),
+            Route("/favicon.ico", no_icon),
             WebSocketRoute("/ws", socket),
         ]
     )
