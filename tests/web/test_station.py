@@ -1,0 +1,221 @@
+"""The teaching station in a real headless Chromium, on the simulator.
+
+Every test serves a real session (simulated rover, road library, recorder) on a free loopback
+port and drives it the way a person would: through the page's buttons and keys.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+import urllib.error
+import urllib.request
+from collections.abc import Callable
+from typing import Any
+
+import pytest
+from websockets.exceptions import InvalidStatus
+from websockets.sync.client import connect
+
+from lfd_track.commands import Command
+from lfd_track.demo.dataset import load_demonstration
+from lfd_track.web.protocol import STATUS_FIELDS
+
+pytestmark = pytest.mark.browser
+
+WAIT_S = 15.0  # failure guard only: every wait returns as soon as its condition holds
+
+
+def wait_until(condition: Callable[[], Any], what: str, timeout_s: float = WAIT_S) -> Any:
+    """Poll ``condition`` until it is truthy; fail naming ``what`` after ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        value = condition()
+        if value:
+            return value
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out waiting for {what}")
+        time.sleep(0.02)
+
+
+def page_value(page: Any, expression: str) -> Any:
+    return page.evaluate(f"() => {expression}")
+
+
+def open_page(browser: Any, url: str, **context: Any) -> Any:
+    """A page on ``url`` once it shows frames (as controller, if it is the first page)."""
+    page = browser.new_context(**context).new_page()
+    page.goto(url)
+    wait_until(lambda: page_value(page, "window.lfd && window.lfd.frames > 0"), "the first frame")
+    return page
+
+
+def as_controller(browser: Any, url: str) -> Any:
+    page = open_page(browser, url)
+    wait_until(lambda: page_value(page, "window.lfd.role") == "controller", "control")
+    return page
+
+
+def settled(session: Any, cases: int) -> dict[str, Any]:
+    """The status once ``cases`` cases are recorded and no command is left to run."""
+    return wait_until(
+        lambda: (s := session.status())["cases"] == cases and not session.commander.pending and s,
+        f"{cases} cases",
+    )
+
+
+def http_get(url: str) -> tuple[int, bytes]:
+    opener = urllib.request.build_opener(urllib.request.ProxyHandler({}))  # loopback, no proxy
+    try:
+        with opener.open(url, timeout=10) as response:
+            return response.status, response.read()
+    except urllib.error.HTTPError as exc:
+        return exc.code, exc.read()
+
+
+def test_three_forward_clicks_record_three_cases(browser, open_station) -> None:
+    station = open_station()
+    page = as_controller(browser, station.url)
+    assert page.locator("#camera").get_attribute("src").startswith("blob:")
+    for _ in range(3):
+        page.click('[data-command="forward"]')
+    status = settled(station.session, 3)
+    assert status["counts"] == {"forward": 3, "left": 0, "right": 0}
+    assert status["mode"] == "human" and status["steps"] == 3
+    demo = load_demonstration(station.out)  # readable while the station still records
+    assert demo.commands.tolist() == [Command.FORWARD] * 3
+    # Arrow keys drive too; the page shows the counts.
+    page.keyboard.press("ArrowLeft")
+    settled(station.session, 4)
+    wait_until(lambda: page.locator("#counts").inner_text() == "3 / 1 / 0", "the page's counts")
+    # The pinned status API.
+    code, body = http_get(station.url + "api/status")
+    status = json.loads(body)
+    assert code == 200 and set(STATUS_FIELDS) <= set(status)
+    assert status["cases"] == 4 and status["mode"] == "human"
+    assert status["learning_paused"] is False and status["library_models"] >= 1
+    assert status["generation"] is None and status["agreement"] is None  # not --online
+
+
+def test_the_live_view_runs_at_5_frames_per_second_or_more(browser, open_station) -> None:
+    station = open_station()
+    page = open_page(browser, station.url)
+    first = page_value(page, "[window.lfd.frames, performance.now()]")
+    wait_until(
+        lambda: page_value(page, f"performance.now() - {first[1]} > 2000"), "2 s of stream"
+    )
+    last = page_value(page, "[window.lfd.frames, performance.now()]")
+    rate = (last[0] - first[0]) / ((last[1] - first[1]) / 1000.0)
+    assert rate >= 5.0, f"{rate:.1f} frames/s"
+    assert page_value(page, "!document.querySelector('#topdown').hidden")  # the sim's map
+
+
+def test_pausing_learning_keeps_the_library_from_growing(browser, open_station) -> None:
+    station = open_station()
+    page = as_controller(browser, station.url)
+    page.click('[data-command="forward"]')
+    models = settled(station.session, 1)["library_models"]
+    assert models == 1
+    toggle = page.locator('[data-action="pause-learning"]')
+    toggle.click()
+    wait_until(lambda: station.session.status()["learning_paused"], "learning paused")
+    wait_until(lambda: toggle.get_attribute("aria-pressed") == "true", "the switch to show it")
+    for _ in range(3):
+        page.click('[data-command="forward"]')
+    status = settled(station.session, 4)
+    assert status["library_models"] == models
+    toggle.click()
+    wait_until(lambda: not station.session.status()["learning_paused"], "learning resumed")
+    page.click('[data-command="forward"]')
+    assert settled(station.session, 5)["library_models"] > models  # learning again
+    demo = load_demonstration(station.out)
+    assert demo.learned.tolist() == [True, False, False, False, True]
+
+
+def test_a_second_page_watches_and_cannot_drive(browser, open_station) -> None:
+    station = open_station()
+    controller = as_controller(browser, station.url)
+    watcher = open_page(browser, station.url)
+    wait_until(lambda: page_value(watcher, "window.lfd.role") == "watcher", "the watcher role")
+    assert watcher.locator('[data-command="forward"]').is_disabled()
+    watcher.evaluate("() => window.lfd")  # the page is live
+    # Even a hand-made command from the watcher's socket is refused.
+    with connect(station.url.replace("http", "ws") + "ws", proxy=None) as ws:
+        ws.send(json.dumps({"type": "press", "command": "forward"}))
+        errors = []
+        while not errors:
+            message = ws.recv(timeout=WAIT_S)
+            if isinstance(message, str) and json.loads(message)["type"] == "error":
+                errors.append(json.loads(message)["message"])
+    assert "another page controls the robot" in errors[0]
+    assert station.session.status()["steps"] == 0
+    controller.close()  # the controlling page leaves: control is free for the watcher
+    wait_until(lambda: watcher.locator("#claim").is_visible(), "the take-control button")
+    watcher.click("#claim")
+    wait_until(lambda: page_value(watcher, "window.lfd.role") == "controller", "control")
+    watcher.click('[data-command="right"]')
+    assert settled(station.session, 1)["counts"]["right"] == 1
+
+
+def test_the_robot_stops_when_the_page_goes_silent(open_station) -> None:
+    """A page that holds forward and then sends nothing (phone asleep) stops the robot in ~1 s."""
+    station = open_station()
+    with connect(station.url.replace("http", "ws") + "ws", proxy=None) as ws:
+        ws.send(json.dumps({"type": "press", "command": "forward"}))  # held, never released
+        wait_until(lambda: station.session.status()["steps"] >= 2, "the held command to run")
+        silent_since = time.monotonic()
+        status = wait_until(
+            lambda: (s := station.session.status())["stopped_reason"] and s, "the lease to end"
+        )
+        stopped_after = time.monotonic() - silent_since
+        assert "heartbeat" in status["stopped_reason"] and status["mode"] == "human"
+        steps = status["steps"]
+        # Still connected, still silent: nothing moves any more.
+        assert not station.session.commander.pending
+        assert stopped_after < 1.5
+        ws.send(json.dumps({"type": "heartbeat"}))  # a page that wakes up may drive again
+        ws.send(json.dumps({"type": "press", "command": "left"}))
+        ws.send(json.dumps({"type": "release"}))
+        wait_until(lambda: station.session.status()["steps"] == steps + 1, "one more command")
+
+
+def test_stop_button_and_space_bar_stop_a_held_command(browser, open_station) -> None:
+    station = open_station()
+    page = as_controller(browser, station.url)
+    button = page.locator('[data-command="forward"]')
+    button.hover()
+    page.mouse.down()  # held: the command repeats each control period
+    wait_until(lambda: station.session.status()["steps"] >= 2, "the held command to repeat")
+    page.keyboard.press(" ")
+    status = wait_until(lambda: (s := station.session.status())["stopped_reason"] and s, "stop")
+    assert not station.session.commander.pending and status["mode"] == "human"
+    page.mouse.up()
+
+
+def test_a_token_is_required_on_every_request_and_the_websocket(browser, open_station) -> None:
+    token = "test-token-123"
+    station = open_station(token=token)
+    base = station.url.split("?")[0]
+    for path in ("", "api/status", "static/app.js", "static/style.css"):
+        code, body = http_get(base + path)
+        assert code == 403 and b"token" in body, path
+        assert http_get(base + path + "?token=wrong")[0] == 403
+        assert http_get(base + path + f"?token={token}")[0] == 200
+    for url in (base.replace("http", "ws") + "ws", base.replace("http", "ws") + "ws?token=x"):
+        with pytest.raises(InvalidStatus) as refused:
+            with connect(url, proxy=None) as ws:
+                ws.send(json.dumps({"type": "press", "command": "forward"}))
+        assert refused.value.response.status_code == 403
+    # A page of another site cannot drive the robot from the user's browser either.
+    with pytest.raises(InvalidStatus) as refused:
+        with connect(
+            base.replace("http", "ws") + f"ws?token={token}",
+            origin="http://elsewhere.example",
+            proxy=None,
+        ):
+            pass
+    assert refused.value.response.status_code == 403
+    assert station.session.status()["steps"] == 0  # no motion
+    page = as_controller(browser, station.url)  # the printed URL carries the token
+    page.click('[data-command="forward"]')
+    assert settled(station.session, 1)["steps"] == 1
