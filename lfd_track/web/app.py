@@ -50,8 +50,6 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 from .cli import DEFAULT_FPS
 from .protocol import COMMAND_NAMES, TeachingSession
 
-
-LOOPBACK_NAMES = frozenset({"localhost", "127.0.0.1", "::1"})
 STATIC_FILES = {
     "app.js": "text/javascript; charset=utf-8",
     "style.css": "text/css; charset=utf-8",

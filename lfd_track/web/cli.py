@@ -41,7 +41,9 @@ def run_teach(args: argparse.Namespace) -> int:
         raise
     try:
         server = StationServer(create_app(session, token=token, fps=args.fps), sock)
-        print(f"teaching station ({args.backend}): open {station_url(args.host, server.port, token)}")
+        print(
+            f"teaching station ({args.backend}): open {station_url(args.host, server.port, token)}"
+        )
         if token:
             print("the token in the URL is required: share it only with who may drive the robot")
         print("recording to", out)

@@ -101,9 +101,7 @@ def test_the_live_view_runs_at_5_frames_per_second_or_more(browser, open_station
     station = open_station()
     page = open_page(browser, station.url)
     first = page_value(page, "[window.lfd.frames, performance.now()]")
-    wait_until(
-        lambda: page_value(page, f"performance.now() - {first[1]} > 2000"), "2 s of stream"
-    )
+    wait_until(lambda: page_value(page, f"performance.now() - {first[1]} > 2000"), "2 s of stream")
     last = page_value(page, "[window.lfd.frames, performance.now()]")
     rate = (last[0] - first[0]) / ((last[1] - first[1]) / 1000.0)
     assert rate >= 5.0, f"{rate:.1f} frames/s"
