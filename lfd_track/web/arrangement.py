@@ -44,8 +44,8 @@ class TeachArrangement:
         self.policy_ready = False
         self._counts = dict.fromkeys(("forward", "left", "right"), 0)
 
-    def reset(self) -> None:
-        self.frame, self.info = self.env.reset(seed=self.seed)
+    def reset(self, options=None) -> None:
+        self.frame, self.info = self.env.reset(seed=self.seed, options=options)
 
     def step(self, human: Command | None) -> str | None:
         frame = self.frame

@@ -38,6 +38,8 @@ class LoopSession:
         online: whether a policy evolves and may take over.
         period_s: [s] control period; the loop steps at most once per period.
         stop_robot: stops the real robot at once (e-stop), None in the simulator.
+        rearm_options: ``reset`` options that make the robot drive again after a stop (the
+            real robot's e-stop is cleared by the next command the human gives), or None.
         topdown: returns the simulator's map picture, None on the real robot.
         lease_s: [s] heartbeat lease of the controlling page.
     """
@@ -51,6 +53,7 @@ class LoopSession:
         online: bool,
         period_s: float,
         stop_robot: Callable[[str], None] | None = None,
+        rearm_options: dict[str, Any] | None = None,
         topdown: Callable[[], np.ndarray] | None = None,
         lease_s: float = LEASE_S,
     ) -> None:
@@ -61,6 +64,9 @@ class LoopSession:
         self.period_s = float(period_s)
         self.commander = BrowserCommander()
         self._stop_robot = stop_robot
+        self._rearm_options = rearm_options
+        self._rearm = False
+        self._driving = False
         self._topdown = topdown
         self._cond = threading.Condition()
         self._closed = False
@@ -77,7 +83,7 @@ class LoopSession:
     # ----------------------------------------------------------------------------- commands
     def start(self) -> LoopSession:
         """Reset the robot, publish the first view and start stepping."""
-        self.loop.reset()
+        self.loop.reset(None)
         self._publish()
         self._thread.start()
         return self
@@ -108,6 +114,7 @@ class LoopSession:
             self._mode = HUMAN
             if was_moving:
                 self._stopped_reason = reason
+            self._rearm = self._rearm_options is not None
             self._cond.notify_all()
         if self._stop_robot is not None:
             self._stop_robot(reason)
@@ -135,6 +142,7 @@ class LoopSession:
             status = {
                 "mode": self._mode,
                 "steps": self._steps,
+                "driving": self._driving,
                 "stopped_reason": self._stopped_reason,
                 "error": self._error,
                 "lease_alive": self.lease.alive,
@@ -188,16 +196,22 @@ class LoopSession:
                 human = self.commander.next_command() if self._mode == HUMAN else None
                 if self._mode == HUMAN and human is None:
                     continue
+                rearm, self._rearm = self._rearm, False
+                self._driving = True
             started = time.monotonic()
             try:
+                if rearm:  # a command after a stop: clear the e-stop, take a fresh frame
+                    self.loop.reset(self._rearm_options)
                 ended = self.loop.step(human)
             except Exception as exc:  # noqa: BLE001 - shown on the page; the station keeps serving
                 with self._cond:
                     self._error = f"{type(exc).__name__}: {exc}"
                     self._mode = HUMAN
+                    self._driving = False
                     self.commander.clear()
                 continue
             with self._cond:
+                self._driving = False
                 self._steps += 1
                 if ended is not None:  # the episode ended (off the felt, link lost, ...)
                     self._stopped_reason = ended
@@ -249,7 +263,7 @@ def open_session(args: argparse.Namespace) -> LoopSession:
         metadata.update(kind="hardware", camera=args.camera, control_period_s=period_s)
 
         def stop_robot(reason: str) -> None:
-            env.link.stop()
+            env.link.estop()  # latched: a drive already on its way is refused by the board
 
         topdown = None
     try:
@@ -272,6 +286,7 @@ def open_session(args: argparse.Namespace) -> LoopSession:
         online=args.online,
         period_s=period_s,
         stop_robot=stop_robot,
+        rearm_options={"clear_estop": True} if args.backend == "hardware" else None,
         topdown=topdown,
     )
     try:
