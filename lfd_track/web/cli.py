@@ -93,6 +93,23 @@ def _count(text: str) -> int:
     return value
 
 
+def _positive_int(text: str) -> int:
+    value = _count(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _share(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not 0.0 < value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be in (0, 1], got {text}")
+    return value
+
+
 def add_teach_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Add ``teach`` to the main CLI (handler stored as ``func``)."""
     teach = subparsers.add_parser(
@@ -129,10 +146,32 @@ def add_teach_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     teach.add_argument(
         "--generations-per-case",
-        type=_count,
+        type=_positive_int,
         default=None,
         metavar="N",
-        help="with --online: GA generations run for each new case",
+        help="with --online: GA generations run after each new case (default 2)",
+    )
+    teach.add_argument(
+        "--takeover-window",
+        type=_positive_int,
+        default=10,
+        metavar="K",
+        help="with --online: agreement is measured over the last K human commands (default 10)",
+    )
+    teach.add_argument(
+        "--takeover-threshold",
+        type=_share,
+        default=0.9,
+        metavar="F",
+        help="with --online: share of those K the policy must agree on to be offered the wheel "
+        "(default 0.9)",
+    )
+    teach.add_argument(
+        "--population",
+        type=_positive_int,
+        default=40,
+        metavar="P",
+        help="with --online: GA population (default 40, the paper's)",
     )
     teach.add_argument(
         "--library-only",

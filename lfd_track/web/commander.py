@@ -4,8 +4,12 @@ from __future__ import annotations
 
 import threading
 from collections import deque
+from typing import TYPE_CHECKING
 
 from ..commands import Command
+
+if TYPE_CHECKING:
+    from ..teaching.loop import Moment
 
 MAX_QUEUED = 4
 """Presses kept while the robot is busy; more are dropped (a frantic tapper does not queue a lap)."""
@@ -18,12 +22,34 @@ class BrowserCommander:
     loop asks :meth:`next_command`: a queued press first (so a quick tap still runs once), else
     the held command (holding a button repeats it), else None (no opinion: the robot waits).
     Thread-safe: the server thread presses, the loop thread asks.
+
+    A :class:`~lfd_track.teaching.commanders.Commander` of the teaching loop; the first
+    ``library_only`` commands it gives only build the road library (:attr:`records` is False).
     """
 
-    def __init__(self) -> None:
+    def __init__(self, library_only: int = 0) -> None:
         self._lock = threading.Lock()
         self._queue: deque[Command] = deque(maxlen=MAX_QUEUED)
         self._held: Command | None = None
+        self.library_only = int(library_only)
+        self.given = 0
+        """Commands handed to the loop so far."""
+
+    @property
+    def records(self) -> bool:
+        """Whether the command just given counts as a teaching case (past the library-only ones)."""
+        return self.given > self.library_only
+
+    def reset(self) -> None:
+        """Start of an episode: nothing to forget (a press outlives the world's reset, e.g. the
+        press that clears the real robot's e-stop)."""
+
+    def propose(self, moment: Moment) -> Command | None:
+        """The loop asks for this frame's command (see :meth:`next_command`)."""
+        command = self.next_command()
+        if command is not None:
+            self.given += 1
+        return command
 
     def press(self, command: Command) -> None:
         """A button went down: run ``command`` at least once, and while held."""

@@ -1,11 +1,15 @@
-"""The teaching session the web app drives: the teaching loop stepped in a background thread.
+"""The teaching session the web app drives: the teaching loop, stepped in a background thread.
 
-:class:`LoopSession` arranges the one teaching loop for a browser: the human commander is a
-:class:`~lfd_track.web.commander.BrowserCommander` fed by the server, the loop is stepped from a
-background thread at most once per control period (only when someone has a command: the human a
-press, or the policy while it drives), and the page sees what observers publish after each step:
-the annotated camera view, the simulator's top-down map, counts. Nothing here moves the robot
-unless the controlling page holds the lease (:class:`~lfd_track.web.protocol.Lease`).
+:class:`LoopSession` is an arrangement of the one teaching loop (:mod:`lfd_track.teaching`) for a
+browser: the human commander is a :class:`~lfd_track.web.commander.BrowserCommander` fed by the
+server; with ``--online`` a policy commander drives with the best individual of a GA that runs
+generations as cases arrive (the loop's learner feed), and the arbiter offers a takeover once
+the policy agrees with the human. The loop is stepped from a background thread at most once per
+control period, and only when someone has a command (the human pressed, or the policy drives).
+Observers record every case to a crash-safe ``.lfdemo``, count cases and corrections, and after
+each step the session publishes the annotated camera view and the simulator's map.
+
+Nothing moves unless the controlling page holds the lease (:class:`~lfd_track.web.protocol.Lease`).
 """
 
 from __future__ import annotations
@@ -14,77 +18,142 @@ import argparse
 import threading
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..commands import Command
+from ..demo.dataset import DemonstrationWriter
+from ..teaching.arbiter import Arbiter
+from ..teaching.commanders import PolicyCommander
+from ..teaching.loop import Step, TeachingLoop
+from ..teaching.observers import Recorder
+from ..teaching.perception import Perception
+from ..vision.road_library import RoadLibrary
 from .commander import BrowserCommander
 from .protocol import LEASE_S, Lease, View
 from .view import make_view
 
 HUMAN = "human"
 AUTONOMOUS = "autonomous"
+PHASE_TEACH = "drive"
+PHASE_CORRECTION = "correction"
+
+
+@dataclass(frozen=True)
+class OnlineSettings:
+    """How the policy learns and earns the wheel with ``--online``."""
+
+    generations_per_case: int = 2
+    """GA generations run after each new case (population re-scored on all cases first)."""
+    window: int = 10
+    """K: the agreement is measured over the human's last K commands."""
+    threshold: float = 0.9
+    """Share of those K the policy must have agreed with before the takeover is offered."""
+    population_size: int = 40
+    """GA population (the paper's 40)."""
+
+
+class CaseTally:
+    """Observer: cases per command and corrections, as the page shows them (thread-safe)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._counts = dict.fromkeys((c.name.lower() for c in Command), 0)
+        self.corrections = 0
+
+    def start(self, info: dict[str, Any]) -> None:
+        pass
+
+    def observe(self, step: Step) -> None:
+        if not step.is_case:
+            return
+        with self._lock:
+            self._counts[step.command.name.lower()] += 1
+            self.corrections += step.decision.correction
+
+    @property
+    def counts(self) -> dict[str, int]:
+        with self._lock:
+            return dict(self._counts)
 
 
 class LoopSession:
     """A teaching station on the sim or the real robot (see the module docstring).
 
     Args:
-        env: the robot: ``LfDTrackEnv`` (sim) or ``HardwareEnv``.
-        loop: the teaching loop arranged for this station (see :func:`open_session`).
+        loop: the teaching loop (its env, perception, arbiter, commanders, observers).
+        commander: the loop's human commander, fed by the web server.
+        writer: the demonstration file the loop's recorder appends to; closed by :meth:`close`.
+        tally: the loop's case-counting observer.
         backend: ``"sim"`` or ``"hardware"``.
-        online: whether a policy evolves and may take over.
         period_s: [s] control period; the loop steps at most once per period.
+        learner: the online learner feed (``generation``, ``best_fitness``), None without one.
+        policy: the policy commander, None without ``--online``.
+        seed: world seed of the first reset (simulator), None on the real robot.
         stop_robot: stops the real robot at once (e-stop), None in the simulator.
-        rearm_options: ``reset`` options that make the robot drive again after a stop (the
-            real robot's e-stop is cleared by the next command the human gives), or None.
+        rearm_options: ``reset`` options that make the robot drive again after a stop (the real
+            robot's e-stop is cleared by the next command the human gives), or None.
         topdown: returns the simulator's map picture, None on the real robot.
         lease_s: [s] heartbeat lease of the controlling page.
     """
 
     def __init__(
         self,
-        env: Any,
-        loop: Any,
+        loop: TeachingLoop,
+        commander: BrowserCommander,
+        writer: DemonstrationWriter,
+        tally: CaseTally,
         *,
         backend: str,
-        online: bool,
         period_s: float,
+        learner: Any = None,
+        policy: PolicyCommander | None = None,
+        seed: int | None = None,
         stop_robot: Callable[[str], None] | None = None,
         rearm_options: dict[str, Any] | None = None,
         topdown: Callable[[], np.ndarray] | None = None,
         lease_s: float = LEASE_S,
     ) -> None:
-        self.env = env
         self.loop = loop
+        self.commander = commander
+        self.writer = writer
+        self.tally = tally
         self.backend = backend
-        self.online = online
+        self.online = policy is not None
         self.period_s = float(period_s)
-        self.commander = BrowserCommander()
+        self.learner = learner
+        self.policy = policy
+        self.seed = seed
         self._stop_robot = stop_robot
         self._rearm_options = rearm_options
-        self._rearm = False
-        self._driving = False
         self._topdown = topdown
         self._cond = threading.Condition()
         self._closed = False
-        self._mode = HUMAN
+        self._started = False
+        self._rearm = False
+        self._driving = False
         self._stopped_reason: str | None = None
+        self._error: str | None = None
         self._view: View | None = None
         self._view_seq = 0
-        self._steps = 0
-        self._error: str | None = None
+        self.takeovers = 0
         self.lease = Lease(lambda: self.stop("no heartbeat from the page for 1 s"), lease_s)
         self._thread = threading.Thread(target=self._run, name="lfd-track teaching loop")
         self._thread.daemon = True
 
+    @property
+    def arbiter(self) -> Arbiter:
+        return self.loop.arbiter
+
     # ----------------------------------------------------------------------------- commands
     def start(self) -> LoopSession:
         """Reset the robot, publish the first view and start stepping."""
-        self.loop.reset(None)
+        self.loop.reset(seed=self.seed)
         self._publish()
+        self._started = True
         self._thread.start()
         return self
 
@@ -93,12 +162,10 @@ class LoopSession:
 
     def press(self, command: Command) -> None:
         if not self.lease.alive:
-            return
+            return  # no lease, no motion
         with self._cond:
-            if self._mode == AUTONOMOUS:
-                self._mode = HUMAN  # any human command takes control back
-                self.loop.human_takes_back()
             self._stopped_reason = None
+            # While the policy drives, the arbiter makes this a correction.
             self.commander.press(command)
             self._cond.notify_all()
 
@@ -108,46 +175,69 @@ class LoopSession:
     def stop(self, reason: str = "stop") -> None:
         with self._cond:
             self.commander.clear()
-            was_moving = self._mode == AUTONOMOUS or self._steps > 0
-            if self._mode == AUTONOMOUS:
-                self.loop.human_takes_back(record=False)
-            self._mode = HUMAN
-            if was_moving:
+            if self._driving or self.arbiter.driving == "policy" or self.loop.counts.steps:
                 self._stopped_reason = reason
+            self.arbiter.reset()  # the human drives; the policy earns the wheel again
             self._rearm = self._rearm_options is not None
             self._cond.notify_all()
         if self._stop_robot is not None:
             self._stop_robot(reason)
 
     def set_learning_paused(self, paused: bool) -> None:
-        self.loop.set_learning_paused(bool(paused))
+        self.loop.perception.rule = "paused" if paused else "careful"
 
     def take_over(self) -> None:
-        if not self.online:
+        if self.policy is None:
             raise ValueError("no policy to drive: start the station with --online")
         if not self.lease.alive:
             return
         with self._cond:
-            if not self.loop.policy_ready:
+            if self.policy.weights is None:
                 raise ValueError("no policy yet: demonstrate a few commands first")
             self.commander.clear()
-            self._mode = AUTONOMOUS
+            if self.arbiter.driving != "policy":
+                # The person confirms (or overrules) the arbiter's offer: the policy drives from
+                # the next frame; any human command then takes control back as a correction.
+                self.arbiter.driving = "policy"
+                self.arbiter.offer = False
+                self.takeovers += 1
             self._stopped_reason = None
-            self.loop.policy_takes_over()
             self._cond.notify_all()
 
     # ----------------------------------------------------------------------------- reading
     def status(self) -> dict[str, Any]:
+        arbiter, perception = self.arbiter, self.loop.perception
         with self._cond:
-            status = {
-                "mode": self._mode,
-                "steps": self._steps,
+            box_on_felt = self.loop.info.get("safe_box_on_felt")
+            status: dict[str, Any] = {
+                "cases": self.writer.n_cases,
+                "counts": self.tally.counts,
+                "corrections": self.tally.corrections,
+                "mode": AUTONOMOUS if arbiter.driving == "policy" else HUMAN,
+                "learning_paused": perception.rule == "paused",
+                "learning_auto_paused": perception.rule == "careful"
+                and not perception.would_learn(box_on_felt),
+                "library_models": perception.library.n_models,
+                "generation": None,
+                "best_fitness": None,
+                "agreement": arbiter.agreement if arbiter.agreement_count else None,
+                "agreement_over": arbiter.agreement_count,
+                "policy_ready": self.policy is not None and self.policy.weights is not None,
+                "takeover_offered": bool(arbiter.offer) and arbiter.driving != "policy",
+                "takeovers": self.takeovers,
+                "steps": self.loop.counts.steps,
                 "driving": self._driving,
                 "stopped_reason": self._stopped_reason,
                 "error": self._error,
                 "lease_alive": self.lease.alive,
             }
-        status.update(self.loop.status())
+            if not self.online:
+                status["agreement"] = None
+            if self.learner is not None and self.learner.generation > 0:
+                status["generation"] = int(self.learner.generation)
+                status["best_fitness"] = float(self.learner.best_fitness)
+            elif self.learner is not None:
+                status["generation"] = 0
         return status
 
     def latest_view(self) -> View | None:
@@ -162,10 +252,25 @@ class LoopSession:
             self._closed = True
             self.commander.clear()
             self._cond.notify_all()
+        if self._stop_robot is not None and self._started:
+            self._stop_robot("closing")
         if self._thread.is_alive():
             self._thread.join(timeout=10.0)
         self.lease.close()
-        self.loop.close()
+        try:
+            library = self.loop.perception.library
+            self.writer.close(
+                {
+                    "road_library": library.to_dict(),
+                    "library_models": library.n_models,
+                    "library_types": library.n_types,
+                    "commands": self.loop.counts.steps,
+                    "corrections": self.tally.corrections,
+                    "takeovers": self.takeovers,
+                }
+            )
+        finally:
+            self.loop.env.close()
 
     def __enter__(self) -> LoopSession:
         return self.start()
@@ -175,16 +280,16 @@ class LoopSession:
 
     # ----------------------------------------------------------------------------- the thread
     def _has_work(self) -> bool:
-        return self._mode == AUTONOMOUS or self.commander.pending
+        return self.arbiter.driving == "policy" or self.commander.pending
 
     def _run(self) -> None:
         next_step_at = 0.0
         while True:
             with self._cond:
                 while not self._closed and not (self._has_work() and self.lease.alive):
-                    if self._has_work():  # commands but no lease: drop them, robot stays put
+                    if self._has_work():  # commands but no lease: drop them, nothing moves
                         self.commander.clear()
-                        self._mode = HUMAN
+                        self.arbiter.reset()
                     self._cond.wait()
                 if self._closed:
                     return
@@ -193,51 +298,61 @@ class LoopSession:
                 if remaining > 0:
                     self._cond.wait(remaining)
                     continue
-                human = self.commander.next_command() if self._mode == HUMAN else None
-                if self._mode == HUMAN and human is None:
-                    continue
                 rearm, self._rearm = self._rearm, False
                 self._driving = True
             started = time.monotonic()
             try:
                 if rearm:  # a command after a stop: clear the e-stop, take a fresh frame
-                    self.loop.reset(self._rearm_options)
-                ended = self.loop.step(human)
+                    self.loop.reset(options=self._rearm_options)
+                step = self.loop.step()
+                if self.loop.episode_over:
+                    self._episode_ended()
             except Exception as exc:  # noqa: BLE001 - shown on the page; the station keeps serving
                 with self._cond:
                     self._error = f"{type(exc).__name__}: {exc}"
-                    self._mode = HUMAN
-                    self._driving = False
                     self.commander.clear()
+                    self.arbiter.reset()
+                    self._rearm = self._rearm_options is not None
+                    self._driving = False
                 continue
             with self._cond:
                 self._driving = False
-                self._steps += 1
-                if ended is not None:  # the episode ended (off the felt, link lost, ...)
-                    self._stopped_reason = ended
-                    self._mode = HUMAN
-                    self.commander.clear()
-            self._publish()
-            next_step_at = started + self.period_s
+            if step.command is not None:
+                self._publish()
+                next_step_at = started + self.period_s
+
+    def _episode_ended(self) -> None:
+        """Off the felt, reversed, or the real robot's link or camera failed: stop, start over."""
+        info = self.loop.info
+        reason = str(info.get("error") or info.get("failure") or "the episode ended")
+        with self._cond:
+            self.commander.clear()
+            self.arbiter.reset()
+        if self._rearm_options is None:  # the simulator: back to the start of the track
+            self.loop.reset()
+            reason += ": back to the start"
+        with self._cond:
+            self._stopped_reason = reason
+            self._rearm = self._rearm_options is not None
 
     def _publish(self) -> None:
-        frame, values, caption = self.loop.display()
+        frame = self.loop.frame
+        values = self.loop.perception.look(frame)  # looking never counts as a selection
         topdown = self._topdown() if self._topdown is not None else None
         with self._cond:
             self._view_seq += 1
             seq = self._view_seq
-        view = make_view(seq, frame, values, topdown, caption)
+        view = make_view(seq, frame, values, topdown)
         with self._cond:
             self._view = view
 
 
+# ------------------------------------------------------------------------------- arrangement
 def open_session(args: argparse.Namespace) -> LoopSession:
-    """The session ``lfd-track teach`` asked for (started; close it when done).
+    """The session ``lfd-track teach`` asked for, started (close it when done).
 
     ``args`` as parsed by :func:`lfd_track.web.cli.add_teach_parser`.
     """
-    from .arrangement import TeachArrangement
-
     out = Path(args.out)
     metadata: dict[str, Any] = {"source": "teach", "backend": args.backend, "online": args.online}
     if args.backend == "sim":
@@ -249,11 +364,14 @@ def open_session(args: argparse.Namespace) -> LoopSession:
         period_s = args.period or env.preset.rover.control_period_s
         metadata.update(kind="simulated", track=args.track, preset=args.preset, seed=args.seed)
         stop_robot = None
-        topdown = env.render
+        topdown: Callable[[], np.ndarray] | None = env.render
+        rearm = None
     else:
         from ..hardware.env import HardwareEnv
 
         period_s = args.period or 0.4
+        # Each command runs one period, then the motors stop: a page that gives no command
+        # leaves the robot standing (as the paper's remote did).
         env = HardwareEnv(
             camera_url=args.camera,
             serial_url=args.serial,
@@ -266,27 +384,69 @@ def open_session(args: argparse.Namespace) -> LoopSession:
             env.link.estop()  # latched: a drive already on its way is refused by the board
 
         topdown = None
+        rearm = {"clear_estop": True}
+    settings = OnlineSettings(
+        generations_per_case=args.generations_per_case or OnlineSettings.generations_per_case,
+        window=args.takeover_window,
+        threshold=args.takeover_threshold,
+        population_size=args.population,
+    )
+    if args.online:
+        metadata["online_settings"] = {
+            "generations_per_case": settings.generations_per_case,
+            "window": settings.window,
+            "threshold": settings.threshold,
+            "population_size": settings.population_size,
+        }
     try:
-        loop = TeachArrangement(
-            env,
-            out,
-            metadata=metadata,
-            seed=args.seed if args.backend == "sim" else None,
-            simulated=args.backend == "sim",
-            library_only=args.library_only,
-            overwrite=args.force,
-        )
+        library = RoadLibrary()
+        writer = DemonstrationWriter(out, metadata, library.bins, overwrite=args.force)
     except BaseException:
         env.close()
         raise
-    session = LoopSession(
+    commander = BrowserCommander(library_only=args.library_only)
+    tally = CaseTally()
+    observers: list[Any] = [
+        Recorder(
+            writer,
+            lambda step: {
+                "pose": step.moment.pose,
+                "phase": PHASE_CORRECTION if step.decision.correction else PHASE_TEACH,
+                "step": step.moment.step,
+            },
+        ),
+        tally,
+    ]
+    policy = learner = None
+    if args.online:
+        policy, learner = _online_parts(settings, args.seed)
+        observers.append(learner)
+    loop = TeachingLoop(
         env,
+        Perception(library, "careful"),
+        Arbiter(
+            "takeover" if args.online else "human",
+            window=settings.window,
+            threshold=settings.threshold,
+            auto_accept=False,  # offered on the page; the person lets it drive
+        ),
+        human=commander,
+        policy=policy,
+        observers=observers,
+        stop_on_episode_end=False,
+    )
+    session = LoopSession(
         loop,
+        commander,
+        writer,
+        tally,
         backend=args.backend,
-        online=args.online,
         period_s=period_s,
+        learner=learner,
+        policy=policy,
+        seed=args.seed if args.backend == "sim" else None,
         stop_robot=stop_robot,
-        rearm_options={"clear_estop": True} if args.backend == "hardware" else None,
+        rearm_options=rearm,
         topdown=topdown,
     )
     try:
@@ -294,3 +454,8 @@ def open_session(args: argparse.Namespace) -> LoopSession:
     except BaseException:
         session.close()
         raise
+
+
+def _online_parts(settings: OnlineSettings, seed: int) -> tuple[PolicyCommander, Any]:
+    """The policy commander and the GA learner feed that updates its weights."""
+    raise ValueError("--online needs the GA learner feed of the teaching loop")

@@ -86,7 +86,7 @@ def test_closing_the_page_stops_the_robot_within_1_s(
         assert "page closed" in status["stopped_reason"]
         wait_until(
             lambda: (
-                station.session.env.link.state in ("S", "X")  # X: e-stop latched
+                station.session.loop.env.link.state in ("S", "X")  # X: e-stop latched
                 and not _motors_on(simulated_board.motor_log()[-1])
             ),
             "the firmware's motors to stop",
