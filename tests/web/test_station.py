@@ -138,7 +138,7 @@ def test_a_second_page_watches_and_cannot_drive(browser, open_station) -> None:
     assert watcher.locator('[data-command="forward"]').is_disabled()
     watcher.evaluate("() => window.lfd")  # the page is live
     # Even a hand-made command from the watcher's socket is refused.
-    with connect(station.url.replace("http", "ws") + "ws", proxy=None) as ws:
+    with connect(station.url.replace("http", "ws") + "ws", proxy=None, max_queue=None) as ws:
         ws.send(json.dumps({"type": "press", "command": "forward"}))
         errors = []
         while not errors:
@@ -158,7 +158,7 @@ def test_a_second_page_watches_and_cannot_drive(browser, open_station) -> None:
 def test_the_robot_stops_when_the_page_goes_silent(open_station) -> None:
     """A page that holds forward and then sends nothing (phone asleep) stops the robot in ~1 s."""
     station = open_station()
-    with connect(station.url.replace("http", "ws") + "ws", proxy=None) as ws:
+    with connect(station.url.replace("http", "ws") + "ws", proxy=None, max_queue=None) as ws:
         ws.send(json.dumps({"type": "press", "command": "forward"}))  # held, never released
         wait_until(lambda: station.session.status()["steps"] >= 2, "the held command to run")
         silent_since = time.monotonic()
@@ -201,7 +201,7 @@ def test_a_token_is_required_on_every_request_and_the_websocket(browser, open_st
         assert http_get(base + path + f"?token={token}")[0] == 200
     for url in (base.replace("http", "ws") + "ws", base.replace("http", "ws") + "ws?token=x"):
         with pytest.raises(InvalidStatus) as refused:
-            with connect(url, proxy=None) as ws:
+            with connect(url, proxy=None, max_queue=None) as ws:
                 ws.send(json.dumps({"type": "press", "command": "forward"}))
         assert refused.value.response.status_code == 403
     # A page of another site cannot drive the robot from the user's browser either.
@@ -210,6 +210,7 @@ def test_a_token_is_required_on_every_request_and_the_websocket(browser, open_st
             base.replace("http", "ws") + f"ws?token={token}",
             origin="http://elsewhere.example",
             proxy=None,
+            max_queue=None,
         ):
             pass
     assert refused.value.response.status_code == 403

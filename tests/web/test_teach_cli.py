@@ -61,7 +61,7 @@ def drive(url: str, commands: list[str]) -> None:
     parts = urlsplit(url)
     ws_url = parts._replace(scheme="ws", path="/ws").geturl()
     deadline = time.monotonic() + WAIT_S
-    with connect(ws_url, proxy=None) as ws:
+    with connect(ws_url, proxy=None, max_queue=None) as ws:
         for given, command in enumerate(commands, start=1):
             ws.send(json.dumps({"type": "press", "command": command}))
             ws.send(json.dumps({"type": "release"}))
