@@ -218,3 +218,50 @@ def test_a_token_is_required_on_every_request_and_the_websocket(browser, open_st
     page = as_controller(browser, station.url)  # the printed URL carries the token
     page.click('[data-command="forward"]')
     assert settled(station.session, 1)["steps"] == 1
+
+
+STRAIGHT_TRACK = """\
+name = "straight"
+description = "a 6 m straight strip: forward is always right, so the policy learns it fast"
+closed = false
+width_m = 0.30
+vertices = [[0.0, 0.0], [6.0, 0.0]]
+"""
+
+
+def test_online_takeover_then_a_human_command_is_a_correction(
+    browser, open_station, tmp_path
+) -> None:
+    track = tmp_path / "straight.toml"
+    track.write_text(STRAIGHT_TRACK)
+    station = open_station(
+        "--online", "--track", str(track), "--takeover-window", "3",
+        "--takeover-threshold", "1", "--generations-per-case", "5", "--population", "20",
+    )  # fmt: skip
+    session = station.session
+    page = as_controller(browser, station.url)
+    takeover = page.locator('[data-action="takeover"]')
+    assert takeover.is_visible() and takeover.is_disabled()  # no policy before the first case
+    for given in range(1, 16):  # demonstrate until the station offers the takeover
+        page.click('[data-command="forward"]')
+        status = settled(session, given)
+        if status["takeover_offered"]:
+            break
+    assert status["takeover_offered"], status
+    assert status["agreement"] == 1.0 and status["generation"] == 5 * given
+    assert status["best_fitness"] is not None and status["mode"] == "human"
+    wait_until(lambda: "offer" in (takeover.get_attribute("class") or ""), "the offer on the page")
+    takeover.click()
+    wait_until(lambda: session.status()["mode"] == "autonomous", "the policy to drive")
+    steps = session.status()["steps"]
+    wait_until(lambda: session.status()["steps"] >= steps + 2, "the policy's own commands")
+    assert session.status()["cases"] == given  # the policy's commands are not teaching cases
+    wait_until(lambda: page.locator("#mode").inner_text() == "policy drives", "the page's badge")
+    page.click('[data-command="left"]')  # the human takes control back
+    status = wait_until(lambda: (s := session.status())["corrections"] == 1 and s, "the correction")
+    assert status["mode"] == "human" and status["cases"] == given + 1
+    code, body = http_get(station.url + "api/status")
+    assert json.loads(body)["mode"] == "human" and json.loads(body)["corrections"] == 1
+    demo = load_demonstration(station.out)
+    assert demo.commands.tolist() == [Command.FORWARD] * given + [Command.LEFT]
+    assert demo.phases.tolist() == ["drive"] * given + ["correction"]
