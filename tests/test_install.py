@@ -32,6 +32,9 @@ DATA_FILES = (
     "lfd_track/_data/envs/paper.toml",
     "lfd_track/_data/envs/randomized.toml",
     "lfd_track/_data/envs/wide.toml",
+    "lfd_track/web/static/index.html",  # the teaching station's page ships in the package
+    "lfd_track/web/static/app.js",
+    "lfd_track/web/static/style.css",
 )
 
 # Runs in the child. argv: site folder of the installed wheel, the checkout, then the venv's

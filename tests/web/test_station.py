@@ -24,6 +24,13 @@ from lfd_track.web.protocol import STATUS_FIELDS
 pytestmark = pytest.mark.browser
 
 WAIT_S = 15.0  # failure guard only: every wait returns as soon as its condition holds
+STRAIGHT_TRACK = """\
+name = "straight"
+description = "a 6 m straight strip: forward is always right, so the policy learns it fast"
+closed = false
+width_m = 0.30
+vertices = [[0.0, 0.0], [6.0, 0.0]]
+"""
 
 
 def wait_until(condition: Callable[[], Any], what: str, timeout_s: float = WAIT_S) -> Any:
@@ -95,6 +102,20 @@ def test_three_forward_clicks_record_three_cases(browser, open_station) -> None:
     assert status["cases"] == 4 and status["mode"] == "human"
     assert status["learning_paused"] is False and status["library_models"] >= 1
     assert status["generation"] is None and status["agreement"] is None  # not --online
+    # Drawing the road values for the page never counted as a selection: the first road type
+    # was compared once per command (40 regions), although the page showed every frame.
+    library = station.session.loop.perception.library
+    assert library.type_statistics()[0][1] == 40 * 4
+
+
+def test_library_only_commands_build_the_library_without_cases(browser, open_station) -> None:
+    station = open_station("--library-only", "2")
+    page = as_controller(browser, station.url)
+    for _ in range(3):
+        page.click('[data-command="forward"]')
+        wait_until(lambda: not station.session.commander.pending, "the command to run")
+    status = wait_until(lambda: (s := station.session.status())["steps"] == 3 and s, "3 steps")
+    assert status["cases"] == 1 and status["library_models"] == 3
 
 
 def test_the_live_view_runs_at_5_frames_per_second_or_more(browser, open_station) -> None:
@@ -130,6 +151,25 @@ def test_pausing_learning_keeps_the_library_from_growing(browser, open_station) 
     assert demo.learned.tolist() == [True, False, False, False, True]
 
 
+def test_the_rule_pauses_learning_while_the_safe_box_is_off_the_felt(
+    browser, open_station, tmp_path
+) -> None:
+    track = tmp_path / "straight.toml"
+    track.write_text(STRAIGHT_TRACK)
+    station = open_station("--track", str(track))
+    page = as_controller(browser, station.url)
+    for given in range(1, 5):  # four pivots: about 90 degrees, the safe box sees carpet
+        page.click('[data-command="left"]')
+        settled(station.session, given)
+    status = station.session.status()
+    assert status["learning_auto_paused"] and not status["learning_paused"]
+    wait_until(lambda: "by the rule" in page.locator("#learning").inner_text(), "the page's note")
+    models = status["library_models"]
+    page.click('[data-command="left"]')
+    assert settled(station.session, 5)["library_models"] == models
+    assert not load_demonstration(station.out).learned[-1]
+
+
 def test_a_second_page_watches_and_cannot_drive(browser, open_station) -> None:
     station = open_station()
     controller = as_controller(browser, station.url)
@@ -147,12 +187,21 @@ def test_a_second_page_watches_and_cannot_drive(browser, open_station) -> None:
                 errors.append(json.loads(message)["message"])
     assert "another page controls the robot" in errors[0]
     assert station.session.status()["steps"] == 0
+    # ... but any page may stop the robot.
+    controller.locator('[data-command="forward"]').hover()
+    controller.mouse.down()  # held on the controlling page
+    wait_until(lambda: station.session.status()["steps"] >= 1, "the held command")
+    assert watcher.locator('[data-action="stop"]').is_enabled()
+    watcher.click('[data-action="stop"]')
+    wait_until(lambda: station.session.status()["stopped_reason"], "the watcher's stop")
+    assert not station.session.commander.pending
+    controller.mouse.up()
     controller.close()  # the controlling page leaves: control is free for the watcher
     wait_until(lambda: watcher.locator("#claim").is_visible(), "the take-control button")
     watcher.click("#claim")
     wait_until(lambda: page_value(watcher, "window.lfd.role") == "controller", "control")
     watcher.click('[data-command="right"]')
-    assert settled(station.session, 1)["counts"]["right"] == 1
+    wait_until(lambda: station.session.status()["counts"]["right"] == 1, "the watcher's command")
 
 
 def test_the_robot_stops_when_the_page_goes_silent(open_station) -> None:
@@ -218,15 +267,6 @@ def test_a_token_is_required_on_every_request_and_the_websocket(browser, open_st
     page = as_controller(browser, station.url)  # the printed URL carries the token
     page.click('[data-command="forward"]')
     assert settled(station.session, 1)["steps"] == 1
-
-
-STRAIGHT_TRACK = """\
-name = "straight"
-description = "a 6 m straight strip: forward is always right, so the policy learns it fast"
-closed = false
-width_m = 0.30
-vertices = [[0.0, 0.0], [6.0, 0.0]]
-"""
 
 
 def test_online_takeover_then_a_human_command_is_a_correction(

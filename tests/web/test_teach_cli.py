@@ -74,7 +74,8 @@ def drive(url: str, commands: list[str]) -> None:
                         break
 
 
-def test_ctrl_c_keeps_what_was_taught_for_evolve(tmp_path: Path, capsys) -> None:
+@pytest.mark.parametrize("stop_signal", [signal.SIGINT, signal.SIGTERM])
+def test_ctrl_c_keeps_what_was_taught_for_evolve(tmp_path: Path, capsys, stop_signal) -> None:
     out = tmp_path / "taught.lfdemo"
     proc, lines = start_teach("--out", str(out), "--host", "0.0.0.0")
     try:
@@ -85,7 +86,7 @@ def test_ctrl_c_keeps_what_was_taught_for_evolve(tmp_path: Path, capsys) -> None
         assert http_status(base) == 403 and http_status(base + "api/status") == 403
         assert http_status(loopback(url)) == 200
         drive(loopback(url), ["forward", "forward", "left", "forward", "right"])
-        proc.send_signal(signal.SIGINT)
+        proc.send_signal(stop_signal)
         stdout, stderr = proc.communicate(timeout=WAIT_S)
     finally:
         if proc.poll() is None:
