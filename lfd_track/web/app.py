@@ -171,8 +171,11 @@ class ControlDesk:
             self.session.stop("the controlling page closed")
 
     def claim(self, client: _Client) -> bool:
+        """Give ``client`` control if it is free, or held by a page whose lease ran out (a phone
+        that fell asleep keeps its socket but no longer holds the robot)."""
+        lapsed = not self.session.status().get("lease_alive", True)
         with self._lock:
-            if self._controller is None:
+            if self._controller is None or lapsed:
                 self._controller = client.id
             granted = self._controller == client.id
         if granted:
@@ -183,11 +186,12 @@ class ControlDesk:
         with self._lock:
             return self._controller == client.id
 
-    def snapshot(self, client: _Client) -> dict[str, Any]:
+    def snapshot(self, client: _Client, lease_alive: bool) -> dict[str, Any]:
+        """What one page is told about control (``lease_alive``: the controller's lease)."""
         with self._lock:
             return {
                 "role": "controller" if self._controller == client.id else "watcher",
-                "control_free": self._controller is None,
+                "control_free": self._controller is None or not lease_alive,
                 "clients": len(self._clients),
             }
 
@@ -250,7 +254,9 @@ def create_app(
                 if view.topdown_jpeg is not None and view.seq != top_seq:
                     await websocket.send_bytes(b"T" + view.topdown_jpeg)
                     top_seq = view.seq
-            message = {"type": "status", **_json_status(session), **desk.snapshot(client)}
+            status = _json_status(session)
+            control = desk.snapshot(client, bool(status.get("lease_alive", True)))
+            message = {"type": "status", **status, **control}
             await websocket.send_text(json.dumps(message))
             await asyncio.sleep(period_s)
 
@@ -287,7 +293,7 @@ def create_app(
         client = desk.join(websocket)
         sender = asyncio.create_task(stream(websocket, client))
         try:
-            desk.claim(client)
+            await asyncio.to_thread(desk.claim, client)
             while True:
                 received = await websocket.receive()
                 if received["type"] == "websocket.disconnect":
@@ -296,7 +302,9 @@ def create_app(
                     message = json.loads(received.get("text") or "")
                     if not isinstance(message, dict):
                         raise ValueError("a message must be a JSON object")
-                    error = handle(client, message)
+                    # In a worker thread: a stop talks to the robot's serial link. One message
+                    # at a time, so a press and its release keep their order.
+                    error = await asyncio.to_thread(handle, client, message)
                 except ValueError as exc:  # bad JSON, or the session refused
                     error = str(exc)
                 if error is not None:
@@ -305,7 +313,7 @@ def create_app(
             pass  # the page went away (RuntimeError: a send raced the close)
         finally:
             sender.cancel()
-            desk.leave(client)
+            await asyncio.to_thread(desk.leave, client)
 
     app = Starlette(
         routes=[

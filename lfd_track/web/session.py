@@ -252,8 +252,6 @@ class LoopSession:
             self._closed = True
             self.commander.clear()
             self._cond.notify_all()
-        if self._stop_robot is not None and self._started:
-            self._stop_robot("closing")
         if self._thread.is_alive():
             self._thread.join(timeout=10.0)
         self.lease.close()

@@ -224,6 +224,26 @@ def test_the_robot_stops_when_the_page_goes_silent(open_station) -> None:
         ws.send(json.dumps({"type": "press", "command": "left"}))
         ws.send(json.dumps({"type": "release"}))
         wait_until(lambda: station.session.status()["steps"] == steps + 1, "one more command")
+        # Silent again: once its lease has run out, another page may take control.
+        wait_until(lambda: not station.session.status()["lease_alive"], "the lease to lapse")
+        with connect(station.url.replace("http", "ws") + "ws", proxy=None, max_queue=None) as other:
+            other.send(json.dumps({"type": "claim"}))
+            wait_until(lambda: _role(other) == "controller", "the other page to take control")
+            ws.send(json.dumps({"type": "press", "command": "right"}))  # the sleeper woke up
+            while True:
+                message = ws.recv(timeout=WAIT_S)
+                if isinstance(message, str) and json.loads(message)["type"] == "error":
+                    break
+            assert "another page controls the robot" in json.loads(message)["message"]
+        assert station.session.status()["counts"]["right"] == 0
+
+
+def _role(ws: Any) -> str | None:
+    """The role in the next status message on a raw WebSocket."""
+    while True:
+        message = ws.recv(timeout=WAIT_S)
+        if isinstance(message, str) and json.loads(message)["type"] == "status":
+            return json.loads(message)["role"]
 
 
 def test_stop_button_and_space_bar_stop_a_held_command(browser, open_station) -> None:

@@ -40,7 +40,7 @@
     $("mode").classList.toggle("autonomous", s.mode === "autonomous");
     $("role").textContent = controller ? "you control" : "watching";
     $("role").classList.toggle("controller", controller);
-    $("claim").hidden = controller || !s.control_free;
+    $("claim").hidden = controller || !s.control_free;  // free, or its holder went quiet
     driveButtons.forEach((b) => (b.disabled = !controller));
     pauseButton.disabled = !controller;
     pauseButton.setAttribute("aria-pressed", String(!!s.learning_paused));
