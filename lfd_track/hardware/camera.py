@@ -166,6 +166,15 @@ class _LatestFrameSource(FrameSource):
     def seconds_since_frame(self) -> float:
         return time.monotonic() - self._frame_time
 
+    def latest(self) -> tuple[int, np.ndarray] | None:
+        """The newest frame (RGB uint8 (480, 640, 3)) and its number, or None before the first.
+
+        For previews: unlike :meth:`read` it does not take the frame, so the control loop's next
+        ``read`` still gets it.
+        """
+        with self._cond:
+            return None if self._frame is None else (self._frame_id, self._frame)
+
     def _publish(self, frame_bgr: np.ndarray) -> None:
         observation = to_observation(frame_bgr)
         with self._cond:

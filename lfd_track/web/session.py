@@ -97,6 +97,10 @@ class LoopSession:
         rearm_options: ``reset`` options that make the robot drive again after a stop (the real
             robot's e-stop is cleared by the next command the human gives), or None.
         topdown: returns the simulator's map picture, None on the real robot.
+        live_frame: the real robot's newest camera frame and its number without taking it from
+            the loop (:meth:`~lfd_track.hardware.camera.MjpegStreamSource.latest`), shown while
+            the robot stands; None in the simulator, whose camera renders once per command.
+        preview_fps: [frames/s] how often a standing robot's camera view is refreshed.
         lease_s: [s] heartbeat lease of the controlling page.
     """
 
@@ -115,6 +119,8 @@ class LoopSession:
         stop_robot: Callable[[str], None] | None = None,
         rearm_options: dict[str, Any] | None = None,
         topdown: Callable[[], np.ndarray] | None = None,
+        live_frame: Callable[[], tuple[int, np.ndarray] | None] | None = None,
+        preview_fps: float = 10.0,
         lease_s: float = LEASE_S,
     ) -> None:
         self.loop = loop
@@ -130,6 +136,9 @@ class LoopSession:
         self._stop_robot = stop_robot
         self._rearm_options = rearm_options
         self._topdown = topdown
+        self._live_frame = live_frame
+        self._preview_period_s = 1.0 / preview_fps
+        self._previewed = -1
         self._cond = threading.Condition()
         self._closed = False
         self._started = False
@@ -284,13 +293,24 @@ class LoopSession:
         next_step_at = 0.0
         while True:
             with self._cond:
+                preview = False
                 while not self._closed and not (self._has_work() and self.lease.alive):
                     if self._has_work():  # commands but no lease: drop them, nothing moves
                         self.commander.clear()
                         self.arbiter.reset()
-                    self._cond.wait()
+                    if self._live_frame is None:
+                        self._cond.wait()
+                    elif not self._cond.wait(self._preview_period_s):
+                        preview = True
+                        break
                 if self._closed:
                     return
+                if preview:
+                    frame = self._live_frame()
+                    if frame is not None and frame[0] != self._previewed:
+                        self._previewed = frame[0]
+                        self._publish(frame[1])
+                    continue
                 # Pace the simulator like the robot: one command per control period.
                 remaining = next_step_at - time.monotonic()
                 if remaining > 0:
@@ -333,8 +353,9 @@ class LoopSession:
             self._stopped_reason = reason
             self._rearm = self._rearm_options is not None
 
-    def _publish(self) -> None:
-        frame = self.loop.frame
+    def _publish(self, frame: np.ndarray | None = None) -> None:
+        """Publish the view of ``frame`` (default: the loop's current frame)."""
+        frame = self.loop.frame if frame is None else frame
         values = self.loop.perception.look(frame)  # looking never counts as a selection
         topdown = self._topdown() if self._topdown is not None else None
         with self._cond:
@@ -364,6 +385,7 @@ def open_session(args: argparse.Namespace) -> LoopSession:
         stop_robot = None
         topdown: Callable[[], np.ndarray] | None = env.render
         rearm = None
+        live_frame = None
     else:
         from ..hardware.env import HardwareEnv
 
@@ -383,6 +405,7 @@ def open_session(args: argparse.Namespace) -> LoopSession:
 
         topdown = None
         rearm = {"clear_estop": True}
+        live_frame = getattr(env.camera, "latest", None)
     settings = OnlineSettings(
         generations_per_case=args.generations_per_case or OnlineSettings.generations_per_case,
         window=args.takeover_window,
@@ -446,6 +469,8 @@ def open_session(args: argparse.Namespace) -> LoopSession:
         stop_robot=stop_robot,
         rearm_options=rearm,
         topdown=topdown,
+        live_frame=live_frame,
+        preview_fps=args.fps,
     )
     try:
         return session.start()

@@ -177,6 +177,16 @@ def test_stream_keeps_only_the_newest_frame() -> None:
     assert camera.frames_received >= 10
 
 
+def test_latest_shows_the_newest_frame_without_taking_it() -> None:
+    # One frame every 2 s: a read that had to wait for the next frame would time out below.
+    with MjpegServer(period_s=2.0) as server, MjpegStreamSource(server.url) as camera:
+        assert _wait(lambda: camera.latest() is not None)
+        number, shown = camera.latest()
+        assert camera.latest()[0] == number  # looking twice takes nothing
+        taken = camera.read(timeout_s=0.3)  # the control loop still gets the frame at once
+        assert taken is shown or camera.frames_received > number
+
+
 def test_stalled_stream_raises_camera_timeout_then_recovers() -> None:
     with MjpegServer() as server, MjpegStreamSource(server.url, read_timeout_s=0.5) as camera:
         camera.read(timeout_s=3.0)

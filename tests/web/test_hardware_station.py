@@ -73,6 +73,10 @@ def test_closing_the_page_stops_the_robot_within_1_s(
             "--serial", simulated_board.serial_url, "--period", "0.2",
         )  # fmt: skip
         page = as_controller(browser, station.url)
+        # Standing still, the page still shows the live camera (without taking its frames).
+        seq = station.session.latest_view().seq
+        wait_until(lambda: station.session.latest_view().seq >= seq + 5, "live frames")
+        assert station.session.status()["steps"] == 0
         log_start = len(simulated_board.motor_log())
         page.locator('[data-command="forward"]').hover()
         page.mouse.down()  # held: the robot drives on, period after period
