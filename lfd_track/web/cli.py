@@ -7,7 +7,6 @@ when the command runs).
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -137,7 +136,8 @@ def add_teach_parser(subparsers: Any) -> argparse.ArgumentParser:
         type=_positive_float,
         default=None,
         metavar="S",
-        help="control period [s] (default: the preset's, 0.4 s)",
+        help="control period [s]: the real robot's command length; in the simulator the pace of "
+        "commands (default: the preset's, 0.4 s)",
     )
     teach.add_argument(
         "--online",
@@ -195,10 +195,3 @@ def add_teach_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     teach.set_defaults(func=run_teach)
     return teach
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Stand-alone entry point: ``python -m lfd_track.web.server teach …``."""
-    from ..cli import main as cli_main
-
-    return cli_main(["teach", *(sys.argv[1:] if argv is None else argv)])

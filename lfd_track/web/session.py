@@ -476,6 +476,7 @@ def open_session(args: argparse.Namespace) -> LoopSession:
         return session.start()
     except BaseException:
         session.close()
+        out.unlink(missing_ok=True)  # nothing was taught: leave no empty recording behind
         raise
 
 

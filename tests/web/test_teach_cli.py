@@ -126,6 +126,10 @@ def test_a_crash_keeps_every_case_already_given(tmp_path: Path) -> None:
         (["--backend", "hardware"], "needs --camera URL and --serial URL"),
         (["--camera", "http://127.0.0.1:1/video"], "are for --backend hardware"),
         (["--track", "no-such-track"], "no-such-track"),
+        (
+            ["--backend", "hardware", "--camera", "x.avi", "--serial", "socket://127.0.0.1:1"],
+            "cannot open serial link",
+        ),
     ],
 )
 def test_bad_arguments_are_one_line_errors(tmp_path: Path, capsys, argv, problem) -> None:
