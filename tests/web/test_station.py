@@ -118,6 +118,18 @@ def test_library_only_commands_build_the_library_without_cases(browser, open_sta
     assert status["cases"] == 1 and status["library_models"] == 3
 
 
+def test_a_phone_drives_by_touch(browser, open_station) -> None:
+    station = open_station()
+    page = open_page(
+        browser, station.url, viewport={"width": 390, "height": 844}, has_touch=True, is_mobile=True
+    )
+    wait_until(lambda: page_value(page, "window.lfd.role") == "controller", "control")
+    page.tap('[data-command="right"]')
+    page.tap('[data-command="forward"]')
+    status = settled(station.session, 2)
+    assert status["counts"] == {"forward": 1, "left": 0, "right": 1}
+
+
 def test_the_live_view_runs_at_5_frames_per_second_or_more(browser, open_station) -> None:
     station = open_station()
     page = open_page(browser, station.url)
