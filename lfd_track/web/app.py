@@ -168,6 +168,7 @@ class ControlDesk:
                 self._controller = None
         if was_controller:
             # A closed tab sends no more heartbeats; stop now rather than when the lease ends.
+            self.session.end_lease()
             self.session.stop("the controlling page closed")
 
     def claim(self, client: _Client) -> bool:

@@ -62,6 +62,9 @@ class TeachingSession(Protocol):
     def heartbeat(self) -> None:
         """The controlling page is alive: renew the lease for another ``LEASE_S``."""
 
+    def end_lease(self) -> None:
+        """The controlling page left: its lease ends now (the caller stops the robot)."""
+
     def press(self, command: Command) -> None:
         """A human command: run it once now, and again each control period until ``release``.
 

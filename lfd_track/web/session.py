@@ -169,6 +169,9 @@ class LoopSession:
     def heartbeat(self) -> None:
         self.lease.renew()
 
+    def end_lease(self) -> None:
+        self.lease.revoke()
+
     def press(self, command: Command) -> None:
         if not self.lease.alive:
             return  # no lease, no motion
