@@ -74,6 +74,12 @@ class BrowserCommander:
         with self._lock:
             return bool(self._queue) or self._held is not None
 
+    @property
+    def has_input(self) -> bool:
+        """The loop's name for :attr:`pending`: with none, a human-only loop does not even look
+        (so a stop racing the loop never makes it learn the same frame twice)."""
+        return self.pending
+
     def next_command(self) -> Command | None:
         """The command for this control period, or None when the human gives none."""
         with self._lock:

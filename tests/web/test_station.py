@@ -66,7 +66,12 @@ def as_controller(browser: Any, url: str) -> Any:
 def settled(session: Any, cases: int) -> dict[str, Any]:
     """The status once ``cases`` cases are recorded and no command is left to run."""
     return wait_until(
-        lambda: (s := session.status())["cases"] == cases and not session.commander.pending and s,
+        lambda: (
+            (s := session.status())["cases"] == cases
+            and not session.commander.pending
+            and not s["driving"]  # the step is over, every observer has seen it
+            and s
+        ),
         f"{cases} cases",
     )
 
