@@ -66,7 +66,8 @@ class Station:
 def open_station(tmp_path: Path) -> Iterator[Callable[..., Station]]:
     """``open_station(*teach_args, token=None)``: a station served on a free loopback port.
 
-    ``teach_args`` are ``lfd-track teach`` flags (``--out`` defaults to a file in tmp_path).
+    ``teach_args`` are ``lfd-track teach`` flags (``--out`` defaults to a file in tmp_path,
+    ``--period`` to 0.1 s: in the simulator that only paces the commands, so tests run faster).
     """
     from lfd_track.cli import build_parser
     from lfd_track.web.app import create_app
@@ -77,6 +78,8 @@ def open_station(tmp_path: Path) -> Iterator[Callable[..., Station]]:
 
     def open_(*teach_args: str, token: str | None = None) -> Station:
         argv = ["teach", "--port", "0", *teach_args]
+        if "--period" not in teach_args:
+            argv += ["--period", "0.1"]  # the simulator's pace: four commands per robot period
         if "--out" not in teach_args:
             argv += ["--out", str(tmp_path / f"taught{len(opened)}.lfdemo")]
         args = build_parser().parse_args(argv)

@@ -25,7 +25,7 @@ WAIT_S = 30.0  # failure guard only
 def start_teach(*argv: str) -> tuple[subprocess.Popen, list[str]]:
     """Run ``lfd-track teach`` and read its output up to "press Ctrl-C"."""
     proc = subprocess.Popen(
-        [sys.executable, "-m", "lfd_track.cli", "teach", "--port", "0", *argv],
+        [sys.executable, "-m", "lfd_track.cli", "teach", "--port", "0", "--period", "0.1", *argv],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
