@@ -10,7 +10,8 @@ Routes (every one behind :class:`AccessGuard`):
 WebSocket protocol. The page sends JSON text messages ``{"type": ...}``:
 
 ==================  =============================================================================
-``claim``           take control if no other page has it (the first page gets it on connect)
+``claim``           take control if no other page holds it, or its holder's lease ran out (every
+                    page claims on connect, so the first one gets control)
 ``heartbeat``       the controlling page is alive (every 250 ms; 1 s without one stops the robot)
 ``press``           ``{"command": "forward"|"left"|"right"}``: run it now and while held
 ``release``         the command button was let go
@@ -243,23 +244,19 @@ def create_app(
         """Push the camera view at ``fps``, the top-down view when it changes, and the status."""
         top_seq = -1
         try:
-            await _stream_forever(websocket, client, top_seq)
+            while True:
+                view = session.latest_view()
+                if view is not None:
+                    await websocket.send_bytes(b"C" + view.camera_jpeg)
+                    if view.topdown_jpeg is not None and view.seq != top_seq:
+                        await websocket.send_bytes(b"T" + view.topdown_jpeg)
+                        top_seq = view.seq
+                status = _json_status(session)
+                control = desk.snapshot(client, bool(status.get("lease_alive", True)))
+                await websocket.send_text(json.dumps({"type": "status", **status, **control}))
+                await asyncio.sleep(period_s)  # the stream's pace, not a wait for anything
         except (WebSocketDisconnect, RuntimeError, OSError):
             return  # the page went away; the receiving side cleans up
-
-    async def _stream_forever(websocket: WebSocket, client: _Client, top_seq: int) -> None:
-        while True:
-            view = session.latest_view()
-            if view is not None:
-                await websocket.send_bytes(b"C" + view.camera_jpeg)
-                if view.topdown_jpeg is not None and view.seq != top_seq:
-                    await websocket.send_bytes(b"T" + view.topdown_jpeg)
-                    top_seq = view.seq
-            status = _json_status(session)
-            control = desk.snapshot(client, bool(status.get("lease_alive", True)))
-            message = {"type": "status", **status, **control}
-            await websocket.send_text(json.dumps(message))
-            await asyncio.sleep(period_s)
 
     def handle(client: _Client, message: dict[str, Any]) -> str | None:
         """Carry out one page message; returns an error text for the page, or None."""
