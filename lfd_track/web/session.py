@@ -424,7 +424,10 @@ def open_session(args: argparse.Namespace) -> LoopSession:
         }
     try:
         library = RoadLibrary()
-        writer = DemonstrationWriter(out, metadata, library.bins, overwrite=args.force)
+        # The library is logged as it learns, so a recording cut short still carries it.
+        writer = DemonstrationWriter(
+            out, metadata, library.bins, overwrite=args.force, library=library
+        )
     except BaseException:
         env.close()
         raise
@@ -436,6 +439,7 @@ def open_session(args: argparse.Namespace) -> LoopSession:
             lambda step: {
                 "pose": step.moment.pose,
                 "phase": PHASE_CORRECTION if step.decision.correction else PHASE_TEACH,
+                "source": "correction" if step.decision.correction else "demonstration",
                 "step": step.moment.step,
             },
         ),

@@ -342,3 +342,4 @@ def test_online_takeover_then_a_human_command_is_a_correction(
     demo = load_demonstration(station.out)
     assert demo.commands.tolist() == [Command.FORWARD] * given + [Command.LEFT]
     assert demo.phases.tolist() == ["drive"] * given + ["correction"]
+    assert demo.sources.tolist() == ["demonstration"] * given + ["correction"]

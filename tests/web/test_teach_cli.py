@@ -102,7 +102,7 @@ def test_ctrl_c_keeps_what_was_taught_for_evolve(tmp_path: Path, capsys, stop_si
     assert controller.is_file() and "5 cases" in capsys.readouterr().out
 
 
-def test_a_crash_keeps_every_case_already_given(tmp_path: Path) -> None:
+def test_a_crash_keeps_every_case_already_given_for_evolve(tmp_path: Path, capsys) -> None:
     out = tmp_path / "taught.lfdemo"
     proc, lines = start_teach("--out", str(out))
     try:
@@ -118,6 +118,10 @@ def test_a_crash_keeps_every_case_already_given(tmp_path: Path) -> None:
     demo = load_demonstration(out)
     assert not demo.metadata["complete"]
     assert demo.commands.tolist() == [0, 2, 0]
+    assert demo.metadata["road_library"]["types"]  # replayed from the library log
+    controller = tmp_path / "controller.json"
+    assert main(["evolve", str(out), "--generations", "3", "--out", str(controller)]) == 0
+    assert controller.is_file() and "3 cases" in capsys.readouterr().out
 
 
 @pytest.mark.parametrize(
