@@ -308,19 +308,17 @@ class LoopSession:
                         break
                 if self._closed:
                     return
-                if preview:
-                    frame = self._live_frame()
-                    if frame is not None and frame[0] != self._previewed:
-                        self._previewed = frame[0]
-                        self._publish(frame[1])
-                    continue
-                # Pace the simulator like the robot: one command per control period.
-                remaining = next_step_at - time.monotonic()
-                if remaining > 0:
-                    self._cond.wait(remaining)
-                    continue
-                rearm, self._rearm = self._rearm, False
-                self._driving = True
+                if not preview:
+                    # Pace the simulator like the robot: one command per control period.
+                    remaining = next_step_at - time.monotonic()
+                    if remaining > 0:
+                        self._cond.wait(remaining)
+                        continue
+                    rearm, self._rearm = self._rearm, False
+                    self._driving = True
+            if preview:
+                self._show_live_frame()
+                continue
             started = time.monotonic()
             try:
                 if rearm:  # a command after a stop: clear the e-stop, take a fresh frame
@@ -338,6 +336,8 @@ class LoopSession:
                 continue
             with self._cond:
                 self._driving = False
+                if step.command is not None:
+                    self._error = None  # the robot drives again
             if step.command is not None:
                 self._publish()
                 next_step_at = started + self.period_s
@@ -355,6 +355,13 @@ class LoopSession:
         with self._cond:
             self._stopped_reason = reason
             self._rearm = self._rearm_options is not None
+
+    def _show_live_frame(self) -> None:
+        """Publish the standing robot's newest camera frame, if it is new."""
+        latest = self._live_frame() if self._live_frame is not None else None
+        if latest is not None and latest[0] != self._previewed:
+            self._previewed = latest[0]
+            self._publish(latest[1])
 
     def _publish(self, frame: np.ndarray | None = None) -> None:
         """Publish the view of ``frame`` (default: the loop's current frame)."""

@@ -119,7 +119,10 @@ def test_library_only_commands_build_the_library_without_cases(browser, open_sta
     for _ in range(3):
         page.click('[data-command="forward"]')
         wait_until(lambda: not station.session.commander.pending, "the command to run")
-    status = wait_until(lambda: (s := station.session.status())["steps"] == 3 and s, "3 steps")
+    status = wait_until(
+        lambda: (s := station.session.status())["steps"] == 3 and not s["driving"] and s,
+        "3 steps",
+    )
     assert status["cases"] == 1 and status["library_models"] == 3
 
 

@@ -63,10 +63,16 @@
     $("best_fitness").textContent = fmt(s.best_fitness, 3);
     $("agreement").textContent = s.agreement === null || s.agreement === undefined
       ? "–" : `${Math.round(100 * s.agreement)} %`;
-    if (s.stopped_reason) message(`stopped: ${s.stopped_reason}`);
+    const note = s.error ? `error: ${s.error}` : s.stopped_reason ? `stopped: ${s.stopped_reason}` : "";
+    if (note) message(note, true);
+    else if (statusNote) message("", true);  // the robot moves again: the old note is stale
   }
 
-  function message(text) { $("message").textContent = text; }
+  let statusNote = false;  // whether the message line shows the status's stop or error note
+  function message(text, fromStatus = false) {
+    $("message").textContent = text;
+    statusNote = fromStatus && text !== "";
+  }
 
   function connect() {
     ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws${query}`);
