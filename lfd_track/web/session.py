@@ -496,11 +496,11 @@ def open_session(args: argparse.Namespace) -> LoopSession:
 
 def _online_parts(settings: OnlineSettings, seed: int) -> tuple[PolicyCommander, Any]:
     """The policy commander and the loop's GA learner feed, which updates its weights."""
-    from ..benchmark.methods import OnlineGA
     from ..learning.ga import GAConfig
+    from ..teaching.learner import GALearnerFeed
 
     policy = PolicyCommander(None)  # no policy until the first case was learned
-    learner = OnlineGA(
+    learner = GALearnerFeed(
         GAConfig(population_size=settings.population_size),
         np.random.default_rng(seed),
         settings.generations_per_case,
