@@ -29,6 +29,13 @@ _LAZY = {
     "evolve": "lfd_track.learning.ga",
     "Controller": "lfd_track.controller",
     "RoadValueObservation": "lfd_track.wrappers",
+    "Demonstration": "lfd_track.demo.dataset",
+    "load_demonstration": "lfd_track.demo.dataset",
+    "run_demonstration": "lfd_track.demo.demonstrator",
+    "HumanConfig": "lfd_track.demo.demonstrator",
+    "Preset": "lfd_track.presets",
+    "load_preset": "lfd_track.presets",
+    "training_accuracy": "lfd_track.learning.fitness",
 }
 
 __all__ = sorted([*_LAZY, "register_envs", "__version__"])

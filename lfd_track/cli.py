@@ -49,6 +49,21 @@ def _seed(text: str) -> int:
     return value
 
 
+def _cores() -> int:
+    """CPU cores this process may use (the default number of benchmark workers)."""
+    try:
+        return max(len(os.sched_getaffinity(0)), 1)
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def _advance(bar: Any, done: float, note: str = "") -> None:
+    """Move a progress bar to ``done`` (it may go back) with a short note."""
+    if note:
+        bar.set_postfix_str(note, refresh=False)
+    bar.update(done - bar.n)
+
+
 # --------------------------------------------------------------------------------- demo
 class _Terminated(Exception):
     """SIGTERM arrived: stop like Ctrl-C, keeping what was recorded."""
@@ -71,7 +86,7 @@ def _partial_name(out: Path) -> Path:
 def _cmd_demo(args: argparse.Namespace) -> int:
     from .demo.dataset import load_demonstration
     from .demo.demonstrator import HumanConfig, run_demonstration
-    from .progress import ProgressBar
+    from .progress import progress_bar
 
     out = Path(args.out)
     if out.is_dir():
@@ -90,11 +105,12 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     def progress(n: int) -> None:
         nonlocal commands
         commands = n
-        bar.update(n)
+        bar.update(n - bar.n)
 
     previous = signal.signal(signal.SIGTERM, _raise_terminated)
     try:
-        with ProgressBar(200, "demonstrating", enabled=not args.quiet) as bar:
+        # A running count: how many commands the protocol takes is known only when it ends.
+        with progress_bar(None, "demonstrating", unit=" commands", enabled=not args.quiet) as bar:
             summary = run_demonstration(
                 target,
                 seed=args.seed,
@@ -139,8 +155,8 @@ def _cmd_evolve(args: argparse.Namespace) -> int:
     from .demo.dataset import load_demonstration
     from .learning.fitness import training_accuracy
     from .learning.ga import GAConfig, evolve
-    from .plots import fitness_plot, write_png
-    from .progress import ProgressBar
+    from .plots import fitness_notes, fitness_plot, write_png
+    from .progress import progress_bar
     from .vision.road_library import RoadLibrary
 
     demo = load_demonstration(args.demo)
@@ -157,13 +173,15 @@ def _cmd_evolve(args: argparse.Namespace) -> int:
     except (ValueError, KeyError, TypeError) as exc:
         raise LfdTrackError(f"{_shown(args.demo)}: bad road library ({exc})") from None
     config = GAConfig(generations=args.generations, elitism=args.elitism)
-    with ProgressBar(config.generations, "evolving", enabled=not args.quiet) as bar:
+    with progress_bar(
+        config.generations, "evolving", unit=" generations", enabled=not args.quiet
+    ) as bar:
         result = evolve(
             demo.road_values,
             demo.commands,
             config,
             np.random.default_rng(args.seed),
-            progress=lambda g, best, mean: bar.update(g, f"best {best:.4f}"),
+            progress=lambda g, best, mean: _advance(bar, g, f"best fitness {best:.4f}"),
         )
     controller = Controller.from_evolution(library, result, seed=args.seed)
     controller.save(args.out)
@@ -175,7 +193,9 @@ def _cmd_evolve(args: argparse.Namespace) -> int:
             [
                 ("best", result.best_history, (200, 30, 30)),
                 ("mean", result.mean_history, (30, 80, 200)),
-            ]
+            ],
+            title=f"Fitness of each generation: {Path(args.demo).name}, GA seed {args.seed}",
+            notes=fitness_notes(config.elitism),
         ),
     )
     partial = "" if demo.metadata["complete"] else " (an interrupted recording)"
@@ -188,12 +208,20 @@ def _cmd_evolve(args: argparse.Namespace) -> int:
 
 
 # --------------------------------------------------------------------------------- drive
+def _lap_line(lap: dict[str, Any]) -> str:
+    outcome = "success" if lap["success"] else f"{lap['failure']} at corner {lap['failed_corner']}"
+    negotiated = " ".join(lap["corners_negotiated"]) or "-"
+    return f"  lap {lap['lap']}: {outcome}; negotiated {negotiated} ({lap['steps']} steps)"
+
+
 def _cmd_drive(args: argparse.Namespace) -> int:
+    import numpy as np
 
     from .benchmark.runner import run_trial
     from .controller import Controller
     from .env import LfDTrackEnv
-    from .plots import trajectory_map, write_png
+    from .plots import TrackRun, laps_plot, write_png
+    from .progress import progress_bar
     from .video import DriveVideo
 
     controller = Controller.load(args.controller)
@@ -202,14 +230,28 @@ def _cmd_drive(args: argparse.Namespace) -> int:
     laps: list[dict[str, Any]] = []
     trajectories = []
     video = DriveVideo(args.video, env) if args.video else None
+    if not args.json:
+        order = " ".join(c.label for c in env.track.corners)
+        direction = "reversed" if args.reverse else "file order"
+        print(f"{args.track} ({direction}), corners met in order {order}:", flush=True)
     try:
         for lap in range(args.laps):
-            info, trajectory, steps = run_trial(
-                env,
-                controller,
-                seed=args.seed if lap == 0 else None,
-                on_step=video.add if video else None,
-            )
+            # Per-lap bar: percent of the track driven; a lap's line is printed as it ends.
+            with progress_bar(
+                100, f"lap {lap + 1}/{args.laps}", unit="%", enabled=not args.quiet, leave=False
+            ) as bar:
+
+                def on_step(step: Any, lap: int = lap) -> None:
+                    info = step.moment.info
+                    step_note = f"step {info['step']}/{info['max_steps']}"
+                    _advance(bar, max(0, min(100, round(100 * info["lap_fraction"]))), step_note)
+                    if video is not None:
+                        frame, values = step.moment.frame, step.percept.values
+                        video.add(frame, values, info, lap=lap + 1, command=step.command)
+
+                info, trajectory, steps = run_trial(
+                    env, controller, seed=args.seed if lap == 0 else None, on_loop_step=on_step
+                )
             failure = info["failure"] or (None if info["success"] else "timeout")
             laps.append(
                 {
@@ -223,31 +265,30 @@ def _cmd_drive(args: argparse.Namespace) -> int:
                     "progress_m": round(info["progress_m"], 3),
                 }
             )
-            trajectories.append((trajectory, info["success"], failure))
+            trajectories.append(TrackRun(trajectory, info["success"], failure, f"lap {lap + 1}"))
+            if not args.json:
+                print(_lap_line(laps[-1]), flush=True)
     finally:
         if video:
             video.close()
     if args.plot:
-        picture = trajectory_map(
-            env.track, [t for t, _, _ in trajectories], [(s, f) for _, s, f in trajectories]
+        direction = "reversed" if args.reverse else "file order"
+        if env.track.closed:
+            x, y = env.track.vertices[:, 0], env.track.vertices[:, 1]  # in driving order
+            area2 = float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+            direction = "counter-clockwise" if area2 > 0 else "clockwise"
+        title = f"{args.track} track, {direction}: {Path(args.controller).name}"
+        picture = laps_plot(
+            env.track,
+            trajectories,
+            title=title,
+            finish_m=env.episode.goal_progress_m,
+            start_pose=env.episode.start_pose(),
         )
         write_png(args.plot, picture)
     if args.json:
         print(json.dumps({"track": args.track, "reverse": args.reverse, "laps": laps}, indent=2))
     else:
-        order = [c.label for c in env.track.corners]
-        print(
-            f"{args.track} ({'reversed' if args.reverse else 'file order'}), corners met in order {' '.join(order)}:"
-        )
-        for lap in laps:
-            outcome = (
-                "success"
-                if lap["success"]
-                else f"{lap['failure']} at corner {lap['failed_corner']}"
-            )
-            print(
-                f"  lap {lap['lap']}: {outcome}; negotiated {' '.join(lap['corners_negotiated']) or '-'} ({lap['steps']} steps)"
-            )
         print(f"  {sum(lap['success'] for lap in laps)}/{len(laps)} successful")
     return EXIT_OK
 
@@ -258,7 +299,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     from .benchmark.runner import BenchmarkConfig, check_test_tracks, run_benchmark
     from .demo.demonstrator import HumanConfig
     from .presets import load_preset
-    from .progress import ProgressBar
+    from .progress import progress_bar
 
     repetitions = 1 if args.quick and args.repetitions is None else (args.repetitions or 10)
     trials = args.trials or (1 if args.quick else 3)
@@ -283,18 +324,22 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     work = out / "repetitions"
     start = time.perf_counter()
-    with ProgressBar(config.repetitions, "repetitions", enabled=not args.quiet) as bar:
-        done = 0
+    workers = args.workers or _cores()
+    with progress_bar(
+        config.repetitions, "benchmark", unit=" repetitions", enabled=not args.quiet
+    ) as bar:
 
         def tick(result: Any) -> None:
-            nonlocal done
-            done += 1
             wins = sum(o.success for o in result.outcomes)
-            bar.update(done, f"rep {result.index}: {wins}/{len(result.outcomes)} trials succeeded")
+            bar.set_postfix_str(
+                f"repetition {result.index}: {wins}/{len(result.outcomes)} trials succeeded",
+                refresh=False,
+            )
+            bar.update(1)
 
-        reps = run_benchmark(config, work, workers=args.workers, progress=tick)
+        reps = run_benchmark(config, work, workers=workers, progress=tick)
     wall = time.perf_counter() - start
-    text = write_benchmark_outputs(out, config, reps, wall_s=wall, workers=args.workers)
+    text = write_benchmark_outputs(out, config, reps, wall_s=wall, workers=workers)
     print(text)
     print(
         f"\nreport: {out / 'report.md'}\nresults: {out / 'results.json'}\nplots: {out / 'trajectories.png'}, {out / 'fitness.png'}"
@@ -311,7 +356,12 @@ def build_parser() -> argparse.ArgumentParser:
         prog="lfd-track",
         description="Learning from demonstration with encapsulated evolution on a felt-track rover.",
     )
-    parser.add_argument("--quiet", "-q", action="store_true", help="no progress bars")
+    parser.add_argument(
+        "--quiet",
+        "-q",
+        action="store_true",
+        help="no progress bars (they are shown only when stderr is a terminal anyway)",
+    )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
 
@@ -323,8 +373,12 @@ def build_parser() -> argparse.ArgumentParser:
     demo.add_argument(
         "--track", default="training", help="open track to demonstrate on (default: training)"
     )
-    demo.add_argument("--seed", type=_seed, default=0, help="seed of the human and the world")
-    demo.add_argument("--preset", default="paper", help="environment preset name or TOML path")
+    demo.add_argument(
+        "--seed", type=_seed, default=0, help="seed of the human and the world (default: 0)"
+    )
+    demo.add_argument(
+        "--preset", default="paper", help="environment preset name or TOML path (default: paper)"
+    )
     demo.add_argument(
         "--careless",
         action="store_true",
@@ -340,12 +394,18 @@ def build_parser() -> argparse.ArgumentParser:
         description="Run the paper's GA (Table 1) on a demonstration; writes the controller JSON and a fitness-curve PNG beside it.",
     )
     evo.add_argument("demo", help="demonstration file (.lfdemo)")
-    evo.add_argument("--seed", type=_seed, default=0, help="GA seed")
+    evo.add_argument("--seed", type=_seed, default=0, help="GA seed (default: 0)")
     evo.add_argument(
-        "--generations", type=_positive_int, default=200, help="generations (paper: 200)"
+        "--generations",
+        type=_positive_int,
+        default=200,
+        help="generations (default: 200, as in the paper)",
     )
     evo.add_argument(
-        "--elitism", type=int, default=0, help="copies of the best kept each generation (paper: 0)"
+        "--elitism",
+        type=int,
+        default=0,
+        help="copies of the best kept each generation (default: 0, as in the paper)",
     )
     evo.add_argument("--out", required=True, help="controller file to write (.json)")
     evo.set_defaults(func=_cmd_evolve)
@@ -362,13 +422,20 @@ def build_parser() -> argparse.ArgumentParser:
     drive.add_argument(
         "--reverse", action="store_true", help="drive against the file order (testing: clockwise)"
     )
-    drive.add_argument("--laps", type=_positive_int, default=1, help="episodes to run")
-    drive.add_argument("--seed", type=_seed, default=0, help="world seed")
-    drive.add_argument("--preset", default="paper", help="environment preset name or TOML path")
+    drive.add_argument("--laps", type=_positive_int, default=1, help="episodes to run (default: 1)")
+    drive.add_argument("--seed", type=_seed, default=0, help="world seed (default: 0)")
     drive.add_argument(
-        "--video", help="write an MP4: camera view with road values beside the top-down view"
+        "--preset", default="paper", help="environment preset name or TOML path (default: paper)"
     )
-    drive.add_argument("--plot", help="write a PNG of the trajectories coloured by outcome")
+    drive.add_argument(
+        "--video",
+        metavar="FILE",
+        help="write a video (.mp4 or .webm, VP9): camera view with road values beside the"
+        " top-down view, lap number and command",
+    )
+    drive.add_argument(
+        "--plot", metavar="FILE", help="write a PNG of each lap's path, coloured by outcome"
+    )
     drive.add_argument(
         "--keep-learning",
         action="store_true",
@@ -386,15 +453,25 @@ def build_parser() -> argparse.ArgumentParser:
         "--repetitions",
         type=_positive_int,
         default=None,
-        help="repetitions (default 10; 1 with --quick)",
+        help="repetitions (default: 10; 1 with --quick)",
     )
     bench.add_argument(
         "--trials",
         type=_positive_int,
         default=None,
-        help="runs per direction per repetition (default 3; 1 with --quick)",
+        help="runs per direction per repetition (default: 3; 1 with --quick)",
     )
-    bench.add_argument("--seed", type=_seed, default=0, help="benchmark seed")
+    bench.add_argument("--seed", type=_seed, default=0, help="benchmark seed (default: 0)")
+    bench.add_argument(
+        "--workers",
+        type=_positive_int,
+        default=None,
+        help=f"parallel processes; results do not depend on it (default: the number of cores,"
+        f" here {_cores()})",
+    )
+    bench.add_argument(
+        "--preset", default="paper", help="environment preset name or TOML path (default: paper)"
+    )
     bench.add_argument(
         "--test-track",
         action="append",
@@ -409,10 +486,8 @@ def build_parser() -> argparse.ArgumentParser:
         default="paper",
         help="how each repetition learns: paper (demonstrate, then evolve), online (evolve while"
         " demonstrating, policy takes over, human corrects), hg-dagger (rounds of runs with"
-        " interventions), bc, cma-es (default paper)",
+        " interventions), bc, cma-es (default: paper)",
     )
-    bench.add_argument("--workers", type=_positive_int, default=1, help="parallel processes")
-    bench.add_argument("--preset", default="paper", help="environment preset name or TOML path")
     bench.add_argument(
         "--careless",
         action="store_true",

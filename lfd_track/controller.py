@@ -148,7 +148,17 @@ class Controller:
     def from_evolution(
         cls, library: RoadLibrary, result: EvolutionResult, *, seed: int | None = None
     ) -> Controller:
-        """Controller from an :func:`~lfd_track.learning.ga.evolve` result."""
+        """Controller from an :func:`~lfd_track.learning.ga.evolve` result.
+
+        ``library`` must be the road library the training cases' road values came from (a
+        demonstration stores it: ``load_demonstration(path).road_library()``); an empty library
+        is refused, since every road value it gives is 0 and the controller could not see the road.
+        """
+        if library.n_models == 0:
+            raise ValueError(
+                "the road library is empty: pass the library the training cases were recorded"
+                " with (e.g. load_demonstration(path).road_library())"
+            )
         return cls(
             library,
             result.best_weights,
@@ -163,6 +173,11 @@ class Controller:
         """Forget the previous command (start of an episode)."""
         self._previous = None
         self.last_outputs = None
+
+    @property
+    def last_command(self) -> int | None:
+        """The command chosen for the latest frame (0 forward, 1 left, 2 right), None after reset."""
+        return None if self._previous is None else int(self._previous)
 
     def act(self, frame: np.ndarray) -> int:
         """Command (0 forward, 1 left, 2 right) for an RGB uint8 (480, 640, 3) frame.

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.envs.registration import EnvSpec
 
 from .commands import Command
 from .presets import Preset, load_preset
@@ -18,7 +20,8 @@ from .world.episode import EpisodeTracker, reference_step_count
 from .world.rover import Rover
 from .world.track import Track, load_track
 
-#: Step budget per episode as a multiple of the commands an ideal driver needs (DESIGN §3.5).
+#: Step budget per episode as a multiple of the commands an ideal driver needs (see
+#: ``world/episode.py``: ``reference_step_count``).
 BUDGET_FACTOR = 3.0
 
 
@@ -65,7 +68,8 @@ class LfDTrackEnv(gym.Env):
     Terminated on success (every corner negotiated and the end reached: open track within 0.40 m
     of the far end; loop back across the start) or failure (``"reversed"``: progress fell more than
     0.30 m below its maximum; ``"off_track"``: both treads completely off the felt). Truncated after
-    ``max_steps`` commands (default 3× the commands an ideal driver needs, pivots included).
+    ``max_steps`` commands (default 3× the commands an ideal driver needs, pivots included);
+    ``env.spec.max_episode_steps`` states the same number for an env made with ``gym.make``.
     Calling ``step`` after the episode ended raises ``RuntimeError`` (call ``reset``), unless the
     env was made with ``continue_after_end=True`` (a demonstration protocol that is not one
     episode: the human drives on past the far end and turns round).
@@ -99,6 +103,7 @@ class LfDTrackEnv(gym.Env):
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+    _spec: EnvSpec | None = None
 
     def __init__(
         self,
@@ -267,7 +272,12 @@ class LfDTrackEnv(gym.Env):
         return self._frame, float(reward), terminated, truncated, self._info()
 
     def render(self) -> np.ndarray | None:
-        if self.render_mode != "rgb_array":
+        if self.render_mode is None:
+            env_id = self.spec.id if self.spec is not None else "LfDTrack-v0"
+            gym.logger.warn(
+                "render() was called but the env has no render_mode, so it draws nothing; create"
+                f' it with a render mode, e.g. gym.make("{env_id}", render_mode="rgb_array")'
+            )
             return None
         if self._rover is None:
             return draw_topdown(self.track)
@@ -277,6 +287,23 @@ class LfDTrackEnv(gym.Env):
             trajectory=np.asarray(self._trajectory),
             footprint=self.camera_footprint(self._last_pose),
         )
+
+    @property
+    def spec(self) -> EnvSpec | None:
+        """The spec ``gym.make`` gave this env; it states this env's own step budget.
+
+        The budget depends on the track, so registration cannot state it; ``gym.make`` then
+        records ``max_episode_steps=None`` here, and this fills in ``max_steps`` instead (unless a
+        ``TimeLimit`` is asked for, which keeps its own limit on its own copy of the spec).
+        """
+        return self._spec
+
+    @spec.setter
+    def spec(self, value: EnvSpec | None) -> None:
+        budget = getattr(self, "max_steps", None)
+        if value is not None and value.max_episode_steps is None and budget is not None:
+            value = dataclasses.replace(value, max_episode_steps=budget)
+        self._spec = value
 
     # Convenience for drivers, demonstrators and tests (privileged state, not an observation).
     @property

@@ -10,7 +10,9 @@ def register_envs() -> None:
     registry = gym.envs.registration.registry
     if "LfDTrack-v0" not in registry:
         # No max_episode_steps here: the env truncates itself at its step budget, which depends
-        # on the track (3x the steps the privileged driver needs, DESIGN §3.5).
+        # on the track (3x the commands an ideal driver needs, lfd_track/world/episode.py). The
+        # made env's spec states that budget as max_episode_steps (LfDTrackEnv.spec). The
+        # hardware env has no step limit: it drives until stopped.
         gym.register(id="LfDTrack-v0", entry_point="lfd_track.env:LfDTrackEnv")
     if "LfDTrack-Hardware-v0" not in registry:
         gym.register(id="LfDTrack-Hardware-v0", entry_point="lfd_track.hardware.env:HardwareEnv")

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import argparse
+import io
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -217,3 +220,111 @@ def test_every_subcommand_has_help():
     ):
         proc = run_cli(*sub, "--help")
         assert proc.returncode == 0 and "usage:" in proc.stdout
+
+
+# ----------------------------------------------------------------- progress, help, defaults
+class _Terminal(io.StringIO):
+    """A stderr that says it is a terminal, so progress bars draw."""
+
+    def isatty(self) -> bool:
+        return True
+
+
+def test_drive_prints_each_lap_as_it_ends(controller_file, capsys, monkeypatch):
+    from lfd_track.benchmark import runner
+
+    real_run_trial = runner.run_trial
+    printed_before_lap = []
+
+    def spy(*args, **kwargs):
+        printed_before_lap.append(capsys.readouterr().out)
+        return real_run_trial(*args, **kwargs)
+
+    monkeypatch.setattr(runner, "run_trial", spy)
+    args = ["--quiet", "drive", str(controller_file), "--track", "training", "--laps", "2"]
+    assert main(args) == 0
+    rest = capsys.readouterr().out
+    assert "corners met in order" in printed_before_lap[0] and "lap 1:" not in printed_before_lap[0]
+    assert "lap 1:" in printed_before_lap[1] and "lap 2:" not in printed_before_lap[1]
+    assert "lap 2:" in rest and "/2 successful" in rest
+
+
+def test_drive_shows_per_lap_progress_on_a_terminal_only(controller_file, capsys, monkeypatch):
+    args = ["drive", str(controller_file), "--track", "training", "--laps", "2", "--json"]
+    assert main(args) == 0
+    assert capsys.readouterr().err == ""  # stderr is not a terminal here: no bars
+    terminal = _Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    assert main(args) == 0
+    shown = terminal.getvalue()
+    assert "lap 1/2" in shown and "lap 2/2" in shown and "%" in shown and "step " in shown
+    json.loads(capsys.readouterr().out)  # stdout stays pure JSON
+
+
+def test_demo_count_ends_where_the_work_ends(tmp_path, monkeypatch):
+    from lfd_track.demo.dataset import load_demonstration
+
+    terminal = _Terminal()
+    monkeypatch.setattr(sys, "stderr", terminal)
+    out = tmp_path / "d.lfdemo"
+    assert main(["demo", "--seed", "2", "--out", str(out)]) == 0
+    counts = re.findall(r"demonstrating: (\d+) commands", terminal.getvalue())
+    assert counts and int(counts[-1]) == load_demonstration(out).metadata["commands"]
+    assert "/200" not in terminal.getvalue()
+
+
+def _subcommands(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    found = {}
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            found.update(action.choices)
+    return found
+
+
+def test_help_shows_defaults(capsys):
+    import os
+
+    from lfd_track.cli import build_parser
+
+    commands = _subcommands(build_parser())
+    drive_help = commands["drive"].format_help()
+    for option, default in (("--laps", "1"), ("--seed", "0"), ("--track", "testing")):
+        text = drive_help.split(f"\n  {option}", 1)[1].split("\n  -", 1)[0]
+        assert f"default: {default}" in " ".join(text.split()), option
+    bench_help = " ".join(commands["benchmark"].format_help().split())
+    cores = len(os.sched_getaffinity(0))
+    assert f"default: the number of cores, here {cores}" in bench_help
+    for name in ("demo", "evolve"):
+        assert "default: 0" in " ".join(commands[name].format_help().split())
+
+
+def test_hardware_subcommands_have_descriptions():
+    from lfd_track.cli import build_parser
+
+    hardware = _subcommands(_subcommands(build_parser())["hardware"])
+    assert set(hardware) == {"sim", "check", "drive", "demo"}
+    for name, sub in hardware.items():
+        assert sub.description and len(sub.description) > 80, name
+
+
+def test_benchmark_workers_default_to_the_cores(tmp_path, monkeypatch):
+    import os
+
+    from lfd_track.benchmark import runner
+
+    class Stop(Exception):
+        pass
+
+    def fake_run_benchmark(config, work, *, workers, progress):
+        raise Stop(workers)
+
+    monkeypatch.setattr(runner, "run_benchmark", fake_run_benchmark)
+    with pytest.raises(Stop) as stopped:
+        main(["--quiet", "benchmark", "--quick", "--out", str(tmp_path / "b")])
+    assert stopped.value.args == (len(os.sched_getaffinity(0)),)
+
+
+def test_bad_video_name_is_one_line(controller_file, tmp_path):
+    proc = run_cli("drive", str(controller_file), "--video", str(tmp_path / "drive.avi"))
+    assert proc.returncode == 1 and len(proc.stderr.strip().splitlines()) == 1
+    assert ".mp4 (H.264) or .webm (VP9)" in proc.stderr

@@ -229,3 +229,11 @@ def test_fifo_device_and_folder_are_refused_without_waiting(tmp_path):
     _expect_one_line_error(fifo, "not a regular file")
     _expect_one_line_error("/dev/zero", "not a regular file")  # wave 1: MemoryError traceback
     _expect_one_line_error(tmp_path, "is a folder")
+
+
+def test_from_evolution_refuses_an_empty_library(trained):
+    controller, frames = trained
+    values = np.zeros((6, 40))
+    result = evolve(values, np.arange(6) % 3, GAConfig(generations=2), np.random.default_rng(0))
+    with pytest.raises(ValueError, match="road library is empty"):
+        Controller.from_evolution(RoadLibrary(), result)

@@ -294,3 +294,27 @@ def test_a_track_shorter_than_the_episode_margins_is_refused(tmp_path):
     path.write_text("closed = false\nvertices = [[0.0, 0.0], [0.5, 0.0]]\n")
     with pytest.raises(ValueError, match="too short for the episode rules"):
         gym.make("LfDTrack-v0", track=str(path))
+
+
+@pytest.mark.parametrize("kwargs", [{}, {"track": "training"}, {"max_steps": 7}])
+def test_spec_states_the_step_budget_without_a_second_time_limit(kwargs):
+    env = gym.make("LfDTrack-v0", **kwargs)
+    assert env.spec.max_episode_steps == env.unwrapped.max_steps
+    assert "TimeLimit" not in str(env)  # the env truncates itself; no wrapper doubles it
+    env.reset(seed=0)
+    steps = 0
+    while True:
+        _, _, terminated, truncated, _ = env.step(1)  # pivoting in place: only the budget ends it
+        steps += 1
+        if terminated or truncated:
+            break
+    assert truncated and steps == env.spec.max_episode_steps
+    # A TimeLimit asked for in make keeps its own limit.
+    assert gym.make("LfDTrack-v0", max_episode_steps=5, **kwargs).spec.max_episode_steps == 5
+
+
+def test_render_without_a_render_mode_warns():
+    env = gym.make("LfDTrack-v0")
+    env.reset(seed=0)
+    with pytest.warns(UserWarning, match='render_mode="rgb_array"'):
+        assert env.render() is None

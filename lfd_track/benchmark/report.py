@@ -2,16 +2,48 @@
 
 from __future__ import annotations
 
+import json
 import statistics
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ..plots import fitness_plot, stack_images, trajectory_map, write_png
+from ..plots import (
+    DirectionRuns,
+    TrackRun,
+    fitness_notes,
+    fitness_plot,
+    trajectory_grid,
+    write_png,
+)
+from ..presets import load_preset
+from ..world.episode import EpisodeTracker
 from ..world.track import load_track
+from .paper import DIRECTION_TITLES
+from .paper import DIRECTIONS as TABLE_DIRECTIONS
 from .runner import DIRECTIONS, BenchmarkConfig, RepetitionResult, config_dict
-from .tables import build_results, format_tables, write_report, write_results_json
+from .tables import (
+    TrialOutcome,
+    build_results,
+    format_tables,
+    write_report,
+    write_results_json,
+)
+
+PALETTE = (
+    (31, 119, 180),
+    (255, 127, 14),
+    (44, 160, 44),
+    (214, 39, 40),
+    (148, 103, 189),
+    (140, 86, 75),
+    (227, 119, 194),
+    (127, 127, 127),
+    (188, 189, 34),
+    (23, 190, 207),
+)
+"""Curve colours of the fitness plot (repetition index modulo 10)."""
 
 
 def _spread(values: list[float], fmt: str = "{:.0f}") -> str:
@@ -20,20 +52,25 @@ def _spread(values: list[float], fmt: str = "{:.0f}") -> str:
     return f"{fmt.format(statistics.mean(values))} (min {fmt.format(min(values))}, max {fmt.format(max(values))})"
 
 
-def demonstration_section(reps: list[RepetitionResult]) -> str:
-    """Markdown on the demonstrations and the evolution (DESIGN §6 calibration targets)."""
-    cases = [r.demo["cases"] for r in reps]
-    models = [r.demo["library_models"] for r in reps]
-    forward = [r.demo["counts"]["forward"] / max(r.demo["cases"], 1) for r in reps]
-    left = sum(r.demo["turnarounds"].count("left") for r in reps)
-    right = sum(r.demo["turnarounds"].count("right") for r in reps)
-    off = sum(r.demo["learned_off_felt"] for r in reps)
-    acc = [r.training_accuracy for r in reps]
-    best = [r.fitness_best[-1] for r in reps if r.fitness_best]
+def demonstration_section(results: dict[str, Any]) -> str:
+    """Markdown on the demonstrations and the evolution, beside the demonstrator's targets.
+
+    Reads the ``demonstrations``, ``training_accuracy`` and ``best_fitness`` lists of a
+    results.json dict.
+    """
+    demos = results.get("demonstrations") or []
+    cases = [d["cases"] for d in demos]
+    models = [d["library_models"] for d in demos]
+    forward = [d["counts"]["forward"] / max(d["cases"], 1) for d in demos]
+    left = sum(d["turnarounds"].count("left") for d in demos)
+    right = sum(d["turnarounds"].count("right") for d in demos)
+    off = sum(d["learned_off_felt"] for d in demos)
+    acc = [a for a in results.get("training_accuracy") or [] if a is not None]
+    best = [b for b in results.get("best_fitness") or [] if b is not None]
     lines = [
         "## Demonstrations and evolution",
         "",
-        "| quantity | ours | target (DESIGN §6) / paper |",
+        "| quantity | ours | target |",
         "|---|---|---|",
         f"| cases per demonstration | {_spread(cases)} | 120–200 (paper: 120–160) |",
         f"| library models at the end | {_spread(models)} | ≥ 40 (paper: ~100) |",
@@ -42,6 +79,10 @@ def demonstration_section(reps: list[RepetitionResult]) -> str:
         f"| library updates from frames with the safe box off the felt | {off} | 0 |",
         f"| GA training accuracy (argmax = command) | {_spread([100 * a for a in acc], '{:.1f}')} % | — |",
         f"| best fitness after 200 generations (lower is better) | {_spread(best, '{:.3f}')} | — |",
+        "",
+        "Targets are the calibration goals of the scripted demonstrator"
+        ' (`lfd_track/demo/demonstrator.py`; README, "Choices where the paper and the spec are'
+        " silent\"), with the paper's own numbers beside them.",
         "",
     ]
     return "\n".join(lines)
@@ -73,6 +114,57 @@ def test_tracks_section(tracks: dict[str, Any]) -> str:
             f"| {name} | {cells[0]} | {cells[1]} | {section['successes']}/{section['laps']} |"
         )
     return "\n".join([*lines, ""])
+
+
+def trajectories_picture(config: BenchmarkConfig, outcomes: list[TrialOutcome]) -> np.ndarray:
+    """trajectories.png: per direction (the report's order), successes beside the other runs."""
+    rules = load_preset(config.preset).episode
+    reverse_of = {direction: reverse for _, reverse, direction in DIRECTIONS}
+    panels = []
+    for track_name, directions in TABLE_DIRECTIONS.items():
+        for direction in directions:
+            track = load_track(track_name, reverse=reverse_of[direction])
+            chosen = [o for o in outcomes if o.direction == direction and o.trajectory is not None]
+            where = " (laps start at corner 4)" if track_name == "testing" else ""
+            panels.append(
+                DirectionRuns(
+                    title=f"{track_name.capitalize()} track, "
+                    f"{DIRECTION_TITLES[direction].lower()}{where}",
+                    track=track,
+                    runs=[TrackRun(o.trajectory, o.success, o.failure) for o in chosen],
+                    finish_m=EpisodeTracker(track, rules).goal_progress_m,
+                    start_pose=EpisodeTracker(track, rules).start_pose(),
+                )
+            )
+    reps = config.repetitions
+    title = (
+        f"Paths of every autonomous run: {reps} repetition{'s' if reps != 1 else ''} x "
+        f"{config.trials_per_direction} per direction, seed {config.seed}"
+    )
+    return trajectory_grid(panels, title=title)
+
+
+def fitness_picture(config: BenchmarkConfig, reps: list[RepetitionResult]) -> np.ndarray:
+    """fitness.png: the Algorithm 3 fitness over training, one curve per repetition."""
+    curves = [
+        (f"rep {r.index}", np.asarray(r.fitness_best), PALETTE[r.index % len(PALETTE)])
+        for r in reps
+    ]
+    if config.method == "bc":
+        return fitness_plot(
+            curves,
+            title="Fitness after each epoch of behaviour cloning, one curve per repetition",
+            x_label="epoch",
+        )
+    if config.method == "cma-es":
+        return fitness_plot(
+            curves, title="Best fitness of each CMA-ES generation, one curve per repetition"
+        )
+    return fitness_plot(
+        curves,
+        title="Best fitness of each generation, one curve per repetition",
+        notes=fitness_notes(config.ga.elitism),
+    )
 
 
 def write_benchmark_outputs(
@@ -108,52 +200,26 @@ def write_benchmark_outputs(
         },
     }
 
-    pictures = []
-    for track_name in ("training", "testing"):
-        for track, reverse, direction in DIRECTIONS:
-            if track != track_name:
-                continue
-            chosen = [o for o in outcomes if o.direction == direction and o.trajectory is not None]
-            picture = trajectory_map(
-                load_track(track, reverse=reverse),
-                [o.trajectory for o in chosen],
-                [(o.success, o.failure) for o in chosen],
-                title=f"{track} {direction}: green success, red failure, orange timeout",
-                size_px=640,
-            )
-            pictures.append(picture)
-    rows = [stack_images(pictures[:2]), stack_images(pictures[2:])]
-    write_png(str(out / "trajectories.png"), stack_images(rows, vertical=True))
+    write_png(str(out / "trajectories.png"), trajectories_picture(config, outcomes))
+    write_png(str(out / "fitness.png"), fitness_picture(config, reps))
 
-    palette = [
-        (31, 119, 180),
-        (255, 127, 14),
-        (44, 160, 44),
-        (214, 39, 40),
-        (148, 103, 189),
-        (140, 86, 75),
-        (227, 119, 194),
-        (127, 127, 127),
-        (188, 189, 34),
-        (23, 190, 207),
-    ]
-    curves = [
-        (f"rep {r.index}", np.asarray(r.fitness_best), palette[r.index % len(palette)])
-        for r in reps
-    ]
-    write_png(
-        str(out / "fitness.png"),
-        fitness_plot(curves, title="best fitness per generation, one curve per repetition"),
-    )
+    path = write_results_json(out / "results.json", results)
+    # The report is drawn from the file as written, so re-rendering it later gives the same text.
+    stored = json.loads(path.read_text(encoding="utf-8"))
+    write_report_from_results(out, stored)
+    return format_tables(stored)
 
-    write_results_json(out / "results.json", results)
-    extra = [demonstration_section(reps), effort_section(results)]
+
+def write_report_from_results(out: str | Path, results: dict[str, Any]) -> Path:
+    """Write ``out/report.md`` from a results.json dict (no re-run needed to redraw it)."""
+    extra = [demonstration_section(results)]
+    if results.get("human_effort"):
+        extra.append(effort_section(results))
     if results.get("test_tracks"):
         extra.append(test_tracks_section(results["test_tracks"]))
-    if not config.human.careful:
+    if not results.get("config", {}).get("human", {}).get("careful", True):
         extra.insert(
             0,
             "**Careless demonstrator**: the road library kept learning while the safe box was off the felt.\n",
         )
-    write_report(out, results, extra_sections=extra)
-    return format_tables(results)
+    return write_report(out, results, extra_sections=extra)

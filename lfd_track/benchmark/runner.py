@@ -1,4 +1,4 @@
-"""The paper protocol on the simulated world (DESIGN §7).
+"""The paper protocol on the simulated world (paper §4.2.5, §5).
 
 One *repetition* is a fresh demonstration (new seed) → evolution → autonomous trials: by default 3
 runs in each direction on the training track and 3 counter-clockwise + 3 clockwise laps on the
@@ -27,7 +27,7 @@ from ..learning.bc import BCConfig
 from ..learning.cmaes import CMAESConfig
 from ..learning.ga import GAConfig
 from ..teaching.arbiter import Arbiter
-from ..teaching.loop import TeachingLoop
+from ..teaching.loop import Step, TeachingLoop
 from ..teaching.observers import CallbackObserver, TrajectoryObserver
 from ..teaching.perception import Perception
 from ..world.track import load_track
@@ -146,12 +146,14 @@ def run_trial(
     *,
     seed: int | None,
     on_step: Callable[[np.ndarray, np.ndarray, dict[str, Any]], None] | None = None,
+    on_loop_step: Callable[[Step], None] | None = None,
 ) -> tuple[dict[str, Any], np.ndarray, int]:
     """Drive one autonomous episode; returns (last info, trajectory (N, 2), steps).
 
     An arrangement of the teaching loop: the controller's library (frozen, or learning from every
     frame when ``controller.learn``), the controller as the only commander.
-    ``on_step(frame, road_values, info)`` sees each frame after its command was chosen.
+    ``on_step(frame, road_values, info)`` sees each frame after its command was chosen;
+    ``on_loop_step(step)`` sees the loop's whole :class:`Step` (its ``command`` included).
     """
     trajectory = TrajectoryObserver()
     observers: list[Any] = [trajectory]
@@ -159,6 +161,8 @@ def run_trial(
         observers.append(
             CallbackObserver(lambda s: on_step(s.moment.frame, s.percept.values, s.moment.info))
         )
+    if on_loop_step is not None:
+        observers.append(CallbackObserver(on_loop_step))
     loop = TeachingLoop(
         env,
         Perception(controller.library, "always" if controller.learn else "frozen"),

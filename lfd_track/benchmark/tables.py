@@ -1,6 +1,6 @@
 """Corner-success counting and reporting: the paper's Tables 2 and 3, ours beside the paper's.
 
-Counting follows the paper's progressive rule (DESIGN §3.5): a trial that does not succeed is
+Counting follows the paper's progressive rule (rules in ``lfd_track/world/episode.py``): a trial that does not succeed is
 charged to the first corner it did not negotiate, whatever ended it — reversing, leaving the felt
 or running out of steps (a timeout), on the corner itself or on the straight before it.
 
@@ -283,10 +283,28 @@ def _corner_table(results: Mapping[str, Any], paper: Mapping[str, Any], track: s
                 f"{_count(ours, label, 'failures')} ({_count(theirs, label, 'failures')})"
             )
             physical.append(_count(ours, label, "physically_reached"))
+        rows = [header, reached, failures]
+        blank = [""] * (len(order) - 1)
+        after = _value(ours, "failures_after_last_corner")
+        if track == "training" or after not in ("0", "–"):
+            # The open track can still be failed between the last corner and the finish (on the
+            # loop, the finish is the last corner); this row makes reached - failures - failures
+            # after the last corner = successes.
+            rows.append(["Failures after the last corner", *blank, f"{after} (–)"])
+        rows.append(
+            ["Successes", *blank, f"{_value(ours, 'successes')} ({_value(theirs, 'successes')})"]
+        )
+        rows.append(physical)
         if lines:
             lines.append("")
-        lines += _markdown_table([header, reached, failures, physical])
+        lines += _markdown_table(rows)
     return lines
+
+
+def _value(direction_result: Mapping[str, Any] | None, key: str) -> str:
+    if not direction_result or direction_result.get(key) is None:
+        return "–"
+    return str(direction_result[key])
 
 
 def _fraction(section: Mapping[str, Any] | None, count_key: str) -> str:
@@ -367,7 +385,10 @@ def format_tables(results: Mapping[str, Any]) -> str:
         "² Progressive counting: a trial that does not succeed — reversing, leaving the felt or "
         "timing out, at a corner or on the straight before it — is charged to the first corner it "
         "did not negotiate, and 'times reached' counts the trials that negotiated every earlier "
-        "corner, so reached(next) = reached - failures as in the paper. 'Physically reached' "
+        "corner, so reached(next) = reached - failures as in the paper. On the training track a trial "
+        "can also fail after negotiating its last corner, before the finish line; those are "
+        "counted in their own row, so reached - failures - failures after the last corner = "
+        "successes. 'Physically reached' "
         "(ours only) counts trials whose progress came within 0.30 m of the corner.",
         "",
         f"³ {PAPER_NOTES[1]}",
@@ -375,15 +396,37 @@ def format_tables(results: Mapping[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+#: results.json timing key -> what it measured, in words (all in seconds).
+TIMING_NAMES = {
+    "wall": "Whole benchmark (wall clock)",
+    "learning_sum": "Learning the controllers (demonstrating and training)",
+    "demonstration_sum": "Recording the demonstrations",
+    "evolution_sum": "Evolving the controllers",
+    "trials_sum": "Driving the autonomous trials",
+}
+
+
 def _timing_lines(timing: Mapping[str, Any]) -> list[str]:
     if not timing:
         return []
-    rows = [["Stage", "Seconds"]]
-    for name in sorted(timing):
+    rows = [["Stage", "Time"]]
+    names = [k for k in TIMING_NAMES if k in timing]
+    names += sorted(k for k in timing if k not in TIMING_NAMES and k != "workers")
+    for name in names:
         value = timing[name]
-        shown = f"{value:.1f}" if isinstance(value, int | float) else str(value)
-        rows.append([str(name), shown])
-    return ["## Timing", "", *_markdown_table(rows), ""]
+        shown = f"{value:.1f} s" if isinstance(value, int | float) else str(value)
+        rows.append([TIMING_NAMES.get(name, str(name).replace("_", " ")), shown])
+    lines = ["## Timing", "", *_markdown_table(rows), ""]
+    workers = timing.get("workers")
+    if isinstance(workers, int | float):
+        n = int(workers)
+        lines += [
+            f"Run on {n} worker process{'es' if n != 1 else ''}. The three stages are summed over"
+            " the repetitions, each timed inside its worker, so with more than one worker they add"
+            " up to more than the whole run.",
+            "",
+        ]
+    return lines
 
 
 def write_report(

@@ -163,6 +163,19 @@ class Demonstration:
         counts = np.bincount(self.commands.astype(np.int64), minlength=len(Command))
         return {c.name.lower(): int(counts[c]) for c in Command}
 
+    def road_library(self) -> RoadLibrary:
+        """The road library as it was when recording ended (the one to drive with).
+
+        Raises ValueError if the file stores none (a recording that was interrupted) or a bad one.
+        """
+        data = self.metadata.get("road_library")
+        if not isinstance(data, dict):
+            raise ValueError("no road library stored (recording was interrupted?)")
+        try:
+            return RoadLibrary.from_dict(data)
+        except (ValueError, KeyError, TypeError) as exc:
+            raise ValueError(f"bad road library ({exc})") from None
+
 
 # --------------------------------------------------------------------------- encoding
 

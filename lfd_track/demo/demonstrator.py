@@ -9,6 +9,11 @@ is recorded with the road values computed at that moment.
 *Careful training*: the library learns only while the safe box is on the felt, as an operator
 watching the phone's screen would; with ``careful=False`` it learns from every frame and the
 library is poisoned with carpet (the paper's §6 warning).
+
+Calibration targets of the default protocol (checked in ``tests/demo/test_demonstrator.py`` and
+reported by the benchmark): 120–200 cases, at least 40 library models, forward the majority of
+commands, as many left as right turn-arounds, and no library update from a frame whose safe box is
+off the felt.
 """
 
 from __future__ import annotations

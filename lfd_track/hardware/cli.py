@@ -319,7 +319,12 @@ def add_hardware_parser(subparsers: Any) -> argparse.ArgumentParser:
     commands.required = True
 
     sim = commands.add_parser(
-        "sim", help="run the firmware in simavr and print its serial URL (until Ctrl-C/SIGTERM)"
+        "sim",
+        help="run the firmware in simavr and print its serial URL (until Ctrl-C/SIGTERM)",
+        description="Build the rover firmware (hardware/firmware/) and run it in the AVR simulator"
+        " simavr, with no robot attached. Prints a serial URL that `hardware check`, `drive` and"
+        " `demo` accept as --serial; runs until Ctrl-C or SIGTERM, then stops the board and"
+        " removes its run folder (see --keep-log).",
     )
     sim.add_argument(
         "--build-dir",
@@ -336,9 +341,13 @@ def add_hardware_parser(subparsers: Any) -> argparse.ArgumentParser:
     check = commands.add_parser(
         "check",
         help="firmware version, round-trip time and safety self-test (no motion by default)",
+        description="Open the serial link to the board (a real Romeo or `hardware sim`), report"
+        " the firmware version from its boot frame, time --pings round trips and check that a"
+        " ping never starts the motors and that e-stop latches. Nothing moves unless"
+        " --lease-test is given.",
     )
     _add_link_options(check)
-    check.add_argument("--pings", type=int, default=20, help="pings to time (default 20)")
+    check.add_argument("--pings", type=int, default=20, help="pings to time (default: 20)")
     check.add_argument(
         "--lease-test",
         action="store_true",
@@ -347,18 +356,32 @@ def add_hardware_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     check.set_defaults(func=_guarded(_cmd_check))
 
-    drive = commands.add_parser("drive", help="drive autonomously with a controller file")
+    drive = commands.add_parser(
+        "drive",
+        help="drive autonomously with a controller file",
+        description="Drive the real robot with a saved controller: each phone-camera frame gives"
+        " road values, the controller picks forward/left/right, and the command is sent as a"
+        " lease the firmware drops after --watchdog-ms. Prints every step; stops the motors on"
+        " Ctrl-C, link loss, a camera stall or any error.",
+    )
     drive.add_argument("controller", metavar="CONTROLLER.json", help="controller file")
     _add_camera_options(drive)
     _add_link_options(drive)
     drive.add_argument("--steps", type=int, default=None, help="stop after N commands")
     drive.set_defaults(func=_guarded(_cmd_drive))
 
-    demo = commands.add_parser("demo", help="drive with the keyboard and record a demonstration")
+    demo = commands.add_parser(
+        "demo",
+        help="drive with the keyboard and record a demonstration",
+        description="Tele-operate the real robot from the keyboard (w/a/d or arrows: one command"
+        " per press; space stops; p pauses road-library learning while the safe box is off the"
+        " felt; q quits) and record every command with its road values to a .lfdemo file that"
+        " `lfd-track evolve` reads.",
+    )
     _add_camera_options(demo)
     _add_link_options(demo)
     demo.add_argument("--out", required=True, metavar="FILE", help="demonstration file (.lfdemo)")
-    demo.add_argument("--bins", type=int, default=32, help="histogram bins (default 32)")
+    demo.add_argument("--bins", type=int, default=32, help="histogram bins (default: 32)")
     demo.add_argument(
         "--library-only",
         type=int,

@@ -5,7 +5,7 @@ one command. Here a key press (``w``/``a``/``d`` or the arrow keys) is one comma
 control period, then the robot stops (the env runs with ``between_steps="stop"``, so releasing
 the key stops the robot at once instead of after a lease); holding a key down repeats it. Space
 stops, ``p`` pauses/resumes road-library learning (for moments the safe box is off the felt,
-DESIGN §6), ``q`` quits.
+paper §6), ``q`` quits.
 
 Each command is recorded with the road values of the frame it was given on, computed with the
 record-time library, in the format of ``lfd_track.demo.dataset`` (one ``.lfdemo`` file).
@@ -44,7 +44,9 @@ KEYMAP: Mapping[str, Command | str] = {
     "\x03": QUIT,  # Ctrl-C arrives as a byte in cbreak mode only if ISIG is off; kept for safety
 }
 
-LIBRARY_ONLY_COMMANDS = 10  # first commands only build the library (DESIGN §6)
+LIBRARY_ONLY_COMMANDS = (
+    10  # first commands only build the library (as in lfd_track/demo/demonstrator.py)
+)
 
 
 class KeySource(Protocol):

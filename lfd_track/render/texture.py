@@ -1,6 +1,6 @@
 """Procedural top-down ground texture: light-blue felt strips on dark-brown loop-pile carpet.
 
-The whole floor around a track is painted once per episode into one RGBA image (DESIGN §3.2):
+The whole floor around a track is painted once per episode into one RGBA image:
 felt and carpet textures are drawn from the episode's random generator and the room lighting
 (ceiling light pools and soft shadow bands) is baked in, since it is fixed relative to the floor.
 The camera renders views from this image with a ground-plane homography.
@@ -24,7 +24,7 @@ import numpy as np
 
 from ..world.track import Track
 
-#: Largest allowed texture size [bytes] (DESIGN §3.2: ≤ 100 MB per env instance).
+#: Largest allowed texture size [bytes] (≤ 100 MB per env instance).
 MAX_TEXTURE_BYTES = 100 * 1024 * 1024
 
 

@@ -4,7 +4,7 @@ Structure: an ordered list of road *types*, each an ordered list of *examples* (
 normalised histograms, see :mod:`lfd_track.vision.histograms`). Order is insertion order; new
 types and examples are appended, so a lower index is always older.
 
-Usage statistics follow DESIGN §4. Every road-value frame counts 40 region comparisons for every
+Usage statistics: every road-value frame counts 40 region comparisons for every
 type and every example present; each region *selects* its most similar example (the first in
 order on a tie) and that example's type. A type's counters are its own, kept since the type
 entered the library (they survive the eviction of its examples). Selection frequency =

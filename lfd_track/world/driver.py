@@ -4,7 +4,7 @@ The driver sees the true pose and the continuous progress along the centreline (
 aims at the centreline point ``lookahead_m`` further along the driving direction and pivots only
 when the bearing to that point is off by more than a dead-band. The dead-band has to exceed half
 of one pivot command (about 11.5° at 1 rad/s for 0.4 s): with a narrower one a single pivot
-overshoots the band on the other side and the driver flips left/right without end (DESIGN §6).
+overshoots the band on the other side and the driver flips left/right without end.
 
 Human traits (reaction delay, lapses, rate limits) belong to the demonstrator that wraps this
 driver; the decision rule here is a pure function of (pose, progress) and the config.

@@ -1,4 +1,4 @@
-"""Episode rules shared by the env and the benchmark (DESIGN §3.5).
+"""Episode rules shared by the env and the benchmark (paper §4.2, §4.2.5).
 
 Progress is arc length along the centreline in the driving direction, tracked continuously. A
 corner is *reached* when progress passes ``corner_margin_m`` before it and *negotiated* when

@@ -1,4 +1,4 @@
-"""Top-down skid-steer model of the tracked rover (paper §4.1: Rover 5 tank chassis; DESIGN §3.3).
+"""Top-down skid-steer model of the tracked rover (paper §4.1: Rover 5 tank chassis).
 
 The rover is one pymunk body in a space without gravity; the floor acts only through the treads.
 Each tread is a belt driven by a geared DC motor: the motor pushes the belt towards its commanded

@@ -1,6 +1,6 @@
 """Track geometry: centreline, felt strips, arc length and continuous progress.
 
-A track is a centreline polyline of straight felt strips (DESIGN §3.1). Coordinates are metres,
+A track is a centreline polyline of straight felt strips (file format: tracks/README.md). Coordinates are metres,
 x to the right and y up when seen from above; loops are listed counter-clockwise.
 """
 

@@ -238,7 +238,7 @@ def test_write_report_is_markdown_with_extra_sections(tmp_path: Path) -> None:
     text = path.read_text()
     assert path.name == "report.md" and text.startswith("# Corner-success benchmark\n")
     assert format_tables(results).strip() in text
-    assert _table_cells(text, "Stage")["total"] == ["61.3"]
+    assert _table_cells(text, "Stage")["total"] == ["61.3 s"]
     assert text.rstrip().endswith("![t](t.png)")
     assert list((tmp_path / "out").iterdir()) == [path]  # no temporary files left behind
 
@@ -272,3 +272,60 @@ def test_trajectory_is_kept_out_of_equality_and_json() -> None:
     assert with_path == plain and "trajectory" not in with_path.to_dict()
     assert with_path.charged_corner is None
     assert _trial("testing", "cw", "32", "3", "reversed").charged_corner == "2"
+
+
+def _int(cell: str) -> int:
+    """Our count of an ``ours (paper)`` cell."""
+    return int(cell.split(" (")[0])
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_table_rows_add_up_to_the_successes(seed: int) -> None:
+    # Trials failing after the last corner (training track) have their own row, so the printed
+    # counts add up: first corner reached - failures - failures after it = successes.
+    outcomes = _random_outcomes(np.random.default_rng(seed), 80) + _scripted()
+    for i, t in enumerate(outcomes):
+        object.__setattr__(t, "trial", i)
+    results = build_results(outcomes, repetitions=1, seed=seed, timing_s={})
+    text = format_tables(results)
+    for title in ("Direction 1", "Direction 2", "Clockwise", "Counter-clockwise"):
+        rows = _table_cells(text, title)
+        after = rows.get("Failures after the last corner", ["", "0 (–)"])[-1]
+        if title.startswith("Direction"):
+            assert "Failures after the last corner" in rows
+        successes = _int(rows["Successes"][-1])
+        assert (
+            _int(rows["Times reached"][0]) - sum(map(_int, rows["Failures"])) - _int(after)
+            == successes
+        )
+    d1 = _table_cells(
+        format_tables(build_results(_scripted(), repetitions=1, seed=0, timing_s={})), "Direction 1"
+    )
+    assert d1["Failures after the last corner"] == ["", "1 (–)"]
+    assert d1["Successes"] == ["", "1 (29)"]
+    cw = _table_cells(
+        format_tables(build_results(_scripted(), repetitions=1, seed=0, timing_s={})), "Clockwise"
+    )
+    assert "Failures after the last corner" not in cw  # the loop's finish is its last corner
+
+
+def test_timing_table_is_in_words_and_seconds(tmp_path: Path) -> None:
+    timing = {
+        "wall": 75.1,
+        "workers": 2,
+        "demonstration_sum": 17.8,
+        "evolution_sum": 3.1,
+        "trials_sum": 121.3,
+    }
+    results = build_results(_scripted(), repetitions=2, seed=7, timing_s=timing)
+    text = write_report(tmp_path, results).read_text()
+    rows = _table_cells(text, "Stage")
+    assert rows == {
+        "Stage": ["Time"],
+        "Whole benchmark (wall clock)": ["75.1 s"],
+        "Recording the demonstrations": ["17.8 s"],
+        "Evolving the controllers": ["3.1 s"],
+        "Driving the autonomous trials": ["121.3 s"],
+    }
+    assert "Run on 2 worker processes." in text
+    assert "_sum" not in text

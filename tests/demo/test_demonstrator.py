@@ -1,4 +1,4 @@
-"""The scripted human and the demonstration protocol meet DESIGN §6's calibration targets."""
+"""The scripted human and the demonstration protocol meet the calibration targets in its docstring."""
 
 from __future__ import annotations
 

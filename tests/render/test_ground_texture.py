@@ -1,4 +1,4 @@
-"""The procedural floor: felt and carpet, lighting, determinism, size (DESIGN §3.2)."""
+"""The procedural floor: felt and carpet, lighting, determinism, size."""
 
 from __future__ import annotations
 

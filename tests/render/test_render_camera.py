@@ -1,4 +1,4 @@
-"""Camera geometry (DESIGN §3.4) and the rendered frames."""
+"""Camera geometry (paper §4.1) and the rendered frames."""
 
 from __future__ import annotations
 

@@ -13,7 +13,7 @@ from lfd_track.world.driver import CentrelineDriver, DriverConfig
 from lfd_track.world.rover import Rover, RoverConfig
 from lfd_track.world.track import ProgressTracker, Track, load_track
 
-REVERSE_MARGIN_M = 0.30  # DESIGN §3.5
+REVERSE_MARGIN_M = 0.30  # lfd_track/world/episode.py
 END_MARGIN_M = 0.40  # open track: the end is reached this far before the far end
 
 
@@ -110,7 +110,7 @@ def test_loop_turns_match_the_driving_direction() -> None:
 
 
 def test_narrow_dead_band_flips_endlessly() -> None:
-    # Half a pivot command is ~11.5°: a 6° band is overshot by every pivot (DESIGN §6).
+    # Half a pivot command is ~11.5°: a 6° band is overshot by every pivot (lfd_track/world/driver.py).
     track = _load("training", False)
     narrow = drive(track, DriverConfig(dead_band_deg=6.0), seed=0, max_commands=150)
     wide = drive(track, DriverConfig(dead_band_deg=15.0), seed=0, max_commands=150)

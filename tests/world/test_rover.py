@@ -39,7 +39,7 @@ def _path_length(poses: np.ndarray) -> float:
     return float(np.linalg.norm(np.diff(poses[:, :2], axis=0), axis=1).sum())
 
 
-# ---- calibration (DESIGN §3.3: achieved, after slip, within ±10 %)
+# ---- calibration (paper §4.1 figures: achieved, after slip, within ±10 %)
 @pytest.mark.parametrize("n_commands", [1, 3, 10])
 def test_forward_speed_is_calibrated(rover: Rover, n_commands: int) -> None:
     period = rover.config.control_period_s

@@ -1,0 +1,24 @@
+"""The committed example reports are what the current code draws from their results.json."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from lfd_track.benchmark.report import write_report_from_results
+
+RESULTS = Path(__file__).resolve().parents[2] / "benchmarks" / "results" / "paper_protocol"
+FOLDERS = sorted(p.parent.name for p in RESULTS.glob("*/results.json"))
+
+
+def test_there_are_committed_runs():
+    assert {"seed0", "careless"} <= set(FOLDERS)
+
+
+@pytest.mark.parametrize("folder", FOLDERS)
+def test_committed_report_matches_its_results(folder, tmp_path):
+    results = json.loads((RESULTS / folder / "results.json").read_text(encoding="utf-8"))
+    written = write_report_from_results(tmp_path, results).read_text(encoding="utf-8")
+    assert written == (RESULTS / folder / "report.md").read_text(encoding="utf-8")
