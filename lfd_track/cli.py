@@ -209,7 +209,12 @@ def _cmd_evolve(args: argparse.Namespace) -> int:
 
 # --------------------------------------------------------------------------------- drive
 def _lap_line(lap: dict[str, Any]) -> str:
-    outcome = "success" if lap["success"] else f"{lap['failure']} at corner {lap['failed_corner']}"
+    if lap["success"]:
+        outcome = "success"
+    elif lap["failed_corner"] is None:
+        outcome = f"{lap['failure']} after the last corner"
+    else:
+        outcome = f"{lap['failure']} at corner {lap['failed_corner']}"
     negotiated = " ".join(lap["corners_negotiated"]) or "-"
     return f"  lap {lap['lap']}: {outcome}; negotiated {negotiated} ({lap['steps']} steps)"
 

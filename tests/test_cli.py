@@ -63,9 +63,19 @@ def test_drive_reports_per_lap_corner_outcomes_as_json(controller_file, capsys, 
     assert plot.stat().st_size > 1000
 
 
-def test_drive_video_shows_camera_and_top_down(controller_file, tmp_path):
+def test_drive_video_shows_camera_and_top_down(controller_file, tmp_path, monkeypatch):
     import cv2
 
+    from lfd_track.video import DriveVideo
+
+    captions = []
+    real_add = DriveVideo.add
+
+    def add(self, frame, values, info, *, lap=1, command=None):
+        captions.append((lap, command))
+        real_add(self, frame, values, info, lap=lap, command=command)
+
+    monkeypatch.setattr(DriveVideo, "add", add)
     video = tmp_path / "drive.mp4"
     code = main(
         [
@@ -88,6 +98,9 @@ def test_drive_video_shows_camera_and_top_down(controller_file, tmp_path):
     assert ok
     assert frame.shape[0] == 480 and frame.shape[1] > 640  # camera view plus the top-down view
     assert cap.get(cv2.CAP_PROP_FRAME_COUNT) >= 5
+    # Each frame is captioned with its lap and the command the controller chose for it.
+    assert len(captions) == cap.get(cv2.CAP_PROP_FRAME_COUNT)
+    assert all(lap == 1 and command in (0, 1, 2) for lap, command in captions)
     cap.release()
     camera_half = cv2.cvtColor(frame[:, :640], cv2.COLOR_BGR2RGB).astype(int)
     # The road-value overlay tints regions green (road) and red (not road) and draws the grid.
