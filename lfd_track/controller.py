@@ -174,11 +174,6 @@ class Controller:
         self._previous = None
         self.last_outputs = None
 
-    @property
-    def last_command(self) -> int | None:
-        """The command chosen for the latest frame (0 forward, 1 left, 2 right), None after reset."""
-        return None if self._previous is None else int(self._previous)
-
     def act(self, frame: np.ndarray) -> int:
         """Command (0 forward, 1 left, 2 right) for an RGB uint8 (480, 640, 3) frame.
 
