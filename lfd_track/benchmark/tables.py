@@ -421,7 +421,7 @@ def _timing_lines(timing: Mapping[str, Any]) -> list[str]:
     if isinstance(workers, int | float):
         n = int(workers)
         lines += [
-            f"Run on {n} worker process{'es' if n != 1 else ''}. The three stages are summed over"
+            f"Run on {n} worker process{'es' if n != 1 else ''}. The stage times are summed over"
             " the repetitions, each timed inside its worker, so with more than one worker they add"
             " up to more than the whole run.",
             "",

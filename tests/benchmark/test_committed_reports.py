@@ -9,12 +9,16 @@ import pytest
 
 from lfd_track.benchmark.report import write_report_from_results
 
-RESULTS = Path(__file__).resolve().parents[2] / "benchmarks" / "results" / "paper_protocol"
-FOLDERS = sorted(p.parent.name for p in RESULTS.glob("*/results.json"))
+RESULTS = Path(__file__).resolve().parents[2] / "benchmarks" / "results"
+FOLDERS = sorted(
+    str(p.parent.relative_to(RESULTS))
+    for p in RESULTS.rglob("results.json")
+    if (p.parent / "report.md").is_file()
+)
 
 
 def test_there_are_committed_runs():
-    assert {"seed0", "careless"} <= set(FOLDERS)
+    assert {"paper_protocol/seed0", "paper_protocol/careless"} <= set(FOLDERS)
 
 
 @pytest.mark.parametrize("folder", FOLDERS)
