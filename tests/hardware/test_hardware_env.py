@@ -267,7 +267,11 @@ def test_end_to_end_on_the_simulated_firmware(simulated_board, controller_file: 
             env.close()
             sim.close()
     states = _motor_states(simulated_board.motor_log()[max(log_start - 1, 0) :])
-    assert states == _runs(["S", *sent, "S"])
+    assert states[0] == "S" and states[-1] == "S"
+    # Every command reached the motors, in order. A starved host (a loaded machine) may let the
+    # 300 ms lease lapse between two commands: the board then stops, as it must, and the next
+    # drive frame starts the motors again, so brief stops in between are allowed.
+    assert _runs([x for x in states if x != "S"]) == _runs(sent)
     assert len(set(sent)) >= 2  # the log check covers more than one kind of command
 
 
