@@ -7,17 +7,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from ..cli_types import positive_int as _workers
 from ..errors import LfdTrackError
-
-
-def _workers(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
 
 
 def add_study_parser(subparsers: Any) -> argparse.ArgumentParser:
