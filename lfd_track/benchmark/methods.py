@@ -233,6 +233,8 @@ def learn_baseline(
         library,
         result.weights,
         bias=learner.bias,
+        learner="bc" if isinstance(learner, BCConfig) else "cma-es",
+        learner_config=learner.to_dict(),
         seed=ga_seed,
         fitness_history=result.history.tolist(),
     )
@@ -258,6 +260,19 @@ def learn_baseline(
             "learning_drive_s": round(summary.commands * period, 6),
             "autonomous_drive_s": 0.0,
         },
+    )
+
+
+def _relabel(controller: Controller, learner: str, config: dict[str, Any]) -> Controller:
+    """The same controller, recording ``learner`` and its settings ``config``."""
+    return Controller(
+        controller.library,
+        controller.weights,
+        bias=controller.bias,
+        learner=learner,
+        learner_config=config,
+        seed=controller.seed,
+        fitness_history=controller.fitness_history,
     )
 
 
@@ -307,7 +322,9 @@ def learn_online(
     }
     path = rep_dir / "demonstration.lfdemo"
     tally = LearningTally()
-    with DemonstrationWriter(path, metadata, bins=library.bins, fsync=False, overwrite=True) as w:
+    with DemonstrationWriter(
+        path, metadata, bins=library.bins, fsync=False, overwrite=True, library=library
+    ) as w:
         recorder = Recorder(
             w,
             lambda step: {
@@ -344,7 +361,11 @@ def learn_online(
         )
     env.close()
     result = ga_result(state, ga, feed.rng_state)
-    controller = Controller.from_evolution(library, result, seed=ga_seed)
+    controller = _relabel(
+        Controller.from_evolution(library, result, seed=ga_seed),
+        "online",
+        {**online.to_dict(), "ga": ga.to_dict()},
+    )
     counts = np.bincount(a, minlength=3)
     return Learned(
         controller=controller,
@@ -439,6 +460,8 @@ def learn_hg_dagger(
                                 "phase": "correction" if s.decision.correction else "intervention",
                                 "step": s.moment.step,
                             },
+                            round=r,
+                            source="correction",
                         ),
                     ],
                 )
@@ -453,7 +476,11 @@ def learn_hg_dagger(
         actions.append(a)
         all_x, all_a = np.concatenate(inputs), np.concatenate(actions)
         result = evolve(all_x, all_a, ga, ga_rng)
-        controller = Controller.from_evolution(library, result, seed=ga_seed)
+        controller = _relabel(
+            Controller.from_evolution(library, result, seed=ga_seed),
+            "hg-dagger",
+            {**hg.to_dict(), "ga": ga.to_dict()},
+        )
         fitness_best += result.best_history.tolist()
         fitness_mean += result.mean_history.tolist()
         per_round.append(

@@ -28,16 +28,25 @@ class Recorder:
     ``annotate(step)`` returns extra per-case fields for
     :meth:`~lfd_track.demo.dataset.DemonstrationWriter.append` (``pose``, ``progress_m``,
     ``phase``, ``step`` …); a step that is not a case is skipped. Road values and histograms are
-    the record-time ones from the step's percept.
+    the record-time ones from the step's percept. Every case is written with ``round`` (0 for the
+    initial demonstration, r for the r-th round of autonomous runs) and ``source``: ``"correction"``
+    when the command took control back from the policy (or for every case when ``source`` is
+    given as ``"correction"``, e.g. interventions), else ``"demonstration"``; ``annotate`` may
+    still override both per case.
     """
 
     def __init__(
         self,
         writer: DemonstrationWriter,
         annotate: Callable[[Step], dict[str, Any]] | None = None,
+        *,
+        round: int = 0,
+        source: str | None = None,
     ) -> None:
         self.writer = writer
         self.annotate = annotate or (lambda step: {})
+        self.round = int(round)
+        self.source = source
 
     def start(self, info: dict[str, Any]) -> None:
         pass
@@ -45,12 +54,15 @@ class Recorder:
     def observe(self, step: Step) -> None:
         if not step.is_case:
             return
+        source = self.source or ("correction" if step.decision.correction else "demonstration")
+        fields: dict[str, Any] = {"source": source, "round": self.round}
+        fields.update(self.annotate(step))
         self.writer.append(
             int(step.command),
             step.percept.values,
             step.percept.histograms,
             learned=step.percept.learned,
-            **self.annotate(step),
+            **fields,
         )
 
 

@@ -22,11 +22,13 @@ from lfd_track.benchmark.runner import (
     run_benchmark,
     run_repetition,
 )
+from lfd_track.controller import Controller
 from lfd_track.demo.dataset import load_demonstration
 from lfd_track.demo.demonstrator import HumanConfig
 from lfd_track.learning.bc import BCConfig
 from lfd_track.learning.cmaes import CMAESConfig
 from lfd_track.learning.ga import GAConfig
+from lfd_track.vision.road_library import RoadLibrary
 
 
 def _seeds(benchmark_seed=0):
@@ -49,6 +51,8 @@ def test_paper_repetition_is_unchanged_by_the_loop_refactor(tmp_path):
     assert result.demo["cases"] == 172
     assert result.training_accuracy == 0.7325581395348837
     assert digest.hexdigest()[:16] == "48da32528a3285fb"
+    saved = Controller.load(tmp_path / "rep_00" / "controller.json")
+    assert saved.learner == "ga" and saved.learner_config == config.ga.to_dict()
     assert result.effort == {
         "commands": 182,
         "corrections": 0,
@@ -92,6 +96,29 @@ def test_online_takes_over_and_learns_flagged_corrections(online_run):
     assert learned.demo["off_felt_frames"] > 0 and learned.demo["learned_off_felt"] == 0
 
 
+def test_online_cases_carry_their_source_and_the_file_logs_its_library(online_run, tmp_path):
+    out, learned = online_run
+    path = out / "demonstration.lfdemo"
+    demo = load_demonstration(path)
+    flagged = demo.metadata["correction_cases"]
+    assert flagged and np.flatnonzero(demo.sources == "correction").tolist() == flagged
+    assert set(demo.sources.tolist()) == {"demonstration", "correction"}
+    assert (demo.rounds == 0).all()
+    assert demo.metadata["library_log"]
+    # an interrupted recording still carries the library it was recorded with
+    data = path.read_bytes()
+    cut = tmp_path / "cut.lfdemo"
+    cut.write_bytes(data[: len(data) // 2])
+    partial = load_demonstration(cut)
+    assert not partial.metadata["complete"] and partial.n_cases > 0
+    assert RoadLibrary.from_dict(partial.metadata["road_library"]).n_models > 0
+    assert learned.controller.learner == "online"
+    assert learned.controller.learner_config == {
+        **OnlineConfig().to_dict(),
+        "ga": GAConfig().to_dict(),
+    }
+
+
 def test_online_is_deterministic(online_run, tmp_path):
     _, first = online_run
     demo_seed, ga_seed, _ = _seeds(0)
@@ -121,6 +148,11 @@ def test_hg_dagger_adds_intervention_cases_every_round(tmp_path):
     for r in rounds:
         file = load_demonstration(tmp_path / "a" / f"interventions_r{r['round']}.lfdemo")
         assert file.n_cases == r["intervention_cases"] and file.metadata["round"] == r["round"]
+        assert (file.rounds == r["round"]).all() and (file.sources == "correction").all()
+    demo = load_demonstration(tmp_path / "a" / "demonstration.lfdemo")
+    assert (demo.rounds == 0).all() and (demo.sources == "demonstration").all()
+    assert learned.controller.learner == "hg-dagger"
+    assert learned.controller.learner_config["rounds"] == 2
     # re-evolved after each round: the GA history holds 1 + R runs
     assert len(learned.fitness_best) == 20 * (1 + len(rounds))
     assert learned.effort["corrections"] >= len(rounds)
@@ -189,6 +221,11 @@ def test_every_method_gives_the_same_results_with_one_or_two_workers(method, tmp
         assert [o.to_dict() for o in a.outcomes] == [o.to_dict() for o in b.outcomes]
     first = (tmp_path / "one" / "rep_00" / "controller.json").read_bytes()
     assert first == (tmp_path / "two" / "rep_00" / "controller.json").read_bytes()
+    saved = Controller.load(tmp_path / "one" / "rep_00" / "controller.json")
+    assert saved.learner == method
+    settings = {"online": "online", "hg-dagger": "hg_dagger", "bc": "bc", "cma-es": "cmaes"}
+    expected = getattr(config, settings[method]).to_dict()
+    assert {k: saved.learner_config[k] for k in expected} == expected
 
 
 def test_trial_directions_put_extra_loops_last():
