@@ -127,7 +127,11 @@ def test_the_committed_study_names_the_conditions_of_the_plan():
         "cma-es": ("cma-es", "paper"),
     }
     assert all(c.config.trials_per_direction == 3 for c in study.conditions)
-    assert all(len(c.test_tracks) >= 3 for c in study.conditions)
+    # Scored on the paper's testing track and on every unseen loop (a study that lists only the
+    # unseen loops would not lap the testing track at all).
+    from lfd_track.world.track import UNSEEN_TRACKS
+
+    assert all(set(c.test_tracks) == {"testing", *UNSEEN_TRACKS} for c in study.conditions)
 
 
 def test_the_committed_study_validates_once_its_methods_presets_and_tracks_exist():
