@@ -47,7 +47,6 @@ _STUDY_KEYS = {"name", "description", "seeds", "repetitions"}
 _TOP_KEYS = {"study", "defaults", "conditions"}
 _SET_BY_STUDY = {"seed", "repetitions"}
 # Benchmark settings a study may name before this build's BenchmarkConfig has them.
-_LATER_FIELDS = {"method", "test_tracks"}
 
 
 @dataclass(frozen=True)
@@ -207,10 +206,6 @@ def _condition(table: dict[str, Any], index: int, path: Path, check_names: bool)
             raise FileFormatError(
                 path, f"{where}: '{key}' is set by the [study] table, not per condition"
             )
-        if key not in fields and key in _LATER_FIELDS:
-            if check_names:
-                _check_without_field(key, value, where, path)
-            continue
         if key not in fields:
             raise FileFormatError(path, f"{where}: unknown key '{key}'")
         kind = hints[key]
@@ -239,20 +234,6 @@ def _condition(table: dict[str, Any], index: int, path: Path, check_names: bool)
     )
 
 
-def _check_without_field(key: str, value: Any, where: str, path: Path) -> None:
-    """Accept ``method``/``test_tracks`` on a build whose benchmark lacks them, if they ask for
-    nothing that build cannot do (the paper method, no extra tracks)."""
-    if key == "method" and value != "paper":
-        raise FileFormatError(
-            path,
-            f"{where}: unknown method {value!r} (this build has: paper)",
-        )
-    if key == "test_tracks" and value != []:
-        raise FileFormatError(
-            path, f"{where}: this build's benchmark cannot score extra test tracks ({value!r})"
-        )
-
-
 def _relative_to(value: Any, study_path: Path) -> Any:
     """Preset or track paths (not bare names) are relative to the study file's folder."""
     if isinstance(value, list):
@@ -268,8 +249,6 @@ def _relative_to(value: Any, study_path: Path) -> Any:
 def available_methods() -> tuple[str, ...] | None:
     """Learning methods this build's benchmark can run, or None if it only knows them by
     validating a ``BenchmarkConfig`` (then a bad method fails when the condition is built)."""
-    if "method" not in {f.name for f in dataclasses.fields(BenchmarkConfig)}:
-        return ("paper",)
     from ..benchmark import runner
 
     for attribute in ("METHODS", "METHOD_NAMES"):
