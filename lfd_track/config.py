@@ -80,6 +80,31 @@ def dataclass_from_table(cls: type[T], table: dict[str, Any], where: str, path: 
         raise FileFormatError(path, f"[{where}] {exc}") from None
 
 
+def config_from_dict(cls: type[T], data: Any, what: str) -> T:
+    """Rebuild the frozen config ``cls`` from its ``dataclasses.asdict`` form.
+
+    Nested config fields (a field whose value is itself a dataclass, e.g. an intervention rule)
+    are rebuilt the same way. Unknown keys and bad values raise ``ValueError`` naming ``what``.
+    """
+    if not isinstance(data, dict):
+        raise ValueError(f"{what} settings must be an object")
+    fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+    unknown = sorted(set(data) - set(fields))
+    if unknown:
+        raise ValueError(f"unknown {what} setting '{unknown[0]}'")
+    values = dict(data)
+    for name, value in data.items():
+        field = fields[name]
+        factory = field.default_factory
+        default = factory() if factory is not dataclasses.MISSING else field.default
+        if dataclasses.is_dataclass(default) and isinstance(value, dict):
+            values[name] = config_from_dict(type(default), value, what)
+    try:
+        return cls(**values)
+    except TypeError as exc:
+        raise ValueError(f"{what}: {exc}") from None
+
+
 def read_toml(path: Path | str, *, max_bytes: int = 1 << 20, what: str = "TOML") -> dict[str, Any]:
     """Parse a TOML file; unreadable or malformed files fail with one line naming the file.
 

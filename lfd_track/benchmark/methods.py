@@ -31,10 +31,11 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any
 
 import numpy as np
 
+from ..config import config_from_dict
 from ..controller import Controller
 from ..demo.dataset import DemonstrationWriter, load_demonstration
 from ..demo.demonstrator import HumanConfig, protocol_human, run_demonstration
@@ -55,24 +56,6 @@ from ..vision.road_library import RoadLibrary
 from ..world.track import load_track
 
 METHODS = ("paper", "online", "hg-dagger", "bc", "cma-es")
-
-_C = TypeVar("_C")
-
-
-def _from_dict(cls: type[_C], data: Any, what: str) -> _C:
-    if not isinstance(data, dict):
-        raise ValueError(f"{what} settings must be an object")
-    names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
-    unknown = sorted(set(data) - names)
-    if unknown:
-        raise ValueError(f"unknown {what} setting '{unknown[0]}'")
-    values = dict(data)
-    if "intervention" in values and isinstance(values["intervention"], dict):
-        values["intervention"] = _from_dict(InterventionConfig, values["intervention"], what)
-    try:
-        return cls(**values)
-    except TypeError as exc:
-        raise ValueError(f"{what}: {exc}") from None
 
 
 @dataclass(frozen=True)
@@ -103,7 +86,7 @@ class OnlineConfig:
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> OnlineConfig:
         """Inverse of :meth:`to_dict`; unknown keys or bad values raise ``ValueError``."""
-        return _from_dict(cls, data, "online")
+        return config_from_dict(cls, data, "online")
 
 
 @dataclass(frozen=True)
@@ -134,7 +117,7 @@ class HGDaggerConfig:
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> HGDaggerConfig:
         """Inverse of :meth:`to_dict`; unknown keys or bad values raise ``ValueError``."""
-        return _from_dict(cls, data, "hg-dagger")
+        return config_from_dict(cls, data, "hg-dagger")
 
 
 @dataclass

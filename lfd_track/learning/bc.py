@@ -23,13 +23,13 @@ from typing import Any
 
 import numpy as np
 
+from ..config import config_from_dict
 from ..control.mlp import N_HIDDEN, N_INPUTS, N_OUTPUTS, n_weights, sigmoid
 from .fit import (
     LearnerFit,
     check_cases,
     check_int,
     check_positive,
-    config_from_dict,
     initial_weights,
 )
 from .fitness import category_weights, imitation_fitness

@@ -17,13 +17,13 @@ from typing import Any
 
 import numpy as np
 
+from ..config import config_from_dict
 from ..control.mlp import n_weights
 from .fit import (
     LearnerFit,
     check_cases,
     check_int,
     check_positive,
-    config_from_dict,
     initial_weights,
 )
 from .fitness import imitation_fitness

@@ -8,9 +8,8 @@ fitness of the returned weights, so learners can be compared on one scale.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
-from typing import Any, TypeVar
+from typing import Any
 
 import numpy as np
 
@@ -64,23 +63,6 @@ def check_cases(inputs: np.ndarray, actions: np.ndarray) -> tuple[np.ndarray, np
 def initial_weights(bias: bool, init_range: float, rng: np.random.Generator) -> np.ndarray:
     """One network drawn like a GA individual: uniform in [-init_range, init_range], (W,)."""
     return rng.uniform(-init_range, init_range, size=n_weights(bias))
-
-
-_C = TypeVar("_C")
-
-
-def config_from_dict(cls: type[_C], data: dict[str, Any], what: str) -> _C:
-    """Build the frozen config ``cls`` from a dict; unknown keys or bad values → ``ValueError``."""
-    if not isinstance(data, dict):
-        raise ValueError(f"{what} config must be an object")
-    names = {f.name for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
-    unknown = sorted(set(data) - names)
-    if unknown:
-        raise ValueError(f"unknown {what} config key '{unknown[0]}'")
-    try:
-        return cls(**data)
-    except TypeError as exc:
-        raise ValueError(str(exc)) from None
 
 
 def check_int(name: str, value: Any, minimum: int) -> None:

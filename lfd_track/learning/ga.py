@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from ..config import config_from_dict
 from ..control.mlp import n_weights
 from .fitness import imitation_fitness
 
@@ -70,16 +71,7 @@ class GAConfig:
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> GAConfig:
         """Inverse of :meth:`to_dict`; unknown keys or bad values raise ``ValueError``."""
-        if not isinstance(data, dict):
-            raise ValueError("GA config must be an object")
-        names = {f.name for f in dataclasses.fields(cls)}
-        unknown = sorted(set(data) - names)
-        if unknown:
-            raise ValueError(f"unknown GA config key '{unknown[0]}'")
-        try:
-            return cls(**data)
-        except TypeError as exc:
-            raise ValueError(str(exc)) from None
+        return config_from_dict(cls, data, "GA")
 
 
 @dataclass(frozen=True)

@@ -167,6 +167,11 @@ def test_method_settings_round_trip_and_refuse_unknown_keys():
     assert HGDaggerConfig.from_dict(hg.to_dict()) == hg
     with pytest.raises(ValueError, match="unknown online setting 'k'"):
         OnlineConfig.from_dict({"k": 3})
+    # the nested intervention rule is rebuilt as a config too, and checked the same way
+    rebuilt = OnlineConfig.from_dict({"intervention": {"stall_commands": 5}})
+    assert rebuilt.intervention.stall_commands == 5
+    with pytest.raises(ValueError, match="unknown hg-dagger setting 'stall'"):
+        HGDaggerConfig.from_dict({"intervention": {"stall": 5}})
     with pytest.raises(ValueError, match="threshold"):
         dataclasses.replace(online, threshold=0)
     with pytest.raises(ValueError, match="unknown method"):

@@ -131,7 +131,7 @@ def test_bad_cases_are_rejected_clearly():
 def test_config_validation_and_round_trip():
     config = BCConfig(epochs=10, batch_size=4, weight_decay=1e-3)
     assert BCConfig.from_dict(config.to_dict()) == config
-    with pytest.raises(ValueError, match="unknown BC config key 'epoch'"):
+    with pytest.raises(ValueError, match="unknown BC setting 'epoch'"):
         BCConfig.from_dict({"epoch": 3})
     for bad in (
         {"epochs": 0},

@@ -72,7 +72,7 @@ def test_bad_input_and_config_are_rejected_clearly():
     with pytest.raises(ValueError, match="Generator"):
         fit_cmaes(x, actions, config, None)
     assert CMAESConfig.from_dict(CMAESConfig(sigma0=0.2).to_dict()) == CMAESConfig(sigma0=0.2)
-    with pytest.raises(ValueError, match="unknown CMA-ES config key 'popsize'"):
+    with pytest.raises(ValueError, match="unknown CMA-ES setting 'popsize'"):
         CMAESConfig.from_dict({"popsize": 10})
     for bad in ({"population_size": 1}, {"generations": 0}, {"sigma0": 0}, {"bias": "yes"}):
         with pytest.raises(ValueError):
