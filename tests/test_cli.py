@@ -235,6 +235,26 @@ def test_every_subcommand_has_help():
         assert proc.returncode == 0 and "usage:" in proc.stdout
 
 
+def test_every_help_text_formats():
+    """Every parser and sub-parser, at any depth, renders its --help (a bare '%' in a help
+    string breaks argparse's formatting only when that help is shown)."""
+    import argparse
+
+    from lfd_track.cli import build_parser
+
+    def walk(parser: argparse.ArgumentParser, path: str) -> list[str]:
+        assert "usage:" in parser.format_help(), path
+        seen = [path]
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for name, child in action.choices.items():
+                    seen += walk(child, f"{path} {name}")
+        return seen
+
+    paths = walk(build_parser(), "lfd-track")
+    assert {"lfd-track study", "lfd-track teach", "lfd-track hardware check"} <= set(paths)
+
+
 # ----------------------------------------------------------------- progress, help, defaults
 class _Terminal(io.StringIO):
     """A stderr that says it is a terminal, so progress bars draw."""

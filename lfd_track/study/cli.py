@@ -15,7 +15,7 @@ def add_study_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Add ``study`` to the ``lfd-track`` subcommands; its ``func`` returns the exit code."""
     study = subparsers.add_parser(
         "study",
-        help="run a study: conditions x seeds of the paper protocol, with 95 % intervals",
+        help="run a study: conditions x seeds of the paper protocol, with 95 %% intervals",
         description=(
             "Run every (condition, seed) job of a study file as one paper-protocol benchmark, "
             "skipping jobs finished by an earlier run, then write DIR/study.json, study.md and "
