@@ -54,6 +54,25 @@ def human_commands(results: Mapping[str, Any]) -> int:
     return sum(int(d["cases"]) + library_only for d in results["demonstrations"])
 
 
+EFFORT_KEYS = ("corrections", "takeovers", "learning_drive_s", "autonomous_drive_s")
+"""Human-effort totals besides commands that a benchmark may report (``human_effort.total``)."""
+
+
+def human_effort(results: Mapping[str, Any]) -> dict[str, float]:
+    """Corrections, takeovers and seconds of driving while learning in one job.
+
+    Read from the results' ``human_effort`` totals; a job from a build that did not report
+    them (the paper method only demonstrates) counts 0 corrections and takeovers, and 0 s.
+    """
+    effort = results.get("human_effort")
+    total = effort.get("total", {}) if isinstance(effort, Mapping) else {}
+    out: dict[str, float] = {}
+    for key in EFFORT_KEYS:
+        value = total.get(key, 0) if isinstance(total, Mapping) else 0
+        out[key] = float(value) if isinstance(value, int | float) else 0.0
+    return out
+
+
 def _track_counts(outcomes: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
     """Per track: successes, trials, corner failures and failure kinds."""
     tracks: dict[str, dict[str, Any]] = {}
@@ -90,6 +109,7 @@ def condition_summary(
         )
 
     commands = [human_commands(r) for _, r in jobs]
+    efforts = [human_effort(r) for _, r in jobs]
     accuracy = [float(a) for _, r in jobs for a in r.get("training_accuracy", [])]
     reps = study.repetitions * len(jobs)
     per_seed = []
@@ -131,6 +151,13 @@ def condition_summary(
         "human_commands": {
             "total": sum(commands),
             "per_repetition": sum(commands) / reps if reps else None,
+        },
+        "human_effort": {
+            key: {
+                "total": sum(e[key] for e in efforts),
+                "per_repetition": sum(e[key] for e in efforts) / reps if reps else None,
+            }
+            for key in EFFORT_KEYS
         },
         "training_accuracy": statistics.mean(accuracy) if accuracy else None,
         "wall_s": sum(float(r.get("timing_s", {}).get("wall", 0.0)) for _, r in jobs),
@@ -225,6 +252,30 @@ def study_markdown(results: Mapping[str, Any]) -> str:
         ]
         for name, corners in corner_rows:
             lines.append(f"| {name} | " + " | ".join(str(corners.get(x, 0)) for x in labels) + " |")
+    lines += [
+        "",
+        "Human effort while learning, per repetition: commands the human gave (demonstration, "
+        "corrections and interventions), times the human took control back, times the policy "
+        "took control, simulated seconds the robot drove while learning and, of those, seconds "
+        "the policy drove:",
+        "",
+        "| condition | human commands | corrections | takeovers | driving (s) | policy driving (s) |",
+        "|---|---|---|---|---|---|",
+    ]
+    for c in results["conditions"]:
+        commands = c["human_commands"]["per_repetition"]
+        effort = c.get("human_effort", {})
+        cells = [
+            "–"
+            if effort.get(k, {}).get("per_repetition") is None
+            else f"{effort[k]['per_repetition']:.1f}"
+            for k in EFFORT_KEYS
+        ]
+        lines.append(
+            f"| {c['name']} | {'–' if commands is None else f'{commands:.0f}'} | "
+            + " | ".join(cells)
+            + " |"
+        )
     unseen = sorted({t for c in results["conditions"] for t in c["unseen_tracks"]})
     if unseen:
         lines += [

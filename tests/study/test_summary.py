@@ -92,6 +92,19 @@ def test_human_effort_reported_by_a_method_is_used_as_is():
     assert human_commands({**base, "human_effort": {"total": {"commands": 321}}}) == 321
 
 
+def test_corrections_and_takeovers_are_pooled_per_repetition(study):
+    seed0, seed1 = study.jobs()
+    effort = {"commands": 200, "corrections": 4, "takeovers": 6, "learning_drive_s": 70.0}
+    a = {**job_results([], cases=(150,)), "human_effort": {"total": effort}}
+    b = job_results([], cases=(150,))  # reports no effort: 0 corrections, 0 takeovers
+    (c,) = build_study_results(study, [(seed0, a), (seed1, b)])["conditions"]
+    assert c["human_effort"]["corrections"] == {"total": 4.0, "per_repetition": 2.0}
+    assert c["human_effort"]["takeovers"]["per_repetition"] == 3.0
+    assert c["human_effort"]["learning_drive_s"]["total"] == 70.0
+    assert c["human_effort"]["autonomous_drive_s"]["total"] == 0.0
+    assert c["human_commands"]["total"] == 200 + 160
+
+
 def test_the_picture_draws_each_rate_with_its_interval_bar(study):
     seed0, seed1 = study.jobs()
     wins = [outcome("training", True, ["1", "2"], order=("1", "2"))] * 3
