@@ -8,7 +8,7 @@ import tomllib
 import types
 import typing
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, ClassVar, Self, TypeVar
 
 from .errors import FileFormatError
 from .files import read_regular_text
@@ -103,6 +103,24 @@ def config_from_dict(cls: type[T], data: Any, what: str) -> T:
         return cls(**values)
     except TypeError as exc:
         raise ValueError(f"{what}: {exc}") from None
+
+
+class DictConfig:
+    """Mixin for frozen settings dataclasses: ``to_dict`` and its checked inverse ``from_dict``.
+
+    A subclass names itself in error messages with ``settings_name`` (e.g. ``"GA"``).
+    """
+
+    settings_name: ClassVar[str] = "config"
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON-friendly dict of the fields (nested settings as dicts)."""
+        return dataclasses.asdict(self)  # type: ignore[call-overload]
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> Self:
+        """Inverse of :meth:`to_dict`; unknown keys or bad values raise ``ValueError``."""
+        return config_from_dict(cls, data, cls.settings_name)
 
 
 def read_toml(path: Path | str, *, max_bytes: int = 1 << 20, what: str = "TOML") -> dict[str, Any]:

@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from ..config import config_from_dict
+from ..config import DictConfig
 from ..controller import Controller
 from ..demo.dataset import DemonstrationWriter, load_demonstration
 from ..demo.demonstrator import HumanConfig, protocol_human, run_demonstration
@@ -59,8 +59,10 @@ METHODS = ("paper", "online", "hg-dagger", "bc", "cma-es")
 
 
 @dataclass(frozen=True)
-class OnlineConfig:
+class OnlineConfig(DictConfig):
     """Settings of the ``online`` method (evolution during the demonstration, with takeover)."""
+
+    settings_name = "online"
 
     generations_per_case: int = 2
     """GA generations (ask/tell, population re-scored on all cases so far) after each new case."""
@@ -79,19 +81,12 @@ class OnlineConfig:
         if not 0.0 < self.threshold <= 1.0:
             raise ValueError("online threshold must be in (0, 1]")
 
-    def to_dict(self) -> dict[str, Any]:
-        """Plain JSON-friendly dict."""
-        return dataclasses.asdict(self)
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> OnlineConfig:
-        """Inverse of :meth:`to_dict`; unknown keys or bad values raise ``ValueError``."""
-        return config_from_dict(cls, data, "online")
-
 
 @dataclass(frozen=True)
-class HGDaggerConfig:
+class HGDaggerConfig(DictConfig):
     """Settings of the ``hg-dagger`` method (rounds of autonomous runs with interventions)."""
+
+    settings_name = "hg-dagger"
 
     rounds: int = 3
     """R: rounds of autonomous runs, each followed by re-evolving on all cases."""
@@ -109,15 +104,6 @@ class HGDaggerConfig:
             raise ValueError("hg-dagger window must be an integer >= 1")
         if not 0.0 < self.threshold <= 1.0:
             raise ValueError("hg-dagger threshold must be in (0, 1]")
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain JSON-friendly dict."""
-        return dataclasses.asdict(self)
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> HGDaggerConfig:
-        """Inverse of :meth:`to_dict`; unknown keys or bad values raise ``ValueError``."""
-        return config_from_dict(cls, data, "hg-dagger")
 
 
 @dataclass

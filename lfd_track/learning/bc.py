@@ -17,13 +17,11 @@ a margin well past Algorithm 3's threshold before the loss flattens. Adam minimi
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
-from ..config import config_from_dict
+from ..config import DictConfig
 from ..control.mlp import N_HIDDEN, N_INPUTS, N_OUTPUTS, n_weights, sigmoid
 from .fit import (
     LearnerFit,
@@ -39,8 +37,10 @@ _W2 = N_OUTPUTS * N_HIDDEN
 
 
 @dataclass(frozen=True)
-class BCConfig:
+class BCConfig(DictConfig):
     """Behaviour-cloning settings (chosen on the training track's demonstrations only)."""
+
+    settings_name = "BC"
 
     epochs: int = 2000
     """Passes over the training cases."""
@@ -81,15 +81,6 @@ class BCConfig:
         if not isinstance(self.bias, bool):
             raise ValueError(f"bias must be true or false, got {self.bias!r}")
         check_positive("threshold", self.threshold)
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain dict of the fields (JSON-friendly)."""
-        return dataclasses.asdict(self)
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> BCConfig:
-        """Inverse of :meth:`to_dict`; unknown keys or bad values raise ``ValueError``."""
-        return config_from_dict(cls, data, "BC")
 
 
 def bc_loss_and_gradient(

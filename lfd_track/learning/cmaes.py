@@ -9,15 +9,13 @@ generator passed in (its ``randn`` option), never from numpy's global state.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import warnings
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
-from ..config import config_from_dict
+from ..config import DictConfig
 from ..control.mlp import n_weights
 from .fit import (
     LearnerFit,
@@ -30,8 +28,10 @@ from .fitness import imitation_fitness
 
 
 @dataclass(frozen=True)
-class CMAESConfig:
+class CMAESConfig(DictConfig):
     """CMA-ES settings; the budget defaults to the paper GA's (Table 1: 40 x 200)."""
+
+    settings_name = "CMA-ES"
 
     population_size: int = 40
     """Candidates sampled and evaluated per generation (CMA-ES lambda)."""
@@ -54,15 +54,6 @@ class CMAESConfig:
         if not isinstance(self.bias, bool):
             raise ValueError(f"bias must be true or false, got {self.bias!r}")
         check_positive("threshold", self.threshold)
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain dict of the fields (JSON-friendly)."""
-        return dataclasses.asdict(self)
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> CMAESConfig:
-        """Inverse of :meth:`to_dict`; unknown keys or bad values raise ``ValueError``."""
-        return config_from_dict(cls, data, "CMA-ES")
 
 
 def fit_cmaes(

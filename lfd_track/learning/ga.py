@@ -14,14 +14,16 @@ from typing import Any
 
 import numpy as np
 
-from ..config import config_from_dict
+from ..config import DictConfig
 from ..control.mlp import n_weights
 from .fitness import imitation_fitness
 
 
 @dataclass(frozen=True)
-class GAConfig:
+class GAConfig(DictConfig):
     """GA settings; defaults are the paper's Table 1."""
+
+    settings_name = "GA"
 
     population_size: int = 40
     """Individuals per generation."""
@@ -63,15 +65,6 @@ class GAConfig:
             raise ValueError("init_range must be a finite non-negative number")
         if not (self.threshold > 0 and np.isfinite(self.threshold)):
             raise ValueError("threshold must be a finite positive number")
-
-    def to_dict(self) -> dict[str, Any]:
-        """Plain dict of the fields (JSON-friendly)."""
-        return dataclasses.asdict(self)
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> GAConfig:
-        """Inverse of :meth:`to_dict`; unknown keys or bad values raise ``ValueError``."""
-        return config_from_dict(cls, data, "GA")
 
 
 @dataclass(frozen=True)
