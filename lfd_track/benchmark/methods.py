@@ -59,51 +59,52 @@ METHODS = ("paper", "online", "hg-dagger", "bc", "cma-es")
 
 
 @dataclass(frozen=True)
-class OnlineConfig(DictConfig):
+class TakeoverConfig(DictConfig):
+    """What ``online`` and ``hg-dagger`` share: when the policy may drive, when the human steps in."""
+
+    window: int = 10
+    """K: the agreement is measured over the human's last K commands."""
+    threshold: float = 0.9
+    """Share of those K the policy must have agreed with to drive (9 of 10 by default)."""
+    intervention: InterventionConfig = field(default_factory=InterventionConfig)
+    """When the watching human takes control (back)."""
+
+    def __post_init__(self) -> None:
+        if isinstance(self.window, bool) or self.window < 1:
+            raise ValueError(f"{self.settings_name} window must be an integer >= 1")
+        if not 0.0 < self.threshold <= 1.0:
+            raise ValueError(f"{self.settings_name} threshold must be in (0, 1]")
+
+
+@dataclass(frozen=True)
+class OnlineConfig(TakeoverConfig):
     """Settings of the ``online`` method (evolution during the demonstration, with takeover)."""
 
     settings_name = "online"
 
     generations_per_case: int = 2
     """GA generations (ask/tell, population re-scored on all cases so far) after each new case."""
-    window: int = 10
-    """K: the takeover agreement is measured over the human's last K commands."""
-    threshold: float = 0.9
-    """Share of those K the policy must have agreed with to drive (9 of 10 by default)."""
-    intervention: InterventionConfig = field(default_factory=InterventionConfig)
-    """When the watching human takes control back."""
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         if isinstance(self.generations_per_case, bool) or self.generations_per_case < 1:
             raise ValueError("online generations_per_case must be an integer >= 1")
-        if isinstance(self.window, bool) or self.window < 1:
-            raise ValueError("online window must be an integer >= 1")
-        if not 0.0 < self.threshold <= 1.0:
-            raise ValueError("online threshold must be in (0, 1]")
 
 
 @dataclass(frozen=True)
-class HGDaggerConfig(DictConfig):
-    """Settings of the ``hg-dagger`` method (rounds of autonomous runs with interventions)."""
+class HGDaggerConfig(TakeoverConfig):
+    """Settings of the ``hg-dagger`` method (rounds of autonomous runs with interventions; after
+    an intervention the policy drives again once it agreed on the last ``window``)."""
 
     settings_name = "hg-dagger"
 
     rounds: int = 3
     """R: rounds of autonomous runs, each followed by re-evolving on all cases."""
-    window: int = 10
-    """K: after an intervention, the policy drives again once it agreed on the last K."""
-    threshold: float = 0.9
-    """Share of those K the policy must have agreed with to drive again."""
-    intervention: InterventionConfig = field(default_factory=InterventionConfig)
-    """When the watching human takes control."""
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         if isinstance(self.rounds, bool) or self.rounds < 1:
             raise ValueError("hg-dagger rounds must be an integer >= 1")
-        if isinstance(self.window, bool) or self.window < 1:
-            raise ValueError("hg-dagger window must be an integer >= 1")
-        if not 0.0 < self.threshold <= 1.0:
-            raise ValueError("hg-dagger threshold must be in (0, 1]")
 
 
 @dataclass
