@@ -43,6 +43,7 @@ FAILURE_KINDS = ("reversed", "off_track", "timeout")
 LOOP_DIRECTIONS = ("cw", "ccw")
 """Directions of a loop track (the testing track's and those of extra test loops)."""
 _FLOAT_DECIMALS = 6  # results.json precision: byte-stable and far below any meaningful difference
+_SMALL = 1e-3  # below this, results.json keeps 6 significant digits rather than 6 decimals
 
 
 @dataclass(frozen=True)
@@ -465,6 +466,10 @@ def _normalise(value: Any) -> Any:
         x = float(value)
         if not math.isfinite(x):
             return None
+        if 0.0 < abs(x) < _SMALL:
+            # Six decimals would round a small setting (e.g. BC's epsilon, 1e-8) to 0, which
+            # could not be loaded back: small values keep six significant digits instead.
+            return float(f"{x:.6g}")
         return round(x, _FLOAT_DECIMALS) + 0.0  # + 0.0 turns -0.0 into 0.0
     if value is None or isinstance(value, str):
         return value
@@ -472,7 +477,8 @@ def _normalise(value: Any) -> Any:
 
 
 def results_json_text(results: Mapping[str, Any]) -> str:
-    """results.json text: sorted keys, floats rounded to 6 decimals, same input -> same bytes."""
+    """results.json text: sorted keys, floats rounded to 6 decimals (6 significant digits below
+    1e-3), same input -> same bytes."""
     return json.dumps(_normalise(results), sort_keys=True, indent=2, allow_nan=False) + "\n"
 
 

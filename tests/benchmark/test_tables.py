@@ -329,3 +329,15 @@ def test_timing_table_is_in_words_and_seconds(tmp_path: Path) -> None:
     }
     assert "Run on 2 worker processes." in text
     assert "_sum" not in text
+
+
+def test_results_json_keeps_small_settings_loadable():
+    """Six decimals would store BC's epsilon (1e-8) as 0, which BCConfig refuses to load."""
+    from lfd_track.benchmark.runner import BenchmarkConfig, config_dict
+    from lfd_track.learning.bc import BCConfig
+
+    data = json.loads(results_json_text({"config": config_dict(BenchmarkConfig()), "x": 0.1234567}))
+    assert data["config"]["bc"]["epsilon"] == 1e-8
+    assert BCConfig.from_dict(data["config"]["bc"]) == BCConfig()
+    assert data["x"] == 0.123457  # ordinary values keep their six decimals
+    assert json.loads(results_json_text({"tiny": 1.234567891e-7}))["tiny"] == 1.23457e-7
