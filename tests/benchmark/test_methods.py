@@ -83,6 +83,11 @@ def test_online_takes_over_and_learns_flagged_corrections(online_run):
     effort = learned.effort
     assert effort["takeovers"] >= 1 and effort["autonomous_drive_s"] > 0
     assert effort["corrections"] >= 1
+    # The watching human stepped in by its rule, not only at the turn-arounds (always the
+    # human's): every correction has one reason, and at least one is not a turn-around.
+    reasons = learned.demo["interventions"]
+    assert sum(reasons.values()) == effort["corrections"]
+    assert sum(n for why, n in reasons.items() if why != "turn") >= 1
     demo = load_demonstration(out / "demonstration.lfdemo")
     flagged = demo.metadata["correction_cases"]
     assert len(flagged) == learned.demo["correction_cases"] >= 1
