@@ -40,10 +40,11 @@ from ..controller import Controller
 from ..demo.dataset import DemonstrationWriter, load_demonstration
 from ..demo.demonstrator import HumanConfig, protocol_human, run_demonstration
 from ..env import LfDTrackEnv
-from ..learning.bc import BCConfig, fit_bc
-from ..learning.cmaes import CMAESConfig, fit_cmaes
+from ..learning.bc import BCConfig
+from ..learning.cmaes import CMAESConfig
 from ..learning.fitness import training_accuracy
 from ..learning.ga import GAConfig, evolve, ga_rescore, ga_result
+from ..learning.learners import learner_for
 from ..presets import Preset
 from ..teaching.arbiter import Arbiter
 from ..teaching.commanders import PolicyCommander
@@ -196,14 +197,14 @@ def learn_baseline(
         demo_path, seed=demo_seed, preset=preset, human=human, fsync=False, overwrite=True
     )
     demo = load_demonstration(demo_path)
-    fit = fit_bc if isinstance(learner, BCConfig) else fit_cmaes
-    result = fit(demo.road_values, demo.commands, learner, np.random.default_rng(ga_seed))
+    trainer = learner_for(learner)
+    result = trainer.fit(demo.road_values, demo.commands, np.random.default_rng(ga_seed))
     library = RoadLibrary.from_dict(demo.metadata["road_library"])
     controller = Controller(
         library,
         result.weights,
         bias=learner.bias,
-        learner="bc" if isinstance(learner, BCConfig) else "cma-es",
+        learner=trainer.name,
         learner_config=learner.to_dict(),
         seed=ga_seed,
         fitness_history=result.history.tolist(),

@@ -6,8 +6,8 @@ from typing import Any
 
 import numpy as np
 
-from ..learning.fitness import imitation_fitness
-from ..learning.ga import GAConfig, ga_ask, ga_init, ga_rescore, ga_tell
+from ..learning.ga import GAConfig, GAState
+from ..learning.learners import GALearner
 from .commanders import PolicyCommander
 from .loop import Step
 from .observers import CaseBuffer
@@ -17,8 +17,9 @@ class GALearnerFeed:
     """Learner feed: the GA in ask/tell form, running generations as teaching cases arrive.
 
     After each new case the population and the best-so-far are re-scored on all cases so far,
-    then ``generations_per_case`` generations run; the policy commander then drives with the best
-    individual. :attr:`generation` and :attr:`best_fitness` are readable at any time.
+    then ``generations_per_case`` generations run (:meth:`GALearner.update
+    <lfd_track.learning.learners.GALearner.update>`); the policy commander then drives with the
+    best individual. :attr:`generation` and :attr:`best_fitness` are readable at any time.
     """
 
     def __init__(
@@ -34,7 +35,14 @@ class GALearnerFeed:
         self.generations_per_case = generations_per_case
         self.policy = policy
         self.cases = CaseBuffer()
-        self.state = ga_init(config, rng)
+        self.learner = GALearner(config)
+        self.learner.begin(rng)
+
+    @property
+    def state(self) -> GAState:
+        """The GA's current state (population, best so far, histories)."""
+        assert self.learner.state is not None
+        return self.learner.state
 
     @property
     def generation(self) -> int:
@@ -52,13 +60,4 @@ class GALearnerFeed:
             return
         self.cases.observe(step)
         x, a = self.cases.arrays()
-        cfg = self.config
-        state = self.state
-        if state.generation > 0:
-            state = ga_rescore(state, x, a, cfg)
-        for _ in range(self.generations_per_case):
-            children = ga_ask(state, cfg, self.rng)
-            fitness = imitation_fitness(children, x, a, cfg.threshold, bias=cfg.bias)
-            state = ga_tell(state, children, fitness)
-        self.state = state
-        self.policy.weights = np.array(state.best_weights)
+        self.policy.weights = self.learner.update(x, a, self.generations_per_case)
