@@ -1,4 +1,5 @@
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -170,6 +171,23 @@ def test_wave_1_files_still_load(trained, tmp_path):
     old["ga_config"]["bias"] = True
     path.write_text(json.dumps(old))
     _expect_one_line_error(path, "disagrees")
+
+
+def test_a_file_written_by_the_first_release_loads_and_drives_the_same():
+    """A real schema-1 file (tests/data/), not a new file with keys removed."""
+    import cv2
+
+    data_dir = Path(__file__).parent / "data"
+    controller = Controller.load(data_dir / "schema1_controller.json")
+    expected = json.loads((data_dir / "schema1_controller_expected.json").read_text())
+    assert controller.learner == "ga" and controller.learner_config["generations"] == 5
+    assert controller.library.n_models == 7
+    rng = np.random.default_rng(11)
+    mosaic = rng.integers(0, 256, size=(12, 16, 3), dtype=np.uint8)
+    frame = cv2.resize(mosaic, (640, 480), interpolation=cv2.INTER_NEAREST)
+    values = controller.library.road_values(frame, update_statistics=False)
+    np.testing.assert_allclose(values, expected["road_values"], rtol=0, atol=1e-12)
+    assert int(controller.act(frame)) == expected["command"]
 
 
 def test_policy_does_not_import_its_trainer(tmp_path):
