@@ -394,6 +394,7 @@ def learn_hg_dagger(
     for r in range(1, hg.rounds + 1):
         buffer = CaseBuffer()
         round_counts = LoopCounts()
+        reasons: dict[str, int] = {}
         human_rng = np.random.default_rng(int(round_rng.integers(2**62)))
         path = rep_dir / f"interventions_r{r}.lfdemo"
         metadata = {"kind": "simulated", "method": "hg-dagger", "round": r, "bins": library.bins}
@@ -439,6 +440,8 @@ def learn_hg_dagger(
                 loop.reset(seed=int(round_rng.integers(2**62)))
                 loop.run()
                 _add(round_counts, loop.counts)
+                for why, n in person.interventions.items():
+                    reasons[why] = reasons.get(why, 0) + n
                 env.close()
             w.close({"round": r, "cases": len(buffer.commands)})
         _add(totals, round_counts)
@@ -459,6 +462,7 @@ def learn_hg_dagger(
                 "round": r,
                 "intervention_cases": int(len(a)),
                 "corrections": round_counts.corrections,
+                "interventions": reasons,
                 "autonomous_drive_s": round(round_counts.policy_commands * period, 6),
             }
         )

@@ -148,6 +148,8 @@ def test_hg_dagger_adds_intervention_cases_every_round(tmp_path):
     rounds = learned.demo["rounds"]
     assert [r["round"] for r in rounds] == [1, 2]
     assert all(r["intervention_cases"] > 0 for r in rounds)
+    # every time the human took control back has one reason of the intervention rule
+    assert all(sum(r["interventions"].values()) == r["corrections"] for r in rounds)
     demo_cases = load_demonstration(tmp_path / "a" / "demonstration.lfdemo").n_cases
     assert learned.demo["cases"] == demo_cases + sum(r["intervention_cases"] for r in rounds)
     for r in rounds:
