@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -125,6 +126,11 @@ def test_progress_shows_jobs_done_of_total(tiny_study, tmp_path, capsys):
     shutil.copytree(out, copy)
     run_study(load_study(path), copy, progress=True)
     assert "2/2" in capsys.readouterr().err
+    # With a job left to run, the bar counts it and shows elapsed<remaining time (the ETA).
+    (copy / "paper" / "seed1" / "results.json").unlink()
+    run_study(load_study(path), copy, progress=True)
+    err = capsys.readouterr().err
+    assert "1/2" in err and re.search(r"2/2 \[\d\d:\d\d<\d\d:\d\d", err), err
 
 
 @pytest.mark.parametrize("workers", [1, 2])
