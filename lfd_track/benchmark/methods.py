@@ -37,8 +37,13 @@ import numpy as np
 
 from ..config import DictConfig
 from ..controller import Controller
-from ..demo.dataset import DemonstrationWriter, load_demonstration
-from ..demo.demonstrator import HumanConfig, protocol_human, run_demonstration
+from ..demo.dataset import Demonstration, DemonstrationWriter, load_demonstration
+from ..demo.demonstrator import (
+    DemonstrationSummary,
+    HumanConfig,
+    protocol_human,
+    run_demonstration,
+)
 from ..env import LfDTrackEnv
 from ..learning.bc import BCConfig
 from ..learning.cmaes import CMAESConfig
@@ -140,6 +145,53 @@ def _add(total: LoopCounts, part: LoopCounts) -> None:
 
 
 # ------------------------------------------------------------------------------------ paper
+def _demonstrate(
+    rep_dir: Path, *, demo_seed: int, preset: str | Preset, human: HumanConfig
+) -> tuple[DemonstrationSummary, Demonstration, RoadLibrary]:
+    """Record the paper's demonstration in ``rep_dir``; (summary, cases, its road library)."""
+    demo_path = rep_dir / "demonstration.lfdemo"
+    summary = run_demonstration(
+        demo_path, seed=demo_seed, preset=preset, human=human, fsync=False, overwrite=True
+    )
+    demo = load_demonstration(demo_path)
+    return summary, demo, RoadLibrary.from_dict(demo.metadata["road_library"])
+
+
+def _learned_offline(
+    summary: DemonstrationSummary,
+    demo: Demonstration,
+    controller: Controller,
+    preset: str | Preset,
+    *,
+    fitness_best: list[float],
+    fitness_mean: list[float],
+    extra: dict[str, Any] | None = None,
+) -> Learned:
+    """What a repetition that learns after one demonstration (no robot driving) produced."""
+    return Learned(
+        controller=controller,
+        demo={
+            "cases": summary.n_cases,
+            "counts": summary.counts,
+            "turnarounds": list(summary.turnarounds),
+            "library_models": summary.library_models,
+            "library_types": summary.library_types,
+            "learned_off_felt": summary.learned_off_felt,
+            **(extra or {}),
+        },
+        fitness_best=fitness_best,
+        fitness_mean=fitness_mean,
+        training_accuracy=training_accuracy(controller.weights, demo.road_values, demo.commands),
+        effort={
+            "commands": summary.commands,
+            "corrections": 0,
+            "takeovers": 0,
+            "learning_drive_s": round(summary.commands * _period_s(preset), 6),
+            "autonomous_drive_s": 0.0,
+        },
+    )
+
+
 def learn_paper(
     rep_dir: Path,
     *,
@@ -150,35 +202,15 @@ def learn_paper(
     ga: GAConfig,
 ) -> Learned:
     """The paper: record a demonstration, then evolve offline (200 generations by default)."""
-    demo_path = rep_dir / "demonstration.lfdemo"
-    summary = run_demonstration(
-        demo_path, seed=demo_seed, preset=preset, human=human, fsync=False, overwrite=True
-    )
-    demo = load_demonstration(demo_path)
+    summary, demo, library = _demonstrate(rep_dir, demo_seed=demo_seed, preset=preset, human=human)
     result = evolve(demo.road_values, demo.commands, ga, np.random.default_rng(ga_seed))
-    library = RoadLibrary.from_dict(demo.metadata["road_library"])
-    controller = Controller.from_evolution(library, result, seed=ga_seed)
-    period = _period_s(preset)
-    return Learned(
-        controller=controller,
-        demo={
-            "cases": summary.n_cases,
-            "counts": summary.counts,
-            "turnarounds": list(summary.turnarounds),
-            "library_models": summary.library_models,
-            "library_types": summary.library_types,
-            "learned_off_felt": summary.learned_off_felt,
-        },
+    return _learned_offline(
+        summary,
+        demo,
+        Controller.from_evolution(library, result, seed=ga_seed),
+        preset,
         fitness_best=result.best_history.tolist(),
         fitness_mean=result.mean_history.tolist(),
-        training_accuracy=training_accuracy(result.best_weights, demo.road_values, demo.commands),
-        effort={
-            "commands": summary.commands,
-            "corrections": 0,
-            "takeovers": 0,
-            "learning_drive_s": round(summary.commands * period, 6),
-            "autonomous_drive_s": 0.0,
-        },
     )
 
 
@@ -192,14 +224,9 @@ def learn_baseline(
     learner: BCConfig | CMAESConfig,
 ) -> Learned:
     """The paper's demonstration, then BC or CMA-ES instead of the GA (same cases, same seed)."""
-    demo_path = rep_dir / "demonstration.lfdemo"
-    summary = run_demonstration(
-        demo_path, seed=demo_seed, preset=preset, human=human, fsync=False, overwrite=True
-    )
-    demo = load_demonstration(demo_path)
+    summary, demo, library = _demonstrate(rep_dir, demo_seed=demo_seed, preset=preset, human=human)
     trainer = learner_for(learner)
     result = trainer.fit(demo.road_values, demo.commands, np.random.default_rng(ga_seed))
-    library = RoadLibrary.from_dict(demo.metadata["road_library"])
     controller = Controller(
         library,
         result.weights,
@@ -209,28 +236,14 @@ def learn_baseline(
         seed=ga_seed,
         fitness_history=result.history.tolist(),
     )
-    period = _period_s(preset)
-    return Learned(
-        controller=controller,
-        demo={
-            "cases": summary.n_cases,
-            "counts": summary.counts,
-            "turnarounds": list(summary.turnarounds),
-            "library_models": summary.library_models,
-            "library_types": summary.library_types,
-            "learned_off_felt": summary.learned_off_felt,
-            "learner": result.learner,
-        },
+    return _learned_offline(
+        summary,
+        demo,
+        controller,
+        preset,
         fitness_best=result.history.tolist(),
         fitness_mean=[],
-        training_accuracy=training_accuracy(result.weights, demo.road_values, demo.commands),
-        effort={
-            "commands": summary.commands,
-            "corrections": 0,
-            "takeovers": 0,
-            "learning_drive_s": round(summary.commands * period, 6),
-            "autonomous_drive_s": 0.0,
-        },
+        extra={"learner": result.learner},
     )
 
 
