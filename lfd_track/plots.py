@@ -13,10 +13,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .render.topdown import TopDownView
+from .render.topdown import RGB, TopDownView
 from .world.track import Track
-
-RGB = tuple[int, int, int]
 
 SUCCESS_RGB: RGB = (40, 170, 60)
 FAILURE_RGB: RGB = (215, 40, 40)

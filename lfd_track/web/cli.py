@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import Any
 
 from ..cli_types import non_negative_int as _count
+from ..cli_types import port, share
 from ..cli_types import positive_float as _positive_float
 from ..cli_types import positive_int as _positive_int
 from ..errors import LfdTrackError
@@ -65,26 +66,6 @@ def run_teach(args: argparse.Namespace) -> int:
     return 0
 
 
-def _port(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a port number, got {text!r}") from None
-    if not 0 <= value <= 65535:
-        raise argparse.ArgumentTypeError(f"port must be in 0..65535, got {value}")
-    return value
-
-
-def _share(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not 0.0 < value <= 1.0:
-        raise argparse.ArgumentTypeError(f"must be in (0, 1], got {text}")
-    return value
-
-
 def add_teach_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Add ``teach`` to the main CLI (handler stored as ``func``)."""
     teach = subparsers.add_parser(
@@ -136,7 +117,7 @@ def add_teach_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     teach.add_argument(
         "--takeover-threshold",
-        type=_share,
+        type=share,
         default=0.9,
         metavar="F",
         help="with --online: share of those K the policy must agree on to be offered the wheel "
@@ -164,7 +145,7 @@ def add_teach_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="address to listen on (default 127.0.0.1; any other needs the printed token)",
     )
     teach.add_argument(
-        "--port", type=_port, default=DEFAULT_PORT, help="port (default 8765; 0 picks a free one)"
+        "--port", type=port, default=DEFAULT_PORT, help="port (default 8765; 0 picks a free one)"
     )
     teach.add_argument(
         "--fps", type=_positive_float, default=DEFAULT_FPS, help="live view frames/s (default 10)"
