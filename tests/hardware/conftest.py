@@ -6,12 +6,12 @@ a missing tool is a failure: CI installs them (``.ci/run``), so their absence is
 
 from __future__ import annotations
 
-import os
 import time
 from collections.abc import Callable, Iterator
 
 import pytest
 import serial
+from lfd_test_support import unavailable
 
 from lfd_track.hardware import protocol
 from lfd_track.hardware.simavr import FIRMWARE_BAUD, SimulatedBoard, ToolMissingError, missing_tools
@@ -21,10 +21,7 @@ REPLY_TIMEOUT_S = 5.0
 
 
 def _tools_unavailable(reason: str) -> None:
-    message = f"the simavr firmware tests need the AVR toolchain and simavr: {reason}"
-    if os.environ.get("CI", "").lower() == "true":
-        pytest.fail(f"{message} (CI=true, so this is a failure, not a skip)", pytrace=False)
-    pytest.skip(message)
+    unavailable(f"the simavr firmware tests need the AVR toolchain and simavr: {reason}")
 
 
 @pytest.fixture(scope="module")

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import _thread
-import importlib.util
 import os
 import shutil
 import signal
@@ -16,6 +15,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 import serial
+from lfd_test_support import load_test_module
 
 import lfd_track  # noqa: F401 - registers the environments
 from lfd_track.hardware import protocol
@@ -23,16 +23,8 @@ from lfd_track.hardware.env import HardwareEnv
 
 
 def _sibling(name: str):
-    """Import a sibling test module by path (it holds the loopback fakes; no package needed)."""
-    module_name = f"_lfd_hw_{name}"
-    if module_name not in sys.modules:
-        spec = importlib.util.spec_from_file_location(
-            module_name, Path(__file__).with_name(f"{name}.py")
-        )
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[module_name] = module
-        spec.loader.exec_module(module)
-    return sys.modules[module_name]
+    """A sibling test module (it holds the loopback fakes), loaded by path."""
+    return load_test_module(Path(__file__).with_name(f"{name}.py"), f"_lfd_hw_{name}")
 
 
 FakeBoard = _sibling("test_link").FakeBoard

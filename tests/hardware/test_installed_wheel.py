@@ -21,6 +21,7 @@ import venv
 from pathlib import Path
 
 import pytest
+from lfd_test_support import unavailable
 
 from lfd_track.hardware.simavr import HARDWARE_SOURCES, missing_tools
 
@@ -30,12 +31,6 @@ REPO = Path(__file__).resolve().parents[2]
 # Failure guards only: every wait returns as soon as the awaited output arrives.
 BUILD_TIMEOUT_S = 120
 RUN_TIMEOUT_S = 60
-
-
-def _unavailable(message: str) -> None:
-    if os.environ.get("CI", "").lower() == "true":
-        pytest.fail(f"{message} (CI=true, so this is a failure, not a skip)", pytrace=False)
-    pytest.skip(message)
 
 
 def _offline_env(**extra: str) -> dict[str, str]:
@@ -50,11 +45,9 @@ def installed(tmp_path_factory) -> Path:
     """A fresh venv with the checkout's wheel installed; returns its ``bin`` folder."""
     missing = missing_tools()
     if missing:
-        _unavailable(
-            "the simulated board needs the AVR toolchain and simavr: " + "; ".join(missing)
-        )
+        unavailable("the simulated board needs the AVR toolchain and simavr: " + "; ".join(missing))
     if importlib.util.find_spec("hatchling") is None:
-        _unavailable("the build backend hatchling is not installed (pip install hatchling)")
+        unavailable("the build backend hatchling is not installed (pip install hatchling)")
     root = tmp_path_factory.mktemp("installed")
     subprocess.run(
         [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "--no-index",

@@ -6,13 +6,12 @@ log (its pins, in simulated time) shows the motors off, and nothing drives them 
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+from lfd_test_support import load_test_module
 
 pytestmark = [pytest.mark.browser, pytest.mark.simavr]
 
@@ -20,27 +19,13 @@ HARDWARE_TESTS = Path(__file__).resolve().parents[1] / "hardware"
 
 
 def _hardware_module(name: str):
-    """A module of tests/hardware loaded by path (its board fixture and loopback camera)."""
-    module_name = f"_lfd_web_hw_{name}"
-    if module_name not in sys.modules:
-        spec = importlib.util.spec_from_file_location(module_name, HARDWARE_TESTS / f"{name}.py")
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[module_name] = module
-        spec.loader.exec_module(module)
-    return sys.modules[module_name]
+    """A module of tests/hardware (its board fixture and loopback camera)."""
+    return load_test_module(HARDWARE_TESTS / f"{name}.py", f"_lfd_web_hw_{name}")
 
 
 def _sibling(name: str):
-    """A module of this folder loaded by path (the page helpers of test_station)."""
-    module_name = f"_lfd_web_{name}"
-    if module_name not in sys.modules:
-        spec = importlib.util.spec_from_file_location(
-            module_name, Path(__file__).with_name(f"{name}.py")
-        )
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[module_name] = module
-        spec.loader.exec_module(module)
-    return sys.modules[module_name]
+    """A module of this folder (the page helpers of test_station)."""
+    return load_test_module(Path(__file__).with_name(f"{name}.py"), f"_lfd_web_{name}")
 
 
 as_controller = _sibling("test_station").as_controller

@@ -1,0 +1,33 @@
+"""Helpers the test folders share (importable everywhere: tests/conftest.py puts this folder on
+the path)."""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import pytest
+
+
+def unavailable(message: str) -> None:
+    """Skip the test for a missing tool, except under CI=true, where a missing tool fails it."""
+    if os.environ.get("CI", "").lower() == "true":
+        pytest.fail(f"{message} (CI=true, so this is a failure, not a skip)", pytrace=False)
+    pytest.skip(message)
+
+
+def load_test_module(path: Path, alias: str) -> ModuleType:
+    """The test module at ``path`` (its fakes and helpers), loaded once under ``alias``.
+
+    Test folders are not packages, so a module of another folder is loaded by path.
+    """
+    if alias not in sys.modules:
+        spec = importlib.util.spec_from_file_location(alias, path)
+        assert spec is not None and spec.loader is not None, path
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[alias] = module
+        spec.loader.exec_module(module)
+    return sys.modules[alias]
