@@ -12,6 +12,10 @@ canonical JSON (sorted keys, no spaces, UTF-8) of every other key, so a changed 
 refused (unless the number still parses to the very same value, which changes nothing). Schema 1 files (wave 1: ``ga_config`` instead of ``learner``/``learner_config``, no
 ``policy_kind`` or checksum) still load as ``learner="ga"``.
 
+A controller whose network also reads memory inputs (:mod:`lfd_track.teaching.memory`) is saved
+as schema 3: the schema 2 keys plus ``memory`` (the memory settings), with ``layer_sizes``
+``[40 + m, 5, 3]``. A controller without memory is still written as schema 2.
+
 A policy does not import its trainer: the GA appears here only as a type for ``from_evolution``.
 """
 
@@ -27,10 +31,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .atomic import atomic_write_text
-from .control.mlp import LAYER_SIZES, mlp_forward, n_weights, select_action
+from .control.mlp import N_INPUTS, layer_sizes, mlp_forward, n_weights, select_action
 from .errors import FileFormatError
 from .files import read_regular_text
 from .teaching.commanders import PolicyCommander
+from .teaching.memory import MemoryConfig
 from .teaching.perception import Perception
 from .vision.road_library import RoadLibrary
 
@@ -39,6 +44,7 @@ if TYPE_CHECKING:
 
 CONTROLLER_FORMAT = "lfd-track-controller"
 CONTROLLER_SCHEMA_VERSION = 2
+CONTROLLER_SCHEMA_WITH_MEMORY = 3
 POLICY_KINDS = ("mlp-sigmoid",)
 """Policy kinds this version of lfd-track can run."""
 MAX_ABS_WEIGHT = 1e6
@@ -61,6 +67,7 @@ _KEYS = (
     "learn",
     "checksum",
 )
+_KEYS_V3 = (*_KEYS[:-1], "memory", "checksum")
 _KEYS_V1 = (
     "format",
     "schema_version",
@@ -95,6 +102,7 @@ class Controller:
         seed: seed of the run that produced the weights (stored for the record).
         fitness_history: best fitness per generation (stored for the record).
         learn: also run Algorithm 1 on each frame before computing its road values.
+        memory: the memory inputs the network reads after the road values (None: none).
     """
 
     policy_kind = "mlp-sigmoid"
@@ -110,12 +118,15 @@ class Controller:
         seed: int | None = None,
         fitness_history: Sequence[float] | None = None,
         learn: bool = False,
+        memory: MemoryConfig | None = None,
     ) -> None:
+        memory = None if memory is None or memory.kind == "none" else memory
+        n_inputs = N_INPUTS + (0 if memory is None else memory.n_inputs)
         w = np.array(weights, dtype=np.float64, copy=True)
-        if w.shape != (n_weights(bias),):
+        if w.shape != (n_weights(bias, n_inputs),):
             raise ValueError(
-                f"expected {n_weights(bias)} weights ({'with' if bias else 'without'} biases),"
-                f" got shape {w.shape}"
+                f"expected {n_weights(bias, n_inputs)} weights for {n_inputs} inputs"
+                f" ({'with' if bias else 'without'} biases), got shape {w.shape}"
             )
         if not np.all(np.isfinite(w)):
             raise ValueError("weights contain NaN or infinite values")
@@ -140,13 +151,20 @@ class Controller:
             None if fitness_history is None else [float(f) for f in fitness_history]
         )
         self.learn = bool(learn)
+        self.memory = memory
+        self._act_perception: Perception | None = None
         self._previous: int | None = None
         self.last_outputs: np.ndarray | None = None
         """MLP outputs (3,) of the latest ``act`` call."""
 
     @classmethod
     def from_evolution(
-        cls, library: RoadLibrary, result: EvolutionResult, *, seed: int | None = None
+        cls,
+        library: RoadLibrary,
+        result: EvolutionResult,
+        *,
+        seed: int | None = None,
+        memory: MemoryConfig | None = None,
     ) -> Controller:
         """Controller from an :func:`~lfd_track.learning.ga.evolve` result.
 
@@ -167,28 +185,48 @@ class Controller:
             learner_config=result.config.to_dict(),
             seed=seed,
             fitness_history=result.best_history.tolist(),
+            memory=memory,
         )
 
+    @property
+    def n_inputs(self) -> int:
+        """Inputs of the network: 40 road values plus the memory inputs."""
+        return N_INPUTS + (0 if self.memory is None else self.memory.n_inputs)
+
+    def perception(self, rule: str | None = None) -> Perception:
+        """A perception for driving with this controller: its library, ``rule`` (default:
+        ``always`` if it learns, else ``frozen``) and its memory inputs."""
+        if rule is None:
+            rule = "always" if self.learn else "frozen"
+        return Perception(self.library, rule, self.memory)
+
     def reset(self) -> None:
-        """Forget the previous command (start of an episode)."""
+        """Forget the previous command and the memory (start of an episode)."""
         self._previous = None
         self.last_outputs = None
+        if self._act_perception is not None:
+            self._act_perception.start_episode()
 
     def act(self, frame: np.ndarray) -> int:
         """Command (0 forward, 1 left, 2 right) for an RGB uint8 (480, 640, 3) frame.
 
         The library learns from the frame first when ``learn`` is set (rule ``always``), else it
-        is frozen (rule ``frozen``: not even selection counts change).
+        is frozen (rule ``frozen``: not even selection counts change). With memory inputs, the
+        command returned is taken as executed (call :meth:`reset` at each episode's start).
         """
-        rule = "always" if self.learn else "frozen"
-        return self.act_on_values(Perception(self.library, rule).perceive(frame).values)
+        if self._act_perception is None:
+            self._act_perception = self.perception()
+        self._act_perception.rule = "always" if self.learn else "frozen"
+        command = self.act_on_values(self._act_perception.perceive(frame).inputs)
+        self._act_perception.note(command)
+        return command
 
     def commander(self) -> PolicyCommander:
         """This controller's network as a commander for the teaching loop."""
         return PolicyCommander(self.weights)
 
     def act_on_values(self, road_values: np.ndarray) -> int:
-        """Command for precomputed road values, (40,) float."""
+        """Command for precomputed road values, (40,) float (then the memory inputs, if any)."""
         outputs = mlp_forward(self.weights, np.asarray(road_values, dtype=np.float64)[None])[0]
         self.last_outputs = outputs
         self._previous = select_action(outputs, self._previous)
@@ -196,12 +234,16 @@ class Controller:
 
     # ------------------------------------------------------------------------------- files
     def to_dict(self) -> dict[str, Any]:
-        """JSON-friendly contents of the controller file (schema 2, checksum included)."""
+        """JSON-friendly contents of the controller file (schema 2, or 3 with memory inputs;
+        checksum included)."""
+        version = (
+            CONTROLLER_SCHEMA_VERSION if self.memory is None else CONTROLLER_SCHEMA_WITH_MEMORY
+        )
         contents: dict[str, Any] = {
             "format": CONTROLLER_FORMAT,
-            "schema_version": CONTROLLER_SCHEMA_VERSION,
+            "schema_version": version,
             "policy_kind": self.policy_kind,
-            "layer_sizes": list(LAYER_SIZES),
+            "layer_sizes": list(layer_sizes(self.n_inputs)),
             "bias": self.bias,
             "weights": self.weights.tolist(),
             "road_library": self.library.to_dict(),
@@ -211,6 +253,8 @@ class Controller:
             "fitness_history": self.fitness_history,
             "learn": self.learn,
         }
+        if self.memory is not None:
+            contents["memory"] = self.memory.to_dict()
         contents["checksum"] = checksum(contents)
         return contents
 
@@ -248,19 +292,20 @@ class Controller:
         if data.get("format") != CONTROLLER_FORMAT:
             raise ValueError(f"not a controller file ('format' must be '{CONTROLLER_FORMAT}')")
         version = data.get("schema_version")
-        if isinstance(version, bool) or version not in (1, CONTROLLER_SCHEMA_VERSION):
+        readable = (1, CONTROLLER_SCHEMA_VERSION, CONTROLLER_SCHEMA_WITH_MEMORY)
+        if isinstance(version, bool) or version not in readable:
             raise ValueError(
                 f"schema version {version!r} is not supported"
-                f" (this version of lfd-track reads 1 and {CONTROLLER_SCHEMA_VERSION})"
+                f" (this version of lfd-track reads {', '.join(map(str, readable))})"
             )
-        keys = _KEYS if version == CONTROLLER_SCHEMA_VERSION else _KEYS_V1
+        keys = {1: _KEYS_V1, CONTROLLER_SCHEMA_VERSION: _KEYS}.get(version, _KEYS_V3)
         for key in keys:
             if key not in data:
                 raise ValueError(f"missing key '{key}'")
         unknown = sorted(set(data) - set(keys))
         if unknown:
             raise ValueError(f"unknown key '{unknown[0]}'")
-        if version == CONTROLLER_SCHEMA_VERSION:
+        if version >= CONTROLLER_SCHEMA_VERSION:
             stored = data["checksum"]
             if not isinstance(stored, str) or stored != checksum(data):
                 raise ValueError(
@@ -275,19 +320,26 @@ class Controller:
             learner, learner_config = data["learner"], data["learner_config"]
         else:
             learner, learner_config = "ga", data["ga_config"]
-        if data["layer_sizes"] != list(LAYER_SIZES):
+        memory = None
+        if version == CONTROLLER_SCHEMA_WITH_MEMORY:
+            memory = MemoryConfig.from_dict(data["memory"])
+            if memory.kind == "none":
+                raise ValueError("a schema 3 controller must name its memory kind")
+        expected = list(layer_sizes(N_INPUTS + (0 if memory is None else memory.n_inputs)))
+        if data["layer_sizes"] != expected:
             raise ValueError(
-                f"layer_sizes {data['layer_sizes']!r} not supported (expected {list(LAYER_SIZES)})"
+                f"layer_sizes {data['layer_sizes']!r} not supported (expected {expected})"
             )
+        n_inputs = expected[0]
         bias = data["bias"]
         if not isinstance(bias, bool):
             raise ValueError("'bias' must be true or false")
         weights = data["weights"]
         if not isinstance(weights, list) or not all(_is_finite_number(w) for w in weights):
             raise ValueError("'weights' must be a list of finite numbers")
-        if len(weights) != n_weights(bias):
+        if len(weights) != n_weights(bias, n_inputs):
             raise ValueError(
-                f"expected {n_weights(bias)} weights for layers {list(LAYER_SIZES)}"
+                f"expected {n_weights(bias, n_inputs)} weights for layers {expected}"
                 f" {'with' if bias else 'without'} biases, got {len(weights)}"
             )
         if any(abs(w) > MAX_ABS_WEIGHT for w in weights):
@@ -324,6 +376,7 @@ class Controller:
             seed=seed,
             fitness_history=history,
             learn=learn,
+            memory=memory,
         )
 
 

@@ -3,13 +3,19 @@ the path)."""
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 import os
 import sys
 from pathlib import Path
 from types import ModuleType
+from typing import TYPE_CHECKING
 
+import numpy as np
 import pytest
+
+if TYPE_CHECKING:
+    from lfd_track.vision.road_library import RoadLibrary
 
 
 def unavailable(message: str) -> None:
@@ -31,3 +37,24 @@ def load_test_module(path: Path, alias: str) -> ModuleType:
         sys.modules[alias] = module
         spec.loader.exec_module(module)
     return sys.modules[alias]
+
+
+@functools.cache
+def training_track_frame() -> np.ndarray:
+    """A camera frame on the training track's felt (seed 1), rendered once per process."""
+    from lfd_track.env import LfDTrackEnv
+
+    env = LfDTrackEnv(track="training")
+    frame, _ = env.reset(seed=1)
+    env.close()
+    return frame
+
+
+def library_with_road() -> tuple[RoadLibrary, np.ndarray]:
+    """A fresh road library that learned :func:`training_track_frame`, and that frame."""
+    from lfd_track.vision.road_library import RoadLibrary
+
+    library = RoadLibrary()
+    frame = training_track_frame()
+    library.learn(frame)
+    return library, frame

@@ -42,6 +42,7 @@ from ..demo.demonstrator import (
     DemonstrationSummary,
     HumanConfig,
     protocol_human,
+    recording_writer,
     run_demonstration,
 )
 from ..env import LfDTrackEnv
@@ -55,6 +56,7 @@ from ..teaching.arbiter import Arbiter
 from ..teaching.commanders import PolicyCommander
 from ..teaching.learner import GALearnerFeed
 from ..teaching.loop import LoopCounts, TeachingLoop
+from ..teaching.memory import MemoryConfig
 from ..teaching.observers import CaseBuffer, LearningTally, Recorder
 from ..teaching.perception import Perception
 from ..teaching.scripted import InterventionConfig, ProtocolHuman
@@ -146,12 +148,23 @@ def _add(total: LoopCounts, part: LoopCounts) -> None:
 
 # ------------------------------------------------------------------------------------ paper
 def _demonstrate(
-    rep_dir: Path, *, demo_seed: int, preset: str | Preset, human: HumanConfig
+    rep_dir: Path,
+    *,
+    demo_seed: int,
+    preset: str | Preset,
+    human: HumanConfig,
+    memory: MemoryConfig | None = None,
 ) -> tuple[DemonstrationSummary, Demonstration, RoadLibrary]:
     """Record the paper's demonstration in ``rep_dir``; (summary, cases, its road library)."""
     demo_path = rep_dir / "demonstration.lfdemo"
     summary = run_demonstration(
-        demo_path, seed=demo_seed, preset=preset, human=human, fsync=False, overwrite=True
+        demo_path,
+        seed=demo_seed,
+        preset=preset,
+        human=human,
+        fsync=False,
+        overwrite=True,
+        memory=memory,
     )
     demo = load_demonstration(demo_path)
     return summary, demo, RoadLibrary.from_dict(demo.metadata["road_library"])
@@ -181,7 +194,7 @@ def _learned_offline(
         },
         fitness_best=fitness_best,
         fitness_mean=fitness_mean,
-        training_accuracy=training_accuracy(controller.weights, demo.road_values, demo.commands),
+        training_accuracy=training_accuracy(controller.weights, demo.inputs, demo.commands),
         effort={
             "commands": summary.commands,
             "corrections": 0,
@@ -200,14 +213,17 @@ def learn_paper(
     preset: str | Preset,
     human: HumanConfig,
     ga: GAConfig,
+    memory: MemoryConfig | None = None,
 ) -> Learned:
     """The paper: record a demonstration, then evolve offline (200 generations by default)."""
-    summary, demo, library = _demonstrate(rep_dir, demo_seed=demo_seed, preset=preset, human=human)
-    result = evolve(demo.road_values, demo.commands, ga, np.random.default_rng(ga_seed))
+    summary, demo, library = _demonstrate(
+        rep_dir, demo_seed=demo_seed, preset=preset, human=human, memory=memory
+    )
+    result = evolve(demo.inputs, demo.commands, ga, np.random.default_rng(ga_seed))
     return _learned_offline(
         summary,
         demo,
-        Controller.from_evolution(library, result, seed=ga_seed),
+        Controller.from_evolution(library, result, seed=ga_seed, memory=memory),
         preset,
         fitness_best=result.best_history.tolist(),
         fitness_mean=result.mean_history.tolist(),
@@ -222,11 +238,14 @@ def learn_baseline(
     preset: str | Preset,
     human: HumanConfig,
     learner: BCConfig | CMAESConfig,
+    memory: MemoryConfig | None = None,
 ) -> Learned:
     """The paper's demonstration, then BC or CMA-ES instead of the GA (same cases, same seed)."""
-    summary, demo, library = _demonstrate(rep_dir, demo_seed=demo_seed, preset=preset, human=human)
+    summary, demo, library = _demonstrate(
+        rep_dir, demo_seed=demo_seed, preset=preset, human=human, memory=memory
+    )
     trainer = learner_for(learner)
-    result = trainer.fit(demo.road_values, demo.commands, np.random.default_rng(ga_seed))
+    result = trainer.fit(demo.inputs, demo.commands, np.random.default_rng(ga_seed))
     controller = Controller(
         library,
         result.weights,
@@ -235,6 +254,7 @@ def learn_baseline(
         learner_config=learner.to_dict(),
         seed=ga_seed,
         fitness_history=result.history.tolist(),
+        memory=memory,
     )
     return _learned_offline(
         summary,
@@ -257,6 +277,7 @@ def _relabel(controller: Controller, learner: str, config: dict[str, Any]) -> Co
         learner_config=config,
         seed=controller.seed,
         fitness_history=controller.fitness_history,
+        memory=controller.memory,
     )
 
 
@@ -277,6 +298,7 @@ def learn_online(
     human: HumanConfig,
     ga: GAConfig,
     online: OnlineConfig,
+    memory: MemoryConfig | None = None,
 ) -> Learned:
     """Demonstrate on the training track while the GA learns; the policy takes over when it agrees.
 
@@ -291,8 +313,15 @@ def learn_online(
         "training", human, rng, intervention=online.intervention, rover=env.preset.rover
     )
     library = RoadLibrary()
+    perception = Perception(library, "careful" if human.careful else "always", memory)
     policy = PolicyCommander(None)
-    feed = GALearnerFeed(ga, np.random.default_rng(ga_seed), online.generations_per_case, policy)
+    feed = GALearnerFeed(
+        ga,
+        np.random.default_rng(ga_seed),
+        online.generations_per_case,
+        policy,
+        perception.n_inputs,
+    )
     metadata = {
         "kind": "simulated",
         "method": "online",
@@ -306,9 +335,7 @@ def learn_online(
     }
     path = rep_dir / "demonstration.lfdemo"
     tally = LearningTally()
-    with DemonstrationWriter(
-        path, metadata, bins=library.bins, fsync=False, overwrite=True, library=library
-    ) as w:
+    with recording_writer(path, metadata, perception, fsync=False, overwrite=True) as w:
         recorder = Recorder(
             w,
             lambda step: {
@@ -320,7 +347,7 @@ def learn_online(
         )
         loop = TeachingLoop(
             env,
-            Perception(library, "careful" if human.careful else "always"),
+            perception,
             Arbiter("takeover", window=online.window, threshold=online.threshold),
             human=person,
             policy=policy,
@@ -346,7 +373,7 @@ def learn_online(
     env.close()
     result = ga_result(state, ga, feed.rng_state)
     controller = _relabel(
-        Controller.from_evolution(library, result, seed=ga_seed),
+        Controller.from_evolution(library, result, seed=ga_seed, memory=memory),
         "online",
         {**online.to_dict(), "ga": ga.to_dict()},
     )
@@ -382,6 +409,7 @@ def learn_hg_dagger(
     human: HumanConfig,
     ga: GAConfig,
     hg: HGDaggerConfig,
+    memory: MemoryConfig | None = None,
 ) -> Learned:
     """The paper's demonstration and GA, then rounds of runs with interventions and re-evolving.
 
@@ -391,10 +419,16 @@ def learn_hg_dagger(
     (same settings, continuing the GA's random stream).
     """
     paper = learn_paper(
-        rep_dir, demo_seed=demo_seed, ga_seed=ga_seed, preset=preset, human=human, ga=ga
+        rep_dir,
+        demo_seed=demo_seed,
+        ga_seed=ga_seed,
+        preset=preset,
+        human=human,
+        ga=ga,
+        memory=memory,
     )
     demo = load_demonstration(rep_dir / "demonstration.lfdemo")
-    inputs = [np.asarray(demo.road_values, dtype=np.float64)]
+    inputs = [np.asarray(demo.inputs, dtype=np.float64)]
     actions = [np.asarray(demo.commands, dtype=np.intp)]
     controller = paper.controller
     library = controller.library
@@ -405,14 +439,19 @@ def learn_hg_dagger(
     fitness_best, fitness_mean = list(paper.fitness_best), list(paper.fitness_mean)
     period = _period_s(preset)
     for r in range(1, hg.rounds + 1):
-        buffer = CaseBuffer()
+        buffer = CaseBuffer(controller.n_inputs)
         round_counts = LoopCounts()
         reasons: dict[str, int] = {}
         human_rng = np.random.default_rng(int(round_rng.integers(2**62)))
         path = rep_dir / f"interventions_r{r}.lfdemo"
         metadata = {"kind": "simulated", "method": "hg-dagger", "round": r, "bins": library.bins}
         with DemonstrationWriter(
-            path, metadata, bins=library.bins, fsync=False, overwrite=True
+            path,
+            metadata,
+            bins=library.bins,
+            fsync=False,
+            overwrite=True,
+            n_memory=controller.n_inputs - 40,
         ) as w:
             for reverse in (False, True):
                 env = LfDTrackEnv(track="training", reverse=reverse, preset=preset)
@@ -426,7 +465,7 @@ def learn_hg_dagger(
                 )
                 loop = TeachingLoop(
                     env,
-                    Perception(library, "frozen"),
+                    controller.perception("frozen"),
                     Arbiter(
                         "takeover",
                         window=hg.window,
@@ -464,7 +503,7 @@ def learn_hg_dagger(
         all_x, all_a = np.concatenate(inputs), np.concatenate(actions)
         result = evolve(all_x, all_a, ga, ga_rng)
         controller = _relabel(
-            Controller.from_evolution(library, result, seed=ga_seed),
+            Controller.from_evolution(library, result, seed=ga_seed, memory=memory),
             "hg-dagger",
             {**hg.to_dict(), "ga": ga.to_dict()},
         )

@@ -28,8 +28,8 @@ from ..learning.cmaes import CMAESConfig
 from ..learning.ga import GAConfig
 from ..teaching.arbiter import Arbiter
 from ..teaching.loop import Step, TeachingLoop
+from ..teaching.memory import MemoryConfig
 from ..teaching.observers import CallbackObserver, TrajectoryObserver
-from ..teaching.perception import Perception
 from ..world.track import load_track
 from .methods import (
     METHODS,
@@ -81,6 +81,7 @@ class BenchmarkConfig:
     bc: BCConfig = BCConfig()  # settings of method "bc" (backprop on the same network)
     cmaes: CMAESConfig = CMAESConfig()  # settings of method "cma-es"
     test_tracks: tuple[str, ...] = ("testing",)  # loops (names or paths) lapped both ways
+    memory: MemoryConfig = MemoryConfig()  # memory inputs of the policy (none: the paper's 40)
 
     def __post_init__(self) -> None:
         if isinstance(self.test_tracks, str) or not all(
@@ -165,7 +166,7 @@ def run_trial(
         observers.append(CallbackObserver(on_loop_step))
     loop = TeachingLoop(
         env,
-        Perception(controller.library, "always" if controller.learn else "frozen"),
+        controller.perception(),
         Arbiter("policy"),
         policy=controller.commander(),
         observers=observers,
@@ -189,7 +190,13 @@ def run_repetition(
     timing: dict[str, float] = {}
 
     t0 = time.perf_counter()
-    common = dict(demo_seed=demo_seed, ga_seed=ga_seed, preset=config.preset, human=config.human)
+    common = dict(
+        demo_seed=demo_seed,
+        ga_seed=ga_seed,
+        preset=config.preset,
+        human=config.human,
+        memory=config.memory,
+    )
     if config.method == "online":
         learned = learn_online(rep_dir, **common, ga=config.ga, online=config.online)
     elif config.method == "hg-dagger":
@@ -290,4 +297,9 @@ def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
     data["hg_dagger"] = config.hg_dagger.to_dict()
     data["bc"] = config.bc.to_dict()
     data["cmaes"] = config.cmaes.to_dict()
+    if config.memory.kind == "none":
+        # Runs without memory store exactly what they stored before memory inputs existed.
+        del data["memory"]
+    else:
+        data["memory"] = config.memory.to_dict()
     return data

@@ -4,6 +4,10 @@ Weight order (no biases, the paper's 215 weights): the 5 x 40 input-to-hidden ma
 (row = hidden node), then the 3 x 5 hidden-to-output matrix row-major (row = output node).
 With ``bias=True`` the 5 hidden biases and then the 3 output biases follow (223 weights), so a
 bias-free vector is a prefix of the bias layout.
+
+The input layer is the 40 road values, optionally followed by memory inputs
+(:mod:`lfd_track.teaching.memory`): a network with ``n`` inputs has ``5 n + 15`` weights (plus 8
+biases); its number of inputs is read from the inputs it is given.
 """
 
 from __future__ import annotations
@@ -15,13 +19,17 @@ N_HIDDEN = 5
 N_OUTPUTS = 3
 LAYER_SIZES = (N_INPUTS, N_HIDDEN, N_OUTPUTS)
 
-_W1 = N_HIDDEN * N_INPUTS
 _W2 = N_OUTPUTS * N_HIDDEN
 
 
-def n_weights(bias: bool = False) -> int:
-    """Length of a weight vector: 215 without biases, 223 with."""
-    return _W1 + _W2 + (N_HIDDEN + N_OUTPUTS if bias else 0)
+def n_weights(bias: bool = False, n_inputs: int = N_INPUTS) -> int:
+    """Length of a weight vector: 215 without biases, 223 with (for the paper's 40 inputs)."""
+    return N_HIDDEN * n_inputs + _W2 + (N_HIDDEN + N_OUTPUTS if bias else 0)
+
+
+def layer_sizes(n_inputs: int = N_INPUTS) -> tuple[int, int, int]:
+    """(inputs, hidden, outputs) of the network: (40, 5, 3), or more inputs with memory."""
+    return (n_inputs, N_HIDDEN, N_OUTPUTS)
 
 
 def sigmoid(x: np.ndarray) -> np.ndarray:
@@ -39,36 +47,43 @@ def mlp_forward(weights: np.ndarray, inputs: np.ndarray, *, bias: bool | None = 
     """Outputs of one network or a population of networks on a batch of inputs.
 
     ``weights``: (W,) or (P, W) float, W = 215 (or 223 with biases; inferred from W when ``bias``
-    is None). ``inputs``: (N, 40) or (40,). Returns float64 (N, 3), (P, N, 3), or without the N
-    axis when ``inputs`` is 1-D. Sigmoid on hidden and output nodes.
+    is None) for 40 inputs. ``inputs``: (N, n) or (n,), n = 40 road values (plus any memory
+    inputs). Returns float64 (N, 3), (P, N, 3), or without the N axis when ``inputs`` is 1-D.
+    Sigmoid on hidden and output nodes.
     """
     w = np.asarray(weights, dtype=np.float64)
     x = np.asarray(inputs, dtype=np.float64)
-    if bias is None:
-        bias = w.shape[-1] == n_weights(True)
-    if w.ndim not in (1, 2) or w.shape[-1] != n_weights(bias):
-        raise ValueError(
-            f"weights must have shape ({n_weights(bias)},) or (P, {n_weights(bias)}), got {w.shape}"
-        )
     single_input = x.ndim == 1
     x2 = x[None, :] if single_input else x
-    if x2.ndim != 2 or x2.shape[1] != N_INPUTS:
-        raise ValueError(f"inputs must have shape (N, {N_INPUTS}), got {x.shape}")
+    if x2.ndim != 2 or x2.shape[1] < N_INPUTS:
+        raise ValueError(
+            f"inputs must have shape (N, {N_INPUTS}) (road values, then any memory inputs),"
+            f" got {x.shape}"
+        )
+    n_in = x2.shape[1]
+    if bias is None:
+        bias = w.shape[-1] == n_weights(True, n_in)
+    if w.ndim not in (1, 2) or w.shape[-1] != n_weights(bias, n_in):
+        size = n_weights(bias, n_in)
+        raise ValueError(
+            f"weights must have shape ({size},) or (P, {size}) for {n_in} inputs, got {w.shape}"
+        )
+    w1 = N_HIDDEN * n_in
     single_net = w.ndim == 1
     w2 = w[None, :] if single_net else w
     p = w2.shape[0]
-    w_ih = w2[:, :_W1].reshape(p, N_HIDDEN, N_INPUTS)
-    w_ho = w2[:, _W1 : _W1 + _W2].reshape(p, N_OUTPUTS, N_HIDDEN)
+    w_ih = w2[:, :w1].reshape(p, N_HIDDEN, n_in)
+    w_ho = w2[:, w1 : w1 + _W2].reshape(p, N_OUTPUTS, N_HIDDEN)
     # Batched (P, N, 40) @ (P, 40, 5) products: many small GEMMs, which OpenBLAS runs on the
     # calling thread. One big (N, 40) @ (40, P*5) GEMM is no faster alone but gets multi-threaded
     # and stalls several-fold when other processes load the cores.
     pre_hidden = np.matmul(x2, np.ascontiguousarray(w_ih.transpose(0, 2, 1)))
     if bias:
-        pre_hidden += w2[:, None, _W1 + _W2 : _W1 + _W2 + N_HIDDEN]
+        pre_hidden += w2[:, None, w1 + _W2 : w1 + _W2 + N_HIDDEN]
     hidden = sigmoid(pre_hidden)
     pre_out = np.matmul(hidden, np.ascontiguousarray(w_ho.transpose(0, 2, 1)))
     if bias:
-        pre_out += w2[:, None, _W1 + _W2 + N_HIDDEN :]
+        pre_out += w2[:, None, w1 + _W2 + N_HIDDEN :]
     out = sigmoid(pre_out)
     if single_input:
         out = out[:, 0]

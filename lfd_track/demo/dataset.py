@@ -20,7 +20,9 @@ The CRC-32 covers kind, length and payload. Records, in order:
   (null when the writer was given no library to log).
 - ``C`` case, one per ``append``: ``step i64 | command u8 | learned u8 | source u8 | round u32 |
   phase_len u16 | x, y, theta, progress_m f64 | phase utf-8 | road_values 40 f64 |
-  histograms 40*5*bins f32``. ``source`` is an index into :data:`SOURCES`.
+  memory n_memory f64 | histograms 40*5*bins f32``. ``source`` is an index into
+  :data:`SOURCES`; ``memory`` holds the policy's memory inputs at that moment
+  (:mod:`lfd_track.teaching.memory`), present from schema 3 on (the header's ``n_memory``).
 - ``L`` library learned (only with a logged library): ``joined_type i16 | evicted_type i16 |
   evicted_example i16 | model 5*bins f32``; -1 means none (a new type; nothing evicted).
 - ``S`` library selections (only with a logged library): ``n_models u16 | counts u8[n_models]``,
@@ -34,7 +36,8 @@ was after the last intact record. A complete file's replayed library must equal 
 snapshot (checked at load); a partial file's replayed snapshot becomes its ``"road_library"``.
 
 Schema 1 files (no source, round or library log) still load: every case is a ``"demonstration"``
-of round 0.
+of round 0. A recording without memory inputs is written as schema 2 (as before memory existed);
+one with memory inputs as schema 3, whose header adds ``n_memory`` and whose cases carry them.
 
 Why a log rather than ``.npz``: each case is one ``write`` of one record on an unbuffered file
 (and by default ``fsync``-ed), so a killed recorder loses at most the case being written, and
@@ -76,8 +79,10 @@ from ..files import read_regular_file
 from ..vision.road_library import LibraryChange, LibraryLearned, RoadLibrary
 
 SCHEMA_VERSION = 2
-"""Version of the record layout; bumped on any incompatible change."""
-READABLE_SCHEMAS = (1, 2)
+"""Version of the record layout of a recording without memory inputs."""
+SCHEMA_WITH_MEMORY = 3
+"""Version of the record layout of a recording with memory inputs (``n_memory`` > 0)."""
+READABLE_SCHEMAS = (1, 2, 3)
 """Schema versions this version of lfd-track loads."""
 SOURCES = ("demonstration", "correction")
 """Case sources; a case stores the index into this tuple."""
@@ -91,6 +96,8 @@ FORMAT_NAME = "lfd-track demonstration"
 N_VALUES = 40  # 8 x 5 image regions
 N_CHANNELS = 5  # R, G, B, H, S histograms per region
 DEFAULT_BINS = 32
+MAX_MEMORY_INPUTS = 16
+"""Most memory inputs a case may carry."""
 
 _MAGIC = b"\x89LFDEMO\n"
 _FRAME = struct.Struct("<BII")  # kind, payload length, crc32
@@ -146,6 +153,22 @@ class Demonstration:
     """(N,) int64 — 0 for the initial demonstration, r for the r-th round of interventions."""
     metadata: dict[str, Any] = field(default_factory=dict)
     """File-level metadata: header metadata, footer metadata and derived keys (see module doc)."""
+    memory: np.ndarray | None = None
+    """(N, m) float64 — the policy's memory inputs at each case (m = 0 without memory)."""
+
+    def __post_init__(self) -> None:
+        if self.memory is None:
+            empty = np.zeros((self.commands.shape[0], 0), dtype=np.float64)
+            empty.flags.writeable = False
+            object.__setattr__(self, "memory", empty)
+
+    @property
+    def inputs(self) -> np.ndarray:
+        """(N, 40 + m) float64 — what the policy read: road values, then memory inputs."""
+        assert self.memory is not None
+        if not self.memory.shape[1]:
+            return self.road_values
+        return np.hstack([self.road_values, self.memory])
 
     @property
     def n_cases(self) -> int:
@@ -195,7 +218,10 @@ def _json_bytes(obj: Any, what: str) -> bytes:
 
 
 def _header_record(
-    metadata: Mapping[str, Any], bins: int, initial_library: dict[str, Any] | None = None
+    metadata: Mapping[str, Any],
+    bins: int,
+    initial_library: dict[str, Any] | None = None,
+    n_memory: int = 0,
 ) -> bytes:
     from .. import __version__
 
@@ -203,13 +229,15 @@ def _header_record(
     meta.setdefault("created_by", f"lfd-track {__version__}")
     header = {
         "format": FORMAT_NAME,
-        "schema": SCHEMA_VERSION,
+        "schema": SCHEMA_WITH_MEMORY if n_memory else SCHEMA_VERSION,
         "bins": bins,
         "n_values": N_VALUES,
         "n_channels": N_CHANNELS,
         "metadata": meta,
         "initial_road_library": initial_library,
     }
+    if n_memory:
+        header["n_memory"] = n_memory
     return _frame(_KIND_HEADER, _json_bytes(header, "demonstration metadata"))
 
 
@@ -232,6 +260,8 @@ def _case_record(
     learned: bool,
     source: str = "demonstration",
     round_: int = 0,
+    memory: Any = None,
+    n_memory: int = 0,
 ) -> bytes:
     """Validate one case and encode it as a ``C`` record (raises ValueError on bad input)."""
     if int(command) not in (0, 1, 2) or int(command) != command:
@@ -246,6 +276,12 @@ def _case_record(
     if values.shape != (N_VALUES,):
         raise ValueError(f"road_values must have shape ({N_VALUES},), got {values.shape}")
     problem = _road_value_problem(values)
+    if problem:
+        raise ValueError(problem)
+    mem = np.zeros(0) if memory is None else np.asarray(memory, dtype=np.float64).reshape(-1)
+    if mem.shape != (n_memory,):
+        raise ValueError(f"memory must hold {n_memory} inputs for this file, got {mem.shape[0]}")
+    problem = _memory_problem(mem)
     if problem:
         raise ValueError(problem)
     hists = np.asarray(histograms)
@@ -279,7 +315,13 @@ def _case_record(
         s,
     )
     payload = b"".join(
-        (fixed, phase_bytes, values.astype("<f8", copy=False).tobytes(), hists.tobytes())
+        (
+            fixed,
+            phase_bytes,
+            values.astype("<f8", copy=False).tobytes(),
+            mem.astype("<f8", copy=False).tobytes(),
+            hists.tobytes(),
+        )
     )
     return _frame(_KIND_CASE, payload)
 
@@ -290,6 +332,14 @@ def _road_value_problem(values: np.ndarray) -> str:
     worst = float(np.max(np.abs(values))) if values.size else 0.0
     if worst > 1.0 + _VALUE_TOLERANCE:
         return f"road value {worst:.6g} outside [-1, 1]"
+    return ""
+
+
+def _memory_problem(memory: np.ndarray) -> str:
+    if not np.isfinite(memory).all():
+        return "memory inputs contain NaN or infinity"
+    if memory.size and (memory.min() < 0.0 or memory.max() > 1.0):
+        return "memory inputs must lie in [0, 1]"
     return ""
 
 
@@ -317,8 +367,9 @@ def _pose_problem(xyt: tuple[float, ...], progress_m: float) -> str:
     return ""
 
 
-def _max_case_length(bins: int) -> int:
-    return _CASE_FIXED.size + _MAX_PHASE_BYTES + 8 * N_VALUES + 4 * N_VALUES * N_CHANNELS * bins
+def _max_case_length(bins: int, n_memory: int = 0) -> int:
+    values = 8 * (N_VALUES + n_memory)
+    return _CASE_FIXED.size + _MAX_PHASE_BYTES + values + 4 * N_VALUES * N_CHANNELS * bins
 
 
 def _learned_record(change: LibraryLearned) -> bytes:
@@ -344,6 +395,14 @@ def _selected_record(per_model: np.ndarray) -> bytes:
 def _counts(commands: list[int] | np.ndarray) -> dict[str, int]:
     counts = np.bincount(np.asarray(commands, dtype=np.int64), minlength=len(Command))
     return {c.name.lower(): int(counts[c]) for c in Command}
+
+
+def _check_n_memory(n_memory: int) -> int:
+    if isinstance(n_memory, bool) or int(n_memory) != n_memory:
+        raise ValueError(f"n_memory must be an integer, got {n_memory!r}")
+    if not 0 <= int(n_memory) <= MAX_MEMORY_INPUTS:
+        raise ValueError(f"n_memory must be in 0..{MAX_MEMORY_INPUTS}, got {n_memory}")
+    return int(n_memory)
 
 
 def _check_bins(bins: int) -> int:
@@ -372,6 +431,7 @@ class DemonstrationWriter:
         library: road library to log: its state now goes in the header and every later change
             (learning step, counter update) is appended as it happens, until the writer closes.
             Its ``bins`` must equal ``bins``.
+        n_memory: memory inputs every case carries (0: none, a schema 2 file).
     """
 
     def __init__(
@@ -383,16 +443,18 @@ class DemonstrationWriter:
         fsync: bool = True,
         overwrite: bool = False,
         library: RoadLibrary | None = None,
+        n_memory: int = 0,
     ) -> None:
         self.path = Path(path)
         self.bins = _check_bins(bins)
+        self.n_memory = _check_n_memory(n_memory)
         self._fsync = fsync
         self._commands: list[int] = []
         self._unsubscribe: Any = None
         if library is not None and library.bins != self.bins:
             raise ValueError(f"library has {library.bins} bins, the file {self.bins}")
         initial = None if library is None else library.to_dict()
-        header = _header_record(metadata, self.bins, initial)
+        header = _header_record(metadata, self.bins, initial, self.n_memory)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         # Unbuffered: each record reaches the kernel in one write() call, so SIGKILL cannot
         # leave a record half in a user-space buffer.
@@ -440,6 +502,7 @@ class DemonstrationWriter:
         step: int | None = None,
         source: str = "demonstration",
         round: int = 0,  # the file's field name (shadows the builtin only in here)
+        memory: np.ndarray | None = None,
     ) -> None:
         """Append one case and make it durable before returning.
 
@@ -455,6 +518,8 @@ class DemonstrationWriter:
             source: ``"demonstration"`` or ``"correction"`` (a human command that took control
                 back from the policy, or an intervention during an autonomous run).
             round: 0 for the initial demonstration, r for the r-th round of autonomous runs.
+            memory: the policy's memory inputs, (n_memory,) in [0, 1] (None when the file has
+                none).
         """
         if self._file.closed:
             raise ValueError(f"{self.path}: demonstration writer is closed")
@@ -471,6 +536,8 @@ class DemonstrationWriter:
             learned,
             source,
             round,
+            memory,
+            self.n_memory,
         )
         self._write(record)
         self._commands.append(int(command))
@@ -531,7 +598,9 @@ def save_demonstration(path: str | Path, demonstration: Demonstration) -> None:
     bins = _check_bins(demo.bins)
     # Everything goes in the header; the loader merges header and footer, so the view is the same.
     meta = {k: v for k, v in demo.metadata.items() if k not in _DERIVED_KEYS}
-    parts = [_MAGIC, _header_record(meta, bins)]
+    assert demo.memory is not None
+    n_memory = _check_n_memory(demo.memory.shape[1])
+    parts = [_MAGIC, _header_record(meta, bins, n_memory=n_memory)]
     for i in range(demo.n_cases):
         parts.append(
             _case_record(
@@ -546,6 +615,8 @@ def save_demonstration(path: str | Path, demonstration: Demonstration) -> None:
                 bool(demo.learned[i]),
                 str(demo.sources[i]),
                 int(demo.rounds[i]),
+                demo.memory[i],
+                n_memory,
             )
         )
     parts.append(_footer_record({}, _counts(demo.commands), demo.n_cases))
@@ -649,13 +720,13 @@ def _parse(path: Path, data: memoryview) -> Demonstration:
     if not _crc_ok(kind, payload, crc):
         raise _fail(path, "header record is corrupt (CRC mismatch)")
     header = _parse_json(path, payload, "header")
-    schema, bins, user_meta = _check_header(path, header)
+    schema, bins, user_meta, n_memory = _check_header(path, header)
     replay = None
     if schema >= 2 and header.get("initial_road_library") is not None:
         replay = _Replay(path, header["initial_road_library"], bins)
     offset = end
 
-    max_case = _max_case_length(bins)
+    max_case = _max_case_length(bins, n_memory)
     limits = {_KIND_CASE: max_case, _KIND_FOOTER: _MAX_JSON_BYTES}
     if replay is not None:
         limits[_KIND_LEARNED] = _LEARNED_FIXED.size + 4 * N_CHANNELS * bins
@@ -690,7 +761,7 @@ def _parse(path: Path, data: memoryview) -> Demonstration:
                 break
             raise _fail(path, f"record at byte {start} is corrupt (CRC mismatch)")
         if kind == _KIND_CASE:
-            cases.append(_decode_case(path, payload, bins, len(cases), schema))
+            cases.append(_decode_case(path, payload, bins, len(cases), schema, n_memory))
         elif kind == _KIND_LEARNED:
             assert replay is not None
             replay.learned(payload, start)
@@ -701,7 +772,7 @@ def _parse(path: Path, data: memoryview) -> Demonstration:
             footer = _parse_json(path, payload, "footer")
         offset = end
 
-    return _assemble(path, cases, bins, schema, user_meta, footer, torn, replay)
+    return _assemble(path, cases, bins, schema, user_meta, footer, torn, replay, n_memory)
 
 
 def _crc_ok(kind: int, payload: memoryview, crc: int) -> bool:
@@ -727,7 +798,7 @@ def _parse_json(path: Path, payload: memoryview, what: str) -> dict[str, Any]:
     return obj
 
 
-def _check_header(path: Path, header: dict[str, Any]) -> tuple[int, int, dict[str, Any]]:
+def _check_header(path: Path, header: dict[str, Any]) -> tuple[int, int, dict[str, Any], int]:
     if header.get("format") != FORMAT_NAME:
         raise _fail(path, f"header format is {header.get('format')!r}, expected {FORMAT_NAME!r}")
     schema = header.get("schema")
@@ -748,11 +819,20 @@ def _check_header(path: Path, header: dict[str, Any]) -> tuple[int, int, dict[st
     meta = header.get("metadata")
     if not isinstance(meta, dict):
         raise _fail(path, "header metadata must be a JSON object")
-    return schema, bins, meta
+    n_memory = header.get("n_memory", 0) if schema >= SCHEMA_WITH_MEMORY else 0
+    if (
+        not isinstance(n_memory, int)
+        or isinstance(n_memory, bool)
+        or not (schema < SCHEMA_WITH_MEMORY or 1 <= n_memory <= MAX_MEMORY_INPUTS)
+    ):
+        raise _fail(
+            path, f"header n_memory must be an integer in 1..{MAX_MEMORY_INPUTS}, got {n_memory!r}"
+        )
+    return schema, bins, meta, n_memory
 
 
 def _decode_case(
-    path: Path, payload: memoryview, bins: int, index: int, schema: int
+    path: Path, payload: memoryview, bins: int, index: int, schema: int, n_memory: int = 0
 ) -> tuple[Any, ...]:
     where = f"case {index}"
     fixed = _CASE_FIXED if schema >= 2 else _CASE_FIXED_V1
@@ -765,7 +845,7 @@ def _decode_case(
     else:
         step, command, learned, phase_len, x, y, theta, s = fixed.unpack_from(payload, 0)
         source, round_ = 0, 0
-    expected = fixed.size + phase_len + 8 * N_VALUES + 4 * N_VALUES * N_CHANNELS * bins
+    expected = fixed.size + phase_len + 8 * (N_VALUES + n_memory) + 4 * N_VALUES * N_CHANNELS * bins
     if len(payload) != expected:
         raise _fail(
             path, f"{where}: record is {len(payload)} bytes, expected {expected} for {bins} bins"
@@ -789,14 +869,28 @@ def _decode_case(
     pos += phase_len
     values = np.frombuffer(payload, dtype="<f8", count=N_VALUES, offset=pos)
     pos += 8 * N_VALUES
+    memory = np.frombuffer(payload, dtype="<f8", count=n_memory, offset=pos)
+    pos += 8 * n_memory
     hists = np.frombuffer(payload, dtype="<f4", count=N_VALUES * N_CHANNELS * bins, offset=pos)
-    problem = _road_value_problem(values)
+    problem = _road_value_problem(values) or _memory_problem(memory)
     if problem:
         raise _fail(path, f"{where}: {problem}")
     problem = _histogram_problem(hists)
     if problem:
         raise _fail(path, f"{where}: region histograms {problem}")
-    return step, command, bool(learned), (x, y, theta), s, phase, values, hists, source, round_
+    return (
+        step,
+        command,
+        bool(learned),
+        (x, y, theta),
+        s,
+        phase,
+        values,
+        hists,
+        source,
+        round_,
+        memory,
+    )
 
 
 def _assemble(
@@ -808,6 +902,7 @@ def _assemble(
     footer: dict[str, Any] | None,
     torn: int,
     replay: _Replay | None,
+    n_memory: int = 0,
 ) -> Demonstration:
     n = len(cases)
     commands = np.array([c[1] for c in cases], dtype=np.int8)
@@ -856,6 +951,11 @@ def _assemble(
         "steps": np.array([c[0] for c in cases], dtype=np.int64),
         "sources": np.array([SOURCES[c[8]] for c in cases], dtype="<U13").reshape(n),
         "rounds": np.array([c[9] for c in cases], dtype=np.int64),
+        "memory": (
+            np.stack([c[10] for c in cases]).astype(np.float64)
+            if n
+            else np.zeros((0, n_memory), np.float64)
+        ),
     }
     for arr in arrays.values():
         arr.flags.writeable = False

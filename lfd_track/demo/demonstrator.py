@@ -30,6 +30,7 @@ from ..env import LfDTrackEnv
 from ..presets import Preset
 from ..teaching.arbiter import Arbiter
 from ..teaching.loop import TeachingLoop
+from ..teaching.memory import MemoryConfig
 from ..teaching.observers import CallbackObserver, LearningTally, Recorder
 from ..teaching.perception import Perception
 from ..teaching.scripted import (
@@ -81,6 +82,30 @@ def protocol_human(
     return ProtocolHuman((forward, load_track(track, reverse=True)), human, rng, **kwargs)
 
 
+def recording_writer(
+    path: str | Path,
+    metadata: dict[str, Any],
+    perception: Perception,
+    *,
+    fsync: bool,
+    overwrite: bool,
+) -> DemonstrationWriter:
+    """A writer for a recording through ``perception``: it logs the perception's road library,
+    adds its memory settings (if any) to ``metadata`` and carries its memory inputs per case."""
+    memory = perception.memory_config
+    if memory.kind != "none":
+        metadata = {**metadata, "memory": memory.to_dict()}
+    return DemonstrationWriter(
+        path,
+        metadata,
+        bins=perception.library.bins,
+        fsync=fsync,
+        overwrite=overwrite,
+        library=perception.library,
+        n_memory=memory.n_inputs,
+    )
+
+
 def run_demonstration(
     out: str | Path,
     *,
@@ -92,12 +117,14 @@ def run_demonstration(
     fsync: bool = True,
     overwrite: bool = False,
     progress: Callable[[int], None] | None = None,
+    memory: MemoryConfig | None = None,
 ) -> DemonstrationSummary:
     """Record one demonstration on ``track`` to the file ``out`` and return a summary.
 
     The file is written case by case (crash-safe); the record-time road library is stored in its
     footer. ``progress`` is called with the number of commands given so far; ``human`` None
-    means the default :class:`HumanConfig`.
+    means the default :class:`HumanConfig`. ``memory``: the policy's memory inputs, recorded
+    with every case (none by default).
     """
     human = human or HumanConfig()
     rng = np.random.default_rng(seed)
@@ -114,10 +141,9 @@ def run_demonstration(
         "human": dataclasses.asdict(human),
         "bins": library.bins,
     }
+    perception = Perception(library, "careful" if human.careful else "always", memory)
     tally = LearningTally()
-    with DemonstrationWriter(
-        out, metadata, bins=library.bins, fsync=fsync, overwrite=overwrite, library=library
-    ) as writer:
+    with recording_writer(out, metadata, perception, fsync=fsync, overwrite=overwrite) as writer:
         observers: list[Any] = [
             tally,
             Recorder(
@@ -134,7 +160,7 @@ def run_demonstration(
             observers.append(CallbackObserver(lambda step: progress(loop.counts.steps)))
         loop = TeachingLoop(
             env,
-            Perception(library, "careful" if human.careful else "always"),
+            perception,
             Arbiter("human"),
             human=person,
             observers=observers,

@@ -211,7 +211,7 @@ def _make_env(args: argparse.Namespace, **kwargs: Any) -> Any:
 
 def _cmd_drive(args: argparse.Namespace) -> int:
     from ..controller import Controller
-    from ..teaching import Arbiter, Perception, TeachingLoop
+    from ..teaching import Arbiter, TeachingLoop
 
     controller = Controller.load(args.controller)
     env = _make_env(args)
@@ -219,7 +219,7 @@ def _cmd_drive(args: argparse.Namespace) -> int:
         # The teaching loop with the controller as the only commander.
         loop = TeachingLoop(
             env,
-            Perception(controller.library, "always" if controller.learn else "frozen"),
+            controller.perception(),
             Arbiter("policy"),
             policy=controller.commander(),
         )

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..config import DictConfig
-from ..control.mlp import N_HIDDEN, N_INPUTS, N_OUTPUTS, n_weights, sigmoid
+from ..control.mlp import N_HIDDEN, N_OUTPUTS, n_weights, sigmoid
 from .fit import (
     LearnerFit,
     check_cases,
@@ -32,7 +32,6 @@ from .fit import (
 )
 from .fitness import category_weights, imitation_fitness
 
-_W1 = N_HIDDEN * N_INPUTS
 _W2 = N_OUTPUTS * N_HIDDEN
 
 
@@ -97,16 +96,18 @@ def bc_loss_and_gradient(
     intp commands; ``case_weights`` (N,) non-negative importance of each case (normalised here).
     Returns ``(loss, gradient (W,) float64)``.
     """
-    bias = weights.shape[0] == n_weights(True)
-    w1 = weights[:_W1].reshape(N_HIDDEN, N_INPUTS)
-    w2 = weights[_W1 : _W1 + _W2].reshape(N_OUTPUTS, N_HIDDEN)
+    n_in = inputs.shape[1]
+    n1 = N_HIDDEN * n_in  # weights into the hidden layer
+    bias = weights.shape[0] == n_weights(True, n_in)
+    w1 = weights[:n1].reshape(N_HIDDEN, n_in)
+    w2 = weights[n1 : n1 + _W2].reshape(N_OUTPUTS, N_HIDDEN)
     pre_hidden = inputs @ w1.T
     if bias:
-        pre_hidden += weights[_W1 + _W2 : _W1 + _W2 + N_HIDDEN]
+        pre_hidden += weights[n1 + _W2 : n1 + _W2 + N_HIDDEN]
     hidden = sigmoid(pre_hidden)  # (N, 5)
     pre_out = hidden @ w2.T
     if bias:
-        pre_out += weights[_W1 + _W2 + N_HIDDEN :]
+        pre_out += weights[n1 + _W2 + N_HIDDEN :]
     out = sigmoid(pre_out)  # (N, 3)
     logits = out / temperature
     logits -= logits.max(axis=1, keepdims=True)
@@ -124,11 +125,11 @@ def bc_loss_and_gradient(
     d_hidden = d_pre_out @ w2
     d_pre_hidden = d_hidden * hidden * (1.0 - hidden)  # (N, 5)
     grad = np.empty_like(weights)
-    grad[:_W1] = (d_pre_hidden.T @ inputs).ravel()
-    grad[_W1 : _W1 + _W2] = (d_pre_out.T @ hidden).ravel()
+    grad[:n1] = (d_pre_hidden.T @ inputs).ravel()
+    grad[n1 : n1 + _W2] = (d_pre_out.T @ hidden).ravel()
     if bias:
-        grad[_W1 + _W2 : _W1 + _W2 + N_HIDDEN] = d_pre_hidden.sum(axis=0)
-        grad[_W1 + _W2 + N_HIDDEN :] = d_pre_out.sum(axis=0)
+        grad[n1 + _W2 : n1 + _W2 + N_HIDDEN] = d_pre_hidden.sum(axis=0)
+        grad[n1 + _W2 + N_HIDDEN :] = d_pre_out.sum(axis=0)
     grad += weight_decay * weights
     return loss, grad
 
@@ -153,7 +154,7 @@ def fit_bc(
     x, a = check_cases(inputs, actions)
     n = x.shape[0]
     case_weights = category_weights(a)
-    weights = initial_weights(config.bias, config.init_range, rng)
+    weights = initial_weights(config.bias, config.init_range, rng, x.shape[1])
     m = np.zeros_like(weights)
     v = np.zeros_like(weights)
     history = np.empty(config.epochs)

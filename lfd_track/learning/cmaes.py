@@ -78,7 +78,7 @@ def fit_cmaes(
 
     config = config or CMAESConfig()
     x, a = check_cases(inputs, actions)
-    start = initial_weights(config.bias, config.init_range, rng)
+    start = initial_weights(config.bias, config.init_range, rng, x.shape[1])
 
     def randn(*shape: int) -> np.ndarray:
         return rng.standard_normal(shape)
@@ -116,7 +116,7 @@ def fit_cmaes(
         if fitness[i] < best_fitness:
             best_fitness = float(fitness[i])
             best_weights = population[i].copy()
-    assert best_weights.shape == (n_weights(config.bias),)
+    assert best_weights.shape == (n_weights(config.bias, x.shape[1]),)
     # Scored alone, as any caller would score it (batched products can differ in the last bit).
     alone = imitation_fitness(best_weights[None], x, a, config.threshold, bias=config.bias)
     return LearnerFit(

@@ -33,14 +33,18 @@ class LearnerFit:
 
 
 def check_cases(inputs: np.ndarray, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Validate training cases; returns ``(inputs (N, 40) float64, actions (N,) intp)``.
+    """Validate training cases; returns ``(inputs (N, n) float64, actions (N,) intp)``, n = 40
+    road values plus any memory inputs.
 
     Raises ``ValueError`` with one line saying what is wrong: wrong shapes, no cases, non-finite
     road values, or commands outside 0..2.
     """
     x = np.asarray(inputs)
-    if x.ndim != 2 or x.shape[1] != N_INPUTS:
-        raise ValueError(f"inputs must have shape (N, {N_INPUTS}), got {x.shape}")
+    if x.ndim != 2 or x.shape[1] < N_INPUTS:
+        raise ValueError(
+            f"inputs must have shape (N, {N_INPUTS}) (road values, then any memory inputs),"
+            f" got {x.shape}"
+        )
     if not (np.issubdtype(x.dtype, np.floating) or np.issubdtype(x.dtype, np.integer)):
         raise ValueError(f"inputs must be numbers, got dtype {x.dtype}")
     x = x.astype(np.float64)
@@ -60,9 +64,11 @@ def check_cases(inputs: np.ndarray, actions: np.ndarray) -> tuple[np.ndarray, np
     return x, a.astype(np.intp)
 
 
-def initial_weights(bias: bool, init_range: float, rng: np.random.Generator) -> np.ndarray:
+def initial_weights(
+    bias: bool, init_range: float, rng: np.random.Generator, n_inputs: int = N_INPUTS
+) -> np.ndarray:
     """One network drawn like a GA individual: uniform in [-init_range, init_range], (W,)."""
-    return rng.uniform(-init_range, init_range, size=n_weights(bias))
+    return rng.uniform(-init_range, init_range, size=n_weights(bias, n_inputs))
 
 
 def check_int(name: str, value: Any, minimum: int) -> None:

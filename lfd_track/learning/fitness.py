@@ -17,7 +17,6 @@ from ..control.mlp import N_HIDDEN, N_INPUTS, N_OUTPUTS, mlp_forward, n_weights
 # than the winner").
 _OTHERS = np.array([[1, 2], [0, 2], [0, 1]], dtype=np.intp)
 
-_W1 = N_HIDDEN * N_INPUTS
 _W2 = N_OUTPUTS * N_HIDDEN
 # OpenBLAS hands a GEMM of more than 65536 * 4 multiply-adds to several threads; under load those
 # threads wait on busy cores. Products are split into row blocks under this size so every call
@@ -44,7 +43,8 @@ def imitation_fitness(
 ) -> np.ndarray:
     """Algorithm 3 for every network: lower is better, 0 is perfect.
 
-    ``weights``: (P, 215) (or (P, 223) with biases). ``inputs``: (N, 40) road values.
+    ``weights``: (P, 215) (or (P, 223) with biases). ``inputs``: (N, 40) road values (or
+    (N, 40 + m) with m memory inputs, and weights to match).
     ``actions``: (N,) expected commands 0/1/2. For each case, d = output at the expected action
     minus each other output; each d adds 0.5 / n_e if d >= threshold, else 0.5 * (d / threshold) /
     n_e (negative d lowers the total), n_e = number of cases of that action. Fitness is
@@ -57,16 +57,21 @@ def imitation_fitness(
     if w.ndim != 2:
         raise ValueError(f"weights must be (P, W), got shape {w.shape}")
     x = np.asarray(inputs, dtype=np.float64)
-    if x.ndim != 2 or x.shape[1] != N_INPUTS:
-        raise ValueError(f"inputs must have shape (N, {N_INPUTS}), got {x.shape}")
+    if x.ndim != 2 or x.shape[1] < N_INPUTS:
+        raise ValueError(
+            f"inputs must have shape (N, {N_INPUTS}) (road values, then any memory inputs),"
+            f" got {x.shape}"
+        )
+    n_in = x.shape[1]
     actions = _check_actions(actions)
     if actions.shape[0] != x.shape[0]:
         raise ValueError(f"{x.shape[0]} input rows but {actions.shape[0]} actions")
     if bias is None:
-        bias = w.shape[1] == n_weights(True)
-    if w.shape[1] != n_weights(bias):
+        bias = w.shape[1] == n_weights(True, n_in)
+    if w.shape[1] != n_weights(bias, n_in):
+        size = n_weights(bias, n_in)
         raise ValueError(
-            f"weights must have shape ({n_weights(bias)},) or (P, {n_weights(bias)}), got {w.shape}"
+            f"weights must have shape ({size},) or (P, {size}) for {n_in} inputs, got {w.shape}"
         )
     if actions.size == 0:
         return np.ones(w.shape[0], dtype=np.float64)
@@ -106,64 +111,64 @@ def population_outputs(weights: np.ndarray, inputs: np.ndarray, *, bias: bool) -
     per process against ``mlp_forward`` on shapes that exercise every case, and ``mlp_forward``
     itself is used if any bit differs.
     """
-    if weights.shape[0] == 0 or inputs.shape[0] < 2 or not _stacked_form_matches():
+    if weights.shape[0] == 0 or inputs.shape[0] < 2 or not _stacked_form_matches(inputs.shape[1]):
         # One row goes to different kernels (and the per-network form is cheap there).
         return mlp_forward(weights, inputs, bias=bias)
     return _stacked_outputs(weights, inputs, bias=bias)
 
 
-_STACKED_MATCHES: bool | None = None
+_STACKED_MATCHES: dict[int, bool] = {}
 
 
-def _stacked_form_matches() -> bool:
+def _stacked_form_matches(n_inputs: int = N_INPUTS) -> bool:
     """Whether ``_stacked_outputs`` equals ``mlp_forward`` bit for bit with this process's BLAS.
 
     Probes odd and even case counts, one and several row blocks, populations that do and do not
-    fill the padding, with and without biases; computed once and cached.
+    fill the padding, with and without biases; computed once per input width and cached.
     """
-    global _STACKED_MATCHES
-    if _STACKED_MATCHES is None:
+    if n_inputs not in _STACKED_MATCHES:
         matches = True
         for p, n, bias in [(1, 9, False), (3, 13, True), (7, 64, False), (40, 151, False),
                            (40, 150, True), (13, 701, False)]:  # fmt: skip
             # Fixed, irregular values in the ranges the GA sees (no random stream involved).
-            w = 3.0 * np.sin(0.7 * np.arange(p * n_weights(bias)) + 1.0).reshape(p, -1)
-            x = 0.45 + 0.55 * np.cos(0.37 * np.arange(n * N_INPUTS)).reshape(n, N_INPUTS)
+            w = 3.0 * np.sin(0.7 * np.arange(p * n_weights(bias, n_inputs)) + 1.0).reshape(p, -1)
+            x = 0.45 + 0.55 * np.cos(0.37 * np.arange(n * n_inputs)).reshape(n, n_inputs)
             if not np.array_equal(_stacked_outputs(w, x, bias=bias), mlp_forward(w, x)):
                 matches = False
                 break
-        _STACKED_MATCHES = matches
-    return _STACKED_MATCHES
+        _STACKED_MATCHES[n_inputs] = matches
+    return _STACKED_MATCHES[n_inputs]
 
 
 def _stacked_outputs(weights: np.ndarray, inputs: np.ndarray, *, bias: bool) -> np.ndarray:
     """The stacked form of :func:`population_outputs` (N >= 2)."""
-    p, n = weights.shape[0], inputs.shape[0]
+    p, (n, n_in) = weights.shape[0], inputs.shape
+    w1 = N_HIDDEN * n_in
     # Column j*5 + h holds network j's weights into hidden node h; padded with zero columns to a
     # multiple of 8 so no column falls to an edge kernel.
     cols = p * N_HIDDEN
     padded = -(-cols // _COLUMN_BLOCK) * _COLUMN_BLOCK
-    w_ih = np.zeros((N_INPUTS, padded))
+    w_ih = np.zeros((n_in, padded))
     w_ih[:, :cols] = (
-        weights[:, :_W1].reshape(p, N_HIDDEN, N_INPUTS).transpose(2, 0, 1).reshape(N_INPUTS, cols)
+        weights[:, :w1].reshape(p, N_HIDDEN, n_in).transpose(2, 0, 1).reshape(n_in, cols)
     )
     hidden = np.empty((n, padded))
     # Even row blocks: an odd block would put an odd row in the one-row kernel.
-    rows = max(2, (_SINGLE_THREAD_MACS // (N_INPUTS * padded) - 1) // 2 * 2)
+    rows = max(2, (_SINGLE_THREAD_MACS // (n_in * padded) - 1) // 2 * 2)
     for start in range(0, n, rows):
         stop = n if n - start < rows + 2 else start + rows  # no block of a single row
         np.matmul(inputs[start:stop], w_ih, out=hidden[start:stop])
         if stop == n:
             break
     if n % 2:
-        node4 = np.zeros((N_INPUTS, max(p, 2)))  # one column would go to a matrix-vector kernel
+        node4 = np.zeros((n_in, max(p, 2)))  # one column would go to a matrix-vector kernel
         node4[:, :p] = w_ih[:, N_HIDDEN - 1 : cols : N_HIDDEN]
         hidden[-1, N_HIDDEN - 1 : cols : N_HIDDEN] = np.matmul(inputs[[-1, -1]], node4)[0, :p]
     if bias:
-        hidden[:, :cols] += weights[:, _W1 + _W2 : _W1 + _W2 + N_HIDDEN].reshape(-1)
+        hidden[:, :cols] += weights[:, w1 + _W2 : w1 + _W2 + N_HIDDEN].reshape(-1)
     _sigmoid_inplace(hidden)
     w_ho = np.ascontiguousarray(
-        weights[:, _W1 : _W1 + _W2].reshape(p, N_OUTPUTS, N_HIDDEN).transpose(0, 2, 1)
+        weights[:, w1 : w1 + _W2].reshape(p, N_OUTPUTS, N_HIDDEN).transpose(0, 2, 1)
     )
     # (P, N, 5) view of the hidden activations, network-major, without copying.
     item = hidden.itemsize
@@ -172,7 +177,7 @@ def _stacked_outputs(weights: np.ndarray, inputs: np.ndarray, *, bias: bool) -> 
     )
     out = np.matmul(per_net, w_ho)  # (P, N, 3)
     if bias:
-        out += weights[:, None, _W1 + _W2 + N_HIDDEN :]
+        out += weights[:, None, w1 + _W2 + N_HIDDEN :]
     return _sigmoid_inplace(out)
 
 
@@ -188,7 +193,8 @@ def _sigmoid_inplace(a: np.ndarray) -> np.ndarray:
 def training_accuracy(weights: np.ndarray, inputs: np.ndarray, actions: np.ndarray) -> float:
     """Share of cases where the network's largest output is the demonstrated command.
 
-    ``weights`` (W,), ``inputs`` (N, 40) road values, ``actions`` (N,) commands 0/1/2.
+    ``weights`` (W,), ``inputs`` (N, 40) road values (plus memory inputs), ``actions`` (N,)
+    commands 0/1/2.
     """
     predicted = mlp_forward(weights, np.asarray(inputs, dtype=np.float64)).argmax(axis=1)
     return float((predicted == np.asarray(actions)).mean())

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from ..config import DictConfig
-from ..control.mlp import n_weights
+from ..control.mlp import N_INPUTS, n_weights
 from .fitness import imitation_fitness
 
 
@@ -123,9 +123,12 @@ def mutate(
     return population + np.where(hit, step, 0.0)
 
 
-def initial_population(config: GAConfig, rng: np.random.Generator) -> np.ndarray:
-    """Uniform random weights in [-init_range, init_range], (population_size, W) float64."""
-    shape = (config.population_size, n_weights(config.bias))
+def initial_population(
+    config: GAConfig, rng: np.random.Generator, n_inputs: int = N_INPUTS
+) -> np.ndarray:
+    """Uniform random weights in [-init_range, init_range], (population_size, W) float64, for a
+    network with ``n_inputs`` inputs (the 40 road values, plus any memory inputs)."""
+    shape = (config.population_size, n_weights(config.bias, n_inputs))
     return rng.uniform(-config.init_range, config.init_range, size=shape)
 
 
@@ -183,9 +186,9 @@ def _frozen(array: np.ndarray) -> np.ndarray:
     return out
 
 
-def ga_init(config: GAConfig, rng: np.random.Generator) -> GAState:
+def ga_init(config: GAConfig, rng: np.random.Generator, n_inputs: int = N_INPUTS) -> GAState:
     """Initial state: a random population (see :func:`initial_population`), nothing evaluated."""
-    population = _frozen(initial_population(config, rng))
+    population = _frozen(initial_population(config, rng, n_inputs))
     return GAState(
         population=population,
         fitness=_frozen(np.zeros(config.population_size)),
@@ -230,7 +233,7 @@ def ga_rescore(
 ) -> GAState:
     """Re-evaluate the population and the best-so-far on new cases (e.g. after some arrived).
 
-    ``inputs`` (N, 40), ``actions`` (N,). Fitness values from different case sets are not
+    ``inputs`` (N, 40) (plus memory inputs), ``actions`` (N,). Fitness values from different case sets are not
     comparable, so both the population's fitness and the best individual's are recomputed;
     the best becomes whichever of the old best and the current population now scores lowest
     (the old best on ties). Histories and the generation count are kept.
@@ -279,8 +282,8 @@ def evolve(
 ) -> EvolutionResult:
     """Evolve MLP weights that imitate ``actions`` from ``inputs`` (the paper's offline GA).
 
-    ``inputs``: (N, 40) road values; ``actions``: (N,) commands 0/1/2; ``config`` None means the
-    paper's Table 1. ``rng`` is required: every draw comes from it, so a seed repeats the run.
+    ``inputs``: (N, 40) road values (or (N, 40 + m) with m memory inputs: the network then has
+    as many inputs); ``actions``: (N,) commands 0/1/2; ``config`` None means the paper's Table 1. ``rng`` is required: every draw comes from it, so a seed repeats the run.
     ``progress(generation, best_fitness, mean_fitness)`` is called after each generation.
 
     Order of operations (as the paper describes), one :func:`ga_ask` / :func:`ga_tell` per
@@ -300,9 +303,12 @@ def evolve(
     inputs = np.asarray(inputs, dtype=np.float64)
     actions = np.asarray(actions)
     # Fail on bad data before spending any time.
-    imitation_fitness(np.zeros((1, n_weights(config.bias))), inputs, actions, config.threshold)
+    n_inputs = inputs.shape[1] if inputs.ndim == 2 else N_INPUTS
+    imitation_fitness(
+        np.zeros((1, n_weights(config.bias, n_inputs))), inputs, actions, config.threshold
+    )
 
-    state = ga_init(config, rng)
+    state = ga_init(config, rng, n_inputs)
     for _ in range(config.generations):
         children = ga_ask(state, config, rng)
         fitness = imitation_fitness(children, inputs, actions, config.threshold, bias=config.bias)

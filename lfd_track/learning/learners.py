@@ -20,6 +20,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from ..control.mlp import N_INPUTS
 from .bc import BCConfig, fit_bc
 from .cmaes import CMAESConfig, fit_cmaes
 from .fit import LearnerFit
@@ -72,8 +73,10 @@ class GALearner:
 
     name = "ga"
 
-    def __init__(self, config: GAConfig | None = None) -> None:
+    def __init__(self, config: GAConfig | None = None, n_inputs: int = N_INPUTS) -> None:
         self.config = config or GAConfig()
+        self.n_inputs = int(n_inputs)
+        """Inputs of the network ``begin`` draws (40 road values, plus any memory inputs)."""
         self.state: GAState | None = None
         self._rng: np.random.Generator | None = None
 
@@ -91,7 +94,7 @@ class GALearner:
         if not isinstance(rng, np.random.Generator):
             raise TypeError("the GA needs a seeded np.random.Generator (rng)")
         self._rng = rng
-        self.state = ga_init(self.config, rng)
+        self.state = ga_init(self.config, rng, self.n_inputs)
 
     def update(self, inputs: np.ndarray, actions: np.ndarray, steps: int) -> np.ndarray:
         if self.state is None or self._rng is None:

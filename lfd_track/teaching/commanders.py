@@ -56,10 +56,10 @@ class PolicyCommander:
         self.last_outputs = None
 
     def propose(self, moment: Moment) -> Command | None:
-        return self.act_on_values(moment.values)
+        return self.act_on_values(moment.policy_inputs)
 
     def act_on_values(self, values: np.ndarray) -> Command | None:
-        """Command for road values (40,) float."""
+        """Command for road values (40,) float (followed by memory inputs if the net has any)."""
         if self.weights is None:
             return None
         outputs = mlp_forward(self.weights, np.asarray(values, dtype=np.float64)[None])[0]

@@ -28,14 +28,15 @@ class GALearnerFeed:
         rng: np.random.Generator,
         generations_per_case: int,
         policy: PolicyCommander,
+        n_inputs: int = 40,
     ) -> None:
         self.config = config
         self.rng = rng
         self.rng_state = rng.bit_generator.state
         self.generations_per_case = generations_per_case
         self.policy = policy
-        self.cases = CaseBuffer()
-        self.learner = GALearner(config)
+        self.cases = CaseBuffer(n_inputs)
+        self.learner = GALearner(config, n_inputs)
         self.learner.begin(rng)
 
     @property

@@ -34,6 +34,13 @@ class Moment:
     """The env's info for this frame (privileged state in simulation, e.g. ``pose``)."""
     driving: str
     """Who drives before this frame's decision: ``"human"`` or ``"policy"``."""
+    inputs: np.ndarray | None = None
+    """The policy's inputs: road values then memory inputs (None: the road values alone)."""
+
+    @property
+    def policy_inputs(self) -> np.ndarray:
+        """What a policy network reads: :attr:`inputs`, or the road values without memory."""
+        return self.values if self.inputs is None else self.inputs
 
     @property
     def pose(self) -> np.ndarray | None:
@@ -128,6 +135,7 @@ class TeachingLoop:
         self.episode_over = self.terminated = False
         self._episode_steps = 0
         self.arbiter.reset()
+        self.perception.start_episode()
         for part in (self.human, self.policy):
             if part is not None:
                 part.reset()
@@ -160,6 +168,7 @@ class TeachingLoop:
             values=percept.values,
             info=self.info,
             driving=self.arbiter.driving,
+            inputs=percept.inputs,
         )
         human = self.human.propose(moment) if self.human is not None else None
         policy = self.policy.propose(moment) if self.policy is not None else None
@@ -168,6 +177,7 @@ class TeachingLoop:
             return Step(moment, percept, human, policy, decision, is_case=False)
         is_case = decision.driver == "human" and bool(getattr(self.human, "records", True))
         frame, _, terminated, truncated, info = self.env.step(int(decision.command))
+        self.perception.note(decision.command)
         self.frame, self.info = frame, info
         self.terminated = bool(terminated)
         self.episode_over = self.episode_over or bool(terminated or truncated)

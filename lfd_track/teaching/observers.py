@@ -57,6 +57,8 @@ class Recorder:
         source = self.source or ("correction" if step.decision.correction else "demonstration")
         fields: dict[str, Any] = {"source": source, "round": self.round}
         fields.update(self.annotate(step))
+        if len(step.percept.memory):
+            fields.setdefault("memory", step.percept.memory)
         self.writer.append(
             int(step.command),
             step.percept.values,
@@ -67,9 +69,11 @@ class Recorder:
 
 
 class CaseBuffer:
-    """Keeps every teaching case in memory: road values, commands and whether a correction."""
+    """Keeps every teaching case in memory: the policy's inputs (road values, then any memory
+    inputs), commands and whether a correction."""
 
-    def __init__(self) -> None:
+    def __init__(self, n_inputs: int = 40) -> None:
+        self.n_inputs = n_inputs
         self.values: list[np.ndarray] = []
         self.commands: list[int] = []
         self.corrections: list[bool] = []
@@ -79,14 +83,14 @@ class CaseBuffer:
 
     def observe(self, step: Step) -> None:
         if step.is_case:
-            self.values.append(np.asarray(step.percept.values, dtype=np.float64))
+            self.values.append(np.asarray(step.percept.inputs, dtype=np.float64))
             self.commands.append(int(step.command))
             self.corrections.append(step.decision.correction)
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:
-        """(N, 40) float64 road values and (N,) intp commands."""
+        """(N, n_inputs) float64 inputs and (N,) intp commands."""
         if not self.values:
-            return np.empty((0, 40)), np.empty(0, dtype=np.intp)
+            return np.empty((0, self.n_inputs)), np.empty(0, dtype=np.intp)
         return np.stack(self.values), np.asarray(self.commands, dtype=np.intp)
 
 

@@ -1,4 +1,5 @@
-"""Perception: the road library and the rule that says when it may learn (paper §4.2.1, §6).
+"""Perception: the road library, the rule that says when it may learn (paper §4.2.1, §6), and the
+policy's memory inputs (:mod:`lfd_track.teaching.memory`), if any.
 
 Learning rules:
 
@@ -16,11 +17,13 @@ only :meth:`Perception.perceive`, the loop's learn step, does.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..commands import Command
 from ..vision.road_library import RoadLibrary
+from .memory import MemoryConfig, memory_for
 
 LEARNING_RULES = ("careful", "paused", "frozen", "always")
 
@@ -37,14 +40,43 @@ class Percept:
     """True when Algorithm 1 learned from this frame's safe box before the values were taken."""
     box_on_felt: bool | None
     """Whether the safe box lay on the felt (None when the loop cannot know)."""
+    memory: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """Memory inputs at this frame, (m,) float64 (m = 0 without memory)."""
+
+    @property
+    def inputs(self) -> np.ndarray:
+        """The policy's inputs: the road values, then the memory inputs, (40 + m,) float64."""
+        if not len(self.memory):
+            return self.values
+        return np.concatenate([self.values, self.memory])
 
 
 class Perception:
-    """A road library plus its learning rule (one of :data:`LEARNING_RULES`)."""
+    """A road library plus its learning rule (one of :data:`LEARNING_RULES`), and the memory
+    inputs ``memory`` asks for (none by default)."""
 
-    def __init__(self, library: RoadLibrary, rule: str = "careful") -> None:
+    def __init__(
+        self, library: RoadLibrary, rule: str = "careful", memory: MemoryConfig | None = None
+    ) -> None:
         self.library = library
         self.rule = rule
+        self.memory_config = memory or MemoryConfig()
+        self._memory = memory_for(memory)
+
+    @property
+    def n_inputs(self) -> int:
+        """Length of :attr:`Percept.inputs`: 40 road values plus the memory inputs."""
+        return 40 + self.memory_config.n_inputs
+
+    def start_episode(self) -> None:
+        """A new episode: the memory forgets (the library does not)."""
+        if self._memory is not None:
+            self._memory.reset()
+
+    def note(self, command: Command | int) -> None:
+        """The loop executed ``command`` (the memory counts it)."""
+        if self._memory is not None:
+            self._memory.note(command)
 
     @property
     def rule(self) -> str:
@@ -77,7 +109,14 @@ class Perception:
         values = self.library.road_values_from_histograms(
             histograms, update_statistics=self._rule != "frozen"
         )
-        return Percept(values=values, histograms=histograms, learned=learn, box_on_felt=box_on_felt)
+        memory = np.zeros(0) if self._memory is None else self._memory.inputs()
+        return Percept(
+            values=values,
+            histograms=histograms,
+            learned=learn,
+            box_on_felt=box_on_felt,
+            memory=memory,
+        )
 
     def look(self, frame: np.ndarray) -> np.ndarray:
         """Road values (40,) float64 of a frame without touching the library (no counts)."""

@@ -31,7 +31,7 @@ PHASE_LIBRARY_ONLY = "library_only"
 PHASE_DRIVE = "drive"
 PHASE_TURNAROUND = "turnaround"
 #: Turn-around rules of the protocol (``HumanConfig.turnarounds``).
-TURNAROUND_RULES = ("alternate", "one_sided", "unrecorded")
+TURNAROUND_RULES = ("alternate", "one_sided", "unrecorded", "toward_last_bend")
 
 
 @dataclass(frozen=True)
@@ -47,7 +47,9 @@ class HumanConfig:
     stop_before_end_m: float = 0.35  # [m] where the human stops to turn round
     first_turnaround: str = "left"  # direction of the first turn-around; then they alternate
     # Turn-around rule: "alternate" (left, right, left, ...), "one_sided" (always the first
-    # direction) or "unrecorded" (alternate, but the turn-around commands are not recorded).
+    # direction), "unrecorded" (alternate, but the turn-around commands are not recorded) or
+    # "toward_last_bend" (turn the way the leg's last bend turned: where the felt came from; on
+    # the training track that is right, left, right, ..., i.e. alternating from the right).
     turnarounds: str = "alternate"
     careful: bool = True  # pause library learning while the safe box is off the felt
     max_commands: int = 1000  # give up (error) after this many commands
@@ -322,6 +324,11 @@ class ProtocolHuman:
         back_tracker.update(pose[:2])
         self._back = (CentrelineDriver(back, self.config.driver), back_tracker.progress_m)
         self._direction = self._next_turn
+        if self.config.turnarounds == "toward_last_bend":
+            turns = self.legs[self.leg % 2].vertex_turns_rad
+            bends = turns[np.abs(turns) > 1e-9]
+            if len(bends):
+                self._direction = Command.LEFT if bends[-1] > 0 else Command.RIGHT
         self.turnarounds.append(self._direction.name.lower())
         if self.config.turnarounds != "one_sided":
             self._next_turn = Command.RIGHT if self._direction == Command.LEFT else Command.LEFT

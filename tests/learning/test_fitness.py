@@ -142,9 +142,9 @@ def test_falls_back_to_mlp_forward_when_the_stacked_form_differs(monkeypatch):
         return out
 
     monkeypatch.setattr(fitness, "_stacked_outputs", off_by_one_bit)
-    monkeypatch.setattr(fitness, "_STACKED_MATCHES", None)
+    monkeypatch.setattr(fitness, "_STACKED_MATCHES", {})
     rng = np.random.default_rng(8)
     w = rng.uniform(-3, 3, (40, 215))
     x = rng.uniform(-0.1, 1, (151, 40))
     np.testing.assert_array_equal(population_outputs(w, x, bias=False), mlp_forward(w, x))
-    assert fitness._STACKED_MATCHES is False
+    assert fitness._STACKED_MATCHES == {40: False}

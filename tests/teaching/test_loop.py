@@ -1,8 +1,8 @@
-import functools
 import threading
 
 import numpy as np
 import pytest
+from lfd_test_support import library_with_road
 
 from lfd_track.commands import Command
 from lfd_track.env import LfDTrackEnv
@@ -18,23 +18,8 @@ from lfd_track.teaching.observers import CaseBuffer
 from lfd_track.vision.road_library import RoadLibrary
 
 
-@functools.cache
-def _road_frame():
-    env = LfDTrackEnv(track="training")
-    frame, _ = env.reset(seed=1)
-    env.close()
-    return frame
-
-
-def _library_with_road():
-    library = RoadLibrary()
-    frame = _road_frame()
-    library.learn(frame)
-    return library, frame
-
-
 def test_look_never_mutates_but_perceive_does():
-    library, frame = _library_with_road()
+    library, frame = library_with_road()
     before = library.to_dict()
     perception = Perception(library, "careful")
     values = perception.look(frame)
@@ -57,7 +42,7 @@ def test_look_never_mutates_but_perceive_does():
     ],
 )
 def test_learning_rules(rule, box_on_felt, learns):
-    library, frame = _library_with_road()
+    library, frame = library_with_road()
     n = library.n_models
     stats = library.type_statistics()
     percept = Perception(library, rule).perceive(frame, box_on_felt=box_on_felt)
@@ -75,7 +60,7 @@ def test_bad_rule():
 
 
 def test_queue_commander_fed_from_another_thread_drives_the_loop_one_step_at_a_time():
-    library, _ = _library_with_road()
+    library, _ = library_with_road()
     keys = QueueCommander()
     cases = CaseBuffer()
     trajectory = TrajectoryObserver()
