@@ -7,8 +7,9 @@ way). A lap arrives at a corner when it negotiated every corner before it; its f
 negotiated is where it failed. This is what a memory of the last bend can and cannot help with
 (``lfd_track/teaching/memory.py``): it points the right way at ``same`` corners only.
 
-Run: ``.venv/bin/python benchmarks/corners_by_last_bend.py STUDY_OUT_DIR`` — prints, per
-condition, failures / arrivals in each class, pooled over the condition's seeds.
+Run: ``.venv/bin/python benchmarks/corners_by_last_bend.py STUDY_OUT_DIR [--track NAME ...]`` —
+prints, per condition, failures / arrivals in each class, pooled over the condition's seeds
+(and over every loop lapped, or the ``--track`` ones).
 """
 
 from __future__ import annotations
@@ -29,13 +30,14 @@ def corner_turns(track: str, direction: str) -> dict[str, float]:
     return {c.label: c.turn_deg for c in loop.corners}
 
 
-def classify(outcomes: list[dict]) -> tuple[Counter, Counter]:
-    """(failures, arrivals) per class over the loop laps in ``outcomes`` (results.json's)."""
+def classify(outcomes: list[dict], tracks: set[str] | None = None) -> tuple[Counter, Counter]:
+    """(failures, arrivals) per class over the loop laps in ``outcomes`` (results.json's), of
+    the loops in ``tracks`` (None: every loop)."""
     failures: Counter = Counter()
     arrivals: Counter = Counter()
     turns_of: dict[tuple[str, str], dict[str, float]] = {}
     for lap in outcomes:
-        if lap["track"] == "training":
+        if lap["track"] == "training" or (tracks is not None and lap["track"] not in tracks):
             continue
         key = (lap["track"], lap["direction"])
         if key not in turns_of:
@@ -58,6 +60,9 @@ def classify(outcomes: list[dict]) -> tuple[Counter, Counter]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("study_out", type=Path, help="a study's --out folder")
+    parser.add_argument(
+        "--track", action="append", help="count only this loop (repeatable; default: every loop)"
+    )
     args = parser.parse_args(argv)
     folders = sorted(p for p in args.study_out.iterdir() if p.is_dir())
     if not folders:
@@ -67,7 +72,8 @@ def main(argv: list[str] | None = None) -> int:
         failures: Counter = Counter()
         arrivals: Counter = Counter()
         for results in sorted(folder.glob("seed*/results.json")):
-            f, a = classify(json.loads(results.read_text(encoding="utf-8"))["outcomes"])
+            outcomes = json.loads(results.read_text(encoding="utf-8"))["outcomes"]
+            f, a = classify(outcomes, set(args.track) if args.track else None)
             failures += f
             arrivals += a
         cells = "".join(f"{failures[c]:>7}/{arrivals[c]:<6}" for c in CLASSES)

@@ -51,6 +51,7 @@ from ..learning.cmaes import CMAESConfig
 from ..learning.fitness import training_accuracy
 from ..learning.ga import GAConfig, evolve, ga_rescore, ga_result
 from ..learning.learners import learner_for
+from ..learning.mirror import with_mirrored
 from ..presets import Preset
 from ..teaching.arbiter import Arbiter
 from ..teaching.commanders import PolicyCommander
@@ -214,12 +215,17 @@ def learn_paper(
     human: HumanConfig,
     ga: GAConfig,
     memory: MemoryConfig | None = None,
+    mirror: bool = False,
 ) -> Learned:
-    """The paper: record a demonstration, then evolve offline (200 generations by default)."""
+    """The paper: record a demonstration, then evolve offline (200 generations by default).
+
+    ``mirror``: learn from the cases and their mirror images (:mod:`lfd_track.learning.mirror`).
+    """
     summary, demo, library = _demonstrate(
         rep_dir, demo_seed=demo_seed, preset=preset, human=human, memory=memory
     )
-    result = evolve(demo.inputs, demo.commands, ga, np.random.default_rng(ga_seed))
+    x, a = _training_set(demo.inputs, demo.commands, memory, mirror)
+    result = evolve(x, a, ga, np.random.default_rng(ga_seed))
     return _learned_offline(
         summary,
         demo,
@@ -239,13 +245,15 @@ def learn_baseline(
     human: HumanConfig,
     learner: BCConfig | CMAESConfig,
     memory: MemoryConfig | None = None,
+    mirror: bool = False,
 ) -> Learned:
     """The paper's demonstration, then BC or CMA-ES instead of the GA (same cases, same seed)."""
     summary, demo, library = _demonstrate(
         rep_dir, demo_seed=demo_seed, preset=preset, human=human, memory=memory
     )
     trainer = learner_for(learner)
-    result = trainer.fit(demo.inputs, demo.commands, np.random.default_rng(ga_seed))
+    x, a = _training_set(demo.inputs, demo.commands, memory, mirror)
+    result = trainer.fit(x, a, np.random.default_rng(ga_seed))
     controller = Controller(
         library,
         result.weights,
@@ -265,6 +273,15 @@ def learn_baseline(
         fitness_mean=[],
         extra={"learner": result.learner},
     )
+
+
+def _training_set(
+    inputs: np.ndarray, actions: np.ndarray, memory: MemoryConfig | None, mirror: bool
+) -> tuple[np.ndarray, np.ndarray]:
+    """What a learner fits: the cases, followed by their mirror images when ``mirror``."""
+    if not mirror:
+        return inputs, actions
+    return with_mirrored(inputs, actions, memory)
 
 
 def _relabel(controller: Controller, learner: str, config: dict[str, Any]) -> Controller:
@@ -299,6 +316,7 @@ def learn_online(
     ga: GAConfig,
     online: OnlineConfig,
     memory: MemoryConfig | None = None,
+    mirror: bool = False,
 ) -> Learned:
     """Demonstrate on the training track while the GA learns; the policy takes over when it agrees.
 
@@ -321,6 +339,7 @@ def learn_online(
         online.generations_per_case,
         policy,
         perception.n_inputs,
+        training_set=lambda x, a: _training_set(x, a, memory, mirror),
     )
     metadata = {
         "kind": "simulated",
@@ -357,7 +376,7 @@ def learn_online(
         loop.reset(seed=env_seed)
         loop.run(max_steps=human.max_commands)
         x, a = feed.cases.arrays()
-        state = ga_rescore(feed.state, x, a, ga)  # the best of the run on every case
+        state = ga_rescore(feed.state, *feed.training_set(x, a), ga)  # the best on every case
         corrections = [i for i, c in enumerate(feed.cases.corrections) if c]
         w.close(
             {
@@ -410,6 +429,7 @@ def learn_hg_dagger(
     ga: GAConfig,
     hg: HGDaggerConfig,
     memory: MemoryConfig | None = None,
+    mirror: bool = False,
 ) -> Learned:
     """The paper's demonstration and GA, then rounds of runs with interventions and re-evolving.
 
@@ -426,6 +446,7 @@ def learn_hg_dagger(
         human=human,
         ga=ga,
         memory=memory,
+        mirror=mirror,
     )
     demo = load_demonstration(rep_dir / "demonstration.lfdemo")
     inputs = [np.asarray(demo.inputs, dtype=np.float64)]
@@ -501,7 +522,7 @@ def learn_hg_dagger(
         inputs.append(x)
         actions.append(a)
         all_x, all_a = np.concatenate(inputs), np.concatenate(actions)
-        result = evolve(all_x, all_a, ga, ga_rng)
+        result = evolve(*_training_set(all_x, all_a, memory, mirror), ga, ga_rng)
         controller = _relabel(
             Controller.from_evolution(library, result, seed=ga_seed, memory=memory),
             "hg-dagger",

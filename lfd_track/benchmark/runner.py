@@ -82,6 +82,7 @@ class BenchmarkConfig:
     cmaes: CMAESConfig = CMAESConfig()  # settings of method "cma-es"
     test_tracks: tuple[str, ...] = ("testing",)  # loops (names or paths) lapped both ways
     memory: MemoryConfig = MemoryConfig()  # memory inputs of the policy (none: the paper's 40)
+    mirror: bool = False  # learn from the cases and their mirror images (learning/mirror.py)
 
     def __post_init__(self) -> None:
         if isinstance(self.test_tracks, str) or not all(
@@ -196,6 +197,7 @@ def run_repetition(
         preset=config.preset,
         human=config.human,
         memory=config.memory,
+        mirror=config.mirror,
     )
     if config.method == "online":
         learned = learn_online(rep_dir, **common, ga=config.ga, online=config.online)
@@ -297,9 +299,11 @@ def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
     data["hg_dagger"] = config.hg_dagger.to_dict()
     data["bc"] = config.bc.to_dict()
     data["cmaes"] = config.cmaes.to_dict()
+    # Runs without memory or mirroring store exactly what they stored before those existed.
     if config.memory.kind == "none":
-        # Runs without memory store exactly what they stored before memory inputs existed.
         del data["memory"]
     else:
         data["memory"] = config.memory.to_dict()
+    if not config.mirror:
+        del data["mirror"]
     return data

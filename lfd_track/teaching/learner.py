@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -29,6 +30,8 @@ class GALearnerFeed:
         generations_per_case: int,
         policy: PolicyCommander,
         n_inputs: int = 40,
+        training_set: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+        | None = None,
     ) -> None:
         self.config = config
         self.rng = rng
@@ -36,6 +39,8 @@ class GALearnerFeed:
         self.generations_per_case = generations_per_case
         self.policy = policy
         self.cases = CaseBuffer(n_inputs)
+        self.training_set = training_set or (lambda x, a: (x, a))
+        """What the GA fits, made from all cases so far (e.g. with their mirror images)."""
         self.learner = GALearner(config, n_inputs)
         self.learner.begin(rng)
 
@@ -60,5 +65,5 @@ class GALearnerFeed:
         if not step.is_case:
             return
         self.cases.observe(step)
-        x, a = self.cases.arrays()
+        x, a = self.training_set(*self.cases.arrays())
         self.policy.weights = self.learner.update(x, a, self.generations_per_case)

@@ -60,6 +60,11 @@ class MemoryConfig(DictConfig):
         """Inputs the memory adds after the 40 road values."""
         return 0 if self.kind == "none" else 1
 
+    def mirror(self, inputs: np.ndarray) -> np.ndarray:
+        """Memory inputs (N, m) as they would be in a world flipped left to right."""
+        x = np.asarray(inputs, dtype=np.float64)
+        return x.copy() if self.kind == "none" else 1.0 - x
+
 
 class TurnMemory:
     """The ``last_bend`` latch over executed commands (see the module docstring)."""
