@@ -130,6 +130,27 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 # --------------------------------------------------------------------------------- evolve
+def _demonstration_memory(path: str, demo: Any) -> Any:
+    """The memory settings a demonstration's cases were recorded with (None: no memory inputs);
+    a file whose settings do not match its cases is refused in one line."""
+    from .teaching.memory import MemoryConfig
+
+    n_memory = demo.memory.shape[1]
+    settings = demo.metadata.get("memory")
+    if settings is None and n_memory == 0:
+        return None
+    try:
+        memory = MemoryConfig.from_dict(settings)
+    except ValueError as exc:
+        raise LfdTrackError(f"{_shown(path)}: bad memory settings ({exc})") from None
+    if memory.n_inputs != n_memory:
+        raise LfdTrackError(
+            f"{_shown(path)}: memory settings '{memory.kind}' need {memory.n_inputs} memory"
+            f" inputs per case, the cases hold {n_memory}"
+        )
+    return memory
+
+
 def _cmd_evolve(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -154,20 +175,21 @@ def _cmd_evolve(args: argparse.Namespace) -> int:
         library = RoadLibrary.from_dict(library_dict)
     except (ValueError, KeyError, TypeError) as exc:
         raise LfdTrackError(f"{_shown(args.demo)}: bad road library ({exc})") from None
+    memory = _demonstration_memory(args.demo, demo)
     config = GAConfig(generations=args.generations, elitism=args.elitism)
     with progress_bar(
         config.generations, "evolving", unit=" generations", enabled=not args.quiet
     ) as bar:
         result = evolve(
-            demo.road_values,
+            demo.inputs,
             demo.commands,
             config,
             np.random.default_rng(args.seed),
             progress=lambda g, best, mean: _advance(bar, g, f"best fitness {best:.4f}"),
         )
-    controller = Controller.from_evolution(library, result, seed=args.seed)
+    controller = Controller.from_evolution(library, result, seed=args.seed, memory=memory)
     controller.save(args.out)
-    accuracy = training_accuracy(result.best_weights, demo.road_values, demo.commands)
+    accuracy = training_accuracy(result.best_weights, demo.inputs, demo.commands)
     png = Path(args.out).with_suffix(".fitness.png")
     write_png(
         str(png),

@@ -10,9 +10,11 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from lfd_track.cli import main
+from lfd_track.vision.road_library import RoadLibrary
 
 
 def run_cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
@@ -196,13 +198,48 @@ def test_wrong_schema_demonstration_is_one_line(tmp_path, monkeypatch):
     from lfd_track.demo import dataset
 
     bad = tmp_path / "future.lfdemo"
-    monkeypatch.setattr(dataset, "SCHEMA_VERSION", dataset.SCHEMA_VERSION + 1)
+    monkeypatch.setattr(dataset, "SCHEMA_VERSION", max(dataset.READABLE_SCHEMAS) + 1)
     with dataset.DemonstrationWriter(bad, {"track": "training"}, bins=32, fsync=False) as writer:
         writer.append(0, np.zeros(40), np.zeros((40, 5, 32), np.float32))
     proc = run_cli("evolve", str(bad), "--out", str(tmp_path / "c.json"))
     assert proc.returncode == 1 and len(proc.stderr.strip().splitlines()) == 1
-    assert str(bad) in proc.stderr and "schema" in proc.stderr
+    assert str(bad) in proc.stderr and "unsupported schema version 4" in proc.stderr
     assert not (tmp_path / "c.json").exists()
+
+
+def test_evolve_keeps_a_demonstrations_memory_inputs(tmp_path):
+    """A demonstration recorded with memory inputs evolves a controller that reads them; one
+    whose memory settings do not fit its cases is refused in one line, nothing written."""
+    from lfd_track.controller import Controller
+    from lfd_track.demo.dataset import DemonstrationWriter
+    from lfd_track.teaching.memory import MemoryConfig
+
+    rng = np.random.default_rng(0)
+    library = RoadLibrary()
+    library.learn(rng.integers(0, 255, (480, 640, 3), dtype=np.uint8))
+    memory = MemoryConfig(kind="last_bend")
+
+    def record(path, metadata_memory):
+        metadata = {"track": "training", "road_library": library.to_dict()}
+        if metadata_memory is not None:
+            metadata["memory"] = metadata_memory
+        with DemonstrationWriter(path, metadata, bins=32, fsync=False, n_memory=1) as writer:
+            for i in range(12):
+                writer.append(i % 3, rng.uniform(0, 1, 40), np.zeros((40, 5, 32)), memory=[i % 2])
+
+    good = tmp_path / "memory.lfdemo"
+    record(good, memory.to_dict())
+    out = tmp_path / "c.json"
+    assert main(["--quiet", "evolve", str(good), "--generations", "3", "--out", str(out)]) == 0
+    controller = Controller.load(out)
+    assert controller.memory == memory and controller.n_inputs == 41
+
+    bad = tmp_path / "no-settings.lfdemo"
+    record(bad, None)
+    proc = run_cli("evolve", str(bad), "--out", str(tmp_path / "d.json"))
+    assert proc.returncode == 1 and len(proc.stderr.strip().splitlines()) == 1
+    assert str(bad) in proc.stderr and "bad memory settings" in proc.stderr
+    assert not (tmp_path / "d.json").exists()
 
 
 def test_bad_preset_fails_before_the_benchmark_creates_anything(tmp_path):
