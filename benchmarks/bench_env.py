@@ -19,9 +19,10 @@ OpenCV and the BLAS are pinned (``single_thread.pin_one_thread``), as CarRacing'
 pygame are single-threaded anyway. Targets: lfdtrack / carracing >= 3 and closed_loop /
 carracing >= 1.5.
 
-Also measured: a per-step time budget (physics, texture warp, exposure and tone, vignetting and
-white balance, sensor noise, the rest of the render, the env's bookkeeping, road values, MLP),
-and the throughput of ``gymnasium.make_vec("LfDTrack-v0", num_envs=2,
+Also measured: a per-step time budget taken inside the env's own steps (physics; the camera's
+stages — texture warp, exposure meter, tone curve, vignetting and white balance, sensor noise —
+timed call by call inside each render; the rest of the render; the env's bookkeeping), plus
+road values and the MLP, and the throughput of ``gymnasium.make_vec("LfDTrack-v0", num_envs=2,
 vectorization_mode="async")`` against one env in this process, interleaved the same way.
 
 Run: ``.venv/bin/python benchmarks/bench_env.py [--seconds N] [--rounds R]`` — prints a table and
@@ -231,17 +232,22 @@ def run_for(workload: Workload, seconds: float) -> Sample:
     return Sample(steps, resets, clock() - t0, reset_s, time.process_time() - c0)
 
 
-def component_times(library: RoadLibrary, seed: int, repeats: int) -> dict[str, dict[str, float]]:
-    """Median milliseconds per call of the pieces of a closed-loop step, interleaved.
+def component_times(
+    library: RoadLibrary, seed: int, repeats: int, env_steps: int = 600
+) -> dict[str, dict[str, float]]:
+    """Median milliseconds per call of the pieces of a closed-loop step.
 
-    Whole pieces (physics, render, env step, road values, MLP) are timed through public APIs.
-    Inside the render, the texture warp is the renderer's own homography fed to the same
-    ``cv2.warpPerspective`` call, and the later stages are the same OpenCV calls on arrays of
-    the frame's size: exposure and tone curve (``cvtColor`` + ``LUT``), vignetting and white
-    balance (``multiply``), sensor noise (saturating ``add`` + ``subtract`` of a noise frame).
-    The rest of the render (homography, margin check, exposure meter, Python) and the env's
-    bookkeeping (episode rules, info dict) are what remains of the measured totals. The
-    ``budget`` entries add up to a closed-loop step.
+    The pieces (physics, render, road values, MLP, CarRacing's step) are timed through public
+    APIs, interleaved; so are stand-alone copies of the camera stages: the texture warp (the
+    renderer's own homography fed to the same ``cv2.warpPerspective`` call) and the same OpenCV
+    calls on arrays of the frame's size for exposure and tone curve (``cvtColor`` + ``LUT``),
+    vignetting and white balance (``multiply``) and sensor noise (saturating ``add`` +
+    ``subtract`` of a noise frame). Interleaved, each starts with caches the others evicted.
+    The ``budget`` is measured inside ``env_steps`` consecutive steps of an instrumented env
+    (random actions, resets untimed): physics, each camera stage call by call inside each render,
+    the rest of the render (homography, margin check, Python) and the env's bookkeeping (episode
+    rules, info dict) as what remains of each step; with road values and the MLP it adds up to a
+    closed-loop step.
     """
     rng = np.random.default_rng(seed)
     preset = load_preset("paper")
@@ -334,7 +340,6 @@ def component_times(library: RoadLibrary, seed: int, repeats: int) -> dict[str, 
         "vignetting and white balance": clocked(vignetting_and_white_balance),
         "sensor noise": clocked(sensor_noise),
         "camera render 640x480": clocked(lambda i: renderer.render(ground, poses[i % 8], rng)),
-        "LfDTrack-v0 step": env_step,
         "LfDTrack-v0 reset (no seed)": clocked(lambda i: env.reset()),
         "region histograms": clocked(lambda i: library.region_histograms(frames[i % 8])),
         "road values (100 models)": clocked(lambda i: library.road_values(frames[i % 8])),
@@ -345,8 +350,12 @@ def component_times(library: RoadLibrary, seed: int, repeats: int) -> dict[str, 
     for i in range(repeats):
         for name, piece in pieces.items():
             times[name].append(piece(i))
+    # The env's steps run back to back, as in a training loop (interleaved with the pieces above
+    # every step would start with caches the other pieces had just evicted).
+    times["LfDTrack-v0 step"] = [env_step(i) for i in range(env_steps)]
     env.close()
     racing.close()
+    uninstrument()
     ms = {name: 1e3 * statistics.median(t) for name, t in times.items()}
     # Redrawing the noise and white-balance pools (only when a world is rebuilt) churns ~15 MB;
     # timed after the loop so it does not leave the other pieces with cold caches.
@@ -354,28 +363,18 @@ def component_times(library: RoadLibrary, seed: int, repeats: int) -> dict[str, 
     ms["renderer reset (new pools)"] = 1e3 * statistics.median(
         clocked(lambda i: spare.reset(rng))(i) for i in range(3)
     )
-    render_stages = [
-        "texture warp",
-        "exposure and tone curve",
-        "vignetting and white balance",
-        "sensor noise",
-    ]
     ms["physics inside LfDTrack-v0 step"] = 1e3 * statistics.median(in_env["physics"])
     ms["camera render inside LfDTrack-v0 step"] = 1e3 * statistics.median(in_env["render"])
-    physics = ms["physics inside LfDTrack-v0 step"]
-    render = ms["camera render inside LfDTrack-v0 step"]
-    # The stages are timed on their own; inside the env's step the render takes longer (its
-    # caches are colder), so the stages are scaled to the render time measured there. The env's
-    # bookkeeping is the rest of each step, taken call by call.
-    standalone = ms["camera render 640x480"]
-    scale = render / standalone
+    # Inside the env's steps (renders at reset included), each camera stage's time per render
+    # and what the render spent beyond them (homography, margin check, Python), render by render.
+    stage_keys = [k for k in in_env if k.startswith("stage: ")]
+    rest = [
+        render - sum(in_env[k][i] for k in stage_keys) for i, render in enumerate(in_env["render"])
+    ]
     budget = {
-        "physics": physics,
-        **{name: ms[name] * scale for name in render_stages},
-        "rest of the render (homography, meter, Python)": (
-            standalone - sum(ms[name] for name in render_stages)
-        )
-        * scale,
+        "physics": ms["physics inside LfDTrack-v0 step"],
+        **{k.removeprefix("stage: "): 1e3 * statistics.median(in_env[k]) for k in stage_keys},
+        "rest of the render (homography, margin check, Python)": 1e3 * statistics.median(rest),
         "env bookkeeping (episode rules, info)": 1e3 * statistics.median(bookkeeping),
         "road values": ms["road values (100 models)"],
         "MLP + action": ms["MLP + action"],
@@ -383,13 +382,58 @@ def component_times(library: RoadLibrary, seed: int, repeats: int) -> dict[str, 
     return {"pieces_ms": ms, "closed_loop_step_budget_ms": budget}
 
 
-def instrument(env: gym.Env) -> dict[str, list[float]]:
-    """Record the time of the physics and render calls inside ``env.step`` (and reset).
+#: Camera stage of each OpenCV call the renderer makes (``lfd_track/render/camera.py``).
+CAMERA_STAGES = {
+    "warpPerspective": "texture warp",
+    "remap": "texture warp",
+    "resize": "exposure meter",
+    "mean": "exposure meter",
+    "cvtColor": "tone curve",
+    "LUT": "tone curve",
+    "multiply": "vignetting and white balance",
+    "add": "sensor noise",
+    "subtract": "sensor noise",
+}
 
-    Wraps the env's rover and renderer objects (private attributes: benchmark-only
-    instrumentation). Returns the lists the timings are appended to [s].
+
+class _TimedCv2:
+    """Stands in for ``cv2`` inside the camera module: every call in :data:`CAMERA_STAGES` adds
+    its time to its stage's running total [s]; everything else passes through untouched."""
+
+    def __init__(self, totals: dict[str, float]) -> None:
+        self._totals = totals
+
+    def __getattr__(self, name: str):
+        real = getattr(cv2, name)
+        stage = CAMERA_STAGES.get(name)
+        if stage is None:
+            return real
+        totals = self._totals
+
+        def call(*args, **kwargs):
+            t0 = time.perf_counter()
+            out = real(*args, **kwargs)
+            totals[stage] += time.perf_counter() - t0
+            return out
+
+        return call
+
+
+def instrument(env: gym.Env) -> dict[str, list[float]]:
+    """Record the time of the physics and render calls inside ``env.step`` (and reset), and of
+    each camera stage inside every render (:data:`CAMERA_STAGES`; key ``stage: <name>``).
+
+    Wraps the env's rover and renderer objects and the camera module's ``cv2`` (benchmark-only
+    instrumentation: call :func:`uninstrument` afterwards). Returns the lists the timings are
+    appended to [s], one entry per call.
     """
+    from lfd_track.render import camera as camera_module
+
+    stages = sorted(set(CAMERA_STAGES.values()))
     inner: dict[str, list[float]] = {"physics": [], "render": []}
+    inner.update({f"stage: {name}": [] for name in stages})
+    totals = dict.fromkeys(stages, 0.0)
+    camera_module.cv2 = _TimedCv2(totals)
     base = env.unwrapped
     renderer, rover = base._renderer, base._rover
     render, rover_step = renderer.render, rover.step
@@ -403,9 +447,24 @@ def instrument(env: gym.Env) -> dict[str, list[float]]:
 
         return call
 
-    renderer.render = timed(render, "render")
+    def render_by_stage(*args, **kwargs):
+        for name in stages:
+            totals[name] = 0.0
+        out = timed(render, "render")(*args, **kwargs)
+        for name in stages:
+            inner[f"stage: {name}"].append(totals[name])
+        return out
+
+    renderer.render = render_by_stage
     rover.step = timed(rover_step, "physics")
     return inner
+
+
+def uninstrument() -> None:
+    """Give the camera module its real ``cv2`` back."""
+    from lfd_track.render import camera as camera_module
+
+    camera_module.cv2 = cv2
 
 
 def vector_scaling(seconds: float, rounds: int, seed: int) -> dict:
