@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..commands import Command
+from ..frame import N_REGIONS
 from ..vision.road_library import RoadLibrary
 from .memory import MemoryConfig, memory_for
 
@@ -66,7 +67,7 @@ class Perception:
     @property
     def n_inputs(self) -> int:
         """Length of :attr:`Percept.inputs`: 40 road values plus the memory inputs."""
-        return 40 + self.memory_config.n_inputs
+        return N_REGIONS + self.memory_config.n_inputs
 
     def start_episode(self) -> None:
         """A new episode: the memory forgets (the library does not)."""
