@@ -15,6 +15,7 @@ from ..cli_types import port, share
 from ..cli_types import positive_float as _positive_float
 from ..cli_types import positive_int as _positive_int
 from ..errors import LfdTrackError
+from ..teaching.memory import MEMORY_KINDS
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8765
@@ -129,6 +130,13 @@ def add_teach_parser(subparsers: Any) -> argparse.ArgumentParser:
         default=40,
         metavar="P",
         help="with --online: GA population (default 40, the paper's)",
+    )
+    teach.add_argument(
+        "--memory",
+        choices=MEMORY_KINDS,
+        default="none",
+        help="memory inputs recorded with every case for the policy to read (see the README's"
+        " 'Memory inputs'; default none, the paper's 40 road values)",
     )
     teach.add_argument(
         "--library-only",

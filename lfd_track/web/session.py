@@ -429,12 +429,13 @@ def open_session(args: argparse.Namespace) -> LoopSession:
             "threshold": settings.threshold,
             "population_size": settings.population_size,
         }
+    from ..demo.demonstrator import recording_writer
+    from ..teaching.memory import MemoryConfig
+
+    perception = Perception(RoadLibrary(), "careful", MemoryConfig(kind=args.memory))
     try:
-        library = RoadLibrary()
         # The library is logged as it learns, so a recording cut short still carries it.
-        writer = DemonstrationWriter(
-            out, metadata, library.bins, overwrite=args.force, library=library
-        )
+        writer = recording_writer(out, metadata, perception, fsync=True, overwrite=args.force)
     except BaseException:
         env.close()
         raise
@@ -454,11 +455,11 @@ def open_session(args: argparse.Namespace) -> LoopSession:
     ]
     policy = learner = None
     if args.online:
-        policy, learner = _online_parts(settings, args.seed)
+        policy, learner = _online_parts(settings, args.seed, perception.n_inputs)
         observers.append(learner)
     loop = TeachingLoop(
         env,
-        Perception(library, "careful"),
+        perception,
         Arbiter(
             "takeover" if args.online else "human",
             window=settings.window,
@@ -494,7 +495,9 @@ def open_session(args: argparse.Namespace) -> LoopSession:
         raise
 
 
-def _online_parts(settings: OnlineSettings, seed: int) -> tuple[PolicyCommander, Any]:
+def _online_parts(
+    settings: OnlineSettings, seed: int, n_inputs: int
+) -> tuple[PolicyCommander, Any]:
     """The policy commander and the loop's GA learner feed, which updates its weights."""
     from ..learning.ga import GAConfig
     from ..teaching.learner import GALearnerFeed
@@ -505,5 +508,6 @@ def _online_parts(settings: OnlineSettings, seed: int) -> tuple[PolicyCommander,
         np.random.default_rng(seed),
         settings.generations_per_case,
         policy,
+        n_inputs,
     )
     return policy, learner

@@ -102,6 +102,31 @@ def test_ctrl_c_keeps_what_was_taught_for_evolve(tmp_path: Path, capsys, stop_si
     assert controller.is_file() and "5 cases" in capsys.readouterr().out
 
 
+def test_memory_inputs_are_recorded_and_evolve_into_a_memory_controller(tmp_path: Path) -> None:
+    """``--memory last_bend``: each case carries the side of the last bend before it."""
+    from lfd_track.controller import Controller
+    from lfd_track.teaching.memory import MemoryConfig
+
+    out = tmp_path / "taught.lfdemo"
+    proc, lines = start_teach("--out", str(out), "--memory", "last_bend")
+    try:
+        url = next(line.split("open ", 1)[1].strip() for line in lines if "open http" in line)
+        drive(loopback(url), ["left", "left", "forward", "right", "right", "forward"])
+        proc.send_signal(signal.SIGINT)
+        _, stderr = proc.communicate(timeout=WAIT_S)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0, stderr
+    demo = load_demonstration(out)
+    assert demo.metadata["memory"] == MemoryConfig(kind="last_bend").to_dict()
+    assert demo.memory[:, 0].tolist() == [0.5, 0.5, 1.0, 1.0, 1.0, 0.0]
+    controller = tmp_path / "controller.json"
+    assert main(["evolve", str(out), "--generations", "3", "--out", str(controller)]) == 0
+    assert Controller.load(controller).n_inputs == 41
+
+
 def test_a_crash_keeps_every_case_already_given_for_evolve(tmp_path: Path, capsys) -> None:
     out = tmp_path / "taught.lfdemo"
     proc, lines = start_teach("--out", str(out))
