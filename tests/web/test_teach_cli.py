@@ -9,6 +9,7 @@ import sys
 import time
 import urllib.error
 import urllib.request
+from collections.abc import Callable
 from pathlib import Path
 from urllib.parse import urlsplit
 
@@ -74,25 +75,48 @@ def drive(url: str, commands: list[str]) -> None:
                         break
 
 
-@pytest.mark.parametrize("stop_signal", [signal.SIGINT, signal.SIGTERM])
-def test_ctrl_c_keeps_what_was_taught_for_evolve(tmp_path: Path, capsys, stop_signal) -> None:
-    out = tmp_path / "taught.lfdemo"
-    proc, lines = start_teach("--out", str(out), "--host", "0.0.0.0")
+def teach_and_stop(
+    argv: list[str],
+    commands: list[str],
+    stop_signal: int = signal.SIGINT,
+    before: Callable[[str, list[str]], None] | None = None,
+) -> tuple[str, str, int]:
+    """Run ``lfd-track teach argv``, tap ``commands`` on its page, stop it with ``stop_signal``;
+    returns (stdout, stderr, exit code). ``before(url, lines)`` runs once the printed URL is
+    known, before the first tap."""
+    proc, lines = start_teach(*argv)
     try:
         url = next(line.split("open ", 1)[1].strip() for line in lines if "open http" in line)
-        token = url.split("token=", 1)[1]
-        assert len(token) >= 20 and "token in the URL is required" in "".join(lines)
-        base = loopback(url).split("?")[0]
-        assert http_status(base) == 403 and http_status(base + "api/status") == 403
-        assert http_status(loopback(url)) == 200
-        drive(loopback(url), ["forward", "forward", "left", "forward", "right"])
+        if before is not None:
+            before(url, lines)
+        drive(loopback(url), commands)
         proc.send_signal(stop_signal)
         stdout, stderr = proc.communicate(timeout=WAIT_S)
     finally:
         if proc.poll() is None:
             proc.kill()
             proc.communicate()
-    assert proc.returncode == 0, stderr
+    return stdout, stderr, proc.returncode
+
+
+@pytest.mark.parametrize("stop_signal", [signal.SIGINT, signal.SIGTERM])
+def test_ctrl_c_keeps_what_was_taught_for_evolve(tmp_path: Path, capsys, stop_signal) -> None:
+    out = tmp_path / "taught.lfdemo"
+
+    def token_guards_the_page(url: str, lines: list[str]) -> None:
+        token = url.split("token=", 1)[1]
+        assert len(token) >= 20 and "token in the URL is required" in "".join(lines)
+        base = loopback(url).split("?")[0]
+        assert http_status(base) == 403 and http_status(base + "api/status") == 403
+        assert http_status(loopback(url)) == 200
+
+    stdout, stderr, returncode = teach_and_stop(
+        ["--out", str(out), "--host", "0.0.0.0"],
+        ["forward", "forward", "left", "forward", "right"],
+        stop_signal,
+        before=token_guards_the_page,
+    )
+    assert returncode == 0, stderr
     assert f"{out}: 5 cases (3 forward, 1 left, 1 right)" in stdout
     demo = load_demonstration(out)
     assert demo.metadata["complete"] and demo.n_cases == 5
@@ -108,17 +132,9 @@ def test_memory_inputs_are_recorded_and_evolve_into_a_memory_controller(tmp_path
     from lfd_track.teaching.memory import MemoryConfig
 
     out = tmp_path / "taught.lfdemo"
-    proc, lines = start_teach("--out", str(out), "--memory", "last_bend")
-    try:
-        url = next(line.split("open ", 1)[1].strip() for line in lines if "open http" in line)
-        drive(loopback(url), ["left", "left", "forward", "right", "right", "forward"])
-        proc.send_signal(signal.SIGINT)
-        _, stderr = proc.communicate(timeout=WAIT_S)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
-    assert proc.returncode == 0, stderr
+    commands = ["left", "left", "forward", "right", "right", "forward"]
+    _, stderr, returncode = teach_and_stop(["--out", str(out), "--memory", "last_bend"], commands)
+    assert returncode == 0, stderr
     demo = load_demonstration(out)
     assert demo.metadata["memory"] == MemoryConfig(kind="last_bend").to_dict()
     assert demo.memory[:, 0].tolist() == [0.5, 0.5, 1.0, 1.0, 1.0, 0.0]
