@@ -309,6 +309,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     from .demo.demonstrator import HumanConfig
     from .presets import load_preset
     from .progress import progress_bar
+    from .teaching.memory import MemoryConfig
 
     repetitions = 1 if args.quick and args.repetitions is None else (args.repetitions or 10)
     trials = args.trials or (1 if args.quick else 3)
@@ -317,10 +318,12 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         seed=args.seed,
         trials_per_direction=trials,
         preset=args.preset,
-        human=HumanConfig(careful=not args.careless),
+        human=HumanConfig(careful=not args.careless, turnarounds=args.turnarounds),
         keep_learning=args.keep_learning,
         method=args.method,
         test_tracks=("testing", *args.test_track),
+        memory=MemoryConfig(kind=args.memory),
+        mirror=args.mirror,
     )
     load_preset(args.preset)  # a bad preset or track fails here, before anything is created
     try:
@@ -359,6 +362,8 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------------- parser
 def build_parser() -> argparse.ArgumentParser:
     from .benchmark.methods import METHODS
+    from .teaching.memory import MEMORY_KINDS
+    from .teaching.scripted import TURNAROUND_RULES
 
     """The ``lfd-track`` argument parser."""
     parser = _Parser(
@@ -496,6 +501,25 @@ def build_parser() -> argparse.ArgumentParser:
         help="how each repetition learns: paper (demonstrate, then evolve), online (evolve while"
         " demonstrating, policy takes over, human corrects), hg-dagger (rounds of runs with"
         " interventions), bc, cma-es (default: paper)",
+    )
+    bench.add_argument(
+        "--turnarounds",
+        choices=TURNAROUND_RULES,
+        default="alternate",
+        help="the human's turn-arounds at the training track's ends: alternate (the paper's),"
+        " one_sided, unrecorded, toward_last_bend (default: alternate)",
+    )
+    bench.add_argument(
+        "--memory",
+        choices=MEMORY_KINDS,
+        default="none",
+        help="memory inputs of the policy after the 40 road values: none (the paper's) or"
+        " last_bend (the side of the last bend; pair it with --turnarounds toward_last_bend)",
+    )
+    bench.add_argument(
+        "--mirror",
+        action="store_true",
+        help="learn from the cases and their mirror images (left and right swapped)",
     )
     bench.add_argument(
         "--careless",

@@ -135,6 +135,24 @@ def test_quick_benchmark_writes_results_report_and_plots(tmp_path):
     assert (out / "repetitions" / "rep_00" / "controller.json").is_file()
 
 
+def test_benchmark_runs_the_memory_pipeline_from_flags(tmp_path):
+    """--memory, --turnarounds and --mirror reach the run, its results and its report."""
+    out = tmp_path / "bench"
+    argv = ["--quiet", "benchmark", "--quick", "--workers", "1", "--out", str(out)]
+    argv += ["--memory", "last_bend", "--turnarounds", "toward_last_bend", "--mirror"]
+    assert main(argv) == 0
+    results = json.loads((out / "results.json").read_text())
+    assert results["config"]["memory"] == {"kind": "last_bend", "bend_pivots": 2}
+    assert results["config"]["mirror"] is True
+    assert results["demonstrations"][0]["turnarounds"] == ["right", "left", "right", "left"]
+    controller = json.loads((out / "repetitions" / "rep_00" / "controller.json").read_text())
+    assert controller["schema_version"] == 3 and controller["layer_sizes"] == [41, 5, 3]
+    assert (
+        "**Beyond the paper's pipeline**: the network also reads memory inputs"
+        in (out / "report.md").read_text()
+    )
+
+
 def _without_timing(path: Path) -> dict:
     data = json.loads(path.read_text())
     data.pop("timing_s")

@@ -217,9 +217,23 @@ def write_report_from_results(out: str | Path, results: dict[str, Any]) -> Path:
         extra.append(effort_section(results))
     if results.get("test_tracks"):
         extra.append(test_tracks_section(results["test_tracks"]))
-    if not results.get("config", {}).get("human", {}).get("careful", True):
+    config = results.get("config", {})
+    if not config.get("human", {}).get("careful", True):
         extra.insert(
             0,
             "**Careless demonstrator**: the road library kept learning while the safe box was off the felt.\n",
         )
+    notes = []
+    if config.get("memory"):
+        notes.append(
+            f"the network also reads memory inputs ({config['memory']['kind']},"
+            f" {config['memory']['bend_pivots']} pivots make a bend)"
+        )
+    if config.get("mirror"):
+        notes.append("it learned from its cases and their mirror images")
+    turnarounds = config.get("human", {}).get("turnarounds", "alternate")
+    if turnarounds != "alternate":
+        notes.append(f"the human's turn-arounds were `{turnarounds}`")
+    if notes:
+        extra.insert(0, f"**Beyond the paper's pipeline**: {'; '.join(notes)}.\n")
     return write_report(out, results, extra_sections=extra)
