@@ -346,3 +346,21 @@ def test_online_takeover_then_a_human_command_is_a_correction(
     assert demo.commands.tolist() == [Command.FORWARD] * given + [Command.LEFT]
     assert demo.phases.tolist() == ["drive"] * given + ["correction"]
     assert demo.sources.tolist() == ["demonstration"] * given + ["correction"]
+
+
+def test_online_teaching_with_memory_learns_from_the_wider_input(open_station) -> None:
+    """``--online --memory last_bend``: the cases carry the memory and the GA evolves networks
+    that read it (41 inputs, 220 weights)."""
+    station = open_station("--online", "--memory", "last_bend", "--population", "10")
+    session = station.session
+    commands = ["right", "right", "forward", "forward"]
+    with connect(station.url.replace("http", "ws") + "ws", proxy=None, max_queue=None) as ws:
+        for given, command in enumerate(commands, start=1):
+            ws.send(json.dumps({"type": "press", "command": command}))
+            ws.send(json.dumps({"type": "release"}))
+            status = settled(session, given)
+    assert status["generation"] is not None and status["generation"] > 0
+    assert session.learner.state.population.shape == (10, 220)
+    session.close()
+    demo = load_demonstration(station.out)
+    assert demo.memory[:, 0].tolist() == [0.5, 0.5, 0.0, 0.0]
