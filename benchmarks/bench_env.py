@@ -351,11 +351,18 @@ def component_times(
         for name, piece in pieces.items():
             times[name].append(piece(i))
     # The env's steps run back to back, as in a training loop (interleaved with the pieces above
-    # every step would start with caches the other pieces had just evicted).
-    times["LfDTrack-v0 step"] = [env_step(i) for i in range(env_steps)]
+    # every step would start with caches the other pieces had just evicted), with the camera's
+    # OpenCV calls timed one by one only here.
+    for timings in in_env.values():
+        timings.clear()
+    bookkeeping.clear()
+    time_camera_stages(True)
+    try:
+        times["LfDTrack-v0 step"] = [env_step(i) for i in range(env_steps)]
+    finally:
+        time_camera_stages(False)
     env.close()
     racing.close()
-    uninstrument()
     ms = {name: 1e3 * statistics.median(t) for name, t in times.items()}
     # Redrawing the noise and white-balance pools (only when a world is rebuilt) churns ~15 MB;
     # timed after the loop so it does not leave the other pieces with cold caches.
@@ -367,7 +374,8 @@ def component_times(
     ms["camera render inside LfDTrack-v0 step"] = 1e3 * statistics.median(in_env["render"])
     # Inside the env's steps (renders at reset included), each camera stage's time per render
     # and what the render spent beyond them (homography, margin check, Python), render by render.
-    stage_keys = [k for k in in_env if k.startswith("stage: ")]
+    # Stages this preset never runs (motion blur, JPEG) are left out.
+    stage_keys = [k for k in in_env if k.startswith("stage: ") and any(in_env[k])]
     rest = [
         render - sum(in_env[k][i] for k in stage_keys) for i, render in enumerate(in_env["render"])
     ]
@@ -385,7 +393,11 @@ def component_times(
 #: Camera stage of each OpenCV call the renderer makes (``lfd_track/render/camera.py``).
 CAMERA_STAGES = {
     "warpPerspective": "texture warp",
-    "remap": "texture warp",
+    "remap": "texture warp",  # a distorted lens: its floor map moved by cv2.transform, then remap
+    "transform": "texture warp",
+    "filter2D": "motion blur",  # only with the sensor's motion_blur on (not in the paper preset)
+    "imencode": "JPEG round trip",  # only with jpeg_quality > 0
+    "imdecode": "JPEG round trip",
     "resize": "exposure meter",
     "mean": "exposure meter",
     "cvtColor": "tone curve",
@@ -419,21 +431,30 @@ class _TimedCv2:
         return call
 
 
-def instrument(env: gym.Env) -> dict[str, list[float]]:
-    """Record the time of the physics and render calls inside ``env.step`` (and reset), and of
-    each camera stage inside every render (:data:`CAMERA_STAGES`; key ``stage: <name>``).
+_STAGE_TOTALS: dict[str, float] = dict.fromkeys(sorted(set(CAMERA_STAGES.values())), 0.0)
+"""Seconds per camera stage in the render now running (while :func:`time_camera_stages` is on)."""
 
-    Wraps the env's rover and renderer objects and the camera module's ``cv2`` (benchmark-only
-    instrumentation: call :func:`uninstrument` afterwards). Returns the lists the timings are
-    appended to [s], one entry per call.
-    """
+
+def time_camera_stages(on: bool) -> None:
+    """Time the camera module's OpenCV calls stage by stage (``on``), or give it back the real
+    ``cv2`` (benchmark-only instrumentation)."""
     from lfd_track.render import camera as camera_module
 
-    stages = sorted(set(CAMERA_STAGES.values()))
+    camera_module.cv2 = _TimedCv2(_STAGE_TOTALS) if on else cv2
+
+
+def instrument(env: gym.Env) -> dict[str, list[float]]:
+    """Record the time of the physics and render calls inside ``env.step`` (and reset), and of
+    each camera stage inside every render (:data:`CAMERA_STAGES`; key ``stage: <name>``; zero
+    unless :func:`time_camera_stages` is on).
+
+    Wraps the env's rover and renderer objects (private attributes: benchmark-only
+    instrumentation). Returns the lists the timings are appended to [s], one entry per call.
+    """
+    stages = sorted(_STAGE_TOTALS)
     inner: dict[str, list[float]] = {"physics": [], "render": []}
     inner.update({f"stage: {name}": [] for name in stages})
-    totals = dict.fromkeys(stages, 0.0)
-    camera_module.cv2 = _TimedCv2(totals)
+    totals = _STAGE_TOTALS
     base = env.unwrapped
     renderer, rover = base._renderer, base._rover
     render, rover_step = renderer.render, rover.step
@@ -458,13 +479,6 @@ def instrument(env: gym.Env) -> dict[str, list[float]]:
     renderer.render = render_by_stage
     rover.step = timed(rover_step, "physics")
     return inner
-
-
-def uninstrument() -> None:
-    """Give the camera module its real ``cv2`` back."""
-    from lfd_track.render import camera as camera_module
-
-    camera_module.cv2 = cv2
 
 
 def vector_scaling(seconds: float, rounds: int, seed: int) -> dict:

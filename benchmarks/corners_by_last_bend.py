@@ -4,7 +4,8 @@ For every lap of a loop other than the training track, each corner the lap arriv
 one class: ``first`` (no corner before it in the lap, so a last-bend memory holds nothing yet),
 ``same`` (the corner before it in the lap turns the same way) or ``other`` (it turns the other
 way). A lap arrives at a corner when it negotiated every corner before it; its first corner not
-negotiated is where it failed. This is what a memory of the last bend can and cannot help with
+negotiated is where it failed (the benchmark's own counting: a lap that turns back on the
+straight after a corner is charged to the next corner). This is what a memory of the last bend can and cannot help with
 (``lfd_track/teaching/memory.py``): it points the right way at ``same`` corners only.
 
 Run: ``.venv/bin/python benchmarks/corners_by_last_bend.py STUDY_OUT_DIR [--track NAME ...]`` —

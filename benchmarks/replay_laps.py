@@ -4,7 +4,9 @@ Learns the repetition's controller exactly as the benchmark runner does (same se
 repetition's demonstration, learning and trial seeds are spawned from the benchmark seed), then
 drives the runs of one track and direction again with the same world seeds and prints, for every
 run, its outcome and, for the failed ones, the last steps before the end: step, command, memory
-inputs (if any) and pose. The outcomes match the repetition's ``results.json``.
+inputs (if any) and pose. With the same settings as the benchmark or study job (``--test-tracks``
+as its test tracks, in the same order: they decide the world seeds), the outcomes are the ones
+in its ``results.json``; each run's line shows the outcome the relearned repetition recorded.
 
 Run, e.g. for the clockwise testing-track laps of repetition 0 of ``goal_confirm_4``'s seed 0::
 
@@ -47,14 +49,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=0, help="benchmark seed")
     parser.add_argument("--repetitions", type=int, default=10, help="of the benchmark run")
     parser.add_argument("--repetition", type=int, default=0, help="which one to replay")
-    parser.add_argument("--track", default="testing")
+    parser.add_argument("--track", default="testing", help="the track whose runs are replayed")
+    parser.add_argument(
+        "--test-tracks",
+        nargs="+",
+        default=None,
+        help="the job's test tracks in its order (default: testing, then --track if another)",
+    )
     parser.add_argument("--direction", default="cw", help="cw / ccw, or direction_1 / _2")
     parser.add_argument("--last", type=int, default=40, help="steps shown before a failure")
     args = parser.parse_args(argv)
     if not 0 <= args.repetition < args.repetitions:
         parser.error("--repetition must be in 0..repetitions-1")
 
-    extra = () if args.track in ("training", "testing") else (args.track,)
+    if args.test_tracks is not None:
+        tracks = tuple(args.test_tracks)
+    else:
+        tracks = ("testing",) if args.track in ("training", "testing") else ("testing", args.track)
     config = BenchmarkConfig(
         repetitions=args.repetitions,
         seed=args.seed,
@@ -63,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
         human=HumanConfig(turnarounds=args.turnarounds),
         memory=MemoryConfig(kind=args.memory),
         mirror=args.mirror,
-        test_tracks=("testing", *extra),
+        test_tracks=tracks,
     )
     seed = repetition_seeds(config.seed, config.repetitions)[args.repetition]
     with tempfile.TemporaryDirectory() as work:
@@ -99,7 +110,7 @@ def main(argv: list[str] | None = None) -> int:
             print(
                 f"{track} {direction} run {trial}: {'success' if info['success'] else failure}"
                 f" after {steps} steps; corners negotiated {info['corners_negotiated']}"
-                f" (results.json: {'success' if recorded[trial].success else recorded[trial].failure})"
+                f" (recorded: {'success' if recorded[trial].success else recorded[trial].failure})"
             )
             if not info["success"]:
                 print("  step command memory pose (x, y, heading)")

@@ -465,7 +465,14 @@ def learn_hg_dagger(
         reasons: dict[str, int] = {}
         human_rng = np.random.default_rng(int(round_rng.integers(2**62)))
         path = rep_dir / f"interventions_r{r}.lfdemo"
-        metadata = {"kind": "simulated", "method": "hg-dagger", "round": r, "bins": library.bins}
+        metadata: dict[str, Any] = {
+            "kind": "simulated",
+            "method": "hg-dagger",
+            "round": r,
+            "bins": library.bins,
+        }
+        if controller.memory is not None:
+            metadata["memory"] = controller.memory.to_dict()
         with DemonstrationWriter(
             path,
             metadata,

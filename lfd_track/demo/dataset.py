@@ -819,7 +819,9 @@ def _check_header(path: Path, header: dict[str, Any]) -> tuple[int, int, dict[st
     meta = header.get("metadata")
     if not isinstance(meta, dict):
         raise _fail(path, "header metadata must be a JSON object")
-    n_memory = header.get("n_memory", 0) if schema >= SCHEMA_WITH_MEMORY else 0
+    if schema < SCHEMA_WITH_MEMORY and "n_memory" in header:
+        raise _fail(path, f"a schema {schema} header cannot declare n_memory (memory is schema 3)")
+    n_memory = header.get("n_memory") if schema >= SCHEMA_WITH_MEMORY else 0
     if (
         not isinstance(n_memory, int)
         or isinstance(n_memory, bool)
@@ -848,7 +850,9 @@ def _decode_case(
     expected = fixed.size + phase_len + 8 * (N_VALUES + n_memory) + 4 * N_VALUES * N_CHANNELS * bins
     if len(payload) != expected:
         raise _fail(
-            path, f"{where}: record is {len(payload)} bytes, expected {expected} for {bins} bins"
+            path,
+            f"{where}: record is {len(payload)} bytes, expected {expected} for {bins} bins"
+            + (f" and {n_memory} memory inputs" if n_memory else ""),
         )
     if command not in (0, 1, 2):
         raise _fail(path, f"{where}: command {command} is not 0, 1 or 2")

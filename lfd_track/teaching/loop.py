@@ -129,23 +129,37 @@ class TeachingLoop:
         """The env reported a terminal state (failure, success, a hardware fault)."""
         self._episode_steps = 0
 
-    def attach(self, frame: np.ndarray, info: dict[str, Any] | None = None) -> None:
-        """Start from an env the caller already reset (its first frame and info)."""
+    def attach(
+        self, frame: np.ndarray, info: dict[str, Any] | None = None, *, keep_memory: bool = False
+    ) -> None:
+        """Start from an env the caller already reset (its first frame and info).
+
+        ``keep_memory``: the robot was not moved (e.g. a real robot re-armed after a stop where
+        it stands), so the perception's memory inputs carry on instead of starting afresh.
+        """
         self.frame, self.info = frame, dict(info or {})
         self.episode_over = self.terminated = False
         self._episode_steps = 0
         self.arbiter.reset()
-        self.perception.start_episode()
+        if not keep_memory:
+            self.perception.start_episode()
         for part in (self.human, self.policy):
             if part is not None:
                 part.reset()
         for observer in self.observers:
             observer.start(self.info)
 
-    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None) -> None:
-        """Reset the env and every part's per-episode state."""
+    def reset(
+        self,
+        seed: int | None = None,
+        options: dict[str, Any] | None = None,
+        *,
+        keep_memory: bool = False,
+    ) -> None:
+        """Reset the env and every part's per-episode state (the memory too, unless
+        ``keep_memory``; see :meth:`attach`)."""
         frame, info = self.env.reset(seed=seed, options=options)
-        self.attach(frame, info)
+        self.attach(frame, info, keep_memory=keep_memory)
 
     @property
     def done(self) -> bool:

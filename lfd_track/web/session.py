@@ -322,7 +322,8 @@ class LoopSession:
             started = time.monotonic()
             try:
                 if rearm:  # a command after a stop: clear the e-stop, take a fresh frame
-                    self.loop.reset(options=self._rearm_options)
+                    # The robot stands where it stopped: the same run, the same memory.
+                    self.loop.reset(options=self._rearm_options, keep_memory=True)
                 step = self.loop.step()
                 if self.loop.episode_over:
                     self._episode_ended()
@@ -432,8 +433,8 @@ def open_session(args: argparse.Namespace) -> LoopSession:
     from ..demo.demonstrator import recording_writer
     from ..teaching.memory import MemoryConfig
 
-    perception = Perception(RoadLibrary(), "careful", MemoryConfig(kind=args.memory))
     try:
+        perception = Perception(RoadLibrary(), "careful", MemoryConfig(kind=args.memory))
         # The library is logged as it learns, so a recording cut short still carries it.
         writer = recording_writer(out, metadata, perception, fsync=True, overwrite=args.force)
     except BaseException:

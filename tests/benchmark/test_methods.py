@@ -167,6 +167,36 @@ def test_hg_dagger_adds_intervention_cases_every_round(tmp_path):
     np.testing.assert_array_equal(again.controller.weights, learned.controller.weights)
 
 
+def test_hg_dagger_with_memory_keeps_it_in_every_file(tmp_path):
+    """Memory runs: the demonstration, each round's interventions and the controller carry the
+    memory settings (the demonstration, which holds the road library, evolves on its own)."""
+    from lfd_track.cli import main
+    from lfd_track.controller import Controller
+    from lfd_track.teaching.memory import MemoryConfig
+
+    demo_seed, ga_seed, _ = _seeds(0)
+    memory = MemoryConfig(kind="last_bend")
+    learned = learn_hg_dagger(
+        tmp_path,
+        demo_seed=demo_seed,
+        ga_seed=ga_seed,
+        preset="paper",
+        human=HumanConfig(turnarounds="toward_last_bend"),
+        ga=GAConfig(generations=10),
+        hg=HGDaggerConfig(rounds=1),
+        memory=memory,
+        mirror=True,
+    )
+    assert learned.controller.memory == memory
+    for name in ("demonstration.lfdemo", "interventions_r1.lfdemo"):
+        demo = load_demonstration(tmp_path / name)
+        assert demo.metadata["memory"] == memory.to_dict() and demo.memory.shape[1] == 1
+    out = tmp_path / "controller.json"
+    assert main(["--quiet", "evolve", str(tmp_path / "demonstration.lfdemo"),
+                 "--generations", "2", "--out", str(out)]) == 0  # fmt: skip
+    assert Controller.load(out).memory == memory
+
+
 def test_method_settings_round_trip_and_refuse_unknown_keys():
     online = OnlineConfig(window=6, threshold=0.5)
     assert OnlineConfig.from_dict(online.to_dict()) == online

@@ -273,3 +273,56 @@ def test_runs_without_memory_store_the_settings_they_stored_before():
 
     assert "memory" not in config_dict(BenchmarkConfig())
     assert config_dict(BenchmarkConfig(memory=LAST_BEND))["memory"] == LAST_BEND.to_dict()
+
+
+def test_a_reset_in_place_keeps_the_memory():
+    """A real robot re-armed where it stopped (``keep_memory``) goes on with the same memory; a
+    plain reset (a new run) forgets it."""
+    env = LfDTrackEnv(track="training", max_steps=50)
+    human = QueueCommander()
+    loop = TeachingLoop(
+        env, Perception(_library(), "frozen", LAST_BEND), Arbiter("human"), human=human
+    )
+    loop.reset(seed=3)
+    for command in (L, L):
+        human.push(command)
+        loop.step()
+    loop.reset(keep_memory=True)
+    human.push(F)
+    assert loop.step().percept.memory.tolist() == [1.0]
+    loop.reset()
+    human.push(F)
+    assert loop.step().percept.memory.tolist() == [UNKNOWN_SIDE]
+    env.close()
+
+
+@pytest.mark.parametrize(
+    ("schema", "extra", "problem"),
+    [
+        (2, {"n_memory": 1}, "a schema 2 header cannot declare n_memory"),
+        (3, {}, "header n_memory must be an integer in 1..16, got None"),
+        (3, {"n_memory": 0}, "header n_memory must be an integer in 1..16, got 0"),
+        (3, {"n_memory": True}, "header n_memory must be an integer in 1..16, got True"),
+    ],
+)
+def test_a_header_must_declare_memory_inputs_exactly_when_schema_3(
+    tmp_path, schema, extra, problem
+):
+    from lfd_track.demo import dataset
+
+    header = {
+        "format": dataset.FORMAT_NAME,
+        "schema": schema,
+        "bins": 4,
+        "n_values": 40,
+        "n_channels": 5,
+        "metadata": {},
+        "initial_road_library": None,
+        **extra,
+    }
+    path = tmp_path / "h.lfdemo"
+    record = dataset._frame(dataset._KIND_HEADER, dataset._json_bytes(header, "header"))
+    path.write_bytes(dataset._MAGIC + record)
+    with pytest.raises(FileFormatError, match=problem) as error:
+        load_demonstration(path)
+    assert "h.lfdemo" in str(error.value) and "\n" not in str(error.value)
