@@ -26,9 +26,10 @@ from lfd_track.benchmark.methods import METHODS
 from lfd_track.benchmark.runner import (
     BenchmarkConfig,
     repetition_seeds,
+    repetition_streams,
     run_repetition,
     run_trial,
-    trial_directions,
+    trial_worlds,
 )
 from lfd_track.controller import Controller
 from lfd_track.demo.demonstrator import HumanConfig
@@ -86,12 +87,8 @@ def main(argv: list[str] | None = None) -> int:
     if not recorded:
         parser.error(f"no runs on {args.track} {args.direction} in this benchmark")
 
-    # The runner's world seeds: one per direction, drawn in the runner's order.
-    rng = np.random.default_rng(seed)
-    _, _, trial_seed = (int(x) for x in rng.integers(0, 2**62, size=3))
-    trial_rng = np.random.default_rng(trial_seed)
-    for track, reverse, direction in trial_directions(config.test_tracks):
-        env_seed = int(trial_rng.integers(0, 2**62))
+    _, _, trial_seed = repetition_streams(seed)
+    for track, reverse, direction, env_seed in trial_worlds(trial_seed, config.test_tracks):
         if (track, direction) != (args.track, args.direction):
             continue
         env = LfDTrackEnv(track=track, reverse=reverse, preset=config.preset)

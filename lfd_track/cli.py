@@ -130,27 +130,6 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 
 # --------------------------------------------------------------------------------- evolve
-def _demonstration_memory(path: str, demo: Any) -> Any:
-    """The memory settings a demonstration's cases were recorded with (None: no memory inputs);
-    a file whose settings do not match its cases is refused in one line."""
-    from .teaching.memory import MemoryConfig
-
-    n_memory = demo.memory.shape[1]
-    settings = demo.metadata.get("memory")
-    if settings is None and n_memory == 0:
-        return None
-    try:
-        memory = MemoryConfig.from_dict(settings)
-    except ValueError as exc:
-        raise LfdTrackError(f"{_shown(path)}: bad memory settings ({exc})") from None
-    if memory.n_inputs != n_memory:
-        raise LfdTrackError(
-            f"{_shown(path)}: memory settings '{memory.kind}' need {memory.n_inputs} memory"
-            f" inputs per case, the cases hold {n_memory}"
-        )
-    return memory
-
-
 def _cmd_evolve(args: argparse.Namespace) -> int:
     import numpy as np
 
@@ -175,7 +154,10 @@ def _cmd_evolve(args: argparse.Namespace) -> int:
         library = RoadLibrary.from_dict(library_dict)
     except (ValueError, KeyError, TypeError) as exc:
         raise LfdTrackError(f"{_shown(args.demo)}: bad road library ({exc})") from None
-    memory = _demonstration_memory(args.demo, demo)
+    try:
+        memory = demo.memory_settings()
+    except ValueError as exc:
+        raise LfdTrackError(f"{_shown(args.demo)}: {exc}") from None
     config = GAConfig(generations=args.generations, elitism=args.elitism)
     with progress_bar(
         config.generations, "evolving", unit=" generations", enabled=not args.quiet

@@ -31,11 +31,11 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .atomic import atomic_write_text
-from .control.mlp import N_INPUTS, layer_sizes, mlp_forward, n_weights, select_action
+from .control.mlp import layer_sizes, mlp_forward, n_weights, select_action
 from .errors import FileFormatError
 from .files import read_regular_text
 from .teaching.commanders import PolicyCommander
-from .teaching.memory import MemoryConfig
+from .teaching.memory import MemoryConfig, policy_inputs
 from .teaching.perception import Perception
 from .vision.road_library import RoadLibrary
 
@@ -121,7 +121,7 @@ class Controller:
         memory: MemoryConfig | None = None,
     ) -> None:
         memory = None if memory is None or memory.kind == "none" else memory
-        n_inputs = N_INPUTS + (0 if memory is None else memory.n_inputs)
+        n_inputs = policy_inputs(memory)
         w = np.array(weights, dtype=np.float64, copy=True)
         if w.shape != (n_weights(bias, n_inputs),):
             raise ValueError(
@@ -191,7 +191,7 @@ class Controller:
     @property
     def n_inputs(self) -> int:
         """Inputs of the network: 40 road values plus the memory inputs."""
-        return N_INPUTS + (0 if self.memory is None else self.memory.n_inputs)
+        return policy_inputs(self.memory)
 
     def perception(self, rule: str | None = None) -> Perception:
         """A perception for driving with this controller: its library, ``rule`` (default:
@@ -325,7 +325,7 @@ class Controller:
             memory = MemoryConfig.from_dict(data["memory"])
             if memory.kind == "none":
                 raise ValueError("a schema 3 controller must name its memory kind")
-        expected = list(layer_sizes(N_INPUTS + (0 if memory is None else memory.n_inputs)))
+        expected = list(layer_sizes(policy_inputs(memory)))
         if data["layer_sizes"] != expected:
             raise ValueError(
                 f"layer_sizes {data['layer_sizes']!r} not supported (expected {expected})"

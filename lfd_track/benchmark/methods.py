@@ -37,7 +37,7 @@ import numpy as np
 
 from ..config import DictConfig
 from ..controller import Controller
-from ..demo.dataset import Demonstration, DemonstrationWriter, load_demonstration
+from ..demo.dataset import Demonstration, load_demonstration
 from ..demo.demonstrator import (
     DemonstrationSummary,
     HumanConfig,
@@ -465,21 +465,14 @@ def learn_hg_dagger(
         reasons: dict[str, int] = {}
         human_rng = np.random.default_rng(int(round_rng.integers(2**62)))
         path = rep_dir / f"interventions_r{r}.lfdemo"
-        metadata: dict[str, Any] = {
-            "kind": "simulated",
-            "method": "hg-dagger",
-            "round": r,
-            "bins": library.bins,
-        }
-        if controller.memory is not None:
-            metadata["memory"] = controller.memory.to_dict()
-        with DemonstrationWriter(
+        metadata = {"kind": "simulated", "method": "hg-dagger", "round": r, "bins": library.bins}
+        with recording_writer(
             path,
             metadata,
-            bins=library.bins,
+            controller.perception("frozen"),
             fsync=False,
             overwrite=True,
-            n_memory=controller.n_inputs - 40,
+            log_library=False,  # the library is the demonstration's, frozen: nothing to log
         ) as w:
             for reverse in (False, True):
                 env = LfDTrackEnv(track="training", reverse=reverse, preset=preset)

@@ -142,6 +142,23 @@ def repetition_seeds(seed: int, repetitions: int) -> list[int]:
     return [int(c.generate_state(1, dtype=np.uint64)[0] >> np.uint64(1)) for c in children]
 
 
+def repetition_streams(seed: int) -> tuple[int, int, int]:
+    """(demonstration, learning, trials) seeds of the repetition with seed ``seed``."""
+    rng = np.random.default_rng(seed)
+    demo_seed, ga_seed, trial_seed = (int(x) for x in rng.integers(0, 2**62, size=3))
+    return demo_seed, ga_seed, trial_seed
+
+
+def trial_worlds(trial_seed: int, test_tracks: tuple[str, ...]) -> list[tuple[str, bool, str, int]]:
+    """(track, reverse, direction, world seed) of every trial direction, in the order they are
+    run: each direction's floor is built once, from its own seed drawn from ``trial_seed``."""
+    rng = np.random.default_rng(trial_seed)
+    return [
+        (track, reverse, direction, int(rng.integers(0, 2**62)))
+        for track, reverse, direction in trial_directions(test_tracks)
+    ]
+
+
 def run_trial(
     env: LfDTrackEnv,
     controller: Controller,
@@ -184,8 +201,7 @@ def run_repetition(
     import cv2
 
     cv2.setNumThreads(1)  # one repetition per core; OpenCV's own threads would only contend
-    rng = np.random.default_rng(seed)
-    demo_seed, ga_seed, trial_seed = (int(x) for x in rng.integers(0, 2**62, size=3))
+    demo_seed, ga_seed, trial_seed = repetition_streams(seed)
     rep_dir = Path(work_dir) / f"rep_{index:02d}"
     rep_dir.mkdir(parents=True, exist_ok=True)
     timing: dict[str, float] = {}
@@ -216,11 +232,9 @@ def run_repetition(
 
     t0 = time.perf_counter()
     outcomes: list[TrialOutcome] = []
-    trial_rng = np.random.default_rng(trial_seed)
-    for track, reverse, direction in trial_directions(config.test_tracks):
+    for track, reverse, direction, env_seed in trial_worlds(trial_seed, config.test_tracks):
         env = LfDTrackEnv(track=track, reverse=reverse, preset=config.preset)
         corner_order = tuple(c.label for c in env.track.corners)
-        env_seed = int(trial_rng.integers(0, 2**62))
         for trial in range(config.trials_per_direction):
             # The floor is built once per direction (seeded); later trials redraw the rover,
             # exposure and noise from the env's own stream.

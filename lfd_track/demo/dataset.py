@@ -76,6 +76,7 @@ from ..atomic import atomic_write_bytes
 from ..commands import Command
 from ..errors import FileFormatError
 from ..files import read_regular_file
+from ..teaching.memory import MemoryConfig
 from ..vision.road_library import LibraryChange, LibraryLearned, RoadLibrary
 
 SCHEMA_VERSION = 2
@@ -198,6 +199,27 @@ class Demonstration:
             return RoadLibrary.from_dict(data)
         except (ValueError, KeyError, TypeError) as exc:
             raise ValueError(f"bad road library ({exc})") from None
+
+    def memory_settings(self) -> MemoryConfig | None:
+        """The memory settings the cases' memory inputs were recorded with (None: no memory).
+
+        Raises ValueError if the stored settings are bad or do not fit the cases' memory inputs.
+        """
+        assert self.memory is not None
+        n_memory = self.memory.shape[1]
+        settings = self.metadata.get("memory")
+        if settings is None and n_memory == 0:
+            return None
+        try:
+            memory = MemoryConfig.from_dict(settings)
+        except ValueError as exc:
+            raise ValueError(f"bad memory settings ({exc})") from None
+        if memory.n_inputs != n_memory:
+            raise ValueError(
+                f"memory settings '{memory.kind}' need {memory.n_inputs} memory inputs per case,"
+                f" the cases hold {n_memory}"
+            )
+        return memory
 
 
 # --------------------------------------------------------------------------- encoding

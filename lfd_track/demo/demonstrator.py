@@ -89,9 +89,11 @@ def recording_writer(
     *,
     fsync: bool,
     overwrite: bool,
+    log_library: bool = True,
 ) -> DemonstrationWriter:
-    """A writer for a recording through ``perception``: it logs the perception's road library,
-    adds its memory settings (if any) to ``metadata`` and carries its memory inputs per case."""
+    """A writer for a recording through ``perception``: it logs the perception's road library
+    (unless ``log_library`` is False), adds its memory settings (if any) to ``metadata`` and
+    carries its memory inputs per case."""
     memory = perception.memory_config
     if memory.kind != "none":
         metadata = {**metadata, "memory": memory.to_dict()}
@@ -101,7 +103,7 @@ def recording_writer(
         bins=perception.library.bins,
         fsync=fsync,
         overwrite=overwrite,
-        library=perception.library,
+        library=perception.library if log_library else None,
         n_memory=memory.n_inputs,
     )
 

@@ -34,9 +34,9 @@ def mirror_cases(
     x = np.asarray(inputs, dtype=np.float64)
     a = np.asarray(actions, dtype=np.intp)
     memory = memory or MemoryConfig()
-    if x.ndim != 2 or x.shape[1] != N_REGIONS + memory.n_inputs:
+    if x.ndim != 2 or x.shape[1] != memory.policy_inputs:
         raise ValueError(
-            f"inputs must have shape (N, {N_REGIONS + memory.n_inputs}) for memory"
+            f"inputs must have shape (N, {memory.policy_inputs}) for memory"
             f" {memory.kind!r}, got {x.shape}"
         )
     road = x[:, :N_REGIONS].reshape(-1, GRID_ROWS, GRID_COLUMNS)[:, :, ::-1]

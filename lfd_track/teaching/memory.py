@@ -28,6 +28,7 @@ import numpy as np
 
 from ..commands import Command
 from ..config import DictConfig
+from ..frame import N_REGIONS
 
 MEMORY_KINDS = ("none", "last_bend")
 #: Value of the ``last_bend`` input before the first bend of an episode.
@@ -59,6 +60,11 @@ class MemoryConfig(DictConfig):
     def n_inputs(self) -> int:
         """Inputs the memory adds after the 40 road values."""
         return 0 if self.kind == "none" else 1
+
+    @property
+    def policy_inputs(self) -> int:
+        """Inputs of a network with this memory: the 40 road values plus :attr:`n_inputs`."""
+        return N_REGIONS + self.n_inputs
 
     def mirror(self, inputs: np.ndarray) -> np.ndarray:
         """Memory inputs (N, m) as they would be in a world flipped left to right."""
@@ -105,6 +111,11 @@ class TurnMemory:
     def inputs(self) -> np.ndarray:
         """The memory inputs now, (1,) float64."""
         return np.array([self.side])
+
+
+def policy_inputs(config: MemoryConfig | None) -> int:
+    """Inputs of a network with memory ``config`` (None: no memory, the paper's 40)."""
+    return (config or MemoryConfig()).policy_inputs
 
 
 def memory_for(config: MemoryConfig | None) -> TurnMemory | None:

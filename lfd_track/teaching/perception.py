@@ -18,11 +18,11 @@ only :meth:`Perception.perceive`, the loop's learn step, does.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
 from ..commands import Command
-from ..frame import N_REGIONS
 from ..vision.road_library import RoadLibrary
 from .memory import MemoryConfig, memory_for
 
@@ -44,9 +44,10 @@ class Percept:
     memory: np.ndarray = field(default_factory=lambda: np.zeros(0))
     """Memory inputs at this frame, (m,) float64 (m = 0 without memory)."""
 
-    @property
+    @cached_property
     def inputs(self) -> np.ndarray:
-        """The policy's inputs: the road values, then the memory inputs, (40 + m,) float64."""
+        """The policy's inputs: the road values, then the memory inputs, (40 + m,) float64
+        (joined once, on first use)."""
         if not len(self.memory):
             return self.values
         return np.concatenate([self.values, self.memory])
@@ -67,7 +68,7 @@ class Perception:
     @property
     def n_inputs(self) -> int:
         """Length of :attr:`Percept.inputs`: 40 road values plus the memory inputs."""
-        return N_REGIONS + self.memory_config.n_inputs
+        return self.memory_config.policy_inputs
 
     def start_episode(self) -> None:
         """A new episode: the memory forgets (the library does not)."""
