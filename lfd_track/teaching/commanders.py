@@ -31,9 +31,11 @@ class Commander(Protocol):
 
 
 # Optional members a commander may have, read by the loop with getattr:
-#   has_input -> bool: False means propose() would certainly return None now; a loop where only
-#       the human drives then waits without perceiving the frame (so waiting never teaches the
-#       library the same frame twice).
+#   claim() -> bool: called by a loop where only the human drives, before it perceives. False
+#       means propose() would certainly return None now: the loop waits without perceiving the
+#       frame (so waiting never teaches the library the same frame twice). True reserves the
+#       input: the next propose() returns it, even if another thread changes the input in
+#       between (so a perceived frame is always followed by its command).
 #   records -> bool: whether the command just proposed is a teaching case (default True).
 #   finished(info) -> bool: a scripted human whose script is over ends the loop's run().
 
@@ -84,10 +86,11 @@ class QueueCommander:
         self.taken = 0
         """Commands handed to the loop so far."""
 
-    @property
-    def has_input(self) -> bool:
-        """Whether a pushed command waits (with none, a human-only loop does not even look)."""
-        return self._pending is not None
+    def claim(self) -> bool:
+        """Whether a pushed command waits (with none, a human-only loop does not even look).
+        Only :meth:`propose` takes it, so it stays reserved: a later push only replaces it."""
+        with self._lock:
+            return self._pending is not None
 
     @property
     def records(self) -> bool:

@@ -173,8 +173,10 @@ class TeachingLoop:
         """Perceive the current frame, ask the commanders, execute the arbiter's command."""
         if self.frame is None:
             raise RuntimeError("call reset() before step()")
-        if self.arbiter.driving == "human" and not getattr(self.human, "has_input", True):
-            return self._waiting()
+        if self.arbiter.driving == "human":
+            claim = getattr(self.human, "claim", None)
+            if claim is not None and not claim():
+                return self._waiting()
         percept = self.perception.perceive(self.frame, self.info.get("safe_box_on_felt"))
         moment = Moment(
             step=self._episode_steps,

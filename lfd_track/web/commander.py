@@ -31,6 +31,7 @@ class BrowserCommander:
         self._lock = threading.Lock()
         self._queue: deque[Command] = deque(maxlen=MAX_QUEUED)
         self._held: Command | None = None
+        self._claimed: Command | None = None
         self.library_only = int(library_only)
         self.given = 0
         """Commands handed to the loop so far."""
@@ -63,26 +64,39 @@ class BrowserCommander:
             self._held = None
 
     def clear(self) -> None:
-        """Forget queued and held commands (stop, lease expiry, page closed)."""
+        """Forget queued, held and claimed commands (stop, lease expiry, page closed): a stop
+        wins even over a command the loop already reserved."""
         with self._lock:
             self._queue.clear()
             self._held = None
+            self._claimed = None
 
     @property
     def pending(self) -> bool:
-        """True when :meth:`next_command` would return a command."""
+        """True when a command waits: claimed by the loop, queued, or held."""
         with self._lock:
-            return bool(self._queue) or self._held is not None
+            return self._claimed is not None or bool(self._queue) or self._held is not None
 
-    @property
-    def has_input(self) -> bool:
-        """The loop's name for :attr:`pending`: with none, a human-only loop does not even look
-        (so a stop racing the loop never makes it learn the same frame twice)."""
-        return self.pending
+    def claim(self) -> bool:
+        """The loop is about to perceive a frame for the human's command: reserve the command
+        :meth:`next_command` would give now, so a release racing the loop's perception cannot
+        leave a perceived frame without its command. False (nothing reserved) when there is
+        none: a human-only loop then does not even look."""
+        with self._lock:
+            if self._claimed is None:
+                self._claimed = self._take()
+            return self._claimed is not None
 
     def next_command(self) -> Command | None:
-        """The command for this control period, or None when the human gives none."""
+        """The command for this control period, or None when the human gives none: a claimed
+        command first, then a queued press, then the held button."""
         with self._lock:
-            if self._queue:
-                return self._queue.popleft()
-            return self._held
+            if self._claimed is not None:
+                command, self._claimed = self._claimed, None
+                return command
+            return self._take()
+
+    def _take(self) -> Command | None:
+        if self._queue:
+            return self._queue.popleft()
+        return self._held

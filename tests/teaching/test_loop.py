@@ -93,3 +93,36 @@ def test_policy_commander_without_weights_has_no_opinion():
     assert policy.act_on_values(np.zeros(40)) is None
     policy.weights = np.zeros(215)  # every output ties: first index with no previous command
     assert policy.act_on_values(np.linspace(-1, 1, 40)) == Command.FORWARD
+
+
+def test_a_release_during_perception_still_runs_the_command_the_frame_was_perceived_for():
+    """The browser's button comes up while the loop perceives (another thread): the perceived
+    frame still gets its command, so no frame is learned or counted without one."""
+    from lfd_track.web.commander import BrowserCommander
+
+    library, _ = library_with_road()
+    buttons = BrowserCommander()
+
+    class ReleasingPerception(Perception):
+        def perceive(self, frame, box_on_felt=None):
+            percept = super().perceive(frame, box_on_felt)
+            buttons.release()  # the page's button-up arrives mid-step
+            return percept
+
+    env = LfDTrackEnv(track="training")
+    loop = TeachingLoop(
+        env, ReleasingPerception(library, "paused"), Arbiter("human"), human=buttons
+    )
+    loop.reset(seed=3)
+    buttons.press(Command.FORWARD)
+    assert loop.step().command == Command.FORWARD  # the queued press
+    buttons.press(Command.LEFT)
+    buttons.next_command()  # the tap already ran; the button is still held when the loop looks
+    before = library.type_statistics()
+    step = loop.step()
+    assert step.command == Command.LEFT  # claimed while held, run although released since
+    after = library.type_statistics()
+    assert sum(n for _, n in after) - sum(n for _, n in before) == 40  # one frame, one count
+    assert loop.step().command is None and not buttons.pending  # released: the robot waits
+    assert library.type_statistics() == after
+    env.close()
