@@ -78,9 +78,14 @@ class TakeoverConfig(DictConfig):
     intervention: InterventionConfig = field(default_factory=InterventionConfig)
     """When the watching human takes control (back)."""
 
+    def _check_count(self, name: str) -> None:
+        """The setting ``name`` must be an integer >= 1 (the error names the method)."""
+        value = getattr(self, name)
+        if isinstance(value, bool) or value < 1:
+            raise ValueError(f"{self.settings_name} {name} must be an integer >= 1")
+
     def __post_init__(self) -> None:
-        if isinstance(self.window, bool) or self.window < 1:
-            raise ValueError(f"{self.settings_name} window must be an integer >= 1")
+        self._check_count("window")
         if not 0.0 < self.threshold <= 1.0:
             raise ValueError(f"{self.settings_name} threshold must be in (0, 1]")
 
@@ -96,8 +101,7 @@ class OnlineConfig(TakeoverConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if isinstance(self.generations_per_case, bool) or self.generations_per_case < 1:
-            raise ValueError("online generations_per_case must be an integer >= 1")
+        self._check_count("generations_per_case")
 
 
 @dataclass(frozen=True)
@@ -112,8 +116,7 @@ class HGDaggerConfig(TakeoverConfig):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        if isinstance(self.rounds, bool) or self.rounds < 1:
-            raise ValueError("hg-dagger rounds must be an integer >= 1")
+        self._check_count("rounds")
 
 
 @dataclass

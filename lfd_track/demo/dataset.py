@@ -357,20 +357,25 @@ def _road_value_problem(values: np.ndarray) -> str:
     return ""
 
 
-def _memory_problem(memory: np.ndarray) -> str:
-    if not np.isfinite(memory).all():
-        return "memory inputs contain NaN or infinity"
-    if memory.size and (memory.min() < 0.0 or memory.max() > 1.0):
-        return "memory inputs must lie in [0, 1]"
+def _unit_interval_problem(a: np.ndarray, not_finite: str, outside: str) -> str:
+    """``not_finite`` or ``outside`` when ``a`` has non-finite values or values outside [0, 1]."""
+    if not np.isfinite(a).all():
+        return not_finite
+    if a.size and (a.min() < 0.0 or a.max() > 1.0):
+        return outside
     return ""
+
+
+def _memory_problem(memory: np.ndarray) -> str:
+    return _unit_interval_problem(
+        memory, "memory inputs contain NaN or infinity", "memory inputs must lie in [0, 1]"
+    )
 
 
 def _histogram_problem(hists: np.ndarray) -> str:
-    if not np.isfinite(hists).all():
-        return "contain NaN or infinity"
-    if hists.size and (hists.min() < 0.0 or hists.max() > 1.0):
-        return "values must lie in [0, 1] (normalised histograms)"
-    return ""
+    return _unit_interval_problem(
+        hists, "contain NaN or infinity", "values must lie in [0, 1] (normalised histograms)"
+    )
 
 
 def _pose_problem(xyt: tuple[float, ...], progress_m: float) -> str:
