@@ -1,9 +1,10 @@
 """Pool a study's job results per condition: study.json, study.md and study.png.
 
-Rates pool every trial of a condition over its seeds and repetitions, with Wilson 95 % intervals.
-The interval treats trials as independent; trials of one repetition share a controller, so it
-is somewhat narrower than the spread between repetitions warrants (``per_seed`` shows that
-spread).
+Rates pool every trial of a condition over its seeds and repetitions, with Wilson 95 % intervals
+(``ci95``). The Wilson interval treats trials as independent; trials of one repetition share a
+controller, so it can be narrower than the spread between controllers warrants. Each pooled rate
+therefore also carries ``ci95_controllers``: a bootstrap interval that resamples whole learned
+controllers (seed × repetition), and ``per_seed`` shows the spread between seeds.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from ..benchmark.paper import TRACK_RESULT_KEYS
 from ..benchmark.runner import config_dict
 from ..benchmark.tables import results_json_text
 from .spec import Job, Study
-from .stats import rate_summary
+from .stats import controller_interval, rate_summary
 
 STUDY_SCHEMA = 1
 PAPER_TRACKS = tuple(TRACK_RESULT_KEYS)
@@ -93,6 +94,20 @@ def _track_counts(outcomes: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, 
     return tracks
 
 
+def _controller_counts(
+    jobs: Sequence[tuple[Job, Mapping[str, Any]]], tracks: set[str]
+) -> list[tuple[int, int]]:
+    """``(successes, trials)`` on ``tracks`` of each learned controller (seed × repetition)."""
+    groups: dict[tuple[int, int], list[int]] = {}
+    for job, r in jobs:
+        for o in r["outcomes"]:
+            if str(o["track"]) in tracks:
+                group = groups.setdefault((job.seed, int(o["repetition"])), [0, 0])
+                group[0] += bool(o["success"])
+                group[1] += 1
+    return [(k, n) for k, n in groups.values()]
+
+
 def condition_summary(
     study: Study, name: str, jobs: Sequence[tuple[Job, Mapping[str, Any]]]
 ) -> dict[str, Any]:
@@ -103,10 +118,14 @@ def condition_summary(
     unseen = sorted(t for t in tracks if t not in PAPER_TRACKS)
 
     def rate(track_names: Sequence[str]) -> dict[str, Any]:
-        return rate_summary(
+        summary = rate_summary(
             sum(tracks[t]["successes"] for t in track_names if t in tracks),
             sum(tracks[t]["trials"] for t in track_names if t in tracks),
         )
+        summary["ci95_controllers"] = controller_interval(
+            _controller_counts(jobs, set(track_names))
+        )
+        return summary
 
     commands = [human_commands(r) for _, r in jobs]
     efforts = [human_effort(r) for _, r in jobs]
@@ -205,6 +224,14 @@ def _cell(r: Mapping[str, Any]) -> str:
     return f"{r['successes']}/{r['trials']} = {100 * r['rate']:.0f} % [{100 * low:.0f}–{100 * high:.0f}]"
 
 
+def _controller_cell(r: Mapping[str, Any]) -> str:
+    interval = r.get("ci95_controllers")
+    if not r["trials"] or interval is None:
+        return "–"
+    low, high = interval
+    return f"{100 * r['rate']:.0f} % [{100 * low:.0f}–{100 * high:.0f}]"
+
+
 def study_markdown(results: Mapping[str, Any]) -> str:
     """The study's tables as Markdown (the table a paper would print)."""
     seeds = ", ".join(str(s) for s in results["seeds"])
@@ -236,6 +263,18 @@ def study_markdown(results: Mapping[str, Any]) -> str:
         f"| paper (reported) | paper | – | {_cell(paper['training'])} | {_cell(paper['testing'])} "
         "| – | – | – | – |"
     )
+    lines += [
+        "",
+        "The same rates with 95 % intervals that resample whole learned controllers (bootstrap "
+        "over seed × repetition): trials of one controller are not independent, so where these "
+        "are wider than the Wilson intervals above, they are the ones to read.",
+        "",
+        "| condition | training track | testing track | unseen tracks |",
+        "|---|---|---|---|",
+    ]
+    for c in results["conditions"]:
+        cells = [_controller_cell(c[key]) for key in ("training", "testing", "unseen")]
+        lines.append(f"| {c['name']} | " + " | ".join(cells) + " |")
     for track in ("testing", "training"):
         corner_rows = [
             (c["name"], c["corner_failures"].get(track, {})) for c in results["conditions"]
@@ -292,9 +331,9 @@ def study_markdown(results: Mapping[str, Any]) -> str:
             lines.append(f"| {c['name']} | " + " | ".join(cells) + " |")
     lines += [
         "",
-        "The intervals treat every trial as independent; trials of one repetition share a "
-        "controller, so the spread between seeds (study.json, `per_seed`) is the better guide "
-        "where it is wider.",
+        "The Wilson intervals treat every trial as independent; the controller-resampling "
+        "intervals and the spread between seeds (study.json, `per_seed`) show how much a result "
+        "depends on which controllers were learned.",
         f"Summed job time: {results['wall_s']:.0f} s.",
     ]
     return "\n".join(lines) + "\n"

@@ -1,6 +1,6 @@
 import pytest
 
-from lfd_track.study.stats import rate_summary, wilson_interval
+from lfd_track.study.stats import controller_interval, rate_summary, wilson_interval
 
 
 def test_wilson_interval_known_values():
@@ -36,3 +36,33 @@ def test_rate_summary_and_bad_counts():
     assert rate_summary(0, 0) == {"successes": 0, "trials": 0, "rate": None, "ci95": [0.0, 1.0]}
     with pytest.raises(ValueError):
         wilson_interval(5, 4)
+
+
+def test_controller_interval_is_deterministic_and_contains_the_pooled_rate():
+    groups = [(6, 6), (3, 6), (4, 6), (0, 6), (5, 6), (2, 6)] * 5
+    interval = controller_interval(groups)
+    assert interval == controller_interval(list(groups))  # same counts, same numbers
+    low, high = interval
+    assert low < 100 / 180 < high  # 20 of 36 laps per six controllers
+
+
+def test_controller_interval_widens_when_controllers_are_all_or_nothing():
+    # 30 controllers, 6 laps each, 90 of 180 laps pooled either way.
+    mixed = [(3, 6)] * 30  # every controller laps half: trials look independent
+    split = [(6, 6)] * 15 + [(0, 6)] * 15  # half the controllers lap everything, half nothing
+    w_low, w_high = wilson_interval(90, 180)
+    m_low, m_high = controller_interval(mixed)
+    s_low, s_high = controller_interval(split)
+    assert (m_low, m_high) == (0.5, 0.5)  # no spread between controllers at all
+    assert s_high - s_low > w_high - w_low  # shared controllers: fewer independent units
+    assert s_low < 0.5 < s_high
+
+
+def test_controller_interval_edge_cases():
+    assert controller_interval([]) is None
+    assert controller_interval([(0, 0), (0, 0)]) is None
+    assert controller_interval([(0, 0), (2, 4)]) == [0.5, 0.5]  # empty groups are ignored
+    with pytest.raises(ValueError):
+        controller_interval([(5, 4)])
+    with pytest.raises(ValueError):
+        controller_interval([(-1, 4)])

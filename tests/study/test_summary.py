@@ -7,6 +7,7 @@ import pytest
 from study_helpers import TINY_STUDY, write_study
 
 from lfd_track.study.spec import load_study
+from lfd_track.study.stats import controller_interval
 from lfd_track.study.summary import (
     build_study_results,
     human_commands,
@@ -119,3 +120,26 @@ def test_the_picture_draws_each_rate_with_its_interval_bar(study):
     plot_h = bottom - top
     assert rows.min() == pytest.approx(top + plot_h * (1 - high), abs=3)
     assert rows.max() == pytest.approx(top + plot_h * (1 - low), abs=3)
+
+
+def test_rates_also_carry_an_interval_that_resamples_learned_controllers(study):
+    seed0, seed1 = study.jobs()
+    lap = outcome("testing", True, ["1", "2", "3", "4"])
+    miss = outcome("testing", False, ["1", "2", "3"])
+    # Seed 0: repetition 0 laps 4 of 4, repetition 1 none; seed 1: repetition 0 laps 2 of 4.
+    a = job_results(
+        [{**lap, "repetition": 0}] * 4 + [{**miss, "repetition": 1}] * 4,
+    )
+    b = job_results([lap, lap, miss, miss])
+    summary = build_study_results(study, [(seed0, a), (seed1, b)])
+    (c,) = summary["conditions"]
+    assert (c["testing"]["successes"], c["testing"]["trials"]) == (6, 12)
+    # Three controllers (seed x repetition) with rates 1, 0 and 0.5, resampled whole.
+    assert c["testing"]["ci95_controllers"] == controller_interval([(4, 4), (0, 4), (2, 4)])
+    low, high = c["testing"]["ci95_controllers"]
+    w_low, w_high = c["testing"]["ci95"]
+    assert low < w_low and high > w_high
+    assert c["training"]["ci95_controllers"] is None  # no training trials here
+    table = study_markdown(summary)
+    assert "resample whole learned controllers" in table
+    assert f"| paper | – | 50 % [{100 * low:.0f}–{100 * high:.0f}] | – |" in table
