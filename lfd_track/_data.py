@@ -33,13 +33,21 @@ def resolve_data_file(kind: str, name_or_path: str | Path) -> Path:
     what = _WHAT.get(kind, kind)
     text = str(name_or_path)
     path = Path(text)
-    as_path = path.exists() and not path.is_dir()  # a file, FIFO or device given by name
+    try:
+        exists = path.exists()
+        as_path = exists and not path.is_dir()  # a file, FIFO or device given by name
+    except OSError as exc:  # e.g. a name longer than the file system allows
+        raise UnknownDataError(f"{path}: cannot use as a {what} file ({exc.strerror})") from None
     if path.suffix == ".toml" or as_path or "/" in text or "\\" in text:
-        if not path.exists():
+        if not exists:
             raise UnknownDataError(f"{path}: no such {what} file")
         return path  # the reader refuses folders, FIFOs and devices naming the file
     shipped = data_dir(kind) / f"{text}.toml"
-    if not shipped.is_file():
+    try:
+        is_shipped = shipped.is_file()
+    except OSError as exc:
+        raise UnknownDataError(f"unknown {what} '{text}' ({exc.strerror})") from None
+    if not is_shipped:
         known = sorted(p.stem for p in data_dir(kind).glob("*.toml"))
         raise UnknownDataError(
             f"unknown {what} '{text}' (shipped: {', '.join(known)}; or a path to a .toml file)"

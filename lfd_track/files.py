@@ -10,19 +10,31 @@ from __future__ import annotations
 import errno
 import os
 import stat
+from collections.abc import Callable
 from pathlib import Path
 
 from .errors import FileFormatError
 
 
-def read_regular_file(path: str | Path, max_bytes: int, what: str) -> bytes:
+def read_regular_file(
+    path: str | Path,
+    max_bytes: int,
+    what: str,
+    *,
+    check_head: Callable[[bytes], None] | None = None,
+    head_bytes: int = 0,
+) -> bytearray:
     """The bytes of the regular file ``path``, at most ``max_bytes`` of them.
 
-    ``what`` names the kind of file in messages ("controller", "track", ...).
+    ``what`` names the kind of file in messages ("controller", "track", ...). With
+    ``check_head``, the first ``head_bytes`` bytes (fewer if the file is shorter) are read and
+    passed to it before the rest: it raises to refuse the file, so a large file of the wrong
+    kind is refused without reading it whole. The file is read into one buffer of its size (no
+    second copy), and running out of memory is reported as a file error too.
 
     Raises:
-        FileFormatError: one line naming the file: missing, unreadable, not a regular file, or
-            larger than ``max_bytes``.
+        FileFormatError: one line naming the file: missing, unreadable, not a regular file,
+            larger than ``max_bytes`` or than memory allows, or refused by ``check_head``.
     """
     flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0)
     try:
@@ -44,21 +56,46 @@ def read_regular_file(path: str | Path, max_bytes: int, what: str) -> bytes:
                 path, f"{what} file is {info.st_size} bytes, more than the {max_bytes} allowed"
             )
         os.set_blocking(fd, True)
-        chunks: list[bytes] = []
+        try:
+            buffer = bytearray(info.st_size)
+        except MemoryError:
+            raise FileFormatError(
+                path, f"{what} file is {info.st_size} bytes, more than memory allows"
+            ) from None
+        view = memoryview(buffer)
         total = 0
-        while True:  # read to the end, but never past the cap (the file may grow meanwhile)
-            chunk = os.read(fd, min(1 << 20, max_bytes + 1 - total))
+        if check_head is not None:
+            total = _read_into(fd, view[: min(head_bytes, info.st_size)])
+            check_head(bytes(view[:total]))
+        total += _read_into(fd, view[total:])
+        view.release()
+        del buffer[total:]  # the file may have shrunk meanwhile: keep what is there
+        # Or grown meanwhile: read on, but never past the cap.
+        while True:
+            chunk = os.read(fd, min(1 << 20, max_bytes + 1 - len(buffer)))
             if not chunk:
                 break
-            chunks.append(chunk)
-            total += len(chunk)
-            if total > max_bytes:
+            buffer += chunk
+            if len(buffer) > max_bytes:
                 raise FileFormatError(path, f"{what} file grew past the {max_bytes} bytes allowed")
-        return b"".join(chunks)
+        return buffer
     except OSError as exc:
         raise FileFormatError(path, f"cannot read {what} file ({exc.strerror or exc})") from None
+    except MemoryError:
+        raise FileFormatError(path, f"{what} file is too large to read into memory") from None
     finally:
         os.close(fd)
+
+
+def _read_into(fd: int, view: memoryview) -> int:
+    """Fill ``view`` from ``fd`` until it is full or the file ends; the bytes read."""
+    total = 0
+    while total < len(view):
+        n = os.readv(fd, [view[total:]])
+        if n == 0:
+            break
+        total += n
+    return total
 
 
 def read_regular_text(path: str | Path, max_bytes: int, what: str) -> str:

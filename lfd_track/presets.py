@@ -225,7 +225,7 @@ def _parse_ranges(table: Any, path: Path) -> tuple[Range, ...]:
         try:
             low = np.asarray(lo, dtype=float)
             high = np.asarray(hi, dtype=float)
-        except (TypeError, ValueError):
+        except (TypeError, ValueError, OverflowError):
             raise FileFormatError(path, f"randomization '{name}' bounds must be numbers") from None
         if low.shape != (width,) or high.shape != (width,):
             raise FileFormatError(path, f"randomization '{name}' bounds must have {width} entries")
@@ -309,6 +309,8 @@ def load_preset(name_or_path: str | Path = "paper") -> Preset:
     name = data.get("name", path.stem)
     if not isinstance(name, str):
         raise FileFormatError(path, "'name' must be a string")
+    if not isinstance(data.get("description", ""), str):
+        raise FileFormatError(path, "'description' must be a string")
     preset = Preset(name=name, source=str(path), **kwargs)
     _check_ranges_jointly(preset, path)
     return preset

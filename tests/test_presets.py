@@ -76,6 +76,9 @@ def _refused(path: Path | str, problem: str) -> str:
         ("[rover]\nmass_kg = 1" + "0" * 400 + "\n", "'rover.mass_kg' must be finite"),
         ("[rover]\ncalibration_commands = 1" + "0" * 5000 + "\n", "not valid TOML"),
         ("x = " + "[" * 200_000 + "]" * 200_000 + "\n", "TOML"),
+        # Integers too large for a float: an OverflowError with no file name before.
+        ('[randomization]\n"rover.mass_kg" = [1, 1' + "0" * 400 + "]\n", "must be numbers"),
+        ("description = 5\n", "'description' must be a string"),
     ],
 )
 def test_absurd_values_are_refused_naming_the_file(tmp_path, text, problem):
@@ -119,3 +122,12 @@ def test_non_utf8_fifo_and_device_are_refused(tmp_path):
     os.mkfifo(fifo)
     _refused(fifo, "not a regular file")
     _refused("/dev/zero", "not a regular file")
+
+
+def test_a_name_longer_than_the_file_system_allows_is_a_one_line_error():
+    from lfd_track.errors import LfdTrackError
+
+    for name in ("x" * 5000, "x" * 5000 + ".toml"):
+        with pytest.raises(LfdTrackError, match="preset") as info:
+            load_preset(name)
+        assert "\n" not in str(info.value)

@@ -101,6 +101,7 @@ MAX_MEMORY_INPUTS = 16
 """Most memory inputs a case may carry."""
 
 _MAGIC = b"\x89LFDEMO\n"
+_BAD_MAGIC = f"not a demonstration file (bad magic; expected a {FILE_EXTENSION} log)"
 _FRAME = struct.Struct("<BII")  # kind, payload length, crc32
 _CASE_FIXED_V1 = struct.Struct("<qBBH4d")  # step, command, learned, phase length, x, y, theta, s
 # step, command, learned, source, round, phase length, x, y, theta, s
@@ -666,7 +667,15 @@ def load_demonstration(path: str | Path) -> Demonstration:
         FileFormatError: one line naming the file and the problem.
     """
     path = Path(path)
-    data = read_regular_file(path, MAX_FILE_BYTES, "demonstration")
+
+    def check_magic(head: bytes) -> None:
+        # A large file of another kind is refused before it is read whole.
+        if len(head) == len(_MAGIC) and head != _MAGIC:
+            raise _fail(path, _BAD_MAGIC)
+
+    data = read_regular_file(
+        path, MAX_FILE_BYTES, "demonstration", check_head=check_magic, head_bytes=len(_MAGIC)
+    )
     return _parse(path, memoryview(data))
 
 
@@ -729,7 +738,7 @@ def _parse(path: Path, data: memoryview) -> Demonstration:
     if size < len(_MAGIC) or bytes(data[: len(_MAGIC)]) != _MAGIC:
         if bytes(data[: len(_MAGIC)]) == _MAGIC[:size]:
             raise _fail(path, "truncated header")
-        raise _fail(path, f"not a demonstration file (bad magic; expected a {FILE_EXTENSION} log)")
+        raise _fail(path, _BAD_MAGIC)
     offset = len(_MAGIC)
 
     # Header: must be whole and intact, or nothing in the file can be interpreted.

@@ -424,6 +424,8 @@ class RoadLibrary:
         threshold = data["similarity_threshold"]
         if isinstance(threshold, bool) or not isinstance(threshold, (int, float)):
             raise ValueError("road library similarity_threshold must be a number")
+        if isinstance(threshold, int) and abs(threshold) > 1:  # also too big for a float
+            raise ValueError("road library similarity_threshold must lie in [-1, 1]")
         library = cls(
             bins=data["bins"],
             similarity_threshold=float(threshold),
@@ -452,14 +454,16 @@ class RoadLibrary:
                     raise ValueError(f"{ewhere} must have exactly selections, comparisons, model")
                 try:
                     model = np.asarray(e["model"], dtype=np.float64)
-                except (TypeError, ValueError):
+                except (TypeError, ValueError, OverflowError):
                     raise ValueError(f"{ewhere} model must be numbers") from None
+                # Range first, in double precision: a value beyond float32 would otherwise
+                # become infinite (with a warning) in the float32 copy.
+                if model.size and (model.min() < 0.0 or model.max() > 1.0):
+                    raise ValueError(f"{ewhere}: histogram values must lie in [0, 1]")
                 try:
                     model = library._check_model(model)
                 except ValueError as exc:
                     raise ValueError(f"{ewhere}: {exc}") from None
-                if model.size and (model.min() < 0.0 or model.max() > 1.0):
-                    raise ValueError(f"{ewhere}: histogram values must lie in [0, 1]")
                 example = _Example(
                     model=model,
                     selections=_count(e["selections"], ewhere),

@@ -1,6 +1,7 @@
 """Algorithm 1 behaviours: strict threshold, caps, least-used eviction, protection, ties."""
 
 import json
+import warnings
 
 import numpy as np
 import pytest
@@ -227,6 +228,11 @@ def test_to_dict_from_dict_is_lossless_through_json(frames):
         (lambda d: d["types"][0]["examples"][0].update(model=[[0.0] * 32] * 4), "shape"),
         (lambda d: d["types"][0]["examples"][0].update(selections=-1), "non-negative"),
         (lambda d: d["types"][0].update(examples=[]), "examples"),
+        # Integers beyond a float and finite values beyond float32: a bare OverflowError or a
+        # numpy overflow warning before.
+        (lambda d: d.update(similarity_threshold=10**400), r"similarity_threshold must lie in"),
+        (lambda d: d["types"][0]["examples"][0]["model"][0].__setitem__(0, 10**400), "numbers"),
+        (lambda d: d["types"][0]["examples"][0]["model"][0].__setitem__(0, 1e39), r"\[0, 1\]"),
     ],
 )
 def test_from_dict_rejects_bad_data(frames, edit, match):
@@ -234,8 +240,10 @@ def test_from_dict_rejects_bad_data(frames, edit, match):
     library.learn(frames[0])
     data = library.to_dict()
     edit(data)
-    with pytest.raises(ValueError, match=match):
-        RoadLibrary.from_dict(data)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no numpy warning on the way to the error
+        with pytest.raises(ValueError, match=match):
+            RoadLibrary.from_dict(data)
 
 
 def test_frame_shape_checked():
