@@ -249,11 +249,13 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     try:
         obs, _ = env.reset()
         meta = {"camera": args.camera, "control_period_s": args.period}
+        # The keyboard first: without a terminal nothing is created (a stub recording would
+        # otherwise block the next run with "file exists").
         with (
+            TerminalKeys() as keys,
             DemonstrationRecorder(
                 args.out, bins=args.bins, library_only=args.library_only, metadata=meta
             ) as recorder,
-            TerminalKeys() as keys,
         ):
             print(
                 "w/up forward, a/left left, d/right right, space stop, p pause learning, q quit",

@@ -332,6 +332,23 @@ def test_cli_user_errors_are_one_line(tmp_path: Path, capsys) -> None:
     assert code == 1 and err.count("\n") == 1 and "cannot open serial link" in err
 
 
+def test_cli_demo_without_a_terminal_creates_no_recording(
+    tmp_path: Path, capsys, monkeypatch
+) -> None:
+    out = tmp_path / "new.lfdemo"
+    null = open(os.devnull)  # noqa: SIM115 (closed below) -- stdin as in `... < /dev/null`
+    monkeypatch.setattr(sys, "stdin", null)
+    with null, FakeBoard() as board, MjpegServer() as server:
+        code = _run_cli(
+            "demo", "--out", str(out), "--camera", server.url, "--serial", board.url,
+            "--period", "0.1", "--boot-wait", "0.3",
+        )  # fmt: skip
+    err = capsys.readouterr().err
+    assert code == 1 and "interactive terminal" in err and err.count("\n") == 1
+    assert not out.exists()  # no stub left to block the next run with "file exists"
+    assert board.drives()[-1:] in ([], ["S"])
+
+
 def test_teleop_records_a_demonstration(tmp_path: Path) -> None:
     from lfd_track.commands import Command
     from lfd_track.demo.dataset import load_demonstration
