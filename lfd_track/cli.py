@@ -20,6 +20,7 @@ from typing import Any, NoReturn
 from .cli_types import non_negative_int as _seed
 from .cli_types import positive_int as _positive_int
 from .errors import LfdTrackError
+from .outputs import in_progress_name, keep_partial, shown_path, taken
 
 EXIT_OK, EXIT_ERROR, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 1, 2, 130, 143
 
@@ -55,14 +56,30 @@ def _raise_terminated(signum: int, frame: Any) -> None:
     raise _Terminated()
 
 
-def _shown(path: str | Path) -> str:
-    """A path as text that can always be printed (undecodable bytes as \\x escapes)."""
-    return os.fsencode(path).decode("utf-8", "backslashreplace")
+def _same_file(a: str | Path, b: str | Path) -> bool:
+    """Whether ``a`` and ``b`` name the same file (through links, ``..``, symbolic links)."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one of them does not exist
+        return os.path.realpath(a) == os.path.realpath(b)
 
 
-def _partial_name(out: Path) -> Path:
-    """Where a ``--force`` recording goes until it is complete: beside ``out``, visible."""
-    return out.with_name(f"{out.stem}.partial{out.suffix or '.lfdemo'}")
+def _check_output(out: str | Path, inputs: Sequence[tuple[str, str | Path | None]]) -> None:
+    """Refuse, before any work, an output that is one of the ``(what, path)`` inputs (it would be
+    replaced by the output), a folder, or below something that is not a folder."""
+    out = Path(out)
+    for what, path in inputs:
+        if path is not None and Path(path).is_file() and _same_file(out, path):
+            raise LfdTrackError(
+                f"{shown_path(out)}: is the {what} this command reads; write to another file"
+            )
+    if out.is_dir():
+        raise LfdTrackError(f"{shown_path(out)}: is a folder, expected a file name")
+    for parent in out.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise LfdTrackError(f"{shown_path(out)}: {shown_path(parent)} is not a folder")
+            break
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
@@ -71,17 +88,18 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     from .progress import progress_bar
 
     out = Path(args.out)
-    if out.is_dir():
-        raise LfdTrackError(f"{_shown(out)}: is a folder, expected a file name")
-    if (out.exists() or out.is_symlink()) and not args.force:
+    _check_output(out, [("track", args.track), ("preset", args.preset)])
+    if taken(out) and not args.force:
         raise LfdTrackError(
-            f"{_shown(out)}: already exists; an earlier recording is never replaced"
+            f"{shown_path(out)}: already exists; an earlier recording is never replaced"
             " (use --force to replace it)"
         )
     human = HumanConfig(careful=not args.careless)
     # Without --force the recording goes straight to its name: interrupted, it is still there,
-    # visible and usable. With --force an existing file is kept until the new one is complete.
-    target = _partial_name(out) if out.exists() else out
+    # visible and usable. With --force an existing file is kept until the new one is complete:
+    # the new one is written under a name of its own and, interrupted, kept under a free
+    # partial name (never over a partial recording kept earlier).
+    target = in_progress_name(out) if out.exists() else out
     commands = 0
 
     def progress(n: int) -> None:
@@ -99,29 +117,36 @@ def _cmd_demo(args: argparse.Namespace) -> int:
                 track=args.track,
                 preset=args.preset,
                 human=human,
-                overwrite=args.force,
+                overwrite=args.force and target == out,
                 progress=progress,
             )
     except (KeyboardInterrupt, _Terminated) as exc:
         signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not cut the note
+        code = EXIT_TERMINATED if isinstance(exc, _Terminated) else EXIT_INTERRUPTED
         if not target.exists():
-            raise
+            print("lfd-track demo: interrupted before anything was recorded", file=sys.stderr)
+            return code
+        kept_at = target if target == out else keep_partial(target, out)
         try:
-            kept = f"{load_demonstration(target).n_cases} cases"
+            kept = f"{load_demonstration(kept_at).n_cases} cases"
         except LfdTrackError:
             kept = "no usable cases"
         print(
             f"lfd-track demo: interrupted after {commands} commands; the partial recording"
-            f" ({kept}) is kept at {_shown(target)} (lfd-track evolve can train on it)",
+            f" ({kept}) is kept at {shown_path(kept_at)} (lfd-track evolve can train on it)",
             file=sys.stderr,
         )
-        return EXIT_TERMINATED if isinstance(exc, _Terminated) else EXIT_INTERRUPTED
+        return code
+    except BaseException:
+        if target != out:  # the unfinished replacement; the earlier recording is untouched
+            target.unlink(missing_ok=True)
+        raise
     finally:
         signal.signal(signal.SIGTERM, previous)
     if target != out:
         target.replace(out)
     print(
-        f"{_shown(out)}: {summary.n_cases} cases ({summary.counts['forward']} forward, "
+        f"{shown_path(out)}: {summary.n_cases} cases ({summary.counts['forward']} forward, "
         f"{summary.counts['left']} left, {summary.counts['right']} right), "
         f"turn-arounds {', '.join(summary.turnarounds)}, library {summary.library_models} models "
         f"in {summary.library_types} types"
@@ -141,23 +166,31 @@ def _cmd_evolve(args: argparse.Namespace) -> int:
     from .progress import progress_bar
     from .vision.road_library import RoadLibrary
 
+    png = Path(args.out).with_suffix(".fitness.png")
+    for out in (args.out, png):
+        _check_output(out, [("demonstration", args.demo)])
     demo = load_demonstration(args.demo)
     if demo.n_cases == 0:
-        raise LfdTrackError(f"{_shown(args.demo)}: the demonstration holds no cases")
+        raise LfdTrackError(f"{shown_path(args.demo)}: the demonstration holds no cases")
     library_dict = demo.metadata.get("road_library")
     if not isinstance(library_dict, dict):
         raise LfdTrackError(
-            f"{_shown(args.demo)}: no road library stored (an interrupted recording without a"
+            f"{shown_path(args.demo)}: no road library stored (an interrupted recording without a"
             " library log, written by an older lfd-track: record it again)"
         )
     try:
         library = RoadLibrary.from_dict(library_dict)
     except (ValueError, KeyError, TypeError) as exc:
-        raise LfdTrackError(f"{_shown(args.demo)}: bad road library ({exc})") from None
+        raise LfdTrackError(f"{shown_path(args.demo)}: bad road library ({exc})") from None
+    if library.n_models == 0:
+        raise LfdTrackError(
+            f"{shown_path(args.demo)}: its road library is empty (no frame was learned while"
+            " recording), so a controller could not see the road"
+        )
     try:
         memory = demo.memory_settings()
     except ValueError as exc:
-        raise LfdTrackError(f"{_shown(args.demo)}: {exc}") from None
+        raise LfdTrackError(f"{shown_path(args.demo)}: {exc}") from None
     config = GAConfig(generations=args.generations, elitism=args.elitism)
     with progress_bar(
         config.generations, "evolving", unit=" generations", enabled=not args.quiet
@@ -172,7 +205,6 @@ def _cmd_evolve(args: argparse.Namespace) -> int:
     controller = Controller.from_evolution(library, result, seed=args.seed, memory=memory)
     controller.save(args.out)
     accuracy = training_accuracy(result.best_weights, demo.inputs, demo.commands)
-    png = Path(args.out).with_suffix(".fitness.png")
     write_png(
         str(png),
         fitness_plot(
@@ -186,9 +218,9 @@ def _cmd_evolve(args: argparse.Namespace) -> int:
     )
     partial = "" if demo.metadata["complete"] else " (an interrupted recording)"
     print(
-        f"{_shown(args.out)}: best fitness {result.best_fitness:.4f} (generation "
+        f"{shown_path(args.out)}: best fitness {result.best_fitness:.4f} (generation "
         f"{result.best_generation}), training accuracy {accuracy:.1%} on {demo.n_cases} cases"
-        f"{partial}; fitness curve {_shown(png)}"
+        f"{partial}; fitness curve {shown_path(png)}"
     )
     return EXIT_OK
 
@@ -217,6 +249,12 @@ def _cmd_drive(args: argparse.Namespace) -> int:
 
     controller = Controller.load(args.controller)
     controller.learn = controller.learn or args.keep_learning
+    inputs = [("controller", args.controller), ("track", args.track), ("preset", args.preset)]
+    for out in (args.video, args.plot):
+        if out:
+            _check_output(out, inputs)
+    if args.video and args.plot and _same_file(args.video, args.plot):
+        raise LfdTrackError(f"{shown_path(args.plot)}: given as both --video and --plot")
     env = LfDTrackEnv(track=args.track, reverse=args.reverse, preset=args.preset)
     laps: list[dict[str, Any]] = []
     trajectories = []
@@ -225,6 +263,7 @@ def _cmd_drive(args: argparse.Namespace) -> int:
         order = " ".join(c.label for c in env.track.corners)
         direction = "reversed" if args.reverse else "file order"
         print(f"{args.track} ({direction}), corners met in order {order}:", flush=True)
+    previous = signal.signal(signal.SIGTERM, _raise_terminated)
     try:
         for lap in range(args.laps):
             # Per-lap bar: percent of the track driven; a lap's line is printed as it ends.
@@ -259,9 +298,24 @@ def _cmd_drive(args: argparse.Namespace) -> int:
             trajectories.append(TrackRun(trajectory, info["success"], failure, f"lap {lap + 1}"))
             if not args.json:
                 print(_lap_line(laps[-1]), flush=True)
-    finally:
-        if video:
+        if video is not None:
             video.close()
+    except (KeyboardInterrupt, _Terminated) as exc:
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not cut the note
+        note = f"lfd-track drive: interrupted after {len(laps)} of {args.laps} laps"
+        if video is not None:
+            # Half a video is not kept: the encoder, stopped too, may leave it unplayable.
+            video.discard()
+            left = "is unchanged" if taken(video.path) else "was not written"
+            note += f"; the partial video is discarded ({shown_path(video.path)} {left})"
+        print(note, file=sys.stderr)
+        return EXIT_TERMINATED if isinstance(exc, _Terminated) else EXIT_INTERRUPTED
+    except BaseException:
+        if video is not None:
+            video.discard()
+        raise
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     if args.plot:
         direction = "reversed" if args.reverse else "file order"
         if env.track.closed:
@@ -285,11 +339,38 @@ def _cmd_drive(args: argparse.Namespace) -> int:
 
 
 # --------------------------------------------------------------------------------- benchmark
+def _whole_number_in(low: int, high: int) -> Any:
+    """An argparse type: a whole number in ``low..high``; the error never prints a huge number
+    whole."""
+
+    def parse(text: str) -> int:
+        from .learning.fit import shown_int
+
+        try:
+            value = int(text)
+        except ValueError:
+            shown = text if len(text) <= 30 else f"{text[:30]}... ({len(text)} characters)"
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {shown!r}") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be at least {low}, got {shown_int(value)}")
+        if value > high:
+            raise argparse.ArgumentTypeError(f"must be at most {high}, got {shown_int(value)}")
+        return value
+
+    return parse
+
+
 def _cmd_benchmark(args: argparse.Namespace) -> int:
+    from .benchmark.output import staged_output
     from .benchmark.report import write_benchmark_outputs
-    from .benchmark.runner import BenchmarkConfig, check_test_tracks, run_benchmark
+    from .benchmark.runner import (
+        MAX_WORKERS,
+        BenchmarkConfig,
+        check_tracks,
+        check_workers,
+        run_benchmark,
+    )
     from .demo.demonstrator import HumanConfig
-    from .presets import load_preset
     from .progress import progress_bar
     from .teaching.memory import MemoryConfig
 
@@ -307,33 +388,31 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         memory=MemoryConfig(kind=args.memory),
         mirror=args.mirror,
     )
-    load_preset(args.preset)  # a bad preset or track fails here, before anything is created
-    try:
-        check_test_tracks(config.test_tracks)
-    except ValueError as exc:
-        raise LfdTrackError(
-            str(exc)
-        ) from None  # a bad preset fails here, before anything is created
+    workers = args.workers or min(_cores(), MAX_WORKERS)
+    check_workers(workers)
+    # A bad preset, a track that is not a loop with corners or whose ground texture would be too
+    # big with this preset fails here, before anything is created.
+    check_tracks(config)
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
-    work = out / "repetitions"
-    start = time.perf_counter()
-    workers = args.workers or _cores()
-    with progress_bar(
-        config.repetitions, "benchmark", unit=" repetitions", enabled=not args.quiet
-    ) as bar:
+    # The run goes to a staging folder and replaces the previous output only once it has
+    # succeeded: a failure at any point leaves the previous output as it was.
+    with staged_output(out) as stage:
+        start = time.perf_counter()
+        with progress_bar(
+            config.repetitions, "benchmark", unit=" repetitions", enabled=not args.quiet
+        ) as bar:
 
-        def tick(result: Any) -> None:
-            wins = sum(o.success for o in result.outcomes)
-            bar.set_postfix_str(
-                f"repetition {result.index}: {wins}/{len(result.outcomes)} trials succeeded",
-                refresh=False,
-            )
-            bar.update(1)
+            def tick(result: Any) -> None:
+                wins = sum(o.success for o in result.outcomes)
+                bar.set_postfix_str(
+                    f"repetition {result.index}: {wins}/{len(result.outcomes)} trials succeeded",
+                    refresh=False,
+                )
+                bar.update(1)
 
-        reps = run_benchmark(config, work, workers=workers, progress=tick)
-    wall = time.perf_counter() - start
-    text = write_benchmark_outputs(out, config, reps, wall_s=wall, workers=workers)
+            reps = run_benchmark(config, stage / "repetitions", workers=workers, progress=tick)
+        wall = time.perf_counter() - start
+        text = write_benchmark_outputs(stage, config, reps, wall_s=wall, workers=workers)
     print(text)
     print(
         f"\nreport: {out / 'report.md'}\nresults: {out / 'results.json'}\nplots: {out / 'trajectories.png'}, {out / 'fitness.png'}"
@@ -344,6 +423,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------------- parser
 def build_parser() -> argparse.ArgumentParser:
     from .benchmark.methods import METHODS
+    from .benchmark.runner import MAX_REPETITIONS, MAX_SEED, MAX_TRIALS_PER_DIRECTION, MAX_WORKERS
     from .teaching.memory import MEMORY_KINDS
     from .teaching.scripted import TURNAROUND_RULES
 
@@ -447,23 +527,29 @@ def build_parser() -> argparse.ArgumentParser:
     )
     bench.add_argument(
         "--repetitions",
-        type=_positive_int,
+        type=_whole_number_in(1, MAX_REPETITIONS),
         default=None,
-        help="repetitions (default: 10; 1 with --quick)",
+        help=f"repetitions, at most {MAX_REPETITIONS} (default: 10; 1 with --quick)",
     )
     bench.add_argument(
         "--trials",
-        type=_positive_int,
+        type=_whole_number_in(1, MAX_TRIALS_PER_DIRECTION),
         default=None,
-        help="runs per direction per repetition (default: 3; 1 with --quick)",
+        help=f"runs per direction per repetition, at most {MAX_TRIALS_PER_DIRECTION}"
+        " (default: 3; 1 with --quick)",
     )
-    bench.add_argument("--seed", type=_seed, default=0, help="benchmark seed (default: 0)")
+    bench.add_argument(
+        "--seed",
+        type=_whole_number_in(0, MAX_SEED),
+        default=0,
+        help=f"benchmark seed, 0..{MAX_SEED} (default: 0)",
+    )
     bench.add_argument(
         "--workers",
-        type=_positive_int,
+        type=_whole_number_in(1, MAX_WORKERS),
         default=None,
-        help=f"parallel processes; results do not depend on it (default: the number of cores,"
-        f" here {_cores()})",
+        help=f"parallel processes, at most {MAX_WORKERS}; results do not depend on it"
+        f" (default: the number of cores, here {_cores()})",
     )
     bench.add_argument(
         "--preset", default="paper", help="environment preset name or TOML path (default: paper)"

@@ -9,6 +9,7 @@ for it, and the top-down trajectory starts afresh with each lap.
 
 from __future__ import annotations
 
+import errno
 import os
 from pathlib import Path
 from typing import Any
@@ -36,10 +37,32 @@ def _label(canvas: np.ndarray, text: str, org: tuple[int, int], scale: float = 0
         )
 
 
+def _check_writable_name(path: Path) -> None:
+    """Raise OSError (one line, naming the path) if no file can be created at ``path``: it is a
+    folder, or a folder it needs is an existing file."""
+    if path.is_dir():
+        raise IsADirectoryError(errno.EISDIR, "is a folder, expected a video file name", str(path))
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                raise NotADirectoryError(
+                    errno.ENOTDIR, f"{_shown(parent)} is not a folder", str(path)
+                )
+            return
+
+
+def _shown(path: Path) -> str:
+    return os.fsencode(path).decode("utf-8", "backslashreplace")
+
+
 class DriveVideo:
     """Writes the frames of a drive as a video; the file appears (atomically) on ``close``.
 
-    Raises ValueError for a file name that is not ``.mp4`` (H.264) or ``.webm`` (VP9).
+    Until then it is written to a temporary file beside it; :meth:`discard` (an interrupted or
+    failed drive) deletes that file and leaves any earlier file of that name untouched.
+
+    Raises ValueError for a file name that is not ``.mp4`` (H.264) or ``.webm`` (VP9), OSError for
+    a name that is a folder or lies below a file.
     """
 
     def __init__(self, path: str | Path, env: Any, fps: float = 5.0) -> None:
@@ -47,6 +70,7 @@ class DriveVideo:
         suffix = self.path.suffix.lower()
         if suffix not in VIDEO_FORMATS:
             raise ValueError(f"{self.path}: a video name must end in .mp4 (H.264) or .webm (VP9)")
+        _check_writable_name(self.path)
         self.codec, self._options = VIDEO_FORMATS[suffix]
         self.env = env
         self.fps = fps
@@ -137,8 +161,28 @@ class DriveVideo:
             raise OSError(f"{self.path}: video encoding failed ({first})") from None
 
     def close(self) -> None:
-        """Finish the file and move it into place."""
+        """Finish the file and move it into place (if a frame was added)."""
         if self._writer is not None:
             writer, self._writer = self._writer, None
-            writer.close()  # waits for the encoder to finish the file
-            os.replace(self._tmp, self.path)
+            try:
+                writer.close()  # waits for the encoder to finish the file
+                os.replace(self._tmp, self.path)
+            except BaseException:
+                self._tmp.unlink(missing_ok=True)
+                raise
+
+    def discard(self) -> None:
+        """Stop the encoder and delete the unfinished video; an earlier file stays as it was."""
+        writer, self._writer = self._writer, None
+        try:
+            if writer is not None:
+                try:
+                    writer.throw(_Discard())  # the encoder is killed, not waited for
+                except (_Discard, StopIteration, OSError, RuntimeError):
+                    pass
+        finally:
+            self._tmp.unlink(missing_ok=True)
+
+
+class _Discard(BaseException):
+    """Thrown into the encoder's generator: imageio-ffmpeg kills FFmpeg for a BaseException."""

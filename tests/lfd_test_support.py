@@ -58,3 +58,37 @@ def library_with_road() -> tuple[RoadLibrary, np.ndarray]:
     frame = training_track_frame()
     library.learn(frame)
     return library, frame
+
+
+def snapshot(folder: Path) -> dict[str, tuple[bytes | None, int]]:
+    """Every entry below ``folder``: a file's (contents, modification time), (None, 0) for a
+    folder (whose time changes when entries are moved in and back out)."""
+    return {
+        str(p.relative_to(folder)): (p.read_bytes(), p.stat().st_mtime_ns)
+        if p.is_file()
+        else (None, 0)
+        for p in sorted(folder.rglob("*"))
+    }
+
+
+def interrupt_demo_after(
+    monkeypatch: pytest.MonkeyPatch, commands: int, signum: int, *, fsync: bool | None = None
+) -> None:
+    """Make the next ``lfd-track demo`` receive ``signum`` (a real signal) after ``commands``
+    commands; ``fsync=False`` also skips its fsyncs (fast)."""
+    from lfd_track.demo import demonstrator
+
+    real = demonstrator.run_demonstration
+
+    def run(*args, progress=None, **kwargs):
+        def tick(n: int) -> None:
+            if progress is not None:
+                progress(n)
+            if n == commands:
+                os.kill(os.getpid(), signum)
+
+        if fsync is not None:
+            kwargs["fsync"] = fsync
+        return real(*args, progress=tick, **kwargs)
+
+    monkeypatch.setattr(demonstrator, "run_demonstration", run)

@@ -225,6 +225,23 @@ def test_wrong_schema_demonstration_is_one_line(tmp_path, monkeypatch):
     assert not (tmp_path / "c.json").exists()
 
 
+def test_a_demonstration_with_an_empty_road_library_is_one_line(tmp_path):
+    import numpy as np
+
+    from lfd_track.demo import dataset
+    from lfd_track.vision.road_library import RoadLibrary
+
+    bad = tmp_path / "unlearned.lfdemo"
+    with dataset.DemonstrationWriter(bad, {"track": "training"}, bins=32, fsync=False) as writer:
+        writer.append(0, np.zeros(40), np.zeros((40, 5, 32), np.float32))
+        writer.close({"road_library": RoadLibrary().to_dict()})
+    proc = run_cli("evolve", str(bad), "--out", str(tmp_path / "c.json"))
+    assert proc.returncode == 1 and len(proc.stderr.strip().splitlines()) == 1
+    assert str(bad) in proc.stderr and "road library is empty" in proc.stderr
+    assert "load_demonstration" not in proc.stderr  # no Python hint to a command-line user
+    assert not (tmp_path / "c.json").exists()
+
+
 def test_evolve_keeps_a_demonstrations_memory_inputs(tmp_path):
     """A demonstration recorded with memory inputs evolves a controller that reads them; one
     whose memory settings do not fit its cases is refused in one line, nothing written."""

@@ -8,26 +8,15 @@ import signal
 from pathlib import Path
 
 import pytest
+from lfd_test_support import interrupt_demo_after
 
 from lfd_track.cli import EXIT_INTERRUPTED, EXIT_TERMINATED, main
-from lfd_track.demo import demonstrator
 from lfd_track.demo.dataset import load_demonstration
 
 
 def _interrupt_after(monkeypatch, commands: int, signum: int = signal.SIGTERM) -> None:
     """Make the next ``demo`` receive ``signum`` (a real signal) after ``commands`` commands."""
-    real = demonstrator.run_demonstration
-
-    def run(*args, progress=None, **kwargs):
-        def tick(n: int) -> None:
-            if progress is not None:
-                progress(n)
-            if n == commands:
-                os.kill(os.getpid(), signum)
-
-        return real(*args, progress=tick, **kwargs)
-
-    monkeypatch.setattr(demonstrator, "run_demonstration", run)
+    interrupt_demo_after(monkeypatch, commands, signum)
 
 
 @pytest.fixture(scope="module")

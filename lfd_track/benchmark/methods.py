@@ -48,6 +48,7 @@ from ..demo.demonstrator import (
 from ..env import LfDTrackEnv
 from ..learning.bc import BCConfig
 from ..learning.cmaes import CMAESConfig
+from ..learning.fit import check_int
 from ..learning.fitness import training_accuracy
 from ..learning.ga import GAConfig, evolve, ga_rescore, ga_result
 from ..learning.learners import learner_for
@@ -72,20 +73,18 @@ class TakeoverConfig(DictConfig):
     """What ``online`` and ``hg-dagger`` share: when the policy may drive, when the human steps in."""
 
     window: int = 10
-    """K: the agreement is measured over the human's last K commands."""
+    """K: the agreement is measured over the human's last K commands (1..10 000)."""
     threshold: float = 0.9
     """Share of those K the policy must have agreed with to drive (9 of 10 by default)."""
     intervention: InterventionConfig = field(default_factory=InterventionConfig)
     """When the watching human takes control (back)."""
 
-    def _check_count(self, name: str) -> None:
-        """The setting ``name`` must be an integer >= 1 (the error names the method)."""
-        value = getattr(self, name)
-        if isinstance(value, bool) or value < 1:
-            raise ValueError(f"{self.settings_name} {name} must be an integer >= 1")
+    def _check_count(self, name: str, maximum: int) -> None:
+        """The setting ``name`` must be an integer in 1..maximum (the error names the method)."""
+        check_int(f"{self.settings_name} {name}", getattr(self, name), 1, maximum)
 
     def __post_init__(self) -> None:
-        self._check_count("window")
+        self._check_count("window", 10_000)
         if not 0.0 < self.threshold <= 1.0:
             raise ValueError(f"{self.settings_name} threshold must be in (0, 1]")
 
@@ -97,11 +96,12 @@ class OnlineConfig(TakeoverConfig):
     settings_name = "online"
 
     generations_per_case: int = 2
-    """GA generations (ask/tell, population re-scored on all cases so far) after each new case."""
+    """GA generations (ask/tell, population re-scored on all cases so far) after each new case
+    (1..10 000)."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        self._check_count("generations_per_case")
+        self._check_count("generations_per_case", 10_000)
 
 
 @dataclass(frozen=True)
@@ -112,11 +112,11 @@ class HGDaggerConfig(TakeoverConfig):
     settings_name = "hg-dagger"
 
     rounds: int = 3
-    """R: rounds of autonomous runs, each followed by re-evolving on all cases."""
+    """R: rounds of autonomous runs, each followed by re-evolving on all cases (1..1000)."""
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        self._check_count("rounds")
+        self._check_count("rounds", 1_000)
 
 
 @dataclass

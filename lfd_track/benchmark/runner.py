@@ -23,9 +23,12 @@ import numpy as np
 from ..controller import Controller
 from ..demo.demonstrator import HumanConfig
 from ..env import LfDTrackEnv
+from ..errors import LfdTrackError
 from ..learning.bc import BCConfig
 from ..learning.cmaes import CMAESConfig
+from ..learning.fit import check_int
 from ..learning.ga import GAConfig
+from ..presets import load_preset
 from ..teaching.arbiter import Arbiter
 from ..teaching.loop import Step, TeachingLoop
 from ..teaching.memory import MemoryConfig
@@ -44,9 +47,16 @@ from .tables import TrialOutcome
 
 __all__ = [
     "DIRECTIONS",
+    "MAX_REPETITIONS",
+    "MAX_SEED",
+    "MAX_TRIALS_PER_DIRECTION",
+    "MAX_WORKERS",
     "METHODS",
     "BenchmarkConfig",
     "RepetitionResult",
+    "check_test_tracks",
+    "check_tracks",
+    "check_workers",
     "config_dict",
     "repetition_seeds",
     "run_benchmark",
@@ -63,10 +73,27 @@ DIRECTIONS: tuple[tuple[str, bool, str], ...] = (
     ("testing", True, "cw"),
 )
 
+# Limits of the integer settings: generous (far beyond any run that finishes in days), but a typo
+# such as a trillion repetitions or a 400-digit seed is refused at once instead of hanging.
+MAX_REPETITIONS = 10_000
+"""Most repetitions a benchmark may have (the paper's totals come from 10)."""
+MAX_TRIALS_PER_DIRECTION = 1_000
+"""Most autonomous runs per direction per repetition (the paper's: 3)."""
+MAX_SEED = 2**32 - 1
+"""Largest benchmark seed (seeds are 0..2**32-1, like the study files')."""
+MAX_WORKERS = 1_024
+"""Most worker processes of one benchmark."""
+
 
 @dataclass(frozen=True)
 class BenchmarkConfig:
-    """What one benchmark run does."""
+    """What one benchmark run does.
+
+    Limits (anything else is refused at construction in one line naming the setting):
+    ``repetitions`` 1..10 000, ``trials_per_direction`` 1..1000, ``seed`` 0..2**32-1; the
+    learners' settings have their own (``GAConfig``: population and tournament size
+    1..100 000, generations 1..1 000 000; see each config class).
+    """
 
     repetitions: int = 10  # fresh demonstration + evolution each (the paper's totals: 10)
     seed: int = 0  # benchmark seed; repetition seeds are spawned from it
@@ -94,10 +121,9 @@ class BenchmarkConfig:
         object.__setattr__(self, "test_tracks", tuple(self.test_tracks))
         if self.method not in METHODS:
             raise ValueError(f"unknown method '{self.method}' (choose from {', '.join(METHODS)})")
-        if self.repetitions < 1:
-            raise ValueError(f"repetitions must be >= 1, got {self.repetitions}")
-        if self.trials_per_direction < 1:
-            raise ValueError(f"trials per direction must be >= 1, got {self.trials_per_direction}")
+        check_int("repetitions", self.repetitions, 1, MAX_REPETITIONS)
+        check_int("trials_per_direction", self.trials_per_direction, 1, MAX_TRIALS_PER_DIRECTION)
+        check_int("seed", self.seed, 0, MAX_SEED)
 
 
 @dataclass
@@ -130,10 +156,45 @@ def trial_directions(test_tracks: tuple[str, ...]) -> list[tuple[str, bool, str]
 
 
 def check_test_tracks(test_tracks: tuple[str, ...]) -> None:
-    """Raise (a one-line ``LfdTrackError``/``ValueError``) unless every test track is a loop."""
+    """Raise (a one-line ``LfdTrackError``/``ValueError``) unless every test track is a loop
+    with corners."""
     for track in test_tracks:
-        if not load_track(track).closed:
+        loaded = load_track(track)
+        if not loaded.closed:
             raise ValueError(f"test track '{track}' is not a loop (laps need a closed track)")
+        if not loaded.corners:
+            raise ValueError(
+                f"test track '{track}' has no corners (a lap is scored corner by corner)"
+            )
+
+
+def check_tracks(config: BenchmarkConfig) -> None:
+    """Raise a one-line error unless every track the run drives works with its preset.
+
+    Loads the preset, checks the test tracks (:func:`check_test_tracks`), then builds, without
+    painting its floor, the environment of every trial direction (the training track, which the
+    learning also drives, and each test loop, both ways): that applies the environment's own
+    checks, among them that the ground texture the preset would paint around the track fits the
+    renderer's cap (``MAX_TEXTURE_BYTES``, ``env._check_ground_fits``). So a track that cannot
+    be driven fails in milliseconds, before anything is learned or written.
+    """
+    preset = load_preset(config.preset)
+    check_test_tracks(config.test_tracks)
+    for track, reverse, _ in trial_directions(config.test_tracks):
+        try:
+            LfDTrackEnv(track=track, reverse=reverse, preset=preset).close()
+        except LfdTrackError:
+            raise
+        except ValueError as exc:
+            message = str(exc).strip().splitlines()[0] if str(exc).strip() else repr(exc)
+            # A track given as a file is named in the message by its file, not only its name.
+            named = f"'{track}'" in message
+            raise LfdTrackError(message if named else f"{track}: {message}") from None
+
+
+def check_workers(workers: int) -> None:
+    """Raise ``ValueError`` unless ``workers`` is an integer in 1..MAX_WORKERS."""
+    check_int("workers", workers, 1, MAX_WORKERS)
 
 
 def repetition_seeds(seed: int, repetitions: int) -> list[int]:
@@ -284,11 +345,17 @@ def run_benchmark(
     workers: int = 1,
     progress: Callable[[RepetitionResult], None] | None = None,
 ) -> list[RepetitionResult]:
-    """Run every repetition (in ``workers`` processes) and return them in repetition order."""
+    """Run every repetition (in ``workers`` processes) and return them in repetition order.
+
+    Every track is checked against the preset first (:func:`check_tracks`), so a track that
+    cannot be driven fails before anything is written to ``work_dir``.
+    """
+    check_workers(workers)
+    check_tracks(config)
     seeds = repetition_seeds(config.seed, config.repetitions)
     jobs = [(i, s, config, str(work_dir)) for i, s in enumerate(seeds)]
     results: list[RepetitionResult] = []
-    if workers <= 1:
+    if workers == 1:
         for job in jobs:
             results.append(_run_packed(job))
             if progress:
@@ -298,7 +365,7 @@ def run_benchmark(
         import multiprocessing
 
         ctx = multiprocessing.get_context("spawn" if os.name != "posix" else "forkserver")
-        with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
+        with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=ctx) as pool:
             for result in pool.map(_run_packed, jobs):
                 results.append(result)
                 if progress:

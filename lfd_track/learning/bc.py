@@ -42,9 +42,10 @@ class BCConfig(DictConfig):
     settings_name = "BC"
 
     epochs: int = 2000
-    """Passes over the training cases."""
+    """Passes over the training cases (at most 1 000 000)."""
     batch_size: int = 0
-    """Cases per Adam step, drawn as a fresh permutation each epoch; 0 = all cases (full batch)."""
+    """Cases per Adam step, drawn as a fresh permutation each epoch; 0 = all cases (full batch);
+    at most 1 000 000."""
     learning_rate: float = 0.01
     """Adam step size (per weight, in weight units)."""
     beta1: float = 0.9
@@ -65,8 +66,8 @@ class BCConfig(DictConfig):
     """Output-difference threshold of the Algorithm 3 fitness reported in the history."""
 
     def __post_init__(self) -> None:
-        check_int("epochs", self.epochs, 1)
-        check_int("batch_size", self.batch_size, 0)
+        check_int("epochs", self.epochs, 1, 1_000_000)
+        check_int("batch_size", self.batch_size, 0, 1_000_000)
         check_positive("learning_rate", self.learning_rate)
         for name in ("beta1", "beta2"):
             value = getattr(self, name)

@@ -34,9 +34,9 @@ class CMAESConfig(DictConfig):
     settings_name = "CMA-ES"
 
     population_size: int = 40
-    """Candidates sampled and evaluated per generation (CMA-ES lambda)."""
+    """Candidates sampled and evaluated per generation (CMA-ES lambda), 2..100 000."""
     generations: int = 200
-    """Generations run (fewer only if CMA-ES stops on a numerical condition)."""
+    """Generations run (fewer only if CMA-ES stops on a numerical condition), 1..1 000 000."""
     sigma0: float = 0.5
     """Initial step size, in weight units (the GA's initial weights have std 0.58)."""
     init_range: float = 1.0
@@ -47,8 +47,8 @@ class CMAESConfig(DictConfig):
     """Output-difference threshold of the fitness (Algorithm 3)."""
 
     def __post_init__(self) -> None:
-        check_int("population_size", self.population_size, 2)
-        check_int("generations", self.generations, 1)
+        check_int("population_size", self.population_size, 2, 100_000)
+        check_int("generations", self.generations, 1, 1_000_000)
         check_positive("sigma0", self.sigma0)
         check_positive("init_range", self.init_range, allow_zero=True)
         if not isinstance(self.bias, bool):

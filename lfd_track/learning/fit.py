@@ -71,12 +71,21 @@ def initial_weights(
     return rng.uniform(-init_range, init_range, size=n_weights(bias, n_inputs))
 
 
-def check_int(name: str, value: Any, minimum: int) -> None:
-    """Raise ``ValueError`` unless ``value`` is an int (not bool) of at least ``minimum``."""
+def shown_int(value: int) -> str:
+    """An integer as short text: a 400-digit number is not printed whole."""
+    if abs(value) < 10**18:
+        return str(value)
+    return f"{'-' if value < 0 else ''}a number of more than 18 digits"
+
+
+def check_int(name: str, value: Any, minimum: int, maximum: int | None = None) -> None:
+    """Raise ``ValueError`` unless ``value`` is an int (not bool) in ``minimum..maximum``."""
     if isinstance(value, bool) or not isinstance(value, int):
         raise ValueError(f"{name} must be an integer, got {value!r}")
     if value < minimum:
-        raise ValueError(f"{name} must be at least {minimum}, got {value}")
+        raise ValueError(f"{name} must be at least {minimum}, got {shown_int(value)}")
+    if maximum is not None and value > maximum:
+        raise ValueError(f"{name} must be at most {maximum}, got {shown_int(value)}")
 
 
 def check_positive(name: str, value: Any, *, allow_zero: bool = False) -> None:

@@ -16,12 +16,23 @@ import numpy as np
 
 from ..config import DictConfig
 from ..control.mlp import N_INPUTS, n_weights
+from .fit import check_int
 from .fitness import imitation_fitness
+
+MAX_POPULATION = 100_000
+"""Largest population (and tournament) size accepted: far above any useful run, low enough that a
+typo fails at once instead of exhausting memory."""
+MAX_GENERATIONS = 1_000_000
+"""Most generations accepted (5000 x the paper's 200; about two hours at its population)."""
 
 
 @dataclass(frozen=True)
 class GAConfig(DictConfig):
-    """GA settings; defaults are the paper's Table 1."""
+    """GA settings; defaults are the paper's Table 1.
+
+    Limits: ``population_size`` and ``tournament_size`` 1..100 000, ``generations``
+    1..1 000 000, ``elitism`` 0..population_size-1; anything else is refused in one line.
+    """
 
     settings_name = "GA"
 
@@ -45,16 +56,10 @@ class GAConfig(DictConfig):
     """Output-difference threshold of the fitness (Algorithm 3)."""
 
     def __post_init__(self) -> None:
-        for name in ("population_size", "generations", "tournament_size", "elitism"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int):
-                raise ValueError(f"{name} must be an integer, got {value!r}")
-        if self.population_size < 1:
-            raise ValueError("population_size must be at least 1")
-        if self.generations < 1:
-            raise ValueError("generations must be at least 1")
-        if self.tournament_size < 1:
-            raise ValueError("tournament_size must be at least 1")
+        check_int("population_size", self.population_size, 1, MAX_POPULATION)
+        check_int("generations", self.generations, 1, MAX_GENERATIONS)
+        check_int("tournament_size", self.tournament_size, 1, MAX_POPULATION)
+        check_int("elitism", self.elitism, 0)
         if not 0 <= self.elitism < self.population_size:
             raise ValueError("elitism must be in 0..population_size-1")
         if not 0.0 <= self.mutation_rate <= 1.0:

@@ -19,9 +19,12 @@ from ..atomic import atomic_write_bytes
 from ..benchmark.runner import config_dict, run_benchmark
 from ..benchmark.tables import results_json_text
 from ..errors import FileFormatError
+from ..files import read_regular_text
 from .spec import Job
 
 RESULTS_FILE = "results.json"
+MAX_RESULTS_BYTES = 1 << 28
+"""Largest results.json read back (a 10-repetition job writes about 100 kB)."""
 JOB_FILES = ("report.md", RESULTS_FILE)
 """Files kept from each job's benchmark outputs, in the order they are written (results last)."""
 
@@ -63,22 +66,45 @@ def expected_config(job: Job) -> dict[str, Any]:
 def finished_results(out: Path, job: Job) -> dict[str, Any] | None:
     """The job's results if it finished earlier, else None.
 
-    Raises ``FileFormatError`` if the stored results are unreadable or were produced with other
-    settings than the study now asks for (rerunning would mix two studies in one folder).
+    Raises ``FileFormatError`` (one line naming the results.json) if the stored results were
+    produced with other settings than the study now asks for (rerunning would mix two studies
+    in one folder), or are damaged: unreadable, not a regular file, larger than
+    :data:`MAX_RESULTS_BYTES`, not JSON, nested too deeply, or missing (or holding wrongly typed)
+    any field the summary reads (:func:`~lfd_track.study.summary.check_job_results`).
+
+    A damaged file is an error, never a reason to rerun: the study stops before running any job
+    and the file is left as it is; the message tells the user to delete that job's folder, so
+    the next run redoes that job alone.
     """
     path = job_folder(out, job) / RESULTS_FILE
-    if not path.is_file():
+    if not (path.exists() or path.is_symlink()):
         return None
+    rerun = "delete this job's folder to rerun it"
     try:
-        results = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        results = json.loads(read_regular_text(path, MAX_RESULTS_BYTES, "results"))
+    except RecursionError:
         raise FileFormatError(
-            path, f"unreadable results ({exc}); delete it to rerun the job"
+            path, f"unreadable results (JSON nested too deeply); {rerun}"
         ) from None
+    except MemoryError:
+        raise FileFormatError(path, f"unreadable results (too large for memory); {rerun}") from None
+    except ValueError as exc:  # not JSON, or an integer of thousands of digits
+        raise FileFormatError(path, f"unreadable results ({_first_line(exc)}); {rerun}") from None
     if not isinstance(results, dict) or results.get("config") != expected_config(job):
         raise FileFormatError(
             path,
             f"was run with other settings than condition '{job.condition}' now has "
             "(use another --out folder, or delete this job's folder to rerun it)",
         )
+    from .summary import check_job_results
+
+    try:
+        check_job_results(results, job.config.repetitions)
+    except ValueError as exc:
+        raise FileFormatError(path, f"damaged results: {_first_line(exc)}; {rerun}") from None
     return results
+
+
+def _first_line(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__

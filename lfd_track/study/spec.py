@@ -26,7 +26,22 @@ are tables of their config's fields. Every (condition, seed) pair is one job: on
 paper protocol, ``BenchmarkConfig(seed=seed, repetitions=repetitions, ...)``.
 
 Anything wrong in the file (unknown key, wrong type, unknown method, preset or track, duplicate
-name) raises :class:`~lfd_track.errors.FileFormatError`: one line naming the file and the problem.
+name, a number out of bounds) raises :class:`~lfd_track.errors.FileFormatError`: one line naming
+the file and the problem, before any job runs or any folder is made.
+
+Bounds, generous for real studies but keeping each job's memory and run time finite: ``seeds``
+are integers 0 to 2**32 - 1 (numpy's seed range, :data:`MAX_SEED`), ``repetitions`` 1 to
+:data:`MAX_REPETITIONS` (10,000). A condition's settings are checked by their configs when the
+file is loaded, and those configs bound their integer settings (``BenchmarkConfig``,
+``GAConfig`` and the learners' configs state their limits). The integer settings whose configs
+set no upper bound are bounded here, by :data:`SETTING_LIMITS`: ``human.max_commands`` 1 to
+1,000,000, ``human.library_only_commands`` ≤ 100,000, ``human.legs`` ≤ 1,000,
+``intervention.stall_commands`` ≤ 10,000, ``memory.bend_pivots`` ≤ 1,000; any other integer
+setting without a bound of its own by :data:`OTHER_SETTING_LIMIT` (10**9), and all of them are
+at least 0. Nested tables (``[conditions.online.intervention]``) are checked key by key too.
+
+Every test track must be a closed loop with at least one corner (laps are scored corner by
+corner); with ``check_names`` this is checked when the file is loaded.
 """
 
 from __future__ import annotations
@@ -38,15 +53,34 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..benchmark.runner import BenchmarkConfig
+from ..benchmark.runner import BenchmarkConfig, check_tracks
 from ..config import dataclass_from_table, read_toml
 from ..errors import FileFormatError, LfdTrackError
+from ..learning.fit import shown_int
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._+-]{0,63}$")
 _STUDY_KEYS = {"name", "description", "seeds", "repetitions"}
 _TOP_KEYS = {"study", "defaults", "conditions"}
 _SET_BY_STUDY = {"seed", "repetitions"}
 # Benchmark settings a study may name before this build's BenchmarkConfig has them.
+MAX_SEED = 2**32 - 1
+"""Largest benchmark seed (numpy's legacy seed range; folders are named ``seed<k>``)."""
+MAX_REPETITIONS = 10_000
+"""Most repetitions per job (each one a demonstration, a learning run and its trials)."""
+SETTING_LIMITS: dict[str, int] = {
+    "human.library_only_commands": 100_000,
+    "human.legs": 1_000,
+    "human.max_commands": 1_000_000,
+    "online.intervention.stall_commands": 10_000,
+    "hg_dagger.intervention.stall_commands": 10_000,
+    "memory.bend_pivots": 1_000,
+}
+"""Largest value of the integer settings whose configs set no bound (dotted: table.key); the
+others are bounded by their configs, which are built (and so checked) first."""
+OTHER_SETTING_LIMIT = 10**9
+"""Largest value of an integer setting missing from :data:`SETTING_LIMITS`."""
+SETTING_MINIMUMS: dict[str, int] = {"human.max_commands": 1}
+"""Smallest value of an integer setting where its config does not check it (else 0)."""
 
 
 @dataclass(frozen=True)
@@ -139,14 +173,26 @@ def load_study(path: str | Path, *, check_names: bool = True) -> Study:
         or any(isinstance(s, bool) or not isinstance(s, int) or s < 0 for s in seeds)
     ):
         raise FileFormatError(
-            path, f"'study.seeds' must be a non-empty list of integers >= 0, got {seeds!r}"
+            path,
+            f"'study.seeds' must be a non-empty list of integers >= 0, got {_show(seeds)}",
+        )
+    too_large = [s for s in seeds if s > MAX_SEED]
+    if too_large:
+        raise FileFormatError(
+            path,
+            f"'study.seeds' must be integers from 0 to {MAX_SEED}, got {_show(too_large[0])}",
         )
     if len(set(seeds)) != len(seeds):
-        raise FileFormatError(path, f"'study.seeds' lists a seed twice: {seeds}")
+        raise FileFormatError(path, f"'study.seeds' lists a seed twice: {_show(seeds)}")
     repetitions = study.get("repetitions")
     if isinstance(repetitions, bool) or not isinstance(repetitions, int) or repetitions < 1:
         raise FileFormatError(
-            path, f"'study.repetitions' must be an integer >= 1, got {repetitions!r}"
+            path, f"'study.repetitions' must be an integer >= 1, got {_show(repetitions)}"
+        )
+    if repetitions > MAX_REPETITIONS:
+        raise FileFormatError(
+            path,
+            f"'study.repetitions' must be at most {MAX_REPETITIONS}, got {_show(repetitions)}",
         )
 
     defaults = data.get("defaults", {})
@@ -210,13 +256,14 @@ def _condition(table: dict[str, Any], index: int, path: Path, check_names: bool)
             raise FileFormatError(path, f"{where}: unknown key '{key}'")
         kind = hints[key]
         if dataclasses.is_dataclass(kind):
-            settings[key] = dataclass_from_table(kind, value, f"{name}.{key}", path)
+            settings[key] = _settings_from_table(kind, value, f"{name}.{key}", path)
         else:
             settings[key] = value
     for key in ("preset", "test_tracks"):
         if key in settings:
             settings[key] = _relative_to(settings[key], path)
     config = dataclass_from_table(BenchmarkConfig, settings, name, path)
+    _check_limits(config, where, path)
     method = getattr(config, "method", table.get("method", "paper"))
     tracks = getattr(config, "test_tracks", table.get("test_tracks", ()))
     if not isinstance(method, str):
@@ -232,6 +279,53 @@ def _condition(table: dict[str, Any], index: int, path: Path, check_names: bool)
         method=method,
         test_tracks=tuple(tracks),
     )
+
+
+def _settings_from_table(kind: Any, table: Any, where: str, path: Path) -> Any:
+    """``dataclass_from_table``, with nested settings tables (``online.intervention``) built
+    as their own config too, so their keys and types are checked here, not when a job runs."""
+    if isinstance(table, dict):
+        hints = typing.get_type_hints(kind)
+        table = {
+            k: _settings_from_table(hints[k], v, f"{where}.{k}", path)
+            if k in hints and dataclasses.is_dataclass(hints[k])
+            else v
+            for k, v in table.items()
+        }
+    return dataclass_from_table(kind, table, where, path)
+
+
+def _check_limits(config: Any, where: str, path: Path, prefix: str = "") -> None:
+    """Raise ``FileFormatError`` if an integer setting of ``config`` (nested settings included)
+    exceeds its bound in :data:`SETTING_LIMITS`, or is below its :data:`SETTING_MINIMUMS` (0
+    unless listed); the study's own keys are checked apart."""
+    for field in dataclasses.fields(config):
+        key = f"{prefix}{field.name}"
+        value = getattr(config, field.name)
+        if dataclasses.is_dataclass(value) and not isinstance(value, type):
+            _check_limits(value, where, path, f"{key}.")
+        elif isinstance(value, int) and not isinstance(value, bool) and key not in _SET_BY_STUDY:
+            limit = SETTING_LIMITS.get(key, OTHER_SETTING_LIMIT)
+            if value > limit:
+                raise FileFormatError(
+                    path, f"{where}: '{key}' must be at most {limit}, got {_show(value)}"
+                )
+            least = SETTING_MINIMUMS.get(key, 0)
+            if value < least:
+                raise FileFormatError(
+                    path, f"{where}: '{key}' must be at least {least}, got {_show(value)}"
+                )
+
+
+def _show(value: Any) -> str:
+    """``repr(value)``, with huge integers and long lists shortened: a huge number in a file
+    gives a short message."""
+    if isinstance(value, list):
+        shown = [_show(v) for v in value[:5]]
+        return "[" + ", ".join(shown) + (", ...]" if len(value) > 5 else "]")
+    if isinstance(value, int) and not isinstance(value, bool):
+        return shown_int(value)  # str() would even refuse one of over 4300 digits
+    return repr(value)
 
 
 def _relative_to(value: Any, study_path: Path) -> Any:
@@ -278,6 +372,12 @@ def check_condition_names(config: BenchmarkConfig, where: str, path: Path | str)
             load_track(track)
         except LfdTrackError as exc:
             raise FileFormatError(path, f"{where}: test track: {_one_line(exc)}") from None
+    # What the benchmark checks before it runs (test tracks are loops with corners, every track
+    # fits the preset's ground texture), here at load time, before any job runs.
+    try:
+        check_tracks(config)
+    except (LfdTrackError, ValueError) as exc:
+        raise FileFormatError(path, f"{where}: {_one_line(exc)}") from None
 
 
 def _one_line(exc: BaseException) -> str:

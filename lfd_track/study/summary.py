@@ -9,6 +9,7 @@ controllers (seed × repetition), and ``per_seed`` shows the spread between seed
 
 from __future__ import annotations
 
+import math
 import statistics
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -19,7 +20,7 @@ import numpy as np
 from ..atomic import atomic_write_text
 from ..benchmark.paper import TRACK_RESULT_KEYS
 from ..benchmark.runner import config_dict
-from ..benchmark.tables import results_json_text
+from ..benchmark.tables import TrialOutcome, results_json_text
 from .spec import Job, Study
 from .stats import controller_interval, rate_summary
 
@@ -43,14 +44,9 @@ def human_commands(results: Mapping[str, Any]) -> int:
     paper method, which only demonstrates) every demonstration command counts: the recorded
     cases plus the library-only commands at the start of each demonstration.
     """
-    for key in ("human_effort", "human"):
-        effort = results.get(key)
-        if isinstance(effort, Mapping):
-            total = effort.get("total", effort)
-            if isinstance(total, Mapping) and isinstance(total.get("commands"), int):
-                return int(total["commands"])
-    if isinstance(results.get("human_commands"), int):
-        return int(results["human_commands"])
+    reported = _reported_commands(results)
+    if reported is not None:
+        return reported
     library_only = int(results["config"]["human"]["library_only_commands"])
     return sum(int(d["cases"]) + library_only for d in results["demonstrations"])
 
@@ -72,6 +68,135 @@ def human_effort(results: Mapping[str, Any]) -> dict[str, float]:
         value = total.get(key, 0) if isinstance(total, Mapping) else 0
         out[key] = float(value) if isinstance(value, int | float) else 0.0
     return out
+
+
+MAX_COUNT = 2**53
+"""Largest count (commands, cases, steps, ...) a job's results may hold: exact as a float."""
+_OUTCOME_TYPES: dict[str, tuple[type, ...]] = {
+    "track": (str,),
+    "direction": (str,),
+    "corner_order": (list,),
+    "corners_reached": (list,),
+    "corners_negotiated": (list,),
+    "failure": (str, type(None)),
+    "success": (bool,),
+    "repetition": (int,),
+    "trial": (int,),
+    "steps": (int,),
+}
+
+
+def check_job_results(results: Mapping[str, Any], repetitions: int) -> None:
+    """Raise ``ValueError`` (one line) unless ``results`` holds, with the right types, every
+    field this module reads from a job's results.json.
+
+    That is: ``outcomes``, a list of trial outcomes (every field of
+    :class:`~lfd_track.benchmark.tables.TrialOutcome`, consistent, ``repetition`` below
+    ``repetitions``); if present, ``timing_s.wall``, ``training_accuracy`` and the
+    ``human_effort``/``human`` totals as finite numbers (counts as integers 0 to
+    :data:`MAX_COUNT`); and, for a job that reports no command count, ``demonstrations`` with
+    integer ``cases``.
+    """
+    outcomes = results.get("outcomes")
+    if "outcomes" not in results:
+        raise ValueError("missing 'outcomes'")
+    if not isinstance(outcomes, list):
+        raise ValueError(f"'outcomes' must be a list, got {type(outcomes).__name__}")
+    for index, o in enumerate(outcomes):
+        _check_outcome(o, f"outcomes[{index}]", repetitions)
+    timing = results.get("timing_s", {})
+    if not isinstance(timing, Mapping):
+        raise ValueError("'timing_s' must be an object")
+    if "wall" in timing:
+        _number(timing["wall"], "timing_s.wall")
+    accuracy = results.get("training_accuracy", [])
+    if not isinstance(accuracy, list):
+        raise ValueError("'training_accuracy' must be a list of numbers")
+    for index, a in enumerate(accuracy):
+        _number(a, f"training_accuracy[{index}]")
+    for key in ("human_effort", "human"):
+        if key not in results:
+            continue
+        effort = results[key]
+        if not isinstance(effort, Mapping):
+            raise ValueError(f"'{key}' must be an object")
+        total = effort.get("total", effort)
+        if not isinstance(total, Mapping):
+            raise ValueError(f"'{key}.total' must be an object")
+        name = f"{key}.total" if "total" in effort else key
+        if "commands" in total:
+            _count(total["commands"], f"{name}.commands")
+        for effort_key in EFFORT_KEYS:
+            if effort_key in total:
+                _number(total[effort_key], f"{name}.{effort_key}")
+    if "human_commands" in results:
+        _count(results["human_commands"], "human_commands")
+    if _reported_commands(results) is None:  # counted from the demonstrations
+        demos = results.get("demonstrations")
+        if not isinstance(demos, list):
+            raise ValueError("'demonstrations' must be a list (no command count is reported)")
+        for index, d in enumerate(demos):
+            if not isinstance(d, Mapping):
+                raise ValueError(f"'demonstrations[{index}]' must be an object")
+            _count(d.get("cases"), f"demonstrations[{index}].cases")
+
+
+def _check_outcome(o: Any, where: str, repetitions: int) -> None:
+    if not isinstance(o, Mapping):
+        raise ValueError(f"{where} must be an object, got {type(o).__name__}")
+    for key, types in _OUTCOME_TYPES.items():
+        if key not in o:
+            raise ValueError(f"{where}: missing '{key}'")
+        value = o[key]
+        if not isinstance(value, types) or (bool not in types and isinstance(value, bool)):
+            kinds = " or ".join("null" if t is type(None) else t.__name__ for t in types)
+            raise ValueError(f"{where}: '{key}' must be {kinds}, got {type(value).__name__}")
+        if isinstance(value, list) and not all(isinstance(v, str) for v in value):
+            raise ValueError(f"{where}: '{key}' must list corner labels (strings)")
+    for key in ("repetition", "trial", "steps"):
+        _count(o[key], f"{where}: '{key}'", quoted=False)
+    if o["repetition"] >= repetitions:
+        raise ValueError(
+            f"{where}: 'repetition' must be below the job's {repetitions} repetition(s), "
+            f"got {o['repetition']}"
+        )
+    try:
+        TrialOutcome.from_dict(o)  # the benchmark's own consistency rules
+    except ValueError as exc:
+        raise ValueError(f"{where}: {str(exc).splitlines()[0]}") from None
+
+
+def _number(value: Any, name: str) -> None:
+    """``value`` must be a finite number >= 0 (and at most :data:`MAX_COUNT`)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ValueError(f"'{name}' must be a finite number, got {type(value).__name__}")
+    try:
+        ok = math.isfinite(float(value)) and 0 <= value <= MAX_COUNT
+    except OverflowError:
+        ok = False
+    if not ok:
+        raise ValueError(f"'{name}' must be a finite number from 0 to {MAX_COUNT}")
+
+
+def _count(value: Any, name: str, *, quoted: bool = True) -> None:
+    """``value`` must be an integer from 0 to :data:`MAX_COUNT`."""
+    label = f"'{name}'" if quoted else name
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= MAX_COUNT:
+        shown = type(value).__name__ if not isinstance(value, int) else "a number out of range"
+        raise ValueError(f"{label} must be an integer from 0 to {MAX_COUNT}, got {shown}")
+
+
+def _reported_commands(results: Mapping[str, Any]) -> int | None:
+    """The job's human commands where its results report them (see :func:`human_commands`)."""
+    for key in ("human_effort", "human"):
+        effort = results.get(key)
+        if isinstance(effort, Mapping):
+            total = effort.get("total", effort)
+            if isinstance(total, Mapping) and isinstance(total.get("commands"), int):
+                return int(total["commands"])
+    if isinstance(results.get("human_commands"), int):
+        return int(results["human_commands"])
+    return None
 
 
 def _track_counts(outcomes: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:

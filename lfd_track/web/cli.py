@@ -36,6 +36,7 @@ def run_teach(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not args.force:
         raise LfdTrackError(f"{out}: already exists (use --force to replace it)")
+    replacing = out.exists()  # kept until the new recording holds a case
     token = None if is_loopback(args.host) else new_token()
     sock = bind_socket(args.host, args.port)
     try:
@@ -57,6 +58,8 @@ def run_teach(args: argparse.Namespace) -> int:
         session.close()
         sock.close()
     status = session.status()
+    if replacing and not status["cases"]:
+        return 0  # the recording has said that nothing was recorded and the file is unchanged
     counts = status.get("counts", {})
     print(
         f"{out}: {status['cases']} cases ({counts.get('forward', 0)} forward, "

@@ -15,6 +15,8 @@ Nothing moves unless the controlling page holds the lease (:class:`~lfd_track.we
 from __future__ import annotations
 
 import argparse
+import os
+import sys
 import threading
 import time
 from collections.abc import Callable
@@ -431,15 +433,25 @@ def open_session(args: argparse.Namespace) -> LoopSession:
             "population_size": settings.population_size,
         }
     from ..demo.demonstrator import recording_writer
+    from ..outputs import in_progress_name
     from ..teaching.memory import MemoryConfig
 
+    # As ``lfd-track demo --force``: an existing file is kept until the new recording is closed
+    # (then replaced, if it holds a case); until then the recording has a name of its own.
+    replacing = args.force and out.exists()
+    writer: Any
     try:
         perception = Perception(RoadLibrary(), "careful", MemoryConfig(kind=args.memory))
         # The library is logged as it learns, so a recording cut short still carries it.
-        writer = recording_writer(out, metadata, perception, fsync=True, overwrite=args.force)
+        target = in_progress_name(out) if replacing else out
+        writer = recording_writer(
+            target, metadata, perception, fsync=True, overwrite=args.force and not replacing
+        )
     except BaseException:
         env.close()
         raise
+    if replacing:
+        writer = _ReplacingWriter(writer, out)
     commander = BrowserCommander(library_only=args.library_only)
     tally = CaseTally()
     observers: list[Any] = [
@@ -491,9 +503,53 @@ def open_session(args: argparse.Namespace) -> LoopSession:
     try:
         return session.start()
     except BaseException:
+        if replacing:
+            writer.quiet = True  # the error is the message
         session.close()
-        out.unlink(missing_ok=True)  # nothing was taught: leave no empty recording behind
+        if not replacing:
+            out.unlink(missing_ok=True)  # nothing was taught: leave no empty recording behind
         raise
+
+
+class _ReplacingWriter:
+    """The recording of ``teach --force`` over an existing ``out`` (a DemonstrationWriter's
+    methods): once closed with at least one case it replaces ``out``; closed without a case it
+    is deleted and ``out`` is left as it was, with a note on stderr (unless ``quiet``)."""
+
+    def __init__(self, writer: DemonstrationWriter, out: Path) -> None:
+        self._writer = writer
+        self.out = out
+        self.quiet = False
+        self._done = False
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._writer, name)
+
+    def close(self, final_metadata: dict[str, Any] | None = None) -> None:
+        if self._done:
+            return
+        self._done = True
+        from ..outputs import keep_partial, shown_path
+
+        recording = self._writer.path
+        try:
+            self._writer.close(final_metadata)
+        except BaseException:
+            if self._writer.n_cases:  # the cases are kept, under a partial name beside ``out``
+                keep_partial(recording, self.out)
+            else:
+                recording.unlink(missing_ok=True)
+            raise
+        if self._writer.n_cases:
+            os.replace(recording, self.out)
+            return
+        recording.unlink(missing_ok=True)
+        if not self.quiet:
+            print(
+                f"lfd-track teach: nothing was recorded; {shown_path(self.out)} is unchanged",
+                file=sys.stderr,
+                flush=True,
+            )
 
 
 def _online_parts(

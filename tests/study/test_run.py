@@ -9,7 +9,7 @@ import subprocess
 import sys
 
 import pytest
-from study_helpers import TINY_STUDY, write_study
+from study_helpers import TINY_STUDY, job_results, write_study
 
 from lfd_track.benchmark.runner import BenchmarkConfig, config_dict
 from lfd_track.errors import FileFormatError, LfdTrackError
@@ -149,7 +149,6 @@ def test_a_failing_job_names_itself(workers):
 
 def test_an_interrupt_keeps_finished_jobs_and_the_rerun_does_only_the_rest(tmp_path, monkeypatch):
     import lfd_track.study.run as run_module
-    from lfd_track.study.jobs import expected_config
 
     study = load_study(write_study(tmp_path))
     first, second = study.jobs()
@@ -159,7 +158,7 @@ def test_an_interrupt_keeps_finished_jobs_and_the_rerun_does_only_the_rest(tmp_p
         calls.append(job.key)
         if job == second and len(calls) == 2:
             raise KeyboardInterrupt  # Ctrl-C while the second job runs
-        results = json.dumps({"config": expected_config(job), "seed": job.seed})
+        results = json.dumps(job_results(job))
         return {"report.md": b"report\n", RESULTS_FILE: results.encode()}
 
     monkeypatch.setattr(run_module, "run_job", fake_job)

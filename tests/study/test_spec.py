@@ -81,8 +81,17 @@ BAD = [
     (TINY_STUDY.split("[[conditions]]")[0], "no [[conditions]]"),
     (
         TINY_STUDY.replace("trials_per_direction = 1", "trials_per_direction = 0"),
-        "trials per direction",
+        "[paper] trials",
     ),
+    (
+        TINY_STUDY + "[conditions.online.intervention]\nbogus = 1\n",
+        "unknown key 'paper.online.intervention.bogus'",
+    ),
+    (
+        TINY_STUDY + '[conditions.hg_dagger.intervention]\nstall_commands = "x"\n',
+        "'paper.hg_dagger.intervention.stall_commands' must be an integer",
+    ),
+    (TINY_STUDY + "[conditions.human]\nmax_commands = 0\n", "'human.max_commands' must be at"),
 ]
 
 
@@ -162,3 +171,105 @@ def test_the_readme_example_study_is_valid(tmp_path):
     study = load_study(write_study(tmp_path, example))
     assert [c.name for c in study.conditions] == ["paper", "short-ga"]
     assert study.conditions[1].config.ga.generations == 50 and study.seeds == (0, 1, 2)
+
+
+BIG = "1" + "0" * 400  # 10**400: parses as TOML, overflows anything of C size
+HUGE = [
+    (
+        TINY_STUDY.replace("repetitions = 1", "repetitions = 1000000000000"),
+        "'study.repetitions' must be at most 10000",
+    ),
+    (TINY_STUDY.replace("repetitions = 1", f"repetitions = {BIG}"), "'study.repetitions'"),
+    (TINY_STUDY.replace("seeds = [0, 1]", f"seeds = [0, {BIG}]"), "'study.seeds' must be"),
+    (TINY_STUDY.replace("seeds = [0, 1]", "seeds = [4294967296]"), "from 0 to 4294967295"),
+    (
+        TINY_STUDY.replace("trials_per_direction = 1", f"trials_per_direction = {BIG}"),
+        "trials_per_direction'? must be at most 1000",
+    ),
+    (
+        TINY_STUDY + "[conditions.ga]\npopulation_size = 1000000000000\n",
+        "population_size'? must be at most 100000",
+    ),
+]
+
+
+@pytest.mark.parametrize(("text", "problem"), HUGE, ids=[f"huge-{i}" for i in range(len(HUGE))])
+def test_huge_numbers_fail_at_load_in_one_line(tmp_path, capsys, text, problem):
+    path = write_study(tmp_path, text, name="huge.toml")
+    out = tmp_path / "out"
+    assert main(["--quiet", "study", str(path), "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"lfd-track study: {path}: "), err
+    assert re.search(problem, err) and len(err) < 300, err  # 401 digits are not printed whole
+    assert not out.exists()
+
+
+def _integer_settings(cls=None, prefix=""):
+    """Dotted paths of every integer setting a condition can set (nested tables included)."""
+    import dataclasses
+    import typing
+
+    from lfd_track.benchmark.runner import BenchmarkConfig
+
+    cls = cls or BenchmarkConfig
+    hints = typing.get_type_hints(cls)
+    for f in dataclasses.fields(cls):
+        kind = hints[f.name]
+        if dataclasses.is_dataclass(kind):
+            yield from _integer_settings(kind, f"{prefix}{f.name}.")
+        elif kind is int and f"{prefix}{f.name}" not in ("seed", "repetitions"):
+            yield f"{prefix}{f.name}"
+
+
+@pytest.mark.parametrize("key", list(_integer_settings()))
+def test_every_integer_setting_of_a_condition_has_an_upper_bound(tmp_path, key):
+    *tables, leaf = key.split(".")
+    setting = f"{leaf} = {BIG}\n"
+    text = TINY_STUDY + (f"[conditions.{'.'.join(tables)}]\n" if tables else "") + setting
+    path = write_study(tmp_path, text, name="huge.toml")
+    with pytest.raises(FileFormatError) as exc:
+        load_study(path, check_names=False)
+    message = str(exc.value)
+    assert message.startswith(f"{path}: ") and "\n" not in message and len(message) < 300
+    assert leaf in message, message
+
+
+def test_limits_are_generous_enough_for_real_studies(tmp_path):
+    text = (
+        TINY_STUDY.replace("seeds = [0, 1]", "seeds = [0, 4294967295]")
+        .replace("repetitions = 1", "repetitions = 10000")
+        .replace("trials_per_direction = 1", "trials_per_direction = 1000")
+        + "[conditions.ga]\npopulation_size = 100000\n"
+    )
+    study = load_study(write_study(tmp_path, text))
+    assert study.seeds == (0, 2**32 - 1) and study.repetitions == 10_000
+    assert study.conditions[0].config.ga.population_size == 100_000
+
+
+LOOP_WITHOUT_CORNERS = """
+name = "plain"
+closed = true
+width_m = 0.30
+vertices = [[0.0, 0.0], [3.0, 0.0], [3.0, 1.8], [1.8, 1.8]]
+"""
+
+
+@pytest.mark.parametrize(
+    ("tracks", "problem"),
+    [
+        ('["training"]', "test track 'training' is not a loop"),
+        ('["testing", "open.toml"]', "open.toml' is not a loop"),
+        ('["plain.toml"]', "plain.toml' has no corners"),
+    ],
+)
+def test_test_tracks_must_be_loops_with_corners(tmp_path, capsys, tracks, problem):
+    (tmp_path / "open.toml").write_text((REPO / "tracks" / "training.toml").read_text())
+    (tmp_path / "plain.toml").write_text(LOOP_WITHOUT_CORNERS)
+    path = write_study(tmp_path, TINY_STUDY + f"test_tracks = {tracks}\n", name="tracks.toml")
+    out = tmp_path / "out"
+    assert main(["--quiet", "study", str(path), "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"lfd-track study: {path}: "), err
+    assert "condition 'paper'" in err and problem in err, err
+    assert not out.exists()  # refused before any demonstration or learning ran
+    load_study(path, check_names=False)  # the structure alone is fine
