@@ -120,6 +120,9 @@ class Controller:
         learn: bool = False,
         memory: MemoryConfig | None = None,
     ) -> None:
+        _check_library(library)
+        if memory is not None and not isinstance(memory, MemoryConfig):
+            raise TypeError(f"memory must be a MemoryConfig or None, got {type(memory).__name__}")
         memory = None if memory is None or memory.kind == "none" else memory
         n_inputs = policy_inputs(memory)
         w = np.array(weights, dtype=np.float64, copy=True)
@@ -172,6 +175,7 @@ class Controller:
         demonstration stores it: ``load_demonstration(path).road_library()``); an empty library
         is refused, since every road value it gives is 0 and the controller could not see the road.
         """
+        _check_library(library)
         if library.n_models == 0:
             raise ValueError(
                 "the road library is empty: pass the library the training cases were recorded"
@@ -226,8 +230,26 @@ class Controller:
         return PolicyCommander(self.weights)
 
     def act_on_values(self, road_values: np.ndarray) -> int:
-        """Command for precomputed road values, (40,) float (then the memory inputs, if any)."""
-        outputs = mlp_forward(self.weights, np.asarray(road_values, dtype=np.float64)[None])[0]
+        """Command for precomputed road values, (40,) float (then the memory inputs, if any).
+
+        Raises ``ValueError`` for another shape or NaN / infinite values (a NaN would otherwise
+        silently become command 0).
+        """
+        values = np.asarray(road_values)
+        if values.shape != (self.n_inputs,):
+            extra = "" if self.memory is None else ", then the memory inputs"
+            raise ValueError(
+                f"road_values must have shape ({self.n_inputs},) (the road values{extra}),"
+                f" got {values.shape}"
+            )
+        if values.dtype == np.bool_ or not (
+            np.issubdtype(values.dtype, np.floating) or np.issubdtype(values.dtype, np.integer)
+        ):
+            raise ValueError(f"road_values must be numbers, got dtype {values.dtype}")
+        values = values.astype(np.float64)
+        if not np.isfinite(values).all():
+            raise ValueError("road_values contain NaN or infinite values")
+        outputs = mlp_forward(self.weights, values[None])[0]
         self.last_outputs = outputs
         self._previous = select_action(outputs, self._previous)
         return self._previous
@@ -377,6 +399,14 @@ class Controller:
             fitness_history=history,
             learn=learn,
             memory=memory,
+        )
+
+
+def _check_library(library: Any) -> None:
+    if not isinstance(library, RoadLibrary):
+        raise TypeError(
+            f"library must be a RoadLibrary, got {type(library).__name__} (a saved road library"
+            " loads with RoadLibrary.from_dict, a saved controller with Controller.load(path))"
         )
 
 

@@ -44,6 +44,10 @@ class LfDTrackEnv(gym.Env):
     | 1   | left    | pivot counter-clockwise, ≈ 23° per command  |
     | 2   | right   | pivot clockwise, ≈ 23° per command          |
 
+    ``step`` takes any integer the space contains (``int``, numpy integers, 0-d integer arrays);
+    anything else raises ``ValueError``, booleans included (``Discrete.contains(True)`` is True
+    because a Python bool is an int, but ``True`` is no command).
+
     ## Observation Space
     ``Box(0, 255, (480, 640, 3), uint8)``: the phone camera's RGB frame (rows top to bottom).
 
@@ -250,7 +254,9 @@ class LfDTrackEnv(gym.Env):
                 "the episode has ended (terminated or truncated): call reset() before step()"
                 " (or make the env with continue_after_end=True)"
             )
-        if not self.action_space.contains(action):
+        # Discrete.contains(True) is True (a Python bool is an int) while it already refuses
+        # numpy bools; a bool is refused here too, so True never quietly means "left".
+        if isinstance(action, bool) or not self.action_space.contains(action):
             raise ValueError(
                 f"invalid action {action!r}: expected 0 (forward), 1 (left) or 2 (right)"
             )

@@ -27,6 +27,8 @@ class RoadValueObservation(gym.ObservationWrapper):
     """
 
     def __init__(self, env: gym.Env, library: RoadLibrary, learn: bool = False) -> None:
+        if not isinstance(library, RoadLibrary):
+            raise TypeError(f"library must be a RoadLibrary, got {type(library).__name__}")
         super().__init__(env)
         self.library = library
         self.learn = bool(learn)

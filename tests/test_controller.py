@@ -255,3 +255,42 @@ def test_from_evolution_refuses_an_empty_library(trained):
     result = evolve(values, np.arange(6) % 3, GAConfig(generations=2), np.random.default_rng(0))
     with pytest.raises(ValueError, match="road library is empty"):
         Controller.from_evolution(RoadLibrary(), result)
+
+
+@pytest.mark.parametrize("library", [None, "lib", {"bins": 32}])
+def test_constructor_checks_the_library_type(trained, library):
+    # Accepted before, then act() failed with an AttributeError deep in the perception.
+    with pytest.raises(TypeError, match="library must be a RoadLibrary, got"):
+        Controller(library, trained[0].weights)
+    with pytest.raises(TypeError, match="library must be a RoadLibrary, got"):
+        Controller.from_evolution(library, None)  # type: ignore[arg-type]
+
+
+def test_constructor_checks_the_memory_type(trained):
+    with pytest.raises(TypeError, match="memory must be a MemoryConfig"):
+        Controller(trained[0].library, trained[0].weights, memory={"kind": "last_bend"})
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_act_on_values_refuses_non_finite_road_values(trained, bad):
+    controller = trained[0]
+    with pytest.raises(ValueError, match="road_values contain NaN or infinite"):
+        controller.act_on_values(np.full(40, bad))
+    values = np.full(40, 0.5)
+    values[17] = bad
+    with pytest.raises(ValueError, match="road_values contain NaN or infinite"):
+        controller.act_on_values(values)
+
+
+@pytest.mark.parametrize("shape", [(39,), (41,), (1, 40), ()])
+def test_act_on_values_checks_the_shape(trained, shape):
+    with pytest.raises(ValueError, match=r"road_values must have shape \(40,\)"):
+        trained[0].act_on_values(np.zeros(shape))
+
+
+def test_act_on_values_still_takes_float32_and_lists(trained):
+    controller = Controller(trained[0].library, trained[0].weights)
+    values = np.linspace(-0.2, 0.9, 40)
+    expected = controller.act_on_values(values)
+    controller.reset()
+    assert controller.act_on_values(values.astype(np.float32).tolist()) == expected

@@ -289,6 +289,17 @@ def test_invalid_action_is_rejected():
         env.step(3)
 
 
+@pytest.mark.parametrize("action", [True, False, np.True_, 1.0, np.array([1]), "1", None])
+def test_bools_and_other_non_integers_are_not_actions(action):
+    # Gymnasium's Discrete(3).contains(True) is True (bool is an int); the env refuses it anyway.
+    env = gym.make("LfDTrack-v0").unwrapped
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match="invalid action"):
+        env.step(action)
+    for ok in (1, np.int64(1), np.array(1, dtype=np.int8)):
+        env.step(ok)  # integers of every kind still step
+
+
 def test_a_track_shorter_than_the_episode_margins_is_refused(tmp_path):
     path = tmp_path / "stub.toml"
     path.write_text("closed = false\nvertices = [[0.0, 0.0], [0.5, 0.0]]\n")

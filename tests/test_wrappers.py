@@ -1,5 +1,6 @@
 import gymnasium as gym
 import numpy as np
+import pytest
 
 from lfd_track.vision.road_library import RoadLibrary
 from lfd_track.vision.synthetic import synthetic_frames
@@ -49,3 +50,10 @@ def test_learn_option_runs_algorithm_1_each_frame():
     wrapped.step(0)
     wrapped.step(1)
     assert library.n_models == 3
+
+
+def test_library_type_is_checked_at_construction():
+    for library in (None, "lib"):
+        # Accepted before, then reset() failed with an AttributeError in the perception.
+        with pytest.raises(TypeError, match="library must be a RoadLibrary, got"):
+            RoadValueObservation(FrameEnv(), library)

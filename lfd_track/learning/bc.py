@@ -25,12 +25,13 @@ from ..config import DictConfig
 from ..control.mlp import N_HIDDEN, N_OUTPUTS, n_weights, sigmoid
 from .fit import (
     LearnerFit,
-    check_cases,
+    check_bool,
+    check_config,
     check_int,
     check_positive,
     initial_weights,
 )
-from .fitness import category_weights, imitation_fitness
+from .fitness import checked_cases, population_fitness
 
 _W2 = N_OUTPUTS * N_HIDDEN
 
@@ -78,8 +79,7 @@ class BCConfig(DictConfig):
         check_positive("temperature", self.temperature)
         check_positive("weight_decay", self.weight_decay, allow_zero=True)
         check_positive("init_range", self.init_range, allow_zero=True)
-        if not isinstance(self.bias, bool):
-            raise ValueError(f"bias must be true or false, got {self.bias!r}")
+        check_bool("bias", self.bias)
         check_positive("threshold", self.threshold)
 
 
@@ -151,10 +151,10 @@ def fit_bc(
     """
     if not isinstance(rng, np.random.Generator):
         raise ValueError("fit_bc needs a numpy Generator (rng) so that runs are reproducible")
-    config = config or BCConfig()
-    x, a = check_cases(inputs, actions)
+    config = check_config(config, BCConfig, "fit_bc")
+    cases = checked_cases(inputs, actions)  # checked once; the epochs use the checked arrays
+    x, a, case_weights = cases.inputs, cases.actions, cases.category_weights
     n = x.shape[0]
-    case_weights = category_weights(a)
     weights = initial_weights(config.bias, config.init_range, rng, x.shape[1])
     m = np.zeros_like(weights)
     v = np.zeros_like(weights)
@@ -174,7 +174,7 @@ def fit_bc(
             m_hat = m / (1.0 - config.beta1**step)
             v_hat = v / (1.0 - config.beta2**step)
             weights = weights - config.learning_rate * m_hat / (np.sqrt(v_hat) + config.epsilon)
-        fitness = imitation_fitness(weights[None], x, a, config.threshold, bias=config.bias)
+        fitness = population_fitness(weights[None], cases, config.threshold, bias=config.bias)
         history[epoch] = fitness[0]
     return LearnerFit(
         weights=weights,

@@ -19,12 +19,13 @@ from ..config import DictConfig
 from ..control.mlp import n_weights
 from .fit import (
     LearnerFit,
-    check_cases,
+    check_bool,
+    check_config,
     check_int,
     check_positive,
     initial_weights,
 )
-from .fitness import imitation_fitness
+from .fitness import checked_cases, population_fitness
 
 
 @dataclass(frozen=True)
@@ -51,8 +52,7 @@ class CMAESConfig(DictConfig):
         check_int("generations", self.generations, 1, 1_000_000)
         check_positive("sigma0", self.sigma0)
         check_positive("init_range", self.init_range, allow_zero=True)
-        if not isinstance(self.bias, bool):
-            raise ValueError(f"bias must be true or false, got {self.bias!r}")
+        check_bool("bias", self.bias)
         check_positive("threshold", self.threshold)
 
 
@@ -76,9 +76,9 @@ def fit_cmaes(
         warnings.simplefilter("ignore")
         import cma  # imported here: only this learner needs it
 
-    config = config or CMAESConfig()
-    x, a = check_cases(inputs, actions)
-    start = initial_weights(config.bias, config.init_range, rng, x.shape[1])
+    config = check_config(config, CMAESConfig, "fit_cmaes")
+    cases = checked_cases(inputs, actions)  # checked once; every generation uses them
+    start = initial_weights(config.bias, config.init_range, rng, cases.n_inputs)
 
     def randn(*shape: int) -> np.ndarray:
         return rng.standard_normal(shape)
@@ -109,16 +109,16 @@ def fit_cmaes(
         if strategy.stop():
             break
         population = np.asarray(strategy.ask(), dtype=np.float64)
-        fitness = imitation_fitness(population, x, a, config.threshold, bias=config.bias)
+        fitness = population_fitness(population, cases, config.threshold, bias=config.bias)
         strategy.tell(list(population), fitness.tolist())
         i = int(np.argmin(fitness))
         history.append(float(fitness[i]))
         if fitness[i] < best_fitness:
             best_fitness = float(fitness[i])
             best_weights = population[i].copy()
-    assert best_weights.shape == (n_weights(config.bias, x.shape[1]),)
+    assert best_weights.shape == (n_weights(config.bias, cases.n_inputs),)
     # Scored alone, as any caller would score it (batched products can differ in the last bit).
-    alone = imitation_fitness(best_weights[None], x, a, config.threshold, bias=config.bias)
+    alone = population_fitness(best_weights[None], cases, config.threshold, bias=config.bias)
     return LearnerFit(
         weights=best_weights,
         fitness=float(alone[0]),

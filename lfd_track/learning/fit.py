@@ -8,12 +8,15 @@ fitness of the returned weights, so learners can be compared on one scale.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
 from ..control.mlp import N_INPUTS, N_OUTPUTS, n_weights
+
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -36,8 +39,9 @@ def check_cases(inputs: np.ndarray, actions: np.ndarray) -> tuple[np.ndarray, np
     """Validate training cases; returns ``(inputs (N, n) float64, actions (N,) intp)``, n = 40
     road values plus any memory inputs.
 
-    Raises ``ValueError`` with one line saying what is wrong: wrong shapes, no cases, non-finite
-    road values, or commands outside 0..2.
+    The one check every learner and the imitation fitness run on their cases (once, at entry:
+    their inner loops then use the checked arrays). Raises ``ValueError`` with one line saying
+    what is wrong: wrong shapes, no cases, non-finite road values, or commands outside 0..2.
     """
     x = np.asarray(inputs)
     if x.ndim != 2 or x.shape[1] < N_INPUTS:
@@ -45,23 +49,77 @@ def check_cases(inputs: np.ndarray, actions: np.ndarray) -> tuple[np.ndarray, np
             f"inputs must have shape (N, {N_INPUTS}) (road values, then any memory inputs),"
             f" got {x.shape}"
         )
-    if not (np.issubdtype(x.dtype, np.floating) or np.issubdtype(x.dtype, np.integer)):
+    if x.dtype == np.bool_ or not (
+        np.issubdtype(x.dtype, np.floating) or np.issubdtype(x.dtype, np.integer)
+    ):
         raise ValueError(f"inputs must be numbers, got dtype {x.dtype}")
     x = x.astype(np.float64)
-    a = np.asarray(actions)
-    if a.ndim != 1:
-        raise ValueError(f"actions must be 1-D, got shape {a.shape}")
+    a = check_actions(actions)
     if a.shape[0] != x.shape[0]:
         raise ValueError(f"{x.shape[0]} input rows but {a.shape[0]} actions")
     if x.shape[0] == 0:
         raise ValueError("no training cases: a learner needs at least one")
     if not np.isfinite(x).all():
         raise ValueError("inputs contain NaN or infinite road values")
+    return x, a
+
+
+def check_actions(actions: np.ndarray) -> np.ndarray:
+    """Validate demonstrated commands: 1-D integers in 0..2 (may be empty); returns them intp."""
+    a = np.asarray(actions)
+    if a.ndim != 1:
+        raise ValueError(f"actions must be 1-D, got shape {a.shape}")
     if a.dtype == np.bool_ or not np.issubdtype(a.dtype, np.integer):
+        if a.size == 0 and a.dtype == np.float64:  # np.array([]): no commands at all
+            return a.astype(np.intp)
         raise ValueError(f"actions must be integer commands 0..{N_OUTPUTS - 1}, got {a.dtype}")
-    if a.min() < 0 or a.max() >= N_OUTPUTS:
+    if a.size and (a.min() < 0 or a.max() >= N_OUTPUTS):
         raise ValueError(f"actions must be integers in 0..{N_OUTPUTS - 1}")
-    return x, a.astype(np.intp)
+    return a.astype(np.intp)
+
+
+def check_weights(weights: np.ndarray, n_inputs: int, bias: bool | None) -> tuple[np.ndarray, bool]:
+    """Validate a population of networks, (P, W), for ``n_inputs`` inputs; ``bias`` None infers
+    it from W. Returns ``(weights (P, W) float64, bias)``; raises ``ValueError`` on a wrong shape
+    or NaN / infinite weights."""
+    w = np.asarray(weights)
+    if w.ndim != 2:
+        raise ValueError(f"weights must be (P, W), got shape {w.shape}")
+    if w.dtype == np.bool_ or not (
+        np.issubdtype(w.dtype, np.floating) or np.issubdtype(w.dtype, np.integer)
+    ):
+        raise ValueError(f"weights must be numbers, got dtype {w.dtype}")
+    w = w.astype(np.float64, copy=False)
+    if bias is None:
+        bias = w.shape[1] == n_weights(True, n_inputs)
+    size = n_weights(bias, n_inputs)
+    if w.shape[1] != size:
+        raise ValueError(
+            f"weights must have shape ({size},) or (P, {size}) for {n_inputs} inputs, got {w.shape}"
+        )
+    if not np.isfinite(w).all():
+        raise ValueError("weights contain NaN or infinite values")
+    return w, bias
+
+
+def check_config(config: Any, cls: type[T], function: str) -> T:
+    """``config`` if it is a ``cls``, ``cls()`` (the defaults) if None, else a ``TypeError``
+    naming the parameter (a dict of settings is not a config: ``cls.from_dict`` builds one)."""
+    if config is None:
+        return cls()
+    if not isinstance(config, cls):
+        raise TypeError(
+            f"{function}: config must be a {cls.__name__} or None, got"
+            f" {type(config).__name__} (build it with {cls.__name__}(...) or"
+            f" {cls.__name__}.from_dict(settings))"
+        )
+    return config
+
+
+def check_bool(name: str, value: Any) -> None:
+    """Raise ``ValueError`` unless ``value`` is True or False (not 1, "yes" or a numpy bool)."""
+    if not isinstance(value, bool):
+        raise ValueError(f"{name} must be true or false, got {value!r}")
 
 
 def initial_weights(
@@ -93,6 +151,10 @@ def check_positive(name: str, value: Any, *, allow_zero: bool = False) -> None:
     if isinstance(value, bool) or not isinstance(value, int | float):
         raise ValueError(f"{name} must be a number, got {value!r}")
     ok = value >= 0 if allow_zero else value > 0
-    if not (ok and np.isfinite(value)):
+    try:
+        finite = math.isfinite(value)
+    except OverflowError:  # an integer beyond any float
+        finite = False
+    if not (ok and finite):
         kind = "non-negative" if allow_zero else "positive"
         raise ValueError(f"{name} must be a finite {kind} number, got {value!r}")

@@ -9,9 +9,14 @@ dominate the run time. Its results equal ``mlp_forward``-based evaluation bit fo
 
 from __future__ import annotations
 
+import math
+import numbers
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..control.mlp import N_HIDDEN, N_INPUTS, N_OUTPUTS, mlp_forward, n_weights
+from .fit import check_actions, check_cases, check_weights
 
 # For expected action e, the two other outputs in index order ("first/second position other
 # than the winner").
@@ -28,9 +33,35 @@ _COLUMN_BLOCK = 8
 
 def category_weights(actions: np.ndarray) -> np.ndarray:
     """1 / (number of cases with the same expected action) for each case, (N,) float64."""
-    actions = _check_actions(actions)
+    return _category_weights(check_actions(actions))
+
+
+def _category_weights(actions: np.ndarray) -> np.ndarray:
     counts = np.bincount(actions, minlength=N_OUTPUTS)
     return 1.0 / counts[actions]
+
+
+@dataclass(frozen=True, eq=False)
+class Cases:
+    """Training cases checked once (:func:`checked_cases`), ready for :func:`population_fitness`
+    in a learner's inner loop without checking them again."""
+
+    inputs: np.ndarray
+    """(N, n) float64, finite, N >= 1, n = 40 road values plus any memory inputs."""
+    actions: np.ndarray
+    """(N,) intp commands 0/1/2."""
+    category_weights: np.ndarray
+    """(N,) float64, see :func:`category_weights`."""
+
+    @property
+    def n_inputs(self) -> int:
+        return int(self.inputs.shape[1])
+
+
+def checked_cases(inputs: np.ndarray, actions: np.ndarray) -> Cases:
+    """Validate cases with the learners' shared :func:`~lfd_track.learning.fit.check_cases`."""
+    x, a = check_cases(inputs, actions)
+    return Cases(x, a, _category_weights(a))
 
 
 def imitation_fitness(
@@ -50,32 +81,37 @@ def imitation_fitness(
     n_e (negative d lowers the total), n_e = number of cases of that action. Fitness is
     1 - total / 3; when a category has no cases it contributes nothing (so 0 is then out of reach),
     exactly as the algorithm reads. Returns (P,) float64.
+
+    Raises ``ValueError`` (one line) on bad arguments: no cases, NaN or infinite road values or
+    weights, shapes that do not match, commands outside 0..2, a threshold that is not a finite
+    positive number. A learner checks its cases once (:func:`checked_cases`) and then scores each
+    generation with the unchecked :func:`population_fitness`.
     """
-    if not threshold > 0:
-        raise ValueError(f"threshold must be positive, got {threshold}")
-    w = np.asarray(weights, dtype=np.float64)
-    if w.ndim != 2:
-        raise ValueError(f"weights must be (P, W), got shape {w.shape}")
-    x = np.asarray(inputs, dtype=np.float64)
-    if x.ndim != 2 or x.shape[1] < N_INPUTS:
-        raise ValueError(
-            f"inputs must have shape (N, {N_INPUTS}) (road values, then any memory inputs),"
-            f" got {x.shape}"
-        )
-    n_in = x.shape[1]
-    actions = _check_actions(actions)
-    if actions.shape[0] != x.shape[0]:
-        raise ValueError(f"{x.shape[0]} input rows but {actions.shape[0]} actions")
-    if bias is None:
-        bias = w.shape[1] == n_weights(True, n_in)
-    if w.shape[1] != n_weights(bias, n_in):
-        size = n_weights(bias, n_in)
-        raise ValueError(
-            f"weights must have shape ({size},) or (P, {size}) for {n_in} inputs, got {w.shape}"
-        )
-    if actions.size == 0:
-        return np.ones(w.shape[0], dtype=np.float64)
-    outputs = population_outputs(w, x, bias=bias)  # (P, N, 3)
+    _check_threshold(threshold)
+    cases = checked_cases(inputs, actions)
+    w, bias = check_weights(weights, cases.n_inputs, bias)
+    return population_fitness(w, cases, threshold, bias=bias)
+
+
+def _check_threshold(threshold: float) -> None:
+    if isinstance(threshold, bool | np.bool_) or not isinstance(threshold, numbers.Real):
+        raise ValueError(f"threshold must be a number, got {threshold!r}")
+    try:
+        value = float(threshold)
+    except OverflowError:  # an integer beyond any float
+        value = math.inf
+    if not (value > 0 and math.isfinite(value)):
+        raise ValueError(f"threshold must be a finite positive number, got {threshold!r}")
+
+
+def population_fitness(
+    weights: np.ndarray, cases: Cases, threshold: float, *, bias: bool
+) -> np.ndarray:
+    """:func:`imitation_fitness` without any check: for learners' inner loops, after the cases
+    were checked once (:func:`checked_cases`) and with weights they made themselves (finite,
+    (P, W) float64 of the width for ``cases.n_inputs`` inputs and ``bias``)."""
+    actions = cases.actions
+    outputs = population_outputs(weights, cases.inputs, bias=bias)  # (P, N, 3)
     p, n = outputs.shape[:2]
     flat = outputs.reshape(p, n * N_OUTPUTS)
     row = np.arange(n) * N_OUTPUTS
@@ -89,7 +125,7 @@ def imitation_fitness(
     # C order matters: the matrix-vector product below sums in a different order for a
     # Fortran-ordered matrix.
     score = np.add(diff[:, :, 0], diff[:, :, 1], out=np.empty((p, n)))
-    total = score @ category_weights(actions)  # (P,)
+    total = score @ cases.category_weights  # (P,)
     return 1.0 - total / 3.0
 
 
@@ -194,16 +230,11 @@ def training_accuracy(weights: np.ndarray, inputs: np.ndarray, actions: np.ndarr
     """Share of cases where the network's largest output is the demonstrated command.
 
     ``weights`` (W,), ``inputs`` (N, 40) road values (plus memory inputs), ``actions`` (N,)
-    commands 0/1/2.
+    commands 0/1/2; checked as :func:`imitation_fitness` checks them.
     """
-    predicted = mlp_forward(weights, np.asarray(inputs, dtype=np.float64)).argmax(axis=1)
-    return float((predicted == np.asarray(actions)).mean())
-
-
-def _check_actions(actions: np.ndarray) -> np.ndarray:
-    a = np.asarray(actions)
-    if a.ndim != 1:
-        raise ValueError(f"actions must be 1-D, got shape {a.shape}")
-    if a.size and (not np.issubdtype(a.dtype, np.integer) or a.min() < 0 or a.max() >= N_OUTPUTS):
-        raise ValueError(f"actions must be integers in 0..{N_OUTPUTS - 1}")
-    return a.astype(np.intp)
+    x, a = check_cases(inputs, actions)
+    if np.ndim(weights) != 1:
+        raise ValueError(f"weights must be one network, (W,), got shape {np.shape(weights)}")
+    w, _ = check_weights(np.asarray(weights)[None], x.shape[1], None)
+    predicted = mlp_forward(w[0], x).argmax(axis=1)
+    return float((predicted == a).mean())

@@ -16,8 +16,8 @@ import numpy as np
 
 from ..config import DictConfig
 from ..control.mlp import N_INPUTS, n_weights
-from .fit import check_int
-from .fitness import imitation_fitness
+from .fit import check_bool, check_config, check_int, check_positive
+from .fitness import Cases, checked_cases, population_fitness
 
 MAX_POPULATION = 100_000
 """Largest population (and tournament) size accepted: far above any useful run, low enough that a
@@ -62,14 +62,13 @@ class GAConfig(DictConfig):
         check_int("elitism", self.elitism, 0)
         if not 0 <= self.elitism < self.population_size:
             raise ValueError("elitism must be in 0..population_size-1")
-        if not 0.0 <= self.mutation_rate <= 1.0:
-            raise ValueError("mutation_rate must be in [0, 1]")
-        if not (self.mutation_delta >= 0 and np.isfinite(self.mutation_delta)):
-            raise ValueError("mutation_delta must be a finite non-negative number")
-        if not (self.init_range >= 0 and np.isfinite(self.init_range)):
-            raise ValueError("init_range must be a finite non-negative number")
-        if not (self.threshold > 0 and np.isfinite(self.threshold)):
-            raise ValueError("threshold must be a finite positive number")
+        check_positive("mutation_rate", self.mutation_rate, allow_zero=True)
+        if not self.mutation_rate <= 1.0:
+            raise ValueError(f"mutation_rate must be in [0, 1], got {self.mutation_rate!r}")
+        check_positive("mutation_delta", self.mutation_delta, allow_zero=True)
+        check_positive("init_range", self.init_range, allow_zero=True)
+        check_bool("bias", self.bias)
+        check_positive("threshold", self.threshold)
 
 
 @dataclass(frozen=True)
@@ -233,23 +232,39 @@ def ga_tell(state: GAState, population: np.ndarray, fitness: np.ndarray) -> GASt
     )
 
 
+def ga_cases(inputs: np.ndarray, actions: np.ndarray, config: GAConfig, state: GAState) -> Cases:
+    """Cases checked once for the GA's inner loop (see
+    :func:`~lfd_track.learning.fitness.checked_cases`), with as many inputs as ``state``'s
+    networks have; raises ``ValueError`` otherwise."""
+    cases = checked_cases(inputs, actions)
+    width = state.population.shape[1]
+    if width != n_weights(config.bias, cases.n_inputs):
+        raise ValueError(
+            f"inputs have {cases.n_inputs} columns, but the GA's networks have {width} weights"
+            f" ({n_weights(config.bias, cases.n_inputs)} would fit {cases.n_inputs} inputs"
+            f" {'with' if config.bias else 'without'} biases)"
+        )
+    return cases
+
+
 def ga_rescore(
     state: GAState, inputs: np.ndarray, actions: np.ndarray, config: GAConfig
 ) -> GAState:
     """Re-evaluate the population and the best-so-far on new cases (e.g. after some arrived).
 
-    ``inputs`` (N, 40) (plus memory inputs), ``actions`` (N,). Fitness values from different case sets are not
-    comparable, so both the population's fitness and the best individual's are recomputed;
-    the best becomes whichever of the old best and the current population now scores lowest
-    (the old best on ties). Histories and the generation count are kept.
+    ``inputs`` (N, 40) (plus memory inputs), ``actions`` (N,). Fitness values from different
+    case sets are not comparable, so both the population's fitness and the best individual's
+    are recomputed; the best becomes whichever of the old best and the current population now
+    scores lowest (the old best on ties). Histories and the generation count are kept.
     """
-    fitness = imitation_fitness(
-        state.population, inputs, actions, config.threshold, bias=config.bias
-    )
+    return rescore_cases(state, ga_cases(inputs, actions, config, state), config)
+
+
+def rescore_cases(state: GAState, cases: Cases, config: GAConfig) -> GAState:
+    """:func:`ga_rescore` on cases already checked by :func:`ga_cases`."""
+    fitness = population_fitness(state.population, cases, config.threshold, bias=config.bias)
     best_fitness = float(
-        imitation_fitness(
-            state.best_weights[None], inputs, actions, config.threshold, bias=config.bias
-        )[0]
+        population_fitness(state.best_weights[None], cases, config.threshold, bias=config.bias)[0]
     )
     best = (state.best_weights, best_fitness, state.best_generation)
     i = int(np.argmin(fitness))
@@ -300,23 +315,23 @@ def evolve(
        second-parent tournaments, then the crossover masks, then the mutation masks and steps
        (see :func:`next_generation`); replace the whole population; evaluate it in one batch.
     3. Return the best individual ever evaluated (the earliest on ties).
+
+    Raises ``TypeError`` if ``config`` is not a :class:`GAConfig` (or None) or ``rng`` not a
+    Generator, and ``ValueError`` for bad cases (no case, NaN or infinite inputs, mismatched
+    shapes, commands outside 0..2); the cases are checked once, before the first generation.
     """
-    config = config or GAConfig()
+    config = check_config(config, GAConfig, "evolve")
     if not isinstance(rng, np.random.Generator):
         raise TypeError("evolve needs a seeded np.random.Generator (rng)")
     rng_state = rng.bit_generator.state
-    inputs = np.asarray(inputs, dtype=np.float64)
-    actions = np.asarray(actions)
-    # Fail on bad data before spending any time.
-    n_inputs = inputs.shape[1] if inputs.ndim == 2 else N_INPUTS
-    imitation_fitness(
-        np.zeros((1, n_weights(config.bias, n_inputs))), inputs, actions, config.threshold
-    )
+    # Fail on bad data before spending any time; checked once, then every generation is scored
+    # by the unchecked kernel.
+    cases = checked_cases(inputs, actions)
 
-    state = ga_init(config, rng, n_inputs)
+    state = ga_init(config, rng, cases.n_inputs)
     for _ in range(config.generations):
         children = ga_ask(state, config, rng)
-        fitness = imitation_fitness(children, inputs, actions, config.threshold, bias=config.bias)
+        fitness = population_fitness(children, cases, config.threshold, bias=config.bias)
         state = ga_tell(state, children, fitness)
         if progress is not None:
             progress(state.generation, state.best_history[-1], state.mean_history[-1])

@@ -23,9 +23,9 @@ import numpy as np
 from ..control.mlp import N_INPUTS
 from .bc import BCConfig, fit_bc
 from .cmaes import CMAESConfig, fit_cmaes
-from .fit import LearnerFit
-from .fitness import imitation_fitness
-from .ga import GAConfig, GAState, evolve, ga_ask, ga_init, ga_rescore, ga_tell
+from .fit import LearnerFit, check_config
+from .fitness import population_fitness
+from .ga import GAConfig, GAState, evolve, ga_ask, ga_cases, ga_init, ga_tell, rescore_cases
 
 __all__ = [
     "BCLearner",
@@ -74,7 +74,7 @@ class GALearner:
     name = "ga"
 
     def __init__(self, config: GAConfig | None = None, n_inputs: int = N_INPUTS) -> None:
-        self.config = config or GAConfig()
+        self.config = check_config(config, GAConfig, "GALearner")
         self.n_inputs = int(n_inputs)
         """Inputs of the network ``begin`` draws (40 road values, plus any memory inputs)."""
         self.state: GAState | None = None
@@ -102,14 +102,13 @@ class GALearner:
         if isinstance(steps, bool) or not isinstance(steps, int) or steps < 0:
             raise ValueError(f"steps must be an integer >= 0, got {steps!r}")
         cfg = self.config
-        x = np.asarray(inputs, dtype=np.float64)
-        a = np.asarray(actions)
         state = self.state
+        cases = ga_cases(inputs, actions, cfg, state)  # checked once for all the steps
         if state.generation > 0:
-            state = ga_rescore(state, x, a, cfg)
+            state = rescore_cases(state, cases, cfg)
         for _ in range(steps):
             children = ga_ask(state, cfg, self._rng)
-            fitness = imitation_fitness(children, x, a, cfg.threshold, bias=cfg.bias)
+            fitness = population_fitness(children, cases, cfg.threshold, bias=cfg.bias)
             state = ga_tell(state, children, fitness)
         self.state = state
         return np.array(state.best_weights)
@@ -121,7 +120,7 @@ class BCLearner:
     name = "bc"
 
     def __init__(self, config: BCConfig | None = None) -> None:
-        self.config = config or BCConfig()
+        self.config = check_config(config, BCConfig, "BCLearner")
 
     def fit(self, inputs: np.ndarray, actions: np.ndarray, rng: np.random.Generator) -> LearnerFit:
         return fit_bc(inputs, actions, self.config, rng)
@@ -133,7 +132,7 @@ class CMAESLearner:
     name = "cma-es"
 
     def __init__(self, config: CMAESConfig | None = None) -> None:
-        self.config = config or CMAESConfig()
+        self.config = check_config(config, CMAESConfig, "CMAESLearner")
 
     def fit(self, inputs: np.ndarray, actions: np.ndarray, rng: np.random.Generator) -> LearnerFit:
         return fit_cmaes(inputs, actions, self.config, rng)

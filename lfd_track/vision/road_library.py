@@ -16,6 +16,7 @@ frequencies evict the oldest.
 from __future__ import annotations
 
 import math
+import numbers
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -119,8 +120,17 @@ class RoadLibrary:
         max_examples: int = 10,
     ) -> None:
         self.bins = check_bins(bins)
-        if not math.isfinite(similarity_threshold) or not -1.0 <= similarity_threshold <= 1.0:
-            raise ValueError(f"similarity_threshold must be in [-1, 1], got {similarity_threshold}")
+        threshold = similarity_threshold
+        if isinstance(threshold, bool | np.bool_) or not isinstance(threshold, numbers.Real):
+            raise ValueError(f"similarity_threshold must be a number in [-1, 1], got {threshold!r}")
+        try:
+            finite = math.isfinite(threshold)
+        except OverflowError:  # an integer beyond any float
+            raise ValueError(
+                "similarity_threshold must be in [-1, 1], got a huge integer"
+            ) from None
+        if not finite or not -1.0 <= threshold <= 1.0:
+            raise ValueError(f"similarity_threshold must be in [-1, 1], got {threshold}")
         for name, value in (("max_types", max_types), ("max_examples", max_examples)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")

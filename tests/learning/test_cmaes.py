@@ -42,13 +42,13 @@ def test_same_seed_same_bytes_whatever_numpys_global_state():
 def test_one_batched_fitness_call_per_generation_and_the_paper_budget(monkeypatch):
     assert CMAESConfig().population_size * CMAESConfig().generations == 40 * 200
     calls = []
-    real = cmaes_module.imitation_fitness
+    real = cmaes_module.population_fitness  # the cases are checked once, before the loop
 
     def counting(weights, *args, **kwargs):
         calls.append(np.shape(weights))
         return real(weights, *args, **kwargs)
 
-    monkeypatch.setattr(cmaes_module, "imitation_fitness", counting)
+    monkeypatch.setattr(cmaes_module, "population_fitness", counting)
     rng = np.random.default_rng(2)
     x = rng.uniform(-1, 1, (30, 40))
     fit = fit_cmaes(x, np.arange(30) % 3, CMAESConfig(generations=7, bias=True), rng)

@@ -249,3 +249,25 @@ def test_from_dict_rejects_bad_data(frames, edit, match):
 def test_frame_shape_checked():
     with pytest.raises(ValueError, match="shape"):
         RoadLibrary().road_values(np.zeros((240, 320, 3), np.uint8))
+
+
+@pytest.mark.parametrize(
+    "threshold, match",
+    [
+        ("0.5", "similarity_threshold must be a number"),
+        (None, "similarity_threshold must be a number"),
+        (True, "similarity_threshold must be a number"),
+        ([0.5], "similarity_threshold must be a number"),
+        (1.5, r"similarity_threshold must be in \[-1, 1\]"),
+        (float("nan"), r"similarity_threshold must be in \[-1, 1\]"),
+        (10**400, r"similarity_threshold must be in \[-1, 1\]"),
+    ],
+)
+def test_constructor_names_a_bad_similarity_threshold(threshold, match):
+    with pytest.raises(ValueError, match=match):
+        RoadLibrary(similarity_threshold=threshold)
+
+
+def test_constructor_takes_numpy_and_integer_thresholds():
+    assert RoadLibrary(similarity_threshold=np.float32(0.5)).similarity_threshold == 0.5
+    assert RoadLibrary(similarity_threshold=1).similarity_threshold == 1.0
