@@ -7,9 +7,11 @@ import functools
 import importlib.util
 import os
 import sys
+import time
+from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pytest
@@ -92,3 +94,18 @@ def interrupt_demo_after(
         return real(*args, progress=tick, **kwargs)
 
     monkeypatch.setattr(demonstrator, "run_demonstration", run)
+
+
+def wait_until(
+    condition: Callable[[], Any], what: str, timeout_s: float = 15.0, poll_s: float = 0.01
+) -> Any:
+    """Poll ``condition`` until it is truthy and return its value; fail naming ``what`` after
+    ``timeout_s`` (a failure guard only: every wait returns as soon as its condition holds)."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        value = condition()
+        if value:
+            return value
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out waiting for {what}")
+        time.sleep(poll_s)

@@ -25,6 +25,14 @@ The server sends binary messages ``b"C" + JPEG`` (camera view with the road-valu
 ``{"type": "status", ...}`` (the session's status plus ``role``: ``"controller"`` or
 ``"watcher"``, ``control_free``, ``clients``) and ``{"type": "error", "message": ...}``.
 Only the controlling page's commands move the robot; the others watch.
+
+Hostile pages. Every page shares the one event loop, so each message is answered and then the
+loop is handed on (no page can hold it); a page may send :data:`MESSAGE_BURST` messages at once
+and :data:`MESSAGE_RATE` a second after that, or it is closed with code 1008 (the page itself
+sends a heartbeat every 250 ms and a press and release per button); at most :data:`MAX_PAGES`
+pages are open at once (more are refused with HTTP 503). A ``stop`` runs in a thread of its own
+(:class:`StopLine`), never behind other pages' work. Messages longer than
+:data:`MAX_MESSAGE_CHARS`, nested too deeply, binary or not JSON objects get an error reply.
 """
 
 from __future__ import annotations
@@ -36,6 +44,9 @@ import itertools
 import json
 import secrets
 import threading
+import time
+from collections.abc import Callable
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from importlib import resources
 from typing import Any
@@ -55,6 +66,21 @@ STATIC_FILES = {
     "app.js": "text/javascript; charset=utf-8",
     "style.css": "text/css; charset=utf-8",
 }
+MAX_PAGES = 16
+"""Pages (WebSockets) open at once; more are refused with HTTP 503. A station has a laptop, a
+phone and a few watchers; each page gets the live view at ``fps``."""
+MESSAGE_RATE = 100.0
+"""[messages/s] a page may send in the long run. The page sends 4 heartbeats a second plus a
+press and a release per button push or key stroke (a frantic person: ~10 a second): ~24/s at
+most, a quarter of this."""
+MESSAGE_BURST = 300
+"""Messages a page may send at once before :data:`MESSAGE_RATE` applies (a phone whose link
+stalled for a while delivers what it queued in one go)."""
+MAX_MESSAGE_CHARS = 8192
+"""Longest message read (the page's are under 100 characters); longer ones get an error."""
+_SHOWN_CHARS = 40
+"""A bad value is quoted in an error reply up to this many characters."""
+
 _SECURITY_HEADERS = {
     # Everything the page needs comes from this server; nothing is fetched from elsewhere.
     "Content-Security-Policy": (
@@ -83,9 +109,27 @@ def new_token() -> str:
     return secrets.token_urlsafe(16)
 
 
-def _host_name(host_header: str) -> str:
-    """The host part of a ``Host`` header value (``[::1]:8765`` → ``::1``)."""
-    return urlsplit(f"//{host_header}").hostname or ""
+def _host_name(host_header: str) -> str | None:
+    """The host part of a ``Host`` header value (``[::1]:8765`` → ``::1``); None when the value
+    is malformed (``[::1`` without its bracket)."""
+    try:
+        return urlsplit(f"//{host_header}").hostname or ""
+    except ValueError:
+        return None
+
+
+def _origin_netloc(origin: str) -> str | None:
+    """``host[:port]`` of an ``Origin`` header value, None when it is malformed."""
+    try:
+        return urlsplit(origin).netloc.lower()
+    except ValueError:
+        return None
+
+
+def _short(value: Any) -> str:
+    """``repr(value)``, cut to :data:`_SHOWN_CHARS` characters for an error reply."""
+    text = repr(value)
+    return text if len(text) <= _SHOWN_CHARS else text[:_SHOWN_CHARS] + "…"
 
 
 class AccessGuard:
@@ -98,26 +142,31 @@ class AccessGuard:
       any page open in the same browser could otherwise drive the robot.
 
     A refused WebSocket is closed before it is accepted, which the server answers with HTTP 403.
+    A malformed ``Host`` header is answered with 400, a malformed ``Origin`` is refused.
     """
 
     def __init__(self, app: ASGIApp, token: str | None) -> None:
         self.app = app
         self.token = token
 
-    def _problem(self, scope: Scope) -> str | None:
+    def _problem(self, scope: Scope) -> tuple[int, str] | None:
+        """``(HTTP status, reason)`` when the request is refused, else None."""
         headers = {k.decode("latin-1"): v.decode("latin-1") for k, v in scope["headers"]}
         host = headers.get("host", "")
+        host_name = _host_name(host)
+        if host_name is None:
+            return 400, "malformed Host header"
         if self.token is None:
-            if not is_loopback(_host_name(host)):
-                return "this station serves loopback only"
+            if not is_loopback(host_name):
+                return 403, "this station serves loopback only"
         else:
             given = parse_qs(scope.get("query_string", b"").decode("latin-1")).get("token", [""])
             if not secrets.compare_digest(given[-1].encode(), self.token.encode()):
-                return "missing or wrong token: open the URL the teach command printed"
+                return 403, "missing or wrong token: open the URL the teach command printed"
         if scope["type"] == "websocket":
             origin = headers.get("origin")
-            if origin is not None and urlsplit(origin).netloc.lower() != host.lower():
-                return "cross-site WebSocket refused"
+            if origin is not None and _origin_netloc(origin) != host.lower():
+                return 403, "cross-site WebSocket refused"
         return None
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
@@ -127,12 +176,18 @@ class AccessGuard:
         problem = self._problem(scope)
         if problem is None:
             await self.app(scope, receive, send)
-        elif scope["type"] == "http":
-            await PlainTextResponse(f"403 Forbidden: {problem}\n", status_code=403)(
-                scope, receive, send
-            )
+            return
+        code, reason = problem
+        response = PlainTextResponse(f"{code} {_REASONS[code]}: {reason}\n", status_code=code)
+        if scope["type"] == "http":
+            await response(scope, receive, send)
+        elif code == 403:
+            await send({"type": "websocket.close", "code": 1008, "reason": reason})
         else:
-            await send({"type": "websocket.close", "code": 1008, "reason": problem})
+            await WebSocket(scope, receive, send).send_denial_response(response)
+
+
+_REASONS = {400: "Bad Request", 403: "Forbidden"}
 
 
 @dataclass(eq=False)
@@ -141,11 +196,65 @@ class _Client:
     websocket: WebSocket
 
 
+class TokenBucket:
+    """A rate limit: ``burst`` at once, then ``rate`` a second (:meth:`take` says whether one
+    more is allowed)."""
+
+    def __init__(
+        self, rate: float, burst: float, clock: Callable[[], float] = time.monotonic
+    ) -> None:
+        if not (rate > 0 and burst >= 1):
+            raise ValueError(f"need rate > 0 and burst >= 1, got {rate} and {burst}")
+        self.rate = float(rate)
+        self.burst = float(burst)
+        self._clock = clock
+        self._tokens = self.burst
+        self._last = clock()
+
+    def take(self) -> bool:
+        """Spend one token if there is one; False when the limit is reached."""
+        now = self._clock()
+        self._tokens = min(self.burst, self._tokens + (now - self._last) * self.rate)
+        self._last = now
+        if self._tokens < 1.0:
+            return False
+        self._tokens -= 1.0
+        return True
+
+
+class StopLine:
+    """Runs ``stop(reason)`` in a thread of its own (on the real robot a stop talks to the serial
+    link), so a stop never waits behind other work. A stop asked for while another one waits to
+    start joins it: however many pages press stop, at most one runs and one waits."""
+
+    def __init__(self, stop: Callable[[str], None]) -> None:
+        self._stop = stop
+        self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="lfd-track stop")
+        self._lock = threading.Lock()
+        self._waiting: Future[None] | None = None
+
+    def request(self, reason: str) -> Future[None]:
+        """Ask for a stop; the future is done once the robot was told to stop."""
+        with self._lock:
+            if self._waiting is None:
+                self._waiting = self._executor.submit(self._run, reason)
+            return self._waiting
+
+    async def stop(self, reason: str) -> None:
+        """Stop, and wait until it is done (without holding up the event loop)."""
+        await asyncio.wrap_future(self.request(reason))
+
+    def _run(self, reason: str) -> None:
+        with self._lock:
+            self._waiting = None  # a stop asked for from now on runs after this one
+        self._stop(reason)
+
+
 class ControlDesk:
     """Who may move the robot: one controlling page at a time, every other page watches.
 
-    The first page to claim control gets it; when it leaves, the robot stops and control is
-    free for the next claim. Thread-safe.
+    The first page to claim control gets it; when it leaves, its lease ends and control is free
+    for the next claim (the caller stops the robot). Thread-safe.
     """
 
     def __init__(self, session: TeachingSession) -> None:
@@ -155,13 +264,18 @@ class ControlDesk:
         self._controller: int | None = None
         self._ids = itertools.count(1)
 
+    def __len__(self) -> int:
+        with self._lock:
+            return len(self._clients)
+
     def join(self, websocket: WebSocket) -> _Client:
         client = _Client(next(self._ids), websocket)
         with self._lock:
             self._clients[client.id] = client
         return client
 
-    def leave(self, client: _Client) -> None:
+    def leave(self, client: _Client) -> bool:
+        """``client`` left; True when it held control (its lease has ended: stop the robot)."""
         with self._lock:
             self._clients.pop(client.id, None)
             was_controller = self._controller == client.id
@@ -170,7 +284,7 @@ class ControlDesk:
         if was_controller:
             # A closed tab sends no more heartbeats; stop now rather than when the lease ends.
             self.session.end_lease()
-            self.session.stop("the controlling page closed")
+        return was_controller
 
     def claim(self, client: _Client) -> bool:
         """Give ``client`` control if it is free, or held by a page whose lease ran out (a phone
@@ -202,21 +316,51 @@ def _json_status(session: TeachingSession) -> dict[str, Any]:
     return {"backend": session.backend, "online": session.online, **session.status()}
 
 
+def parse_message(received: dict[str, Any]) -> tuple[dict[str, Any] | None, str | None]:
+    """A received WebSocket message as ``(message, None)``, or ``(None, error text)``."""
+    text = received.get("text")
+    if text is None:
+        return None, "binary messages are not accepted"
+    if len(text) > MAX_MESSAGE_CHARS:
+        return None, f"message too long ({len(text)} characters, at most {MAX_MESSAGE_CHARS})"
+    try:
+        message = json.loads(text)
+    except RecursionError:
+        return None, "message nested too deeply"
+    except ValueError as exc:
+        return None, f"not JSON: {exc}"
+    if not isinstance(message, dict):
+        return None, "a message must be a JSON object"
+    return message, None
+
+
 def create_app(
-    session: TeachingSession, *, token: str | None = None, fps: float = DEFAULT_FPS
+    session: TeachingSession,
+    *,
+    token: str | None = None,
+    fps: float = DEFAULT_FPS,
+    max_pages: int = MAX_PAGES,
+    message_rate: float | None = MESSAGE_RATE,
+    message_burst: int = MESSAGE_BURST,
 ) -> ASGIApp:
     """The teaching station app for ``session``.
 
     ``token``: required on every request when set (any non-loopback listener must set one).
     ``fps``: [frames/s] camera-view rate per page.
+    ``max_pages``: WebSockets open at once. ``message_rate`` [messages/s] and ``message_burst``:
+    each page's message limit (None: no limit, for tests).
     """
     if not fps > 0:
         raise ValueError(f"fps must be positive, got {fps}")
+    if max_pages < 1:
+        raise ValueError(f"max_pages must be at least 1, got {max_pages}")
     desk = ControlDesk(session)
+    stop_line = StopLine(lambda reason: session.stop(reason))
     static = resources.files(__package__) / "static"
     page_template = (static / "index.html").read_text(encoding="utf-8")
     period_s = 1.0 / fps
     token_query = f"?token={token}" if token else ""
+    too_many = f"too many messages: at most {message_burst} at once, {message_rate or 0:g} a second"
 
     async def index(request: Request) -> Response:
         page = (
@@ -259,13 +403,13 @@ def create_app(
             return  # the page went away; the receiving side cleans up
 
     def handle(client: _Client, message: dict[str, Any]) -> str | None:
-        """Carry out one page message; returns an error text for the page, or None."""
+        """Carry out one page message other than ``stop``; returns an error text, or None.
+
+        On the event loop: each of these only sets state under the session's locks.
+        """
         kind = message.get("type")
         if kind == "claim":
             return None if desk.claim(client) else "another page controls the robot"
-        if kind == "stop":
-            session.stop("stop button")
-            return None
         if not desk.is_controller(client):
             return "watching only: another page controls the robot"
         if kind == "heartbeat":
@@ -273,45 +417,72 @@ def create_app(
         elif kind == "press":
             command = COMMAND_NAMES.get(str(message.get("command")))
             if command is None:
-                return f"unknown command {message.get('command')!r}"
+                return f"unknown command {_short(message.get('command'))}"
             session.heartbeat()
             session.press(command)
         elif kind == "release":
             session.release()
         elif kind == "pause-learning":
-            session.set_learning_paused(bool(message.get("paused")))
+            paused = message.get("paused")
+            if not isinstance(paused, bool):
+                return f'"paused" must be true or false, got {_short(paused)}'
+            session.set_learning_paused(paused)
         elif kind == "takeover":
             session.take_over()
         else:
-            return f"unknown message type {kind!r}"
+            return f"unknown message type {_short(kind)}"
         return None
 
-    async def socket(websocket: WebSocket) -> None:
-        await websocket.accept()
-        client = desk.join(websocket)
-        sender = asyncio.create_task(stream(websocket, client))
+    async def respond(client: _Client, received: dict[str, Any]) -> str | None:
+        """Carry out one received message; returns an error text for the page, or None."""
+        message, error = parse_message(received)
+        if message is None:
+            return error
         try:
-            await asyncio.to_thread(desk.claim, client)
+            if message.get("type") == "stop":
+                # Any page may stop the robot, and a stop never queues behind other work.
+                await stop_line.stop("stop button")
+                return None
+            return handle(client, message)
+        except ValueError as exc:  # the session refused (takeover without a policy)
+            return str(exc)
+
+    async def socket(websocket: WebSocket) -> None:
+        if len(desk) >= max_pages:
+            await websocket.send_denial_response(
+                PlainTextResponse(
+                    f"503 Service Unavailable: {max_pages} pages are open, the most at once\n",
+                    status_code=503,
+                )
+            )
+            return
+        client = desk.join(websocket)
+        bucket = TokenBucket(message_rate, message_burst) if message_rate is not None else None
+        sender: asyncio.Task[None] | None = None
+        try:
+            await websocket.accept()
+            sender = asyncio.create_task(stream(websocket, client))
+            desk.claim(client)
             while True:
                 received = await websocket.receive()
-                if received["type"] == "websocket.disconnect":
+                if received["type"] == "websocket.disconnect" or sender.done():
+                    break  # gone (the stream could not send): what is still queued is moot
+                if bucket is not None and not bucket.take():
+                    await websocket.close(1008, too_many)
                     break
-                try:
-                    message = json.loads(received.get("text") or "")
-                    if not isinstance(message, dict):
-                        raise ValueError("a message must be a JSON object")
-                    # In a worker thread: a stop talks to the robot's serial link. One message
-                    # at a time, so a press and its release keep their order.
-                    error = await asyncio.to_thread(handle, client, message)
-                except ValueError as exc:  # bad JSON, or the session refused
-                    error = str(exc)
+                error = await respond(client, received)
                 if error is not None:
                     await websocket.send_text(json.dumps({"type": "error", "message": error}))
-        except (WebSocketDisconnect, RuntimeError):
+                # Hand the loop on: a message answered at once never yields by itself, so a
+                # page sending without pause would hold every other page (and its stop) up.
+                await asyncio.sleep(0)
+        except (WebSocketDisconnect, RuntimeError, OSError):
             pass  # the page went away (RuntimeError: a send raced the close)
         finally:
-            sender.cancel()
-            await asyncio.to_thread(desk.leave, client)
+            if sender is not None:
+                sender.cancel()
+            if desk.leave(client):
+                stop_line.request("the controlling page closed")
 
     app = Starlette(
         routes=[

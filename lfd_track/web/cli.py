@@ -21,6 +21,24 @@ DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 8765
 DEFAULT_FPS = 10.0
 """[frames/s] rate at which the camera view is pushed to each page."""
+FPS_RANGE = (1.0, 30.0)
+"""[frames/s] ``--fps`` allowed: the page's status comes with the view (slower, and it lags);
+a phone camera gives 30 at most."""
+PERIOD_RANGE = (0.02, 5.0)
+"""[s] ``--period`` allowed: a preset's bounds on a control period (``rover.control_period_s``
+in :data:`lfd_track.presets.BOUNDS`; not imported here, to keep the command line quick)."""
+
+
+def _float_in(low: float, high: float) -> Any:
+    """An argparse type: a number in [low, high] (one-line usage error otherwise)."""
+
+    def parse(text: str) -> float:
+        value = _positive_float(text)
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"must be in {low:g}..{high:g}, got {text}")
+        return value
+
+    return parse
 
 
 def run_teach(args: argparse.Namespace) -> int:
@@ -94,11 +112,11 @@ def add_teach_parser(subparsers: Any) -> argparse.ArgumentParser:
     teach.add_argument("--serial", metavar="URL", help="serial port or pyserial URL (hardware)")
     teach.add_argument(
         "--period",
-        type=_positive_float,
+        type=_float_in(*PERIOD_RANGE),
         default=None,
         metavar="S",
-        help="control period [s]: the real robot's command length; in the simulator the pace of "
-        "commands (default: the preset's, 0.4 s)",
+        help="control period [s], {:g}..{:g}: the real robot's command length; in the simulator the "
+        "pace of commands (default: the preset's, 0.4 s)".format(*PERIOD_RANGE),
     )
     teach.add_argument(
         "--online",
@@ -159,7 +177,10 @@ def add_teach_parser(subparsers: Any) -> argparse.ArgumentParser:
         "--port", type=port, default=DEFAULT_PORT, help="port (default 8765; 0 picks a free one)"
     )
     teach.add_argument(
-        "--fps", type=_positive_float, default=DEFAULT_FPS, help="live view frames/s (default 10)"
+        "--fps",
+        type=_float_in(*FPS_RANGE),
+        default=DEFAULT_FPS,
+        help=f"live view frames/s, {FPS_RANGE[0]:g}..{FPS_RANGE[1]:g} (default 10)",
     )
     teach.set_defaults(func=run_teach)
     return teach

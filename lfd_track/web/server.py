@@ -1,21 +1,65 @@
 """Serving the teaching station: :class:`StationServer` runs the app with uvicorn on a socket
 bound beforehand (so the printed URL has the real port, and a busy port is a one-line error
-before anything moves)."""
+before anything moves).
+
+Connections are guarded (:class:`_Guard`): each must send a complete request line and headers
+within :data:`HEADER_TIMEOUT_S` of connecting or of its previous response, or it is closed (a
+slow-loris client cannot hold sockets); at most :data:`MAX_CONNECTIONS` are open at once (fewer
+if the process may open few files): a new one takes the place of the oldest that has not sent
+its headers yet, or is answered 503 and closed. A WebSocket whose peer stops reading for
+:data:`WRITE_STALL_S` is dropped. Running out of file descriptors anyway is logged once a
+minute, not once per refused accept.
+"""
 
 from __future__ import annotations
 
+import asyncio
+import functools
+import logging
 import signal
 import socket
 import threading
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
 import uvicorn
+from uvicorn.protocols.http.h11_impl import H11Protocol
+from uvicorn.protocols.websockets.websockets_sansio_impl import WebSocketsSansIOProtocol
 
 from ..errors import LfdTrackError
 
 _STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+HEADER_TIMEOUT_S = 5.0
+"""[s] a connection must send its request line and headers within this long (a browser sends
+them at once; an idle keep-alive connection is closed after as long)."""
+MAX_CONNECTIONS = 128
+"""Connections open at once (pages, their WebSockets, status requests): a browser opens up to 6
+per page, the app allows 16 pages. Fewer if the process may open few files
+(:func:`connection_limit`)."""
+WS_MAX_BYTES = 256 * 1024
+"""Largest WebSocket message read (the page's are under 100 bytes)."""
+WRITE_STALL_S = 10.0
+"""[s] a WebSocket whose peer has not read what was sent for this long is dropped."""
+READ_SLICE_BYTES = 1024
+"""A WebSocket's input is parsed this much at a time, and only while fewer than
+:data:`MAX_QUEUED_MESSAGES` messages wait for the app: a flood of tiny frames read in one go
+(up to 256 KiB: ~20,000 frames) would otherwise hold the event loop for a good part of a second."""
+MAX_QUEUED_MESSAGES = 16
+"""Messages parsed ahead of the app per WebSocket (the rest waits unparsed, reading paused)."""
+CLOSE_GRACE_S = 1.0
+"""[s] once the server closes a WebSocket it reads nothing more from it (a flooder's backlog is
+not parsed to find the close reply) and drops the connection after this long."""
+BACKLOG = 32
+"""Connections the kernel queues before they are accepted, and asyncio accepts in one go."""
+_RESERVED_FILES = 32
+"""File descriptors kept for the station's own use (recording, camera, serial link, ...)."""
+LOG_EVERY_S = 60.0
+"""[s] repeated warnings about refused connections are logged at most this often."""
+
+_log = logging.getLogger("uvicorn.error")
 
 
 def bind_socket(host: str, port: int) -> socket.socket:
@@ -45,25 +89,248 @@ def station_url(host: str, port: int, token: str | None) -> str:
     return f"http://{shown}:{port}/" + (f"?token={token}" if token else "")
 
 
+def connection_limit(wanted: int = MAX_CONNECTIONS) -> int:
+    """``wanted``, or fewer if the process may open few files: room is left for the station's
+    own files and for five rounds of accepts (a connection over the limit holds its descriptor
+    for three or four turns of the event loop, until it is refused and closed). At least 8."""
+    try:
+        import resource
+
+        soft, _ = resource.getrlimit(resource.RLIMIT_NOFILE)
+    except (ImportError, OSError, ValueError):
+        return wanted
+    if soft == resource.RLIM_INFINITY or soft <= 0:
+        return wanted
+    return max(8, min(wanted, soft - 5 * BACKLOG - _RESERVED_FILES))
+
+
+class _Throttled:
+    """A warning logged at most once per ``every_s``, with how often it happened meanwhile."""
+
+    def __init__(self, every_s: float = LOG_EVERY_S) -> None:
+        self.every_s = every_s
+        self._last = -float("inf")
+        self._count = 0
+
+    def __call__(self, text: str) -> None:
+        self._count += 1
+        now = time.monotonic()
+        if now - self._last >= self.every_s:
+            times = f" ({self._count} times)" if self._count > 1 else ""
+            _log.warning("%s%s", text, times)
+            self._last, self._count = now, 0
+
+
+class _Guard:
+    """The connections of one server: those open, those still owing their request headers."""
+
+    def __init__(self, limit: int, header_timeout_s: float) -> None:
+        self.limit = limit
+        self.header_timeout_s = header_timeout_s
+        self.open: set[asyncio.BaseTransport] = set()
+        self.waiting: dict[_GuardedHttp, None] = {}  # oldest first
+        self.refused = _Throttled()
+        self.out_of_files = _Throttled()
+
+    def admit(self, transport: asyncio.BaseTransport) -> bool:
+        """Count a new connection in; False when it must be refused."""
+        if len(self.open) >= self.limit:
+            if not self.waiting:
+                self.refused(f"refusing connections: {self.limit} are open, the most at once")
+                return False
+            oldest = next(iter(self.waiting))
+            oldest.drop()  # a slow (or idle) connection makes room for a new one
+        self.open.add(transport)
+        return True
+
+    def loop_exception(self, loop: asyncio.AbstractEventLoop, context: dict[str, Any]) -> None:
+        """The event loop's exception handler: asyncio logs a traceback for every refused accept
+        when the process is out of file descriptors; log that once a minute instead."""
+        if context.get("message") == "socket.accept() out of system resource":
+            self.out_of_files(f"cannot accept connections: {context.get('exception')}")
+            return
+        loop.default_exception_handler(context)
+
+
+class _GuardedHttp(H11Protocol):
+    """uvicorn's HTTP/1.1 protocol with the :class:`_Guard`'s limits."""
+
+    def __init__(self, *args: Any, guard: _Guard, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._guard = guard
+        self._deadline: asyncio.TimerHandle | None = None
+        self._awaited: Any = None  # the scope of the last request when the deadline was set
+
+    def connection_made(self, transport: asyncio.BaseTransport) -> None:
+        super().connection_made(transport)  # type: ignore[arg-type]
+        if not self._guard.admit(transport):
+            self.transport.write(
+                b"HTTP/1.1 503 Service Unavailable\r\ncontent-type: text/plain; charset=utf-8"
+                b"\r\nconnection: close\r\ncontent-length: 29\r\n\r\ntoo many connections: retry\r\n"
+            )
+            self.transport.close()
+            return
+        self._await_request()
+
+    def data_received(self, data: bytes) -> None:
+        super().data_received(data)
+        self._check_request()
+
+    def on_response_complete(self) -> None:
+        if not self.transport.is_closing():
+            self._await_request()
+        super().on_response_complete()  # may go on to a pipelined request
+        self._check_request()
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        self._stop_waiting()
+        self._guard.open.discard(self.transport)
+        super().connection_lost(exc)
+
+    def drop(self) -> None:
+        """Close now: no request (headers) in time, or room is needed for a new connection."""
+        self._stop_waiting()
+        self._guard.open.discard(self.transport)
+        if self.transport.get_write_buffer_size():
+            self.transport.abort()  # the peer reads nothing either: free the socket now
+        else:
+            self.transport.close()
+
+    def _await_request(self) -> None:
+        self._stop_waiting()
+        self._awaited = self.scope
+        self._deadline = self.loop.call_later(self._guard.header_timeout_s, self.drop)
+        self._guard.waiting[self] = None
+
+    def _check_request(self) -> None:
+        """A new request's line and headers have come (uvicorn made its scope): in time."""
+        if self._deadline is not None and self.scope is not self._awaited:
+            self._stop_waiting()
+
+    def _stop_waiting(self) -> None:
+        if self._deadline is not None:
+            self._deadline.cancel()
+            self._deadline = None
+        self._guard.waiting.pop(self, None)
+
+
+class _GuardedWebSocket(WebSocketsSansIOProtocol):
+    """uvicorn's WebSocket protocol, counted by the :class:`_Guard`, and fair to the others:
+    input is parsed a slice at a time, only as fast as the app takes the messages (see
+    :data:`READ_SLICE_BYTES`); nothing is read once the server closes (:data:`CLOSE_GRACE_S`);
+    a peer that reads nothing for :data:`WRITE_STALL_S` is dropped (its socket would otherwise
+    be held for good)."""
+
+    def __init__(self, *args: Any, guard: _Guard, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self._guard = guard
+        self._stalled: asyncio.TimerHandle | None = None
+        self._unparsed = bytearray()
+
+    def data_received(self, data: bytes) -> None:
+        if self.close_sent:
+            return  # closing (see send): what the peer still sends is not read
+        self._unparsed += data
+        self._parse()
+
+    def _parse(self) -> None:
+        while (
+            self._unparsed
+            and self.queue.qsize() < MAX_QUEUED_MESSAGES
+            and not self.close_sent
+            and not self.transport.is_closing()
+        ):
+            piece = bytes(self._unparsed[:READ_SLICE_BYTES])
+            del self._unparsed[:READ_SLICE_BYTES]
+            super().data_received(piece)
+        if self._unparsed and not self.read_paused and not self.transport.is_closing():
+            self.read_paused = True
+            self.transport.pause_reading()
+
+    async def receive(self) -> Any:
+        message = await super().receive()  # resumes reading once the queue is empty
+        if self._unparsed:
+            self._parse()  # the rest first (pauses reading again if some is left)
+        return message
+
+    async def send(self, message: Any) -> None:
+        await super().send(message)
+        if message["type"] == "websocket.http.response.body" and not message.get("more_body"):
+            # A refusal (HTTP 503, 400) ends the handshake too: without this uvicorn logs an
+            # error for every refused WebSocket.
+            self.handshake_complete = True
+        elif message["type"] == "websocket.close" and self.close_timer is not None:
+            # uvicorn reads on for the peer's close reply (10 s at most): from a flooder that
+            # is all its backlog first. Read nothing; let the close frame go out, then close.
+            self._unparsed.clear()
+            if not self.read_paused:
+                self.read_paused = True
+                self.transport.pause_reading()
+            self.close_timer.cancel()
+            self.close_timer = self.loop.call_later(CLOSE_GRACE_S, self.transport.close)
+
+    def pause_writing(self) -> None:
+        super().pause_writing()
+        if self._stalled is None:
+            self._stalled = self.loop.call_later(WRITE_STALL_S, self.transport.abort)
+
+    def resume_writing(self) -> None:
+        super().resume_writing()
+        self._clear_stall()
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        self._clear_stall()
+        self._guard.open.discard(self.transport)
+        super().connection_lost(exc)
+
+    def _clear_stall(self) -> None:
+        if self._stalled is not None:
+            self._stalled.cancel()
+            self._stalled = None
+
+
 class StationServer:
     """uvicorn serving one app on a pre-bound socket, in this thread or a background one.
 
     ``serve()`` blocks until Ctrl-C, SIGTERM or SIGHUP (main thread) or ``shutdown()``;
     ``start()``/``shutdown()`` run it in a background thread (tests, embedding).
+    ``header_timeout_s`` and ``max_connections``: see :data:`HEADER_TIMEOUT_S` and
+    :data:`MAX_CONNECTIONS` (the latter is capped by :func:`connection_limit`).
     """
 
-    def __init__(self, app: Any, sock: socket.socket) -> None:
+    def __init__(
+        self,
+        app: Any,
+        sock: socket.socket,
+        *,
+        header_timeout_s: float = HEADER_TIMEOUT_S,
+        max_connections: int = MAX_CONNECTIONS,
+    ) -> None:
+        if not header_timeout_s > 0:
+            raise ValueError(f"header_timeout_s must be positive, got {header_timeout_s}")
         self.sock = sock
+        self._guard = _Guard(connection_limit(max_connections), header_timeout_s)
         config = uvicorn.Config(
             app,
             log_level="warning",
             access_log=False,
             lifespan="off",
+            http=functools.partial(_GuardedHttp, guard=self._guard),  # type: ignore[arg-type]
+            ws=functools.partial(_GuardedWebSocket, guard=self._guard),  # type: ignore[arg-type]
+            ws_max_size=WS_MAX_BYTES,
+            ws_per_message_deflate=False,  # the frames are JPEGs: nothing to gain
             ws_ping_interval=None,  # the page's heartbeats are the liveness check
+            timeout_keep_alive=int(HEADER_TIMEOUT_S),
             timeout_graceful_shutdown=2,
+            backlog=BACKLOG,
         )
-        self._server = _QuietSignalServer(config)
+        self._server = _QuietSignalServer(config, self._guard)
         self._thread: threading.Thread | None = None
+
+    @property
+    def max_connections(self) -> int:
+        """Connections served at once (see :func:`connection_limit`)."""
+        return self._guard.limit
 
     @property
     def port(self) -> int:
@@ -94,7 +361,16 @@ class StationServer:
 
 class _QuietSignalServer(uvicorn.Server):
     """uvicorn's server, but Ctrl-C/SIGTERM/SIGHUP only end ``serve`` (no re-raise afterwards),
-    so the session is closed and the summary printed as after any normal end."""
+    so the session is closed and the summary printed as after any normal end; running out of
+    file descriptors is logged once a minute."""
+
+    def __init__(self, config: uvicorn.Config, guard: _Guard) -> None:
+        super().__init__(config)
+        self._guard = guard
+
+    async def startup(self, sockets: list[socket.socket] | None = None) -> None:
+        asyncio.get_running_loop().set_exception_handler(self._guard.loop_exception)
+        await super().startup(sockets=sockets)
 
     @contextmanager
     def capture_signals(self) -> Iterator[None]:

@@ -61,10 +61,12 @@ class Station:
 
 @pytest.fixture
 def open_station(tmp_path: Path) -> Iterator[Callable[..., Station]]:
-    """``open_station(*teach_args, token=None)``: a station served on a free loopback port.
+    """``open_station(*teach_args, token=None, app_options=None, server_options=None)``: a
+    station served on a free loopback port.
 
     ``teach_args`` are ``lfd-track teach`` flags (``--out`` defaults to a file in tmp_path,
-    ``--period`` to 0.1 s: in the simulator that only paces the commands, so tests run faster).
+    ``--period`` to 0.1 s: in the simulator that only paces the commands, so tests run faster);
+    ``app_options`` go to ``create_app``, ``server_options`` to ``StationServer``.
     """
     from lfd_track.cli import build_parser
     from lfd_track.web.app import create_app
@@ -73,7 +75,12 @@ def open_station(tmp_path: Path) -> Iterator[Callable[..., Station]]:
 
     opened: list[Station] = []
 
-    def open_(*teach_args: str, token: str | None = None) -> Station:
+    def open_(
+        *teach_args: str,
+        token: str | None = None,
+        app_options: dict[str, Any] | None = None,
+        server_options: dict[str, Any] | None = None,
+    ) -> Station:
         argv = ["teach", "--port", "0", *teach_args]
         if "--period" not in teach_args:
             argv += ["--period", "0.1"]  # the simulator's pace: four commands per robot period
@@ -81,7 +88,11 @@ def open_station(tmp_path: Path) -> Iterator[Callable[..., Station]]:
             argv += ["--out", str(tmp_path / f"taught{len(opened)}.lfdemo")]
         args = build_parser().parse_args(argv)
         session = open_session(args)
-        server = StationServer(create_app(session, token=token), bind_socket("127.0.0.1", 0))
+        server = StationServer(
+            create_app(session, token=token, **(app_options or {})),
+            bind_socket("127.0.0.1", 0),
+            **(server_options or {}),
+        )
         station = Station(
             station_url("127.0.0.1", server.port, token), session, server, Path(args.out)
         )

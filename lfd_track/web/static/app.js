@@ -78,7 +78,8 @@
     ws = new WebSocket(`${location.protocol === "https:" ? "wss" : "ws"}://${location.host}/ws${query}`);
     ws.binaryType = "arraybuffer";
     ws.onopen = () => { lfd.connected = true; message(""); };
-    ws.onclose = () => {
+    ws.onclose = (event) => {
+      if (event.reason) message(`disconnected: ${event.reason}`);  // e.g. too many messages
       lfd.connected = false;
       lfd.role = null;
       $("role").textContent = "disconnected";
