@@ -32,6 +32,8 @@ LEASE_TOLERANCE_S = 0.010
 FLOOD_FRAMES = 60
 # Failure guard only: the waits below return as soon as the awaited reply arrives.
 SETTLE_TIMEOUT_S = 10.0
+HARNESS_SLICE_S = 200e-6  # hardware/sim/lfd_rover_sim.c: SLICE_US
+HARNESS_MAX_LAG_S = 0.020  # hardware/sim/lfd_rover_sim.c: MAX_LAG_NS (a larger debt is forgiven)
 
 
 def moving(sample) -> bool:
@@ -330,9 +332,14 @@ def test_simulated_time_never_runs_ahead_of_wall_time_under_a_flood() -> None:
             sim_end = board.mark()
             wall_end = time.monotonic()
             assert replies >= 40
-            # One 200 us slice may run before the harness sleeps; the host's clock is read
-            # before the first mark and after the last one.
-            assert sim_end - sim_start <= wall_end - wall_start + 0.001
+            # The harness keeps simulated time since its start at or behind the wall clock's:
+            # one 200 us slice may run before it sleeps, and a simulation that fell behind (the
+            # host was busy) catches up by at most MAX_LAG before the rest of the debt is
+            # forgiven. So between two marks simulated time may exceed wall time by that catch-up
+            # (seen on a 2-core machine with both cores busy: 1.35 ms), never by more. The
+            # host's clock is read before the first mark and after the last one.
+            catch_up = HARNESS_MAX_LAG_S + HARNESS_SLICE_S
+            assert sim_end - sim_start <= wall_end - wall_start + catch_up
             # The board is not deaf afterwards: the marks keep coming, and simulated time moves.
             assert board.mark() > sim_end
         finally:
