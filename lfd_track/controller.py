@@ -31,7 +31,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .atomic import atomic_write_text
-from .control.mlp import layer_sizes, mlp_forward, n_weights, select_action
+from .control.mlp import check_numbers, layer_sizes, mlp_forward, n_weights, select_action
 from .errors import FileFormatError
 from .files import read_regular_text
 from .teaching.commanders import PolicyCommander
@@ -242,10 +242,7 @@ class Controller:
                 f"road_values must have shape ({self.n_inputs},) (the road values{extra}),"
                 f" got {values.shape}"
             )
-        if values.dtype == np.bool_ or not (
-            np.issubdtype(values.dtype, np.floating) or np.issubdtype(values.dtype, np.integer)
-        ):
-            raise ValueError(f"road_values must be numbers, got dtype {values.dtype}")
+        check_numbers("road_values", values)
         values = values.astype(np.float64)
         if not np.isfinite(values).all():
             raise ValueError("road_values contain NaN or infinite values")

@@ -103,3 +103,12 @@ def select_action(outputs: np.ndarray, previous: int | None = None) -> int:
     if previous is not None and np.count_nonzero(out == out[best]) > 1:
         return int(previous)
     return best
+
+
+def check_numbers(name: str, array: np.ndarray) -> None:
+    """Raise ``ValueError`` unless ``array`` holds real numbers (integers or floats, not bools)."""
+    dtype = array.dtype
+    if dtype == np.bool_ or not (
+        np.issubdtype(dtype, np.floating) or np.issubdtype(dtype, np.integer)
+    ):
+        raise ValueError(f"{name} must be numbers, got dtype {dtype}")

@@ -14,7 +14,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from ..control.mlp import N_INPUTS, N_OUTPUTS, n_weights
+from ..control.mlp import N_INPUTS, N_OUTPUTS, check_numbers, n_weights
 
 T = TypeVar("T")
 
@@ -49,10 +49,7 @@ def check_cases(inputs: np.ndarray, actions: np.ndarray) -> tuple[np.ndarray, np
             f"inputs must have shape (N, {N_INPUTS}) (road values, then any memory inputs),"
             f" got {x.shape}"
         )
-    if x.dtype == np.bool_ or not (
-        np.issubdtype(x.dtype, np.floating) or np.issubdtype(x.dtype, np.integer)
-    ):
-        raise ValueError(f"inputs must be numbers, got dtype {x.dtype}")
+    check_numbers("inputs", x)
     x = x.astype(np.float64)
     a = check_actions(actions)
     if a.shape[0] != x.shape[0]:
@@ -85,10 +82,7 @@ def check_weights(weights: np.ndarray, n_inputs: int, bias: bool | None) -> tupl
     w = np.asarray(weights)
     if w.ndim != 2:
         raise ValueError(f"weights must be (P, W), got shape {w.shape}")
-    if w.dtype == np.bool_ or not (
-        np.issubdtype(w.dtype, np.floating) or np.issubdtype(w.dtype, np.integer)
-    ):
-        raise ValueError(f"weights must be numbers, got dtype {w.dtype}")
+    check_numbers("weights", w)
     w = w.astype(np.float64, copy=False)
     if bias is None:
         bias = w.shape[1] == n_weights(True, n_inputs)
