@@ -387,6 +387,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         test_tracks=("testing", *args.test_track),
         memory=MemoryConfig(kind=args.memory),
         mirror=args.mirror,
+        demo_track=args.demo_track,
     )
     workers = args.workers or min(_cores(), MAX_WORKERS)
     check_workers(workers)
@@ -561,6 +562,13 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="TRACK",
         help="also lap this loop (name or .toml path) both ways, as many laps as on the testing"
         " track; repeatable; results per track in results.json",
+    )
+    bench.add_argument(
+        "--demo-track",
+        default="training",
+        metavar="TRACK",
+        help="open track (name or .toml path) the human demonstrates on, and HG-DAgger's rounds"
+        " drive (default: the paper's training track, which is also scored either way)",
     )
     bench.add_argument(
         "--method",

@@ -24,6 +24,10 @@ Methods:
 * ``hg-dagger`` — the paper's demonstration and GA, then ``rounds`` rounds of autonomous runs on
   the training track (one each way) with the human intervening by the same rule; the
   interventions of every round are aggregated and the GA re-run on all cases after each round.
+
+"The training track" above is the paper's unless a method is given another open ``track``
+(``BenchmarkConfig.demo_track``): the human then demonstrates, and HG-DAgger's rounds drive,
+there instead.
 """
 
 from __future__ import annotations
@@ -158,12 +162,14 @@ def _demonstrate(
     preset: str | Preset,
     human: HumanConfig,
     memory: MemoryConfig | None = None,
+    track: str = "training",
 ) -> tuple[DemonstrationSummary, Demonstration, RoadLibrary]:
-    """Record the paper's demonstration in ``rep_dir``; (summary, cases, its road library)."""
+    """Record the paper's demonstration on ``track`` in ``rep_dir``; (summary, cases, library)."""
     demo_path = rep_dir / "demonstration.lfdemo"
     summary = run_demonstration(
         demo_path,
         seed=demo_seed,
+        track=track,
         preset=preset,
         human=human,
         fsync=False,
@@ -219,13 +225,14 @@ def learn_paper(
     ga: GAConfig,
     memory: MemoryConfig | None = None,
     mirror: bool = False,
+    track: str = "training",
 ) -> Learned:
     """The paper: record a demonstration, then evolve offline (200 generations by default).
 
     ``mirror``: learn from the cases and their mirror images (:mod:`lfd_track.learning.mirror`).
     """
     summary, demo, library = _demonstrate(
-        rep_dir, demo_seed=demo_seed, preset=preset, human=human, memory=memory
+        rep_dir, demo_seed=demo_seed, preset=preset, human=human, memory=memory, track=track
     )
     x, a = _training_set(demo.inputs, demo.commands, memory, mirror)
     result = evolve(x, a, ga, np.random.default_rng(ga_seed))
@@ -249,10 +256,11 @@ def learn_baseline(
     learner: BCConfig | CMAESConfig,
     memory: MemoryConfig | None = None,
     mirror: bool = False,
+    track: str = "training",
 ) -> Learned:
     """The paper's demonstration, then BC or CMA-ES instead of the GA (same cases, same seed)."""
     summary, demo, library = _demonstrate(
-        rep_dir, demo_seed=demo_seed, preset=preset, human=human, memory=memory
+        rep_dir, demo_seed=demo_seed, preset=preset, human=human, memory=memory, track=track
     )
     trainer = learner_for(learner)
     x, a = _training_set(demo.inputs, demo.commands, memory, mirror)
@@ -320,8 +328,9 @@ def learn_online(
     online: OnlineConfig,
     memory: MemoryConfig | None = None,
     mirror: bool = False,
+    track: str = "training",
 ) -> Learned:
-    """Demonstrate on the training track while the GA learns; the policy takes over when it agrees.
+    """Demonstrate on ``track`` while the GA learns; the policy takes over when it agrees.
 
     The protocol, the human's random stream and the env seed are the paper's (same
     ``demo_seed``); the cases, including flagged corrections, are written to
@@ -329,9 +338,9 @@ def learn_online(
     """
     rng = np.random.default_rng(demo_seed)
     env_seed = int(rng.integers(2**31 - 1))
-    env = LfDTrackEnv(track="training", preset=preset, max_steps=10**9, continue_after_end=True)
+    env = LfDTrackEnv(track=track, preset=preset, max_steps=10**9, continue_after_end=True)
     person = protocol_human(
-        "training", human, rng, intervention=online.intervention, rover=env.preset.rover
+        track, human, rng, intervention=online.intervention, rover=env.preset.rover
     )
     library = RoadLibrary()
     perception = Perception(library, "careful" if human.careful else "always", memory)
@@ -347,7 +356,7 @@ def learn_online(
     metadata = {
         "kind": "simulated",
         "method": "online",
-        "track": "training",
+        "track": track,
         "seed": demo_seed,
         "env_seed": env_seed,
         "preset": preset if isinstance(preset, str) else preset.name,
@@ -433,10 +442,11 @@ def learn_hg_dagger(
     hg: HGDaggerConfig,
     memory: MemoryConfig | None = None,
     mirror: bool = False,
+    track: str = "training",
 ) -> Learned:
     """The paper's demonstration and GA, then rounds of runs with interventions and re-evolving.
 
-    Each round drives the current controller once each way on the training track (library
+    Each round drives the current controller once each way on ``track`` (library
     frozen) with the scripted human watching; intervention cases of round r are written to
     ``rep_dir/interventions_r<r>.lfdemo`` and added to the training set before the GA runs again
     (same settings, continuing the GA's random stream).
@@ -450,6 +460,7 @@ def learn_hg_dagger(
         ga=ga,
         memory=memory,
         mirror=mirror,
+        track=track,
     )
     demo = load_demonstration(rep_dir / "demonstration.lfdemo")
     inputs = [np.asarray(demo.inputs, dtype=np.float64)]
@@ -478,8 +489,8 @@ def learn_hg_dagger(
             log_library=False,  # the library is the demonstration's, frozen: nothing to log
         ) as w:
             for reverse in (False, True):
-                env = LfDTrackEnv(track="training", reverse=reverse, preset=preset)
-                legs = (env.track, load_track("training", reverse=not reverse))
+                env = LfDTrackEnv(track=track, reverse=reverse, preset=preset)
+                legs = (env.track, load_track(track, reverse=not reverse))
                 person = ProtocolHuman(
                     legs,
                     dataclasses.replace(human, legs=1, library_only_commands=0),

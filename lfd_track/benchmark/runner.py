@@ -54,6 +54,7 @@ __all__ = [
     "METHODS",
     "BenchmarkConfig",
     "RepetitionResult",
+    "check_demo_track",
     "check_test_tracks",
     "check_tracks",
     "check_workers",
@@ -110,6 +111,9 @@ class BenchmarkConfig:
     test_tracks: tuple[str, ...] = ("testing",)  # loops (names or paths) lapped both ways
     memory: MemoryConfig = MemoryConfig()  # memory inputs of the policy (none: the paper's 40)
     mirror: bool = False  # learn from the cases and their mirror images (learning/mirror.py)
+    # The open track the human demonstrates on (and HG-DAgger's rounds drive); the paper's
+    # training track by default. Trials still run the paper's training track both ways.
+    demo_track: str = "training"
 
     def __post_init__(self) -> None:
         if isinstance(self.test_tracks, str) or not all(
@@ -119,6 +123,8 @@ class BenchmarkConfig:
         if len(set(self.test_tracks)) != len(self.test_tracks):
             raise ValueError("test_tracks lists a track twice")
         object.__setattr__(self, "test_tracks", tuple(self.test_tracks))
+        if not isinstance(self.demo_track, str) or not self.demo_track:
+            raise ValueError("demo_track must be a track name or path")
         if self.method not in METHODS:
             raise ValueError(f"unknown method '{self.method}' (choose from {', '.join(METHODS)})")
         check_int("repetitions", self.repetitions, 1, MAX_REPETITIONS)
@@ -168,19 +174,32 @@ def check_test_tracks(test_tracks: tuple[str, ...]) -> None:
             )
 
 
+def check_demo_track(track: str) -> None:
+    """Raise a one-line error unless ``track`` is an open track (the demonstration protocol
+    drives it from one end to the other and back)."""
+    if load_track(track).closed:
+        raise ValueError(
+            f"demonstration track '{track}' is a loop (the demonstration needs an open track)"
+        )
+
+
 def check_tracks(config: BenchmarkConfig) -> None:
     """Raise a one-line error unless every track the run drives works with its preset.
 
-    Loads the preset, checks the test tracks (:func:`check_test_tracks`), then builds, without
-    painting its floor, the environment of every trial direction (the training track, which the
-    learning also drives, and each test loop, both ways): that applies the environment's own
+    Loads the preset, checks the test tracks (:func:`check_test_tracks`) and the demonstration
+    track (:func:`check_demo_track`), then builds, without painting its floor, the environment
+    of every track the run drives (the demonstration track, the training track and each test
+    loop, both ways): that applies the environment's own
     checks, among them that the ground texture the preset would paint around the track fits the
     renderer's cap (``MAX_TEXTURE_BYTES``, ``env._check_ground_fits``). So a track that cannot
     be driven fails in milliseconds, before anything is learned or written.
     """
     preset = load_preset(config.preset)
     check_test_tracks(config.test_tracks)
-    for track, reverse, _ in trial_directions(config.test_tracks):
+    check_demo_track(config.demo_track)
+    drives = [(config.demo_track, False), (config.demo_track, True)]
+    drives += [(t, r) for t, r, _ in trial_directions(config.test_tracks)]
+    for track, reverse in dict.fromkeys(drives):
         try:
             LfDTrackEnv(track=track, reverse=reverse, preset=preset).close()
         except LfdTrackError:
@@ -275,6 +294,7 @@ def run_repetition(
         human=config.human,
         memory=config.memory,
         mirror=config.mirror,
+        track=config.demo_track,
     )
     if config.method == "online":
         learned = learn_online(rep_dir, **common, ga=config.ga, online=config.online)
@@ -387,4 +407,6 @@ def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
         data["memory"] = config.memory.to_dict()
     if not config.mirror:
         del data["mirror"]
+    if config.demo_track == "training":
+        del data["demo_track"]
     return data

@@ -259,7 +259,7 @@ def _condition(table: dict[str, Any], index: int, path: Path, check_names: bool)
             settings[key] = _settings_from_table(kind, value, f"{name}.{key}", path)
         else:
             settings[key] = value
-    for key in ("preset", "test_tracks"):
+    for key in ("preset", "test_tracks", "demo_track"):
         if key in settings:
             settings[key] = _relative_to(settings[key], path)
     config = dataclass_from_table(BenchmarkConfig, settings, name, path)

@@ -305,3 +305,69 @@ def test_extra_test_tracks_are_lapped_both_ways_and_reported_per_track(tmp_path)
     assert "Extra test loops" in (tmp_path / "out" / "report.md").read_text()
     with pytest.raises(ValueError, match="twice"):
         BenchmarkConfig(test_tracks=("testing", "testing"))
+
+
+#: An open track with one 90° left corner, short enough for a quick demonstration.
+ELBOW = """name = "elbow"
+closed = false
+width_m = 0.30
+vertices = [[0.0, 0.0], [1.2, 0.0], [1.2, 1.2]]
+[corners]
+"1" = 1
+"""
+
+
+def test_methods_demonstrate_and_drive_on_the_demo_track(tmp_path, monkeypatch):
+    """``track`` moves the demonstration (every method) and HG-DAgger's rounds off the paper's
+    training track; every env the learning builds is on it."""
+    from lfd_track.benchmark import methods
+    from lfd_track.demo import demonstrator
+
+    elbow = tmp_path / "elbow.toml"
+    elbow.write_text(ELBOW)
+    built: list[str] = []
+
+    def spy(cls):
+        class Spied(cls):
+            def __init__(self, *args, track="training", **kwargs):
+                built.append(str(track))
+                super().__init__(*args, track=track, **kwargs)
+
+        return Spied
+
+    monkeypatch.setattr(methods, "LfDTrackEnv", spy(methods.LfDTrackEnv))
+    monkeypatch.setattr(demonstrator, "LfDTrackEnv", spy(demonstrator.LfDTrackEnv))
+    demo_seed, ga_seed, _ = _seeds(0)
+    kwargs = dict(demo_seed=demo_seed, ga_seed=ga_seed, preset="paper", human=HumanConfig())
+    learned = learn_hg_dagger(
+        tmp_path / "hg",
+        **kwargs,
+        ga=GAConfig(generations=5),
+        hg=HGDaggerConfig(rounds=1),
+        track=str(elbow),
+    )
+    demo = load_demonstration(tmp_path / "hg" / "demonstration.lfdemo")
+    assert demo.metadata["track"] == str(elbow)
+    assert built == [str(elbow)] * 3  # the demonstration, then the round's two directions
+    assert learned.controller.learner == "hg-dagger"
+    built.clear()
+    learn_online(
+        tmp_path / "online",
+        **kwargs,
+        ga=GAConfig(generations=2),
+        online=OnlineConfig(generations_per_case=1),
+        track=str(elbow),
+    )
+    assert built == [str(elbow)]
+    online = load_demonstration(tmp_path / "online" / "demonstration.lfdemo")
+    assert online.metadata["track"] == str(elbow)
+
+
+def test_a_loop_is_refused_as_demo_track_before_anything_runs():
+    from lfd_track.benchmark.runner import check_tracks
+
+    with pytest.raises(ValueError, match="demonstration track 'testing' is a loop"):
+        check_tracks(BenchmarkConfig(demo_track="testing"))
+    with pytest.raises(ValueError, match="demo_track must be"):
+        BenchmarkConfig(demo_track="")
+    check_tracks(BenchmarkConfig())  # the default, the paper's training track, passes

@@ -273,3 +273,18 @@ def test_test_tracks_must_be_loops_with_corners(tmp_path, capsys, tracks, proble
     assert "condition 'paper'" in err and problem in err, err
     assert not out.exists()  # refused before any demonstration or learning ran
     load_study(path, check_names=False)  # the structure alone is fine
+
+
+def test_demo_track_is_relative_to_the_study_file_and_must_be_open(tmp_path, capsys):
+    (tmp_path / "tracks").mkdir()
+    (tmp_path / "tracks" / "open.toml").write_text((REPO / "tracks" / "training.toml").read_text())
+    path = write_study(tmp_path, TINY_STUDY + 'demo_track = "tracks/open.toml"\n')
+    (condition,) = load_study(path).conditions
+    assert condition.config.demo_track == str(tmp_path / "tracks" / "open.toml")
+    loop = write_study(tmp_path, TINY_STUDY + 'demo_track = "testing"\n', name="loop.toml")
+    out = tmp_path / "out"
+    assert main(["--quiet", "study", str(loop), "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"lfd-track study: {loop}: "), err
+    assert "demonstration track 'testing' is a loop" in err, err
+    assert not out.exists()
