@@ -236,13 +236,14 @@ class StopLine:
     def request(self, reason: str) -> Future[None]:
         """Ask for a stop; the future is done once the robot was told to stop."""
         with self._lock:
-            if self._waiting is None:
+            if self._waiting is None or self._waiting.done():
                 self._waiting = self._executor.submit(self._run, reason)
             return self._waiting
 
     async def stop(self, reason: str) -> None:
-        """Stop, and wait until it is done (without holding up the event loop)."""
-        await asyncio.wrap_future(self.request(reason))
+        """Stop, and wait until it is done (without holding up the event loop). Cancelling the
+        wait does not cancel the stop (other pages' stops may have joined it)."""
+        await asyncio.shield(asyncio.wrap_future(self.request(reason)))
 
     def _run(self, reason: str) -> None:
         with self._lock:
@@ -354,6 +355,8 @@ def create_app(
         raise ValueError(f"fps must be positive, got {fps}")
     if max_pages < 1:
         raise ValueError(f"max_pages must be at least 1, got {max_pages}")
+    if message_rate is not None:
+        TokenBucket(message_rate, message_burst)  # checks them now, not at each page
     desk = ControlDesk(session)
     stop_line = StopLine(lambda reason: session.stop(reason))
     static = resources.files(__package__) / "static"
@@ -456,8 +459,8 @@ def create_app(
                 )
             )
             return
-        client = desk.join(websocket)
         bucket = TokenBucket(message_rate, message_burst) if message_rate is not None else None
+        client = desk.join(websocket)
         sender: asyncio.Task[None] | None = None
         try:
             await websocket.accept()
@@ -482,7 +485,9 @@ def create_app(
             if sender is not None:
                 sender.cancel()
             if desk.leave(client):
-                stop_line.request("the controlling page closed")
+                # Awaited: a failed stop is logged (as any error of the page's), and the server
+                # ends (then the session closes) only once the robot was told to stop.
+                await stop_line.stop("the controlling page closed")
 
     app = Starlette(
         routes=[

@@ -6,9 +6,10 @@ Connections are guarded (:class:`_Guard`): each must send a complete request lin
 within :data:`HEADER_TIMEOUT_S` of connecting or of its previous response, or it is closed (a
 slow-loris client cannot hold sockets); at most :data:`MAX_CONNECTIONS` are open at once (fewer
 if the process may open few files): a new one takes the place of the oldest that has not sent
-its headers yet, or is answered 503 and closed. A WebSocket whose peer stops reading for
-:data:`WRITE_STALL_S` is dropped. Running out of file descriptors anyway is logged once a
-minute, not once per refused accept.
+its headers yet, or is answered 503 and closed. A connection whose peer stops reading for
+:data:`WRITE_STALL_S` is dropped, and so is one still closing :data:`CLOSE_GRACE_S` after the
+server closed it (its last bytes cannot go out). Running out of file descriptors anyway is
+logged once a minute, not once per refused accept.
 """
 
 from __future__ import annotations
@@ -42,16 +43,24 @@ per page, the app allows 16 pages. Fewer if the process may open few files
 WS_MAX_BYTES = 256 * 1024
 """Largest WebSocket message read (the page's are under 100 bytes)."""
 WRITE_STALL_S = 10.0
-"""[s] a WebSocket whose peer has not read what was sent for this long is dropped."""
+"""[s] a connection whose peer has not read what was sent for this long is dropped."""
 READ_SLICE_BYTES = 1024
-"""A WebSocket's input is parsed this much at a time, and only while fewer than
-:data:`MAX_QUEUED_MESSAGES` messages wait for the app: a flood of tiny frames read in one go
-(up to 256 KiB: ~20,000 frames) would otherwise hold the event loop for a good part of a second."""
+"""A WebSocket's input is parsed this much at a time, one slice per turn of the event loop, and
+only while fewer than :data:`MAX_QUEUED_MESSAGES` messages wait for the app: a flood of tiny
+frames read in one go (up to 256 KiB: tens of thousands of frames) would otherwise hold the
+event loop for a good part of a second, frames that make no message for the app (pings, pongs,
+continuations, which its message budget never sees) as well."""
 MAX_QUEUED_MESSAGES = 16
 """Messages parsed ahead of the app per WebSocket (the rest waits unparsed, reading paused)."""
+MAX_FRAGMENTS = 64
+"""Frames one WebSocket message may come in (browsers send the page's in one): empty
+continuation frames add nothing to a message's size, only to the server's memory. More are
+closed with 1009."""
 CLOSE_GRACE_S = 1.0
 """[s] once the server closes a WebSocket it reads nothing more from it (a flooder's backlog is
-not parsed to find the close reply) and drops the connection after this long."""
+not parsed to find the close reply) and closes the connection after this long; a connection
+still closing (unsent bytes, a peer that reads nothing) one to two times this long after it was
+closed is dropped."""
 BACKLOG = 32
 """Connections the kernel queues before they are accepted, and asyncio accepts in one go."""
 _RESERVED_FILES = 32
@@ -131,6 +140,7 @@ class _Guard:
         self.waiting: dict[_GuardedHttp, None] = {}  # oldest first
         self.refused = _Throttled()
         self.out_of_files = _Throttled()
+        self._closing: set[asyncio.BaseTransport] = set()
 
     def admit(self, transport: asyncio.BaseTransport) -> bool:
         """Count a new connection in; False when it must be refused."""
@@ -143,6 +153,16 @@ class _Guard:
         self.open.add(transport)
         return True
 
+    def sweep(self, loop: asyncio.AbstractEventLoop) -> None:
+        """Drop the connections closing now that were closing at the previous sweep, then sweep
+        again in :data:`CLOSE_GRACE_S`: a closed transport lingers until its last bytes are sent,
+        which is never when the peer reads nothing (too little waits to stall the writes)."""
+        closing = {transport for transport in self.open if transport.is_closing()}
+        for transport in closing & self._closing:
+            transport.abort()
+        self._closing = closing
+        loop.call_later(CLOSE_GRACE_S, self.sweep, loop)
+
     def loop_exception(self, loop: asyncio.AbstractEventLoop, context: dict[str, Any]) -> None:
         """The event loop's exception handler: asyncio logs a traceback for every refused accept
         when the process is out of file descriptors; log that once a minute instead."""
@@ -152,8 +172,36 @@ class _Guard:
         loop.default_exception_handler(context)
 
 
-class _GuardedHttp(H11Protocol):
-    """uvicorn's HTTP/1.1 protocol with the :class:`_Guard`'s limits."""
+class _WriteStall:
+    """Drops a connection whose peer has read nothing for :data:`WRITE_STALL_S` (uvicorn waits
+    for it for good); mixed into a uvicorn protocol, before it."""
+
+    _stalled: asyncio.TimerHandle | None = None
+    loop: asyncio.AbstractEventLoop
+    transport: asyncio.Transport
+
+    def pause_writing(self) -> None:
+        super().pause_writing()  # type: ignore[misc]
+        if self._stalled is None:
+            self._stalled = self.loop.call_later(WRITE_STALL_S, self.transport.abort)
+
+    def resume_writing(self) -> None:
+        super().resume_writing()  # type: ignore[misc]
+        self._clear_stall()
+
+    def connection_lost(self, exc: Exception | None) -> None:
+        self._clear_stall()
+        super().connection_lost(exc)  # type: ignore[misc]
+
+    def _clear_stall(self) -> None:
+        if self._stalled is not None:
+            self._stalled.cancel()
+            self._stalled = None
+
+
+class _GuardedHttp(_WriteStall, H11Protocol):
+    """uvicorn's HTTP/1.1 protocol with the :class:`_Guard`'s limits; a response the peer does
+    not read is dropped after :data:`WRITE_STALL_S` (see :class:`_WriteStall`)."""
 
     def __init__(self, *args: Any, guard: _Guard, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
@@ -214,18 +262,18 @@ class _GuardedHttp(H11Protocol):
         self._guard.waiting.pop(self, None)
 
 
-class _GuardedWebSocket(WebSocketsSansIOProtocol):
+class _GuardedWebSocket(_WriteStall, WebSocketsSansIOProtocol):
     """uvicorn's WebSocket protocol, counted by the :class:`_Guard`, and fair to the others:
-    input is parsed a slice at a time, only as fast as the app takes the messages (see
-    :data:`READ_SLICE_BYTES`); nothing is read once the server closes (:data:`CLOSE_GRACE_S`);
-    a peer that reads nothing for :data:`WRITE_STALL_S` is dropped (its socket would otherwise
-    be held for good)."""
+    input is parsed a slice per turn of the event loop, only as fast as the app takes the
+    messages (see :data:`READ_SLICE_BYTES`), a message in at most :data:`MAX_FRAGMENTS` frames;
+    nothing is read once the server closes (:data:`CLOSE_GRACE_S`); a peer that reads nothing
+    for :data:`WRITE_STALL_S` is dropped (its socket would otherwise be held for good)."""
 
     def __init__(self, *args: Any, guard: _Guard, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self._guard = guard
-        self._stalled: asyncio.TimerHandle | None = None
         self._unparsed = bytearray()
+        self._next_slice: asyncio.Handle | None = None
 
     def data_received(self, data: bytes) -> None:
         if self.close_sent:
@@ -234,18 +282,47 @@ class _GuardedWebSocket(WebSocketsSansIOProtocol):
         self._parse()
 
     def _parse(self) -> None:
-        while (
-            self._unparsed
-            and self.queue.qsize() < MAX_QUEUED_MESSAGES
-            and not self.close_sent
-            and not self.transport.is_closing()
-        ):
+        """Parse one slice; the next waits for the next turn of the event loop (reading paused
+        meanwhile), or for the app to take messages when :data:`MAX_QUEUED_MESSAGES` wait."""
+        if self.close_sent or self.transport.is_closing():
+            return
+        if self._unparsed and self.queue.qsize() < MAX_QUEUED_MESSAGES:
             piece = bytes(self._unparsed[:READ_SLICE_BYTES])
             del self._unparsed[:READ_SLICE_BYTES]
             super().data_received(piece)
-        if self._unparsed and not self.read_paused and not self.transport.is_closing():
+            if self.close_sent or self.transport.is_closing():
+                return
+        if not self._unparsed:
+            if self.read_paused and self.queue.empty():  # as uvicorn's receive would
+                self.read_paused = False
+                self.transport.resume_reading()
+            return
+        if not self.read_paused:
             self.read_paused = True
             self.transport.pause_reading()
+        if self._next_slice is None and self.queue.qsize() < MAX_QUEUED_MESSAGES:
+            self._next_slice = self.loop.call_soon(self._parse_next)
+
+    def _parse_next(self) -> None:
+        self._next_slice = None
+        try:
+            self._parse()
+        except Exception:
+            self.transport.abort()  # as asyncio does when data_received fails
+            raise
+
+    def handle_cont(self, event: Any) -> None:
+        if self.close_sent:
+            return
+        if len(self.frames) >= MAX_FRAGMENTS:
+            reason = f"a message in more than {MAX_FRAGMENTS} frames"
+            self.frames = []
+            self.conn.fail(1009, reason)  # the close frame (as uvicorn's keepalive_timeout)
+            self.transport.write(b"".join(self.conn.data_to_send()))
+            self.queue.put_nowait({"type": "websocket.disconnect", "code": 1009, "reason": reason})
+            self._close_after_grace()
+            return
+        super().handle_cont(event)
 
     async def receive(self) -> Any:
         message = await super().receive()  # resumes reading once the queue is empty
@@ -261,32 +338,25 @@ class _GuardedWebSocket(WebSocketsSansIOProtocol):
             self.handshake_complete = True
         elif message["type"] == "websocket.close" and self.close_timer is not None:
             # uvicorn reads on for the peer's close reply (10 s at most): from a flooder that
-            # is all its backlog first. Read nothing; let the close frame go out, then close.
-            self._unparsed.clear()
-            if not self.read_paused:
-                self.read_paused = True
-                self.transport.pause_reading()
+            # is all its backlog first.
+            self._close_after_grace()
+
+    def _close_after_grace(self) -> None:
+        """The close frame is sent: read nothing more, let it go out, then close (closing at
+        once, with the peer's input unread, would reset the connection before the peer read
+        why)."""
+        self.close_sent = True
+        self._unparsed.clear()
+        if not self.read_paused:
+            self.read_paused = True
+            self.transport.pause_reading()
+        if self.close_timer is not None:
             self.close_timer.cancel()
-            self.close_timer = self.loop.call_later(CLOSE_GRACE_S, self.transport.close)
-
-    def pause_writing(self) -> None:
-        super().pause_writing()
-        if self._stalled is None:
-            self._stalled = self.loop.call_later(WRITE_STALL_S, self.transport.abort)
-
-    def resume_writing(self) -> None:
-        super().resume_writing()
-        self._clear_stall()
+        self.close_timer = self.loop.call_later(CLOSE_GRACE_S, self.transport.close)
 
     def connection_lost(self, exc: Exception | None) -> None:
-        self._clear_stall()
         self._guard.open.discard(self.transport)
         super().connection_lost(exc)
-
-    def _clear_stall(self) -> None:
-        if self._stalled is not None:
-            self._stalled.cancel()
-            self._stalled = None
 
 
 class StationServer:
@@ -315,6 +385,7 @@ class StationServer:
             log_level="warning",
             access_log=False,
             lifespan="off",
+            loop="asyncio",  # what this module relies on (uvicorn's "auto" may pick uvloop)
             http=functools.partial(_GuardedHttp, guard=self._guard),  # type: ignore[arg-type]
             ws=functools.partial(_GuardedWebSocket, guard=self._guard),  # type: ignore[arg-type]
             ws_max_size=WS_MAX_BYTES,
@@ -369,8 +440,10 @@ class _QuietSignalServer(uvicorn.Server):
         self._guard = guard
 
     async def startup(self, sockets: list[socket.socket] | None = None) -> None:
-        asyncio.get_running_loop().set_exception_handler(self._guard.loop_exception)
+        loop = asyncio.get_running_loop()
+        loop.set_exception_handler(self._guard.loop_exception)
         await super().startup(sockets=sockets)
+        self._guard.sweep(loop)
 
     @contextmanager
     def capture_signals(self) -> Iterator[None]:

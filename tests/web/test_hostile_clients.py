@@ -15,6 +15,7 @@ import resource
 import socket
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -26,9 +27,10 @@ from websockets.exceptions import ConnectionClosed, InvalidStatus
 from websockets.sync.client import connect
 
 from lfd_track.cli import build_parser
+from lfd_track.errors import LfdTrackError
 from lfd_track.web import app as station_app
 from lfd_track.web import server as station_server
-from lfd_track.web.app import MESSAGE_BURST, MESSAGE_RATE, TokenBucket
+from lfd_track.web.app import MESSAGE_BURST, MESSAGE_RATE, StopLine, TokenBucket, create_app
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[1]
@@ -64,6 +66,33 @@ def next_of(ws: Any, kind: str) -> dict[str, Any]:
 def error_for(ws: Any, payload: str | bytes) -> str:
     ws.send(payload)
     return next_of(ws, "error")["message"]
+
+
+def raw_ws(port: int, rcvbuf: int | None = None) -> socket.socket:
+    """A WebSocket opened by hand (its frames are written raw); ``rcvbuf``: a small receive
+    buffer, for a peer that reads nothing."""
+    sock = socket.socket()
+    if rcvbuf is not None:
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, rcvbuf)
+    sock.settimeout(WAIT_S)
+    sock.connect(("127.0.0.1", port))
+    sock.sendall(
+        b"GET /ws HTTP/1.1\r\nHost: 127.0.0.1:%d\r\nUpgrade: websocket\r\nConnection: Upgrade\r\n"
+        b"Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nSec-WebSocket-Version: 13\r\n\r\n" % port
+    )
+    answer = b""
+    while b"\r\n\r\n" not in answer:
+        answer += sock.recv(1)
+    assert answer.startswith(b"HTTP/1.1 101 "), answer
+    return sock
+
+
+def ws_frame(opcode: int, payload: bytes = b"", fin: bool = True) -> bytes:
+    """One client frame of under 126 bytes (masked, with the all-zero key)."""
+    return bytes([0x80 * fin | opcode, 0x80 | len(payload)]) + b"\0\0\0\0" + payload
+
+
+PING, PONG, CONTINUATION, TEXT = 0x9, 0xA, 0x0, 0x1
 
 
 @pytest.fixture
@@ -109,14 +138,8 @@ def stop_flooders(procs: list[subprocess.Popen]) -> list[dict[str, Any]]:
     return reports
 
 
-@pytest.mark.parametrize("limited", [True, False], ids=["rate-limited", "no-rate-limit"])
-def test_a_stop_wins_under_a_flood_from_other_pages(open_station, server_log, limited) -> None:
-    """Four other pages flood (bad JSON and heartbeats, reconnecting whenever closed); each stop
-    of the controlling page is still carried out within STOP_BOUND_S. Without the rate limit
-    too: handing the loop on after each message is enough for that. With it, every flooder is
-    closed with 1008 (and reconnects, to be closed again)."""
-    station = open_station(app_options={} if limited else {"message_rate": None})
-    session = station.session
+def time_stop_buttons(session) -> list[float]:
+    """Wrap ``session.stop``: the returned list gets the time each stop-button stop was done."""
     done: list[float] = []
     real_stop = session.stop
 
@@ -126,6 +149,17 @@ def test_a_stop_wins_under_a_flood_from_other_pages(open_station, server_log, li
             done.append(time.monotonic())
 
     session.stop = timed_stop
+    return done
+
+
+@pytest.mark.parametrize("limited", [True, False], ids=["rate-limited", "no-rate-limit"])
+def test_a_stop_wins_under_a_flood_from_other_pages(open_station, server_log, limited) -> None:
+    """Four other pages flood (bad JSON and heartbeats, reconnecting whenever closed); each stop
+    of the controlling page is still carried out within STOP_BOUND_S. Without the rate limit
+    too: handing the loop on after each message is enough for that. With it, every flooder is
+    closed with 1008 (and reconnects, to be closed again)."""
+    station = open_station(app_options={} if limited else {"message_rate": None})
+    done = time_stop_buttons(station.session)
     procs: list[subprocess.Popen] = []
     try:
         with open_ws(station) as controller:
@@ -210,6 +244,160 @@ def _can_open(station: Any) -> bool:
             return next_of(ws, "status")["type"] == "status"
     except InvalidStatus:
         return False
+
+
+def _flood_in_background(sock: socket.socket, data: bytes) -> Callable[[], None]:
+    """Send ``data`` over and over, reading whatever comes back, until the returned function is
+    called (it ends both threads and closes ``sock``)."""
+    done = threading.Event()
+
+    def send() -> None:
+        try:
+            while not done.is_set():
+                sock.sendall(data)
+        except OSError:
+            pass
+
+    def read() -> None:
+        try:
+            while not done.is_set() and sock.recv(1 << 20):
+                pass
+        except OSError:
+            pass
+
+    threads = [
+        threading.Thread(target=send, daemon=True),
+        threading.Thread(target=read, daemon=True),
+    ]
+    for thread in threads:
+        thread.start()
+
+    def end() -> None:
+        done.set()
+        try:
+            sock.shutdown(socket.SHUT_RDWR)
+        except OSError:
+            pass
+        for thread in threads:
+            thread.join(WAIT_S)
+        sock.close()
+
+    return end
+
+
+@pytest.mark.parametrize("opcode", [PING, PONG, CONTINUATION], ids=["ping", "pong", "continuation"])
+def test_frames_that_make_no_message_cannot_hold_up_a_stop(open_station, opcode) -> None:
+    """Pings, pongs and continuation frames never reach the app (nor its message budget): a page
+    flooding them must still be parsed a slice per turn of the event loop, so the controlling
+    page's stop is carried out within STOP_BOUND_S."""
+    station = open_station()
+    done = time_stop_buttons(station.session)
+    with open_ws(station) as controller:
+        assert next_of(controller, "status")["role"] == "controller"
+        flooder = raw_ws(station.server.port)
+        start = ws_frame(TEXT, b"{", fin=False) if opcode == CONTINUATION else b""
+        flooder.sendall(start)
+        frame = ws_frame(opcode, fin=opcode != CONTINUATION)
+        end_flood = _flood_in_background(flooder, frame * 50_000)
+        try:
+            latencies = []
+            for given in range(1, 6):
+                time.sleep(0.1)
+                controller.send(json.dumps({"type": "heartbeat"}))
+                sent = time.monotonic()
+                controller.send(json.dumps({"type": "stop"}))
+                wait_until(lambda given=given: len(done) >= given, "the stop")
+                latencies.append(done[given - 1] - sent)
+        finally:
+            end_flood()
+    assert max(latencies) < STOP_BOUND_S, latencies
+
+
+def _closed_by_server(ws: Any, timeout_s: float = 5.0) -> Any:
+    """The close frame the server sent ``ws`` within ``timeout_s`` (reading what comes first)."""
+    deadline = time.monotonic() + timeout_s
+    try:
+        while time.monotonic() < deadline:
+            ws.recv(timeout=max(0.01, deadline - time.monotonic()))
+    except ConnectionClosed as closed:
+        return closed.rcvd
+    except TimeoutError:
+        pass
+    raise AssertionError(f"the server did not close the WebSocket in {timeout_s} s")
+
+
+def test_a_message_in_endless_fragments_is_refused(open_station, server_log) -> None:
+    """Empty continuation frames add nothing to a message's size: without a cap on their number
+    a page could grow the server's memory without end."""
+    station = open_station()
+    with open_ws(station) as ws:
+        try:
+            ws.send(["{"] + [""] * 20_000 + ["}"])
+        except ConnectionClosed:
+            pass  # closed already, while still sending
+        rcvd = _closed_by_server(ws)
+    assert rcvd is not None and rcvd.code == 1009, rcvd
+    assert _can_open(station)  # the server serves on
+    log = server_log()
+    assert "ERROR" not in log and "Traceback" not in log, log
+
+
+def test_a_failed_stop_after_the_controlling_page_closed_is_logged(open_station, server_log):
+    """When the controlling page goes, the robot is stopped; if that stop fails (the serial link
+    is gone) the failure is logged, not dropped in a thread nobody asks."""
+    station = open_station()
+
+    def failing_stop(reason: str = "stop") -> None:
+        raise LfdTrackError(f"serial link lost (stopping: {reason})")
+
+    station.session.stop = failing_stop
+    with open_ws(station) as ws:
+        assert next_of(ws, "status")["role"] == "controller"
+    seen: list[str] = []
+    wait_until(
+        lambda: seen.append(server_log()) or "serial link lost" in "".join(seen),
+        "the failed stop to be logged",
+        timeout_s=5.0,
+    )
+    assert "the controlling page closed" in "".join(seen)
+
+
+def test_a_cancelled_wait_for_a_stop_neither_drops_it_nor_breaks_later_stops() -> None:
+    """A page waiting for its stop may be cancelled (the server shutting down): the stop it
+    asked for still runs, and the stops asked for afterwards run too."""
+    release = threading.Event()
+    calls: list[str] = []
+
+    def stop(reason: str) -> None:
+        calls.append(reason)
+        if reason == "first":
+            release.wait(WAIT_S)
+
+    line = StopLine(stop)
+
+    async def main() -> None:
+        line.request("first")
+        wait_until(lambda: calls == ["first"], "the first stop to start")
+        waiter = asyncio.create_task(line.stop("second"))  # queued behind the first
+        await asyncio.sleep(0.01)
+        waiter.cancel()
+        await asyncio.gather(waiter, return_exceptions=True)
+        release.set()
+        await asyncio.to_thread(wait_until, lambda: len(calls) == 2, "the second stop", 5.0)
+        await asyncio.wait_for(line.stop("third"), WAIT_S)
+
+    asyncio.run(main())
+    assert calls == ["first", "second", "third"]
+
+
+@pytest.mark.parametrize(
+    "options", [{"message_rate": 0}, {"message_burst": 0}, {"message_rate": float("nan")}]
+)
+def test_bad_message_limits_are_refused_when_the_app_is_made(options) -> None:
+    """Not at each page's connection, after the page was counted (each would then hold its
+    place for good, and the station refuse every page after MAX_PAGES of them)."""
+    with pytest.raises(ValueError, match="rate > 0 and burst >= 1"):
+        create_app(object(), **options)  # type: ignore[arg-type]
 
 
 # ----------------------------------------------------------------------------- bad messages
@@ -340,6 +528,84 @@ def test_slow_and_idle_connections_are_closed_and_capped(open_station, server_lo
     assert station.server.max_connections == 8
     log = server_log()
     assert "ERROR" not in log and "Traceback" not in log, log
+
+
+def _served(port: int) -> bool:
+    """True when a status request is answered 200 (not refused: 503, or reset unread)."""
+    try:
+        answer = raw_request(port, b"GET /api/status HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")
+    except ConnectionResetError:
+        return False
+    return answer.startswith(b"HTTP/1.1 200 ")
+
+
+def test_a_client_that_reads_no_responses_cannot_hold_connections(
+    open_station, server_log, monkeypatch
+) -> None:
+    """Clients that pipeline requests and never read the responses hold connections that owe
+    no headers (so none makes room for a new one) until their writes stall for WRITE_STALL_S:
+    then they are dropped, as stalled WebSockets are, and the station serves again."""
+    monkeypatch.setattr(station_server, "WRITE_STALL_S", 1.0)
+    station = open_station(server_options={"max_connections": 8})
+    port = station.server.port
+    held = []
+    try:
+        for _ in range(8):
+            sock = socket.socket()
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1024)
+            sock.connect(("127.0.0.1", port))
+            sock.sendall(b"GET /static/app.js HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n" * 400)
+            held.append(sock)
+        guard = station.server._guard
+        wait_until(lambda: len(guard.open) == 8 and not guard.waiting, "their requests")
+        assert not _served(port)  # they hold every place, and none owes its headers
+        wait_until(lambda: _served(port), "a request to be served again", timeout_s=1.0 + 4.0)
+    finally:
+        for sock in held:
+            sock.close()
+    log = server_log()
+    assert "ERROR" not in log and "Traceback" not in log, log
+
+
+def test_a_closed_websocket_whose_peer_reads_nothing_is_dropped(
+    open_station, server_log, monkeypatch
+) -> None:
+    """The server closes a flooding page (1008) while a few of its messages to the page wait,
+    unread, in the server's write buffer (too few to stall the writes): a close that cannot
+    flush must not hold the connection, and its place under MAX_CONNECTIONS, for good."""
+    monkeypatch.setattr(station_server, "WRITE_STALL_S", 60.0)  # only the close may drop it
+    station = open_station()
+    station.session.latest_view = lambda: None  # status messages only: the buffer grows slowly
+    station.server.sock.setsockopt(socket.SOL_SOCKET, socket.SO_SNDBUF, 4096)  # fills sooner
+    guard = station.server._guard
+    sock = raw_ws(station.server.port, rcvbuf=1024)
+    try:
+        (transport,) = wait_until(lambda: list(guard.open), "the page to be open")
+        wait_until(lambda: transport.get_write_buffer_size() > 0, "the page to stop reading")
+        assert transport.get_write_buffer_size() < 16_384  # far below the high-water mark
+        heartbeat = ws_frame(TEXT, json.dumps({"type": "heartbeat"}).encode())
+        sock.sendall(heartbeat * (MESSAGE_BURST + 100))
+        wait_until(transport.is_closing, "the server to close the page")
+        wait_until(
+            lambda: not guard.open,
+            "the closed page to be dropped",
+            timeout_s=station_server.CLOSE_GRACE_S + 3.0,
+        )
+    finally:
+        sock.close()
+    log = server_log()
+    assert "ERROR" not in log and "Traceback" not in log, log
+
+
+def test_the_station_runs_on_the_asyncio_loop() -> None:
+    """server.py relies on asyncio's selector loop (its accept-error message, its 256 KiB reads,
+    its transports' flow control); uvicorn's "auto" would pick uvloop wherever it is installed."""
+    sock = station_server.bind_socket("127.0.0.1", 0)
+    try:
+        server = station_server.StationServer(object(), sock)
+        assert server._server.config.loop == "asyncio"
+    finally:
+        sock.close()
 
 
 def test_running_out_of_file_descriptors_is_logged_once_not_per_accept() -> None:
