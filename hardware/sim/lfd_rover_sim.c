@@ -32,6 +32,11 @@
  *                       resets the board, which then runs normally again ("# hang t_us" is
  *                       logged when it starts)
  *     mark              append "# mark t_us" to the log (the simulated time now)
+ *     poke ADDR BYTE..  write up to 16 bytes (hex) to the data space from address ADDR (hex, as
+ *                       avr-nm prints it less 0x800000), between two instructions while
+ *                       interrupts are enabled, so neither an interrupt handler nor an
+ *                       interrupts-off section sees half of it (tests use it to move the
+ *                       Arduino millis() clock); "# poke t_us" is logged once written
  *   and the end of stdin stops the harness.
  *   Host bytes are held back for 2 ms of simulated time after boot and after every reset, so
  *   none is lost while the firmware is still starting; they are delivered, in order,
@@ -79,6 +84,7 @@ enum { COM0A1 = 7, COM0A0 = 6, COM0B1 = 5, COM0B0 = 4 };
 /* If the simulation falls further than this behind the wall clock, the debt is forgiven. */
 #define MAX_LAG_NS (20 * 1000 * 1000LL)
 #define RING_SIZE 4096
+#define POKE_MAX 16
 
 typedef struct {
 	uint8_t data[RING_SIZE];
@@ -111,6 +117,9 @@ typedef struct {
 	size_t control_len;
 	uint32_t scramble;     /* xorshift state for the power-on SRAM contents */
 	uint64_t hold_cycles;  /* how long host bytes are held back after a reset */
+	uint32_t poke_addr;    /* a "poke" waiting for interrupts to be enabled */
+	uint8_t poke_data[POKE_MAX];
+	size_t poke_len;
 } harness_t;
 
 static harness_t *the_harness; /* for simavr callbacks that carry no parameter */
@@ -369,6 +378,43 @@ static void reset_board(harness_t *h, const char *cause, int flags_cleared) {
 	after_reset(h);
 }
 
+/* Writes a waiting "poke" once the firmware runs with interrupts enabled (SREG I set): then it
+ * is neither inside an interrupt handler nor in a cli() section such as millis()'s read. */
+static void apply_poke(harness_t *h) {
+	if (h->poke_len == 0 || !h->avr->sreg[S_I])
+		return;
+	memcpy(h->avr->data + h->poke_addr, h->poke_data, h->poke_len);
+	h->poke_len = 0;
+	fprintf(h->log, "# poke %llu\n", (unsigned long long)sim_time_us(h));
+	fflush(h->log);
+}
+
+/* Parses "ADDR BYTE..." (hex) into a waiting poke; 0 if it is malformed or leaves the SRAM. */
+static int parse_poke(harness_t *h, const char *args) {
+	char *end;
+	unsigned long addr = strtoul(args, &end, 16);
+	if (end == args)
+		return 0;
+	uint8_t data[POKE_MAX];
+	size_t len = 0;
+	for (;;) {
+		const char *start = end;
+		unsigned long byte = strtoul(start, &end, 16);
+		if (end == start)
+			break;
+		if (byte > 0xFF || len == POKE_MAX)
+			return 0;
+		data[len++] = (uint8_t)byte;
+	}
+	if (len == 0 || *end != '\0' || addr <= h->avr->ioend || addr > h->avr->ramend ||
+	    len > h->avr->ramend - addr + 1)
+		return 0;
+	memcpy(h->poke_data, data, len);
+	h->poke_addr = (uint32_t)addr;
+	h->poke_len = len;
+	return 1;
+}
+
 static void run_command(harness_t *h, const char *line) {
 	static const char *const causes[] = {"external", "power-on", "brown-out"};
 	if (strncmp(line, "reset ", 6) == 0) {
@@ -391,6 +437,9 @@ static void run_command(harness_t *h, const char *line) {
 			fprintf(h->log, "# hang %llu\n", (unsigned long long)sim_time_us(h));
 			fflush(h->log);
 		}
+	} else if (strncmp(line, "poke ", 5) == 0) {
+		if (!parse_poke(h, line + 5))
+			fprintf(stderr, "lfd_rover_sim: bad poke %s\n", line);
 	} else if (strcmp(line, "mark") == 0) {
 		fprintf(h->log, "# mark %llu\n", (unsigned long long)sim_time_us(h));
 		fflush(h->log);
@@ -563,6 +612,7 @@ int main(int argc, char **argv) {
 			advance_clock(&h);
 			if (h.reset_seen)
 				after_reset(&h);
+			apply_poke(&h);
 			sample_motors(&h);
 		}
 		pump_pty(&h);

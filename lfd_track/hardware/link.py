@@ -7,7 +7,9 @@ motors when no valid drive frame arrived for its watchdog period (300 ms by defa
 must keep re-sending the current command. ``RobotLink`` does that from a background keep-alive
 thread at ``keepalive_period_s`` (default 0.1 s, i.e. 10 Hz), but only until the lease the caller
 asked for expires: if the program driving the robot hangs, the keep-alive stops refreshing and
-sends stop, rather than driving on blindly.
+sends stop, rather than driving on blindly. The lease also ends when the board refuses the drive
+for its e-stop and when the board reboots (its boot frame): a cleared e-stop or a fresh board
+moves again only on a new drive request, never on the keep-alive's.
 
 Link loss (a serial exception, ``max_consecutive_failures`` requests in a row without a valid
 reply, or more than ``max_corrupt_replies`` undecodable replies in a row) raises ``LinkError``.
@@ -308,6 +310,7 @@ class RobotLink:
         ``command``: a ``Command`` (or its int) or a letter ``F``/``L``/``R``/``S``.
         ``lease_s``: how long the keep-alive thread keeps re-sending this command (default:
         until the next request; pass a bound so a hung caller cannot keep the robot moving).
+        The lease ends early if the board refuses the drive for its e-stop or reboots.
         ``lease_s=0`` sends the frame once and leaves the stop to the board's watchdog (used by
         the watchdog self-test). Raises ``LinkError`` on link loss.
         """
@@ -433,6 +436,11 @@ class RobotLink:
         self._seq = self._seq % (protocol.SEQ_MODULO - 1) + 1  # 1..65535; 0 is the board's
         return self._seq
 
+    def _end_lease(self) -> None:
+        """Stop refreshing the leased drive command (the board is not told)."""
+        with self._lease_lock:
+            self._lease.letter, self._lease.until = STOP, 0.0
+
     def _fail(self, message: str) -> LinkError:
         if self._failure is None:
             self._failure = LinkError(f"{self.url}: {message}")
@@ -472,6 +480,7 @@ class RobotLink:
                     if item.type == protocol.BOOT:
                         self._stats.boots += 1
                         self._state = STOP  # a fresh board has its motors off
+                        self._end_lease()  # and only a new drive request may start them
                         if item.args:
                             self.firmware_version = item.args[0]
                         if len(item.args) >= 3:  # firmware 1.1: reset cause, flags
@@ -536,6 +545,8 @@ class RobotLink:
                 self._stats.consecutive_failures = 0
                 if reason == protocol.REASON_ESTOP:
                     self._state = ESTOPPED
+                    if frame_type == protocol.DRIVE:
+                        self._end_lease()  # else clearing the e-stop would restart the drive
                 return Ack(seq, requested, self._state, "", reason, rtt_ms)
             if self._stats.corrupt > corrupt_before:
                 resend = True  # the reply was damaged: resend now rather than wait it out
@@ -567,17 +578,20 @@ class RobotLink:
         """
         if self._failure is not None or self._port is None:
             return None
-        with self._lease_lock:
-            letter, until = self._lease.letter, self._lease.until
-            expired = letter != STOP and time.monotonic() >= until
-            if expired:
-                self._lease.letter = STOP
-        if expired:
-            self.stop()
-            return None
-        if letter == STOP:
-            return None
+        # The lease is read with the link held: a stop() or drive() that changed it while this
+        # thread waited for the link has gone out already and must not be followed by the old
+        # command (over a slow link its reply can take longer than the period checked below).
         with self._io_lock:
+            with self._lease_lock:
+                letter, until = self._lease.letter, self._lease.until
+                expired = letter != STOP and time.monotonic() >= until
+                if expired:
+                    self._lease.letter = STOP
+            if expired:
+                self.stop()
+                return None
+            if letter == STOP:
+                return None
             if time.monotonic() - self._last_drive_sent < self.keepalive_period_s * 0.9:
                 return None  # a drive went out recently anyway
             ack = self._checked(protocol.DRIVE, (letter,))

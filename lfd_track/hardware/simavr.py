@@ -282,6 +282,7 @@ class SimulatedBoard:
         self._run_dir: Path | None = None
         self._serial_url: str | None = None
         self._exit_code: int | None = None
+        self._elf: Path | None = None
 
     @property
     def exit_code(self) -> int | None:
@@ -315,6 +316,7 @@ class SimulatedBoard:
         build_dir = self._build_dir if self._build_dir is not None else default_build_dir()
         elf = build_firmware(build_dir / "firmware")
         exe = build_harness(build_dir / "sim")
+        self._elf = elf
         self._run_dir = Path(tempfile.mkdtemp(prefix="lfd-rover-sim-"))
         stderr_path = self._run_dir / "harness.stderr"
         try:
@@ -387,16 +389,54 @@ class SimulatedBoard:
 
     def mark(self, timeout_s: float = 5.0) -> float:
         """The board's simulated time now, in seconds (written to the log as ``# mark``)."""
-        marks_before = self._log_text().count("\n# mark ")
-        self._command("mark")
+        return self._logged_time("mark", "mark", timeout_s)
+
+    def _logged_time(self, command: str, tag: str, timeout_s: float) -> float:
+        """Send harness ``command`` and wait for its ``# <tag> t_us`` log line; that time [s]."""
+        marker = f"\n# {tag} "
+        before = self._log_text().count(marker)
+        self._command(command)
         deadline = time.monotonic() + timeout_s
         while True:
             text = self._log_text()
-            if text.count("\n# mark ") > marks_before:
-                last = text[text.rindex("\n# mark ") + 1 :].split("\n", 1)[0]
+            if text.count(marker) > before:
+                last = text[text.rindex(marker) + 1 :].split("\n", 1)[0]
                 return int(last.split()[2]) * 1e-6
-            self._check_alive(deadline, "write a mark")
+            self._check_alive(deadline, f"write a {tag}")
             time.sleep(0.001)  # polling the log file, which has no change notification
+
+    def symbol_address(self, name: str) -> int:
+        """Data-space address of the firmware's RAM variable ``name`` (for ``poke()``).
+
+        Read from the ELF with ``avr-nm`` (binutils-avr); statics of the Arduino core, such as
+        ``timer0_millis`` behind ``millis()``, are found too.
+        """
+        if self._elf is None:
+            raise SimavrError("the simulated board is not running (use it as a context manager)")
+        try:
+            result = subprocess.run(
+                ["avr-nm", str(self._elf)], capture_output=True, text=True, check=True
+            )
+        except FileNotFoundError as exc:
+            raise ToolMissingError(f"avr-nm not found: {_APT_FIRMWARE}") from exc
+        for line in result.stdout.splitlines():
+            fields = line.split()
+            if len(fields) == 3 and fields[2] == name and fields[1] in ("b", "B", "d", "D"):
+                return int(fields[0], 16) - 0x800000  # the ELF places the data space at 0x800000
+        raise SimavrError(f"no RAM variable {name!r} in {self._elf}")
+
+    def poke(self, address: int, data: bytes, timeout_s: float = 5.0) -> float:
+        """Write ``data`` (1..16 bytes) into the firmware's RAM at ``address``; return the time.
+
+        The harness writes it between two instructions while interrupts are enabled, so no
+        interrupt handler and no interrupts-off read (``millis()``) sees half of it; the
+        simulated time of the write is returned. Tests use it to move the ``millis()`` clock
+        (``symbol_address("timer0_millis")``) to just before its 32-bit wrap.
+        """
+        if not 1 <= len(data) <= 16:
+            raise ValueError(f"poke writes 1..16 bytes, got {len(data)}")
+        command = f"poke {address:x} " + " ".join(f"{b:02x}" for b in data)
+        return self._logged_time(command, "poke", timeout_s)
 
     def hangs(self) -> list[float]:
         """Simulated times [s] at which ``hang()`` froze the firmware, oldest first."""

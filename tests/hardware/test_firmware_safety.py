@@ -180,6 +180,90 @@ def test_lease_holds_under_back_to_back_pings(rover: BoardLink) -> None:
     ), "the lease stop was reported neither as $W nor in an ack's flags"
 
 
+def motion_span(samples: list) -> tuple[float, float]:
+    """When the motors first started, and when they were next fully off."""
+    start = next(s.t_s for s in samples if moving(s))
+    stop = next(s.t_s for s in samples if s.t_s > start and not moving(s))
+    return start, stop
+
+
+# Floods that must not renew the lease: nothing in them is an accepted drive frame. "lease-300"
+# resets the lease period to the one running (a T frame is not a drive frame); "bad-arg" drive
+# frames carry a valid CRC and seq but no valid command.
+NOT_RENEWING = {
+    kind: FLOODS[kind]
+    for kind in ("ping", "version", "bad-crc", "unknown-type", "too-long", "dollars", "newlines")
+}
+NOT_RENEWING["lease-300"] = lambda seqs: _frames(protocol.SET_WATCHDOG, seqs, "300")
+NOT_RENEWING["bad-arg"] = lambda seqs: _frames(protocol.DRIVE, seqs, "Z")
+NOT_RENEWING["noise"] = lambda seqs: (
+    np.random.default_rng(len(seqs)).integers(0, 256, size=12 * len(seqs), dtype=np.uint8).tobytes()
+)
+
+
+@pytest.mark.parametrize("kind", sorted(NOT_RENEWING))
+def test_the_lease_runs_out_on_time_under_a_flood_that_carries_no_drive_frame(
+    rover: BoardLink, kind: str
+) -> None:
+    resets = len(rover.board.resets())
+    stream = Stream(rover)
+    flood = NOT_RENEWING[kind]([rover.next_seq() for _ in range(FLOOD_FRAMES)])
+    assert len(flood) * 10 / FIRMWARE_BAUD > 2 * LEASE_S  # the flood outlasts the lease
+    rover.write(protocol.encode_frame(protocol.DRIVE, rover.next_seq(), "F") + flood + b"\n")
+    assert_ack_state(stream.settle(), "S")
+    start, stop = motion_span(rover.board.motor_log(since_reset=True))
+    assert abs((stop - start) - LEASE_S) <= LEASE_TOLERANCE_S, stop - start
+    assert watchdog_resets(rover.board, resets) == []
+    assert len(rover.board.resets()) == resets
+
+
+@pytest.mark.parametrize("before_wrap_ms", [250, 100])
+def test_the_lease_runs_out_on_time_across_the_millis_wrap(
+    rover: BoardLink, before_wrap_ms: int
+) -> None:
+    """millis() wraps to 0 after 2^32 ms (49.7 days up); a lease running over it ends on time.
+
+    The drive frame lands a few ms after the clock is set, before the wrap, and its lease ends
+    after it. (A check written as ``millis() >= last_drive_ms + lease_ms`` stops at once here.)
+    """
+    millis = rover.board.symbol_address("timer0_millis")
+    rover.board.poke(millis, (2**32 - before_wrap_ms).to_bytes(4, "little"))
+    drive_seq = rover.next_seq()
+    rover.write(protocol.encode_frame(protocol.DRIVE, drive_seq, "F"))
+    assert_ack_state(rover.reply_to(drive_seq), "F")
+    rover.wait_for(lambda f: f.type == protocol.WATCHDOG_STOP)
+    start, stop = motion_span(rover.board.motor_log(since_reset=True))
+    assert abs((stop - start) - LEASE_S) <= LEASE_TOLERANCE_S, stop - start
+    assert_ack_state(rover.request(protocol.PING), "S", 2)
+
+
+def test_an_estop_inside_a_drive_flood_latches_and_clearing_does_not_restart(
+    rover: BoardLink,
+) -> None:
+    """D,F at full rate, E, more D,F (longer than a lease), C: the e-stop stops the motors at
+    once (its ack may be dropped), every later drive is refused while it is latched, and the C
+    starts nothing; only a drive frame sent after it moves again."""
+    assert_ack_state(rover.request(protocol.SET_WATCHDOG, "2000"), "S")
+    since = rover.board.mark()
+    stream = Stream(rover)
+    seq = rover.next_seq
+    before = _frames(protocol.DRIVE, [seq() for _ in range(20)], "F")
+    estop = protocol.encode_frame(protocol.ESTOP, seq())
+    refused = [seq() for _ in range(FLOOD_FRAMES)]  # ~900 ms at 9600 baud
+    clear = protocol.encode_frame(protocol.CLEAR, seq())
+    rover.write(before + estop + _frames(protocol.DRIVE, refused, "F") + clear)
+    assert_ack_state(stream.settle(), "S", 0)
+    samples = [s for s in rover.board.motor_log() if s.t_s >= since]
+    start, stop = motion_span(samples)
+    assert not any(moving(s) for s in samples if s.t_s >= stop)  # never again, C included
+    # The stop came from the E frame, well within the first drive frames' 2 s lease.
+    assert stop - start < 0.5
+    refusals = [f for f in stream.frames if f.seq in refused]
+    assert refusals and all(f.type == protocol.NAK for f in refusals), refusals
+    assert all(f.args == (protocol.REASON_ESTOP,) for f in refusals)
+    assert_ack_state(rover.request(protocol.DRIVE, "L"), "L")  # an explicit drive moves again
+
+
 # --- the e-stop latch and resets ----------------------------------------------------------
 
 

@@ -405,3 +405,70 @@ def test_ack_flags_report_dropped_replies() -> None:
     link.open()
     ack = link.ping()
     assert ack.replies_dropped and not ack.estopped and not ack.lease_expired
+
+
+# --- the keep-alive never drives on behind the caller's back ---------------------------------
+
+
+def _drives_after(board: FakeBoard, frame_type: str) -> list[str]:
+    """Drive letters the board received after the last frame of ``frame_type``."""
+    with board.changed:
+        frames = [f for _, f in board.received]
+    last = max(i for i, f in enumerate(frames) if f.type == frame_type)
+    return [f.args[0] for f in frames[last + 1 :] if f.type == protocol.DRIVE and f.args]
+
+
+def test_a_stop_is_not_overtaken_by_a_keepalive_of_the_old_lease() -> None:
+    """The keep-alive thread read its lease (F), then waited for the link while stop() ran.
+
+    Over a slow link (Bluetooth) the stop's ack takes longer than the keep-alive period, so the
+    "a drive went out recently" check no longer covered it: the thread sent the old F after the
+    stop, and the board drove on for a whole lease (up to 2 s).
+    """
+
+    def slow_stop_ack(_board: FakeBoard, frame: protocol.Frame) -> None:
+        if frame.type == protocol.DRIVE and frame.args == ("S",):
+            time.sleep(0.11)  # within the 0.15 s ack timeout, longer than 0.9 x 0.1 s
+
+    with FakeBoard(on_frame=slow_stop_ack) as board, make_link(board) as link:
+        link.drive(Command.FORWARD)
+        with link._io_lock:  # hold the link: the keep-alive thread reads F and waits here
+            time.sleep(0.2)  # several keep-alive wake-ups (every 0.05 s)
+            assert link.stop()
+        time.sleep(0.3)
+        assert board.drives()[-1] == "S", board.drives()
+        assert board.state == "S"
+
+
+def test_a_drive_refused_for_the_estop_is_not_kept_alive_and_clearing_does_not_restart() -> None:
+    """The board latched on its own (a watchdog or brown-out reset whose boot frame was lost):
+    the refused drive's lease must end, or the keep-alive restarts the motors once the e-stop
+    is cleared, without any new drive request."""
+    with FakeBoard() as board, make_link(board) as link:
+        board.estopped, board.state = True, "X"
+        refused = link.drive(Command.FORWARD)  # lease until the next request
+        assert refused.rejected == protocol.REASON_ESTOP
+        assert link.lease_letter() == "S"
+        assert link.clear_estop().accepted
+        time.sleep(0.4)  # four keep-alive periods
+        assert _drives_after(board, protocol.CLEAR) == []
+        assert board.state == "S"
+
+
+def test_a_board_reset_ends_the_lease() -> None:
+    """After the board rebooted (boot frame) the keep-alive must not start it again: a board
+    boots with its motors off, and only a new drive request may move it."""
+    with (
+        FakeBoard(boot_delay_s=0.4) as board,  # the board resets 0.4 s after the port opened
+        make_link(board, boot_wait_s=0) as link,
+    ):
+        link.drive(Command.FORWARD)
+        deadline = time.monotonic() + WAIT_S
+        while link.stats().boots == 0:  # the keep-alive's requests read the boot frame
+            assert time.monotonic() < deadline, "the link never saw the boot frame"
+            time.sleep(0.01)
+        seen = len(board.drives())
+        time.sleep(0.4)
+        assert "F" not in board.drives()[seen:], board.drives()
+        assert link.lease_letter() == "S"
+        assert link.drive(Command.FORWARD).state == "F"  # an explicit request drives again

@@ -205,7 +205,8 @@ def test_safe_box_on_felt_follows_the_lens():
         assert info["safe_box_on_felt"] == bool(env.track.on_felt(box).all())
         answers[name] = info["safe_box_on_felt"]
         assert env.camera_footprint(env.rover_pose).shape[0] == (4 if name == "paper" else 96)
-        assert env.render() is None
+        with pytest.warns(UserWarning, match="no render_mode"):
+            assert env.render() is None  # no render mode: nothing drawn, and the user is told
     assert answers == {"paper": False, "wide": True}
 
 
