@@ -14,13 +14,19 @@ def _umask() -> int:
     return mask
 
 
+def temporary_prefix(path: Path) -> str:
+    """A hidden name's start for a temporary file beside ``path``: the start of its name, short
+    enough that with tempfile's 8 characters and ".tmp" it fits in 255 bytes."""
+    return f".{path.name[:50]}."
+
+
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:
     """Write ``data`` to ``path`` through a temporary file in the same folder, then rename."""
     path = Path(path)
     if path.is_dir():
         raise IsADirectoryError(errno.EISDIR, "is a folder, expected a file name", str(path))
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    fd, tmp = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=".tmp", dir=path.parent)
     try:
         # mkstemp makes the file private (0600); give it the permissions a plain open() would.
         os.fchmod(fd, 0o666 & ~_umask())

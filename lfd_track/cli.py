@@ -12,6 +12,7 @@ import json
 import os
 import signal
 import sys
+import tempfile
 import time
 from collections.abc import Sequence
 from pathlib import Path
@@ -48,8 +49,9 @@ def _advance(bar: Any, done: float, note: str = "") -> None:
 
 
 # --------------------------------------------------------------------------------- demo
-class _Terminated(Exception):
-    """SIGTERM arrived: stop like Ctrl-C, keeping what was recorded."""
+class _Terminated(BaseException):
+    """SIGTERM arrived: stop like Ctrl-C, keeping what was recorded (a BaseException like
+    KeyboardInterrupt, so no ``except Exception`` takes it for a failure)."""
 
 
 def _raise_terminated(signum: int, frame: Any) -> None:
@@ -80,6 +82,17 @@ def _check_output(out: str | Path, inputs: Sequence[tuple[str, str | Path | None
             if not parent.is_dir():
                 raise LfdTrackError(f"{shown_path(out)}: {shown_path(parent)} is not a folder")
             break
+
+
+def _temporary_beside(out: Path) -> Path:
+    """A new empty hidden file beside ``out`` (its folder made if missing): an output is written
+    there first and moved over ``out`` once the command's other output is written too."""
+    from .atomic import temporary_prefix
+
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fd, name = tempfile.mkstemp(prefix=temporary_prefix(out), suffix=".tmp", dir=out.parent)
+    os.close(fd)
+    return Path(name)
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
@@ -203,19 +216,25 @@ def _cmd_evolve(args: argparse.Namespace) -> int:
             progress=lambda g, best, mean: _advance(bar, g, f"best fitness {best:.4f}"),
         )
     controller = Controller.from_evolution(library, result, seed=args.seed, memory=memory)
-    controller.save(args.out)
     accuracy = training_accuracy(result.best_weights, demo.inputs, demo.commands)
-    write_png(
-        str(png),
-        fitness_plot(
-            [
-                ("best", result.best_history, (200, 30, 30)),
-                ("mean", result.mean_history, (30, 80, 200)),
-            ],
-            title=f"Fitness of each generation: {Path(args.demo).name}, GA seed {args.seed}",
-            notes=fitness_notes(config.elitism),
-        ),
+    picture = fitness_plot(
+        [
+            ("best", result.best_history, (200, 30, 30)),
+            ("mean", result.mean_history, (30, 80, 200)),
+        ],
+        title=f"Fitness of each generation: {Path(args.demo).name}, GA seed {args.seed}",
+        notes=fitness_notes(config.elitism),
     )
+    # Both files or neither: the controller waits under a hidden name beside --out until the
+    # fitness curve is written, so a failure leaves an earlier pair as it was.
+    staged = _temporary_beside(Path(args.out))
+    try:
+        controller.save(staged)
+        write_png(str(png), picture)
+        os.replace(staged, args.out)
+    except BaseException:
+        staged.unlink(missing_ok=True)
+        raise
     partial = "" if demo.metadata["complete"] else " (an interrupted recording)"
     print(
         f"{shown_path(args.out)}: best fitness {result.best_fitness:.4f} (generation "
@@ -263,6 +282,7 @@ def _cmd_drive(args: argparse.Namespace) -> int:
         order = " ".join(c.label for c in env.track.corners)
         direction = "reversed" if args.reverse else "file order"
         print(f"{args.track} ({direction}), corners met in order {order}:", flush=True)
+    plot_staged: Path | None = None
     previous = signal.signal(signal.SIGTERM, _raise_terminated)
     try:
         for lap in range(args.laps):
@@ -298,8 +318,29 @@ def _cmd_drive(args: argparse.Namespace) -> int:
             trajectories.append(TrackRun(trajectory, info["success"], failure, f"lap {lap + 1}"))
             if not args.json:
                 print(_lap_line(laps[-1]), flush=True)
+        # Both outputs or neither: the plot is drawn and written under a hidden name first, so
+        # a failure or an interrupt until the video is complete leaves an earlier pair as it was.
+        if args.plot:
+            direction = "reversed" if args.reverse else "file order"
+            if env.track.closed:
+                x, y = env.track.vertices[:, 0], env.track.vertices[:, 1]  # in driving order
+                area2 = float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+                direction = "counter-clockwise" if area2 > 0 else "clockwise"
+            title = f"{args.track} track, {direction}: {Path(args.controller).name}"
+            picture = laps_plot(
+                env.track,
+                trajectories,
+                title=title,
+                finish_m=env.episode.goal_progress_m,
+                start_pose=env.episode.start_pose(),
+            )
+            plot_staged = _temporary_beside(Path(args.plot))
+            write_png(str(plot_staged), picture)
         if video is not None:
             video.close()
+        if plot_staged is not None:
+            os.replace(plot_staged, args.plot)
+            plot_staged = None
     except (KeyboardInterrupt, _Terminated) as exc:
         signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not cut the note
         note = f"lfd-track drive: interrupted after {len(laps)} of {args.laps} laps"
@@ -316,21 +357,8 @@ def _cmd_drive(args: argparse.Namespace) -> int:
         raise
     finally:
         signal.signal(signal.SIGTERM, previous)
-    if args.plot:
-        direction = "reversed" if args.reverse else "file order"
-        if env.track.closed:
-            x, y = env.track.vertices[:, 0], env.track.vertices[:, 1]  # in driving order
-            area2 = float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
-            direction = "counter-clockwise" if area2 > 0 else "clockwise"
-        title = f"{args.track} track, {direction}: {Path(args.controller).name}"
-        picture = laps_plot(
-            env.track,
-            trajectories,
-            title=title,
-            finish_m=env.episode.goal_progress_m,
-            start_pose=env.episode.start_pose(),
-        )
-        write_png(args.plot, picture)
+        if plot_staged is not None:
+            plot_staged.unlink(missing_ok=True)
     if args.json:
         print(json.dumps({"track": args.track, "reverse": args.reverse, "laps": laps}, indent=2))
     else:
@@ -396,24 +424,34 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     check_tracks(config)
     out = Path(args.out)
     # The run goes to a staging folder and replaces the previous output only once it has
-    # succeeded: a failure at any point leaves the previous output as it was.
-    with staged_output(out) as stage:
-        start = time.perf_counter()
-        with progress_bar(
-            config.repetitions, "benchmark", unit=" repetitions", enabled=not args.quiet
-        ) as bar:
+    # succeeded: a failure at any point leaves the previous output as it was. SIGTERM stops it
+    # like Ctrl-C, so the staging folder is removed too.
+    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    try:
+        with staged_output(out) as stage:
+            start = time.perf_counter()
+            with progress_bar(
+                config.repetitions, "benchmark", unit=" repetitions", enabled=not args.quiet
+            ) as bar:
 
-            def tick(result: Any) -> None:
-                wins = sum(o.success for o in result.outcomes)
-                bar.set_postfix_str(
-                    f"repetition {result.index}: {wins}/{len(result.outcomes)} trials succeeded",
-                    refresh=False,
-                )
-                bar.update(1)
+                def tick(result: Any) -> None:
+                    wins = sum(o.success for o in result.outcomes)
+                    bar.set_postfix_str(
+                        f"repetition {result.index}: {wins}/{len(result.outcomes)} trials"
+                        " succeeded",
+                        refresh=False,
+                    )
+                    bar.update(1)
 
-            reps = run_benchmark(config, stage / "repetitions", workers=workers, progress=tick)
-        wall = time.perf_counter() - start
-        text = write_benchmark_outputs(stage, config, reps, wall_s=wall, workers=workers)
+                reps = run_benchmark(config, stage / "repetitions", workers=workers, progress=tick)
+            wall = time.perf_counter() - start
+            text = write_benchmark_outputs(stage, config, reps, wall_s=wall, workers=workers)
+    except (KeyboardInterrupt, _Terminated) as exc:
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not cut the note
+        print(f"lfd-track benchmark: interrupted; {shown_path(out)} is as it was", file=sys.stderr)
+        return EXIT_TERMINATED if isinstance(exc, _Terminated) else EXIT_INTERRUPTED
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     print(text)
     print(
         f"\nreport: {out / 'report.md'}\nresults: {out / 'results.json'}\nplots: {out / 'trajectories.png'}, {out / 'fitness.png'}"

@@ -41,3 +41,12 @@ def test_a_failed_write_keeps_the_old_file(tmp_path, monkeypatch):
         atomic_write_text(path, "half")
     assert path.read_text() == "precious"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["keep.txt"]
+
+
+def test_the_longest_file_names_are_written(tmp_path):
+    """The temporary name beside the file must not be longer than the file system allows."""
+    for name in ("x" * 250 + ".json", "é" * 125 + ".png"):  # 255 bytes each
+        path = tmp_path / name
+        atomic_write_text(path, "data")
+        assert path.read_text() == "data"
+    assert len(list(tmp_path.iterdir())) == 2

@@ -59,6 +59,10 @@ def _sigterm() -> None:
     os.kill(os.getpid(), signal.SIGTERM)
 
 
+def _ctrl_c_while_plotting(*args, **kwargs):
+    raise KeyboardInterrupt
+
+
 @pytest.mark.parametrize(
     ("stop", "code"), [(_ctrl_c, EXIT_INTERRUPTED), (_sigterm, EXIT_TERMINATED)]
 )
@@ -75,6 +79,31 @@ def test_an_interrupted_drive_leaves_the_earlier_video_alone(
     err = _one_line(capsys.readouterr().err)
     assert "partial video is discarded" in err and str(video) in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.json", "v.mp4"]  # no temp file
+
+
+def _disk_full(*args, **kwargs):
+    raise OSError(28, "No space left on device")
+
+
+@pytest.mark.parametrize(
+    ("stop", "code"),
+    [(("laps_plot", _ctrl_c_while_plotting), EXIT_INTERRUPTED), (("write_png", _disk_full), 1)],
+    ids=["Ctrl-C while drawing the plot", "full disk for the plot"],
+)
+def test_a_drive_stopped_at_its_plot_leaves_the_earlier_video_and_plot(
+    controller, tmp_path, monkeypatch, capsys, stop, code
+):
+    from lfd_track import plots
+
+    video, plot = tmp_path / "v.mp4", tmp_path / "laps.png"
+    assert _drive(controller, "--video", str(video), "--plot", str(plot)) == 0
+    before = video.read_bytes(), plot.read_bytes()
+    capsys.readouterr()
+    monkeypatch.setattr(plots, stop[0], stop[1])
+    assert _drive(controller, "--seed", "1", "--video", str(video), "--plot", str(plot)) == code
+    _one_line(capsys.readouterr().err)
+    assert (video.read_bytes(), plot.read_bytes()) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.json", "laps.png", "v.mp4"]
 
 
 def test_an_interrupted_first_drive_leaves_no_video(controller, tmp_path, monkeypatch, capsys):
@@ -157,6 +186,39 @@ def test_evolve_refuses_to_write_over_its_demonstration(small_demo, tmp_path, ca
     assert "is the demonstration" in _one_line(capsys.readouterr().err)
     assert small_demo.read_bytes() == before
     assert not small_demo.with_suffix(".fitness.png").exists()
+
+
+def _no_space_for(path: Path):
+    """An ``os.replace`` that fails with a full disk when moving a file to ``path``."""
+    real = os.replace
+
+    def replace(src, dst):
+        if Path(dst) == path:
+            raise OSError(28, "No space left on device", str(dst))
+        return real(src, dst)
+
+    return replace
+
+
+@pytest.mark.parametrize("failure", ["full disk for the plot", "Ctrl-C while plotting"])
+def test_a_failed_evolve_leaves_the_earlier_controller_and_plot(
+    small_demo, tmp_path, monkeypatch, capsys, failure
+):
+    out = tmp_path / "c.json"
+    out.write_text("an earlier controller")
+    png = tmp_path / "c.fitness.png"
+    png.write_bytes(b"its fitness curve")
+    if failure.startswith("full disk"):
+        monkeypatch.setattr(os, "replace", _no_space_for(png))
+    else:
+        from lfd_track import plots
+
+        monkeypatch.setattr(plots, "fitness_plot", _ctrl_c_while_plotting)
+    code = main(["--quiet", "evolve", str(small_demo), "--generations", "2", "--out", str(out)])
+    assert code == (1 if failure.startswith("full disk") else EXIT_INTERRUPTED)
+    assert out.read_text() == "an earlier controller"
+    assert png.read_bytes() == b"its fitness curve"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.fitness.png", "c.json"]
 
 
 # --------------------------------------------------------------------------------- demo --force

@@ -13,23 +13,42 @@ leaves the previous output byte for byte, and nothing beside it.
   old entries are first moved aside and are put back if any move fails, then deleted. Entries the
   new run did not write (other files, repetitions beyond the new run's count) stay as they are,
   exactly as when runs wrote into the output folder directly.
+
+The moves hold a lock on the output folder, so two runs into one folder never interleave them,
+and Ctrl-C or SIGTERM waits for them (milliseconds) to be done or undone. A run holds a lock on
+its staging folder too: one left by a killed run (nobody holds it, ten minutes old) is deleted by
+the next run into the same output folder, unless it holds old entries moved aside (a run killed
+while replacing), which are never deleted.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import shutil
+import signal
+import stat
 import tempfile
+import threading
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 from ..errors import LfdTrackError
 
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - not on POSIX: no locks, no clean-up of left folders
+    fcntl = None  # type: ignore[assignment]
+
 REPETITIONS = "repetitions"
 """Sub-folder of the output holding one folder per repetition."""
 LAST = "results.json"
 """Moved into place last: once it is new, so is everything else."""
+STALE_S = 600.0
+"""A staging folder nobody holds is left over from a killed run once it is this old (a running
+run locks its folder at once; the wait only covers the moment between making and locking it)."""
 
 
 def _umask() -> int:
@@ -53,6 +72,93 @@ def _remove_empty(folders: list[Path]) -> None:
             folder.rmdir()
         except OSError:
             return
+
+
+def _lock(folder: Path, *, wait: bool = False) -> int | None:
+    """An open descriptor of ``folder`` holding an exclusive lock on it; None if another
+    process holds one (and not ``wait``) or the file system has no locks."""
+    if fcntl is None:  # pragma: no cover - not on POSIX
+        return None
+    try:
+        fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB))
+    except BaseException as exc:  # held elsewhere, no locks here, or Ctrl-C while waiting
+        os.close(fd)
+        if isinstance(exc, OSError):
+            return None
+        raise
+    return fd
+
+
+def _unlock(fd: int | None) -> None:
+    if fd is not None:
+        os.close(fd)
+
+
+def _remove_left_stages(out: Path) -> None:
+    """Delete the staging folders killed runs into ``out`` left (see the module docstring)."""
+    if fcntl is None:  # pragma: no cover - without locks a running run's folder looks the same
+        return
+    places = [(out.parent, re.escape(f".{out.name[:100]}.benchmark-"))]
+    try:
+        inside = out.is_dir() and (
+            os.stat(out).st_dev != os.stat(out.parent).st_dev or not os.access(out.parent, os.W_OK)
+        )
+    except OSError:
+        inside = False
+    if inside:  # where runs stage when they cannot beside it (see _staging_folder)
+        places.append((out, re.escape(".benchmark-")))
+    for folder, prefix in places:
+        try:
+            names = os.listdir(folder)
+        except OSError:
+            continue
+        for name in names:
+            stage = folder / name
+            if not re.fullmatch(prefix + r"[a-z0-9_]{8}", name) or not _left_over(stage):
+                continue
+            fd = _lock(stage)
+            if fd is None:  # a run still going (or no locks here)
+                continue
+            try:
+                if not any(os.listdir(p) for p in stage.glob(".previous-*") if p.is_dir()):
+                    shutil.rmtree(stage, ignore_errors=True)
+            except OSError:
+                pass
+            finally:
+                _unlock(fd)
+
+
+def _left_over(stage: Path) -> bool:
+    """Whether ``stage`` is a folder (not a link) last changed :data:`STALE_S` ago or more."""
+    try:
+        info = os.lstat(stage)
+    except OSError:
+        return False
+    return stat.S_ISDIR(info.st_mode) and time.time() - info.st_mtime > STALE_S
+
+
+def _ignore(signum: int, frame: object) -> None:
+    """A signal handler that does nothing (unlike SIG_IGN, also for a signal already pending)."""
+
+
+@contextmanager
+def _signals_held() -> Iterator[None]:
+    """Ctrl-C and SIGTERM are ignored inside the block (the main thread only can change them):
+    moves into the output are done or undone whole, and the command then ends at once."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held = (signal.SIGINT, signal.SIGTERM)
+    previous = [signal.signal(s, _ignore) for s in held]
+    try:
+        yield
+    finally:
+        for s, handler in zip(held, previous, strict=True):
+            signal.signal(s, signal.SIG_DFL if handler is None else handler)
 
 
 def _staging_folder(out: Path) -> Path:
@@ -96,6 +202,15 @@ def publish(stage: Path, out: Path) -> None:
         except OSError:
             if not out.is_dir():  # not a folder that appeared meanwhile: a real error
                 raise
+    lock = _lock(out, wait=True)  # another run's moves into ``out`` end first
+    try:
+        with _signals_held():
+            _move_in(stage, out)
+    finally:
+        _unlock(lock)
+
+
+def _move_in(stage: Path, out: Path) -> None:
     entries = _entries(stage, out)
     aside = Path(tempfile.mkdtemp(prefix=".previous-", dir=stage))
     done: list[tuple[Path, Path | None]] = []  # (entry, where its old version was moved)
@@ -144,17 +259,21 @@ def staged_output(out: str | Path) -> Iterator[Path]:
         raise LfdTrackError(f"{out}: exists and is not a folder (the benchmark writes a folder)")
     created = _missing_parents(out.parent)
     out.parent.mkdir(parents=True, exist_ok=True)
+    _remove_left_stages(out)
     try:
         stage = _staging_folder(out)
     except BaseException:
         _remove_empty(created)
         raise
+    held = None
     published = False
     try:
+        held = _lock(stage)  # tells later runs this folder is in use
         yield stage
         publish(stage, out)
         published = True
     finally:
         shutil.rmtree(stage, ignore_errors=True)
+        _unlock(held)
         if not published:
             _remove_empty(created)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 from pathlib import Path
 from typing import Any
@@ -46,6 +47,8 @@ def add_study_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
+    from ..cli import EXIT_INTERRUPTED, EXIT_TERMINATED, _raise_terminated, _Terminated
+    from ..outputs import shown_path
     from .run import load_finished, run_study
     from .spec import load_study
     from .summary import write_study_outputs
@@ -58,14 +61,28 @@ def _cmd_study(args: argparse.Namespace) -> int:
         raise LfdTrackError(f"{out}: exists and is not a folder")
     out.mkdir(parents=True, exist_ok=True)
     show = not args.quiet and sys.stderr.isatty()
-    run = run_study(
-        study,
-        out,
-        executor=args.executor,
-        workers=args.workers,
-        address=args.address,
-        progress=show,
-    )
+    # SIGTERM stops the study like Ctrl-C: the jobs still running are stopped (worker processes
+    # too), the finished ones are kept.
+    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    try:
+        run = run_study(
+            study,
+            out,
+            executor=args.executor,
+            workers=args.workers,
+            address=args.address,
+            progress=show,
+        )
+    except (KeyboardInterrupt, _Terminated) as exc:
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not cut the note
+        print(
+            f"lfd-track study: interrupted; the finished jobs are kept in {shown_path(out)}"
+            " (run the same command to resume)",
+            file=sys.stderr,
+        )
+        return EXIT_TERMINATED if isinstance(exc, _Terminated) else EXIT_INTERRUPTED
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     results = write_study_outputs(out, study, load_finished(study, out))
     for c in results["conditions"]:
         testing = c["testing"]

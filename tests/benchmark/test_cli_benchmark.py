@@ -244,3 +244,35 @@ def test_a_trillion_repetitions_do_not_hang(tmp_path):
     assert proc.returncode != 0 and len(proc.stderr.strip().splitlines()) == 1, proc.stderr
     assert "--repetitions" in proc.stderr and time.perf_counter() - start < 30
     assert not (tmp_path / "b_out").exists()
+
+
+# ------------------------------------------------------------------------------------ SIGTERM
+SIGTERM_MID_RUN = """
+import os, signal, sys
+from lfd_track.benchmark import runner
+from lfd_track.cli import main
+
+def killed(config, work_dir, **kwargs):
+    os.makedirs(os.path.join(work_dir, "rep_00"))
+    open(os.path.join(work_dir, "rep_00", "demonstration.lfdemo"), "w").write("half")
+    os.kill(os.getpid(), signal.SIGTERM)
+    raise AssertionError("SIGTERM did not stop the run")
+
+runner.run_benchmark = killed
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_sigterm_leaves_the_previous_output_and_no_staging_folder(old_output):
+    kept = Untouched(old_output)
+    proc = subprocess.run(
+        [sys.executable, "-c", SIGTERM_MID_RUN, *quick(old_output)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=ROOT,
+    )
+    assert proc.returncode == 143, proc.stderr
+    assert proc.stderr.count("\n") == 1 and "Traceback" not in proc.stderr, proc.stderr
+    assert f"interrupted; {old_output} is as it was" in proc.stderr
+    kept.check()

@@ -169,3 +169,45 @@ def test_an_interrupt_keeps_finished_jobs_and_the_rerun_does_only_the_rest(tmp_p
     assert not (out / second.key).exists()
     run = run_study(study, out)
     assert (run.skipped, run.ran) == (1, 1) and calls == [first.key, second.key, second.key]
+
+
+SIGTERM_IN_SECOND_JOB = """
+import json, os, signal, sys
+sys.path.insert(0, sys.argv[1])
+from study_helpers import job_results
+import lfd_track.study.run as run_module
+from lfd_track.cli import main
+
+calls = []
+
+def fake_job(job):
+    calls.append(job.key)
+    if len(calls) == 2:
+        os.kill(os.getpid(), signal.SIGTERM)  # stopped while the second job runs
+        raise AssertionError("SIGTERM did not stop the study")
+    return {"report.md": b"report\\n", "results.json": json.dumps(job_results(job)).encode()}
+
+run_module.run_job = fake_job
+sys.exit(main(sys.argv[2:]))
+"""
+
+
+def test_sigterm_stops_the_study_in_one_line_and_keeps_finished_jobs(tmp_path):
+    from pathlib import Path
+
+    path = write_study(tmp_path)
+    out = tmp_path / "out"
+    here = Path(__file__).parent
+    done = subprocess.run(
+        [sys.executable, "-c", SIGTERM_IN_SECOND_JOB, str(here), "study", str(path)]
+        + ["--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=here.parents[1],
+    )
+    assert done.returncode == 143, done.stderr
+    assert done.stderr.count("\n") == 1 and "interrupted" in done.stderr, done.stderr
+    first, second = load_study(path).jobs()
+    assert (out / first.key / RESULTS_FILE).is_file()
+    assert sorted(p.name for p in out.rglob("*")) == ["paper", "report.md", "results.json", "seed0"]
