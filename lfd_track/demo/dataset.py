@@ -491,7 +491,10 @@ class DemonstrationWriter:
             self._write(_MAGIC + header)
             self._sync_directory()
         except BaseException:
+            # Nothing was recorded (a full disk, an interrupt): leave no file that a later run
+            # would have to be told to --force over.
             self._file.close()
+            self.path.unlink(missing_ok=True)
             raise
         if library is not None:
             self._unsubscribe = library.subscribe(self._on_library_change)

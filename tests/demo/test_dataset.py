@@ -557,3 +557,18 @@ def test_fifo_device_and_deep_json_are_refused_naming_the_file(tmp_path: Path) -
     )
     deep.write_bytes(_rewrite_header(good.read_bytes(), *nested))
     _one_line_error(deep, "header JSON is nested too deeply")
+
+
+@pytest.mark.parametrize("overwrite", [False, True])
+def test_a_header_that_cannot_be_written_leaves_no_file(tmp_path, monkeypatch, overwrite):
+    """A full disk (or an interrupt) while the header is written: nothing was recorded, so no
+    file is left behind for the next recording to be refused over."""
+    path = tmp_path / "demo.lfdemo"
+
+    def full_disk(self, data, sync=True):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(DemonstrationWriter, "_write", full_disk)
+    with pytest.raises(OSError, match="No space left"):
+        DemonstrationWriter(path, {}, bins=4, fsync=False, overwrite=overwrite)
+    assert not path.exists()
