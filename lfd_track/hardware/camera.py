@@ -19,6 +19,9 @@ needed; ``tests/hardware/test_camera.py`` checks exactly that against a loopback
 
 from __future__ import annotations
 
+import http.client
+import os
+import socket
 import threading
 import time
 import urllib.error
@@ -33,6 +36,7 @@ import numpy as np
 from ..errors import LfdTrackError
 
 FRAME_SHAPE = (480, 640, 3)  # (height, width, RGB) of every frame handed out
+MAX_SNAPSHOT_BYTES = 16 * 1024 * 1024  # a phone's full-resolution JPEG is a few MB
 
 
 class CameraError(LfdTrackError):
@@ -220,6 +224,18 @@ class _LatestFrameSource(FrameSource):
         """Block for the next decoded BGR frame; None if the stream failed or stalled."""
 
 
+def _quiet_opencv_logs() -> None:
+    """Keep OpenCV's and FFmpeg's own warnings off stderr (a user's settings win).
+
+    They add lines of their own to every unreachable, stalled or corrupt stream, which
+    ``CameraError``/``CameraTimeout`` already name in one line. FFmpeg's level is read when
+    OpenCV first starts FFmpeg, so this runs before the first capture opens.
+    """
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")  # AV_LOG_QUIET
+    if "OPENCV_LOG_LEVEL" not in os.environ:
+        cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_ERROR)
+
+
 class MjpegStreamSource(_LatestFrameSource):
     """A phone's MJPEG stream (IP Webcam ``http://PHONE:8080/video``, DroidCam ``:4747/video``).
 
@@ -238,6 +254,7 @@ class MjpegStreamSource(_LatestFrameSource):
             cv2.CAP_PROP_READ_TIMEOUT_MSEC,
             int(self.read_timeout_s * 1000),
         ]
+        _quiet_opencv_logs()
         capture = cv2.VideoCapture(self.url, cv2.CAP_FFMPEG, params)
         if not capture.isOpened():
             capture.release()
@@ -276,11 +293,38 @@ class SnapshotSource(_LatestFrameSource):
         self._last_poll = 0.0
 
     def _fetch(self, timeout_s: float) -> np.ndarray:
+        """One snapshot, decoded; the whole request (headers and body) takes at most ``timeout_s``.
+
+        urllib's timeout bounds each socket read only: a peer that sends a byte now and then
+        would hold the request forever, so a timer shuts the socket down at the deadline. Bodies
+        over ``MAX_SNAPSHOT_BYTES`` are refused, not buffered.
+        """
+        deadline = _Deadline(timeout_s)
+        opener = urllib.request.OpenerDirector()  # http(s) only: no redirect to ftp:// or file://
+        for handler in (
+            urllib.request.ProxyHandler(),
+            urllib.request.UnknownHandler(),
+            urllib.request.HTTPDefaultErrorHandler(),
+            urllib.request.HTTPRedirectHandler(),
+            urllib.request.HTTPErrorProcessor(),
+            _WatchedHTTPHandler(deadline),
+            _WatchedHTTPSHandler(deadline),
+        ):
+            opener.add_handler(handler)
+        too_large = f"{self.url}: the snapshot is larger than {MAX_SNAPSHOT_BYTES // 2**20} MB"
         try:
-            with urllib.request.urlopen(self.url, timeout=timeout_s) as response:
-                data = response.read()
-        except (urllib.error.URLError, OSError, ValueError) as exc:
-            raise CameraError(f"{self.url}: snapshot request failed ({exc})") from None
+            with deadline, opener.open(self.url, timeout=timeout_s) as response:
+                if (response.length or 0) > MAX_SNAPSHOT_BYTES:
+                    raise CameraError(too_large)
+                data = response.read(MAX_SNAPSHOT_BYTES + 1)
+        except (urllib.error.URLError, http.client.HTTPException, OSError, ValueError) as exc:
+            if not deadline.expired:
+                detail = " ".join(str(exc).split()) or type(exc).__name__  # one line
+                raise CameraError(f"{self.url}: snapshot request failed ({detail})") from None
+        if deadline.expired:  # the read may also have ended quietly, with the data cut short
+            raise CameraError(f"{self.url}: no complete snapshot within {timeout_s:g} s")
+        if len(data) > MAX_SNAPSHOT_BYTES:
+            raise CameraError(too_large)
         frame = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)
         if frame is None:
             raise CameraError(f"{self.url}: the snapshot is not a decodable image")
@@ -300,6 +344,89 @@ class SnapshotSource(_LatestFrameSource):
             return None  # closing
         self._last_poll = time.monotonic()
         return self._fetch(self.read_timeout_s)
+
+
+class _Deadline:
+    """A context manager that shuts down the sockets it watches once ``timeout_s`` has passed.
+
+    A blocked read on a shut-down socket returns at once; ``expired`` tells why it ended.
+    """
+
+    def __init__(self, timeout_s: float) -> None:
+        self.expired = False
+        self._sockets: list[socket.socket] = []
+        self._lock = threading.Lock()
+        self._timer = threading.Timer(timeout_s, self._expire)
+        self._timer.daemon = True
+
+    def __enter__(self) -> _Deadline:
+        self._timer.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._timer.cancel()
+
+    def watch(self, sock: socket.socket) -> None:
+        with self._lock:
+            self._sockets.append(sock)
+            if self.expired:
+                _shutdown(sock)
+
+    def _expire(self) -> None:
+        with self._lock:
+            self.expired = True
+            for sock in self._sockets:
+                _shutdown(sock)
+
+
+def _shutdown(sock: socket.socket) -> None:
+    try:
+        sock.shutdown(socket.SHUT_RDWR)
+    except OSError:
+        pass  # already closed
+
+
+class _Watched:
+    """Mixed into an ``http.client`` connection, before it: its socket is watched by a
+    :class:`_Deadline` from the moment it connects."""
+
+    sock: socket.socket
+
+    def __init__(self, *args: Any, deadline: _Deadline, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)  # type: ignore[call-arg]
+        self._deadline = deadline
+
+    def connect(self) -> None:
+        super().connect()  # type: ignore[misc]
+        self._deadline.watch(self.sock)
+
+
+class _WatchedHTTPConnection(_Watched, http.client.HTTPConnection):
+    pass
+
+
+class _WatchedHTTPSConnection(_Watched, http.client.HTTPSConnection):
+    pass
+
+
+class _WatchedHTTPHandler(urllib.request.HTTPHandler):
+    def __init__(self, deadline: _Deadline) -> None:
+        super().__init__()
+        self._deadline = deadline
+
+    def http_open(self, req: urllib.request.Request) -> http.client.HTTPResponse:
+        return self.do_open(_WatchedHTTPConnection, req, deadline=self._deadline)
+
+
+class _WatchedHTTPSHandler(urllib.request.HTTPSHandler):
+    def __init__(self, deadline: _Deadline) -> None:
+        super().__init__()
+        self._deadline = deadline
+
+    def https_open(self, req: urllib.request.Request) -> http.client.HTTPResponse:
+        return self.do_open(
+            _WatchedHTTPSConnection, req, context=self._context, deadline=self._deadline
+        )
 
 
 class VideoFileSource(FrameSource):

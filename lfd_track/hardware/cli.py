@@ -3,29 +3,25 @@
 ``add_hardware_parser(subparsers)`` adds the ``hardware`` command to the main CLI. Each
 subcommand's handler is stored as ``func`` on the parsed namespace, takes the namespace and
 returns the exit code; user errors (bad URL, lost link, bad controller file) print one line to
-stderr and return 1, Ctrl-C stops the motors and returns 130. ``python -m lfd_track.hardware.cli``
-runs the same commands stand-alone.
+stderr and return 1; Ctrl-C, SIGTERM and SIGHUP stop the motors and return 130.
+``python -m lfd_track.hardware.cli`` runs the same commands stand-alone.
 """
 
 from __future__ import annotations
 
 import argparse
-import signal
 import statistics
 import sys
 import threading
-from collections.abc import Callable, Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Sequence
 from typing import Any
 
 from ..errors import LfdTrackError
+from ..signals import stop_signals_interrupt
 
 EXIT_OK = 0
 EXIT_ERROR = 1
 EXIT_INTERRUPTED = 130
-
-_STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
-"""Signals that stop ``hardware sim`` cleanly, like Ctrl-C (``kill PID``, closed terminal)."""
 
 
 def _fail(message: str) -> int:
@@ -38,7 +34,10 @@ def _guarded(handler: Callable[[argparse.Namespace], int]) -> Callable[[argparse
 
     def run(args: argparse.Namespace) -> int:
         try:
-            return handler(args)
+            # SIGTERM and SIGHUP (kill, a closed terminal) end the command as Ctrl-C does: the
+            # motors are stopped, the terminal restored and a recording closed with its footer.
+            with stop_signals_interrupt():
+                return handler(args)
         except KeyboardInterrupt:
             print("interrupted: motors stopped", file=sys.stderr)
             return EXIT_INTERRUPTED
@@ -49,32 +48,13 @@ def _guarded(handler: Callable[[argparse.Namespace], int]) -> Callable[[argparse
 
 
 # ---------------------------------------------------------------------------------------- sim
-@contextmanager
-def _stop_signals_interrupt() -> Iterator[None]:
-    """Make SIGTERM and SIGHUP raise ``KeyboardInterrupt`` in the main thread, as Ctrl-C does.
-
-    Their default action ends the process at once, leaving the harness running and its files
-    behind; handled like Ctrl-C, the normal clean-up runs. The previous handlers are restored.
-    """
-
-    def interrupt(signum: int, frame: Any) -> None:
-        raise KeyboardInterrupt
-
-    previous = {signum: signal.signal(signum, interrupt) for signum in _STOP_SIGNALS}
-    try:
-        yield
-    finally:
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
-
-
 def _cmd_sim(args: argparse.Namespace) -> int:
     from .simavr import FIRMWARE_BAUD, SimavrError, SimulatedBoard
 
     board = SimulatedBoard(build_dir=args.build_dir, keep_files=args.keep_log)
     log_path = None
     try:
-        with _stop_signals_interrupt():
+        with stop_signals_interrupt():
             try:
                 board.start()
             except SimavrError as exc:
@@ -263,6 +243,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
             )
             sent = run_teleop(env, obs, keys, recorder)
         print(f"{sent} commands, {recorder.n_cases} cases recorded to {args.out}")
+        if env.last_error is not None:  # the link or the camera failed: not a clean end
+            return _fail(f"stopped after {sent} commands: {env.last_error}")
         return EXIT_OK
     finally:
         env.close()

@@ -71,7 +71,9 @@ class HardwareEnv(gym.Env):
     ## Info
     ``link``: link counters (``acks``, ``missed``, ``rtt_ms``, … see ``LinkStats``);
     ``failure``: None or one of the reasons above; ``command``: the letter sent;
-    ``board_state``: the motor state the board acknowledged; ``step``; ``frame_age_s``.
+    ``board_state``: the motor state the board acknowledged; ``step``; ``frame_age_s``; after a
+    failure ``error``, one line naming the device and the problem (also kept in ``last_error``
+    until the next ``reset``).
 
     ## Arguments
     ``gym.make("LfDTrack-Hardware-v0", camera_url=..., serial_url=..., watchdog_ms=300,
@@ -121,6 +123,7 @@ class HardwareEnv(gym.Env):
         self._steps = 0
         self._ended = True  # step() needs a reset() first
         self._last_ack: Ack | None = None
+        self.last_error: str | None = None  # the one-line error that ended the last episode
 
     # ------------------------------------------------------------------ gymnasium API
     def reset(
@@ -146,6 +149,7 @@ class HardwareEnv(gym.Env):
         self._steps = 0
         self._ended = False
         self._last_ack = None
+        self.last_error = None
         return self._frame, self._info(None, "S")
 
     def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
@@ -222,7 +226,7 @@ class HardwareEnv(gym.Env):
         self._ended = True
         self.link.stop()
         info = self._info(failure, letter)
-        info["error"] = str(error)  # one line naming the device and the problem
+        info["error"] = self.last_error = str(error)  # one line naming the device and problem
         return self._frame, 0.0, True, False, info
 
     def _info(self, failure: str | None, letter: str) -> dict[str, Any]:

@@ -43,6 +43,7 @@ def _float_in(low: float, high: float) -> Any:
 
 def run_teach(args: argparse.Namespace) -> int:
     """The ``teach`` command: open the session, serve the page, close everything on exit."""
+    from ..signals import stop_signals_interrupt
     from .app import create_app, is_loopback, new_token
     from .server import StationServer, bind_socket, station_url
     from .session import open_session
@@ -58,7 +59,10 @@ def run_teach(args: argparse.Namespace) -> int:
     token = None if is_loopback(args.host) else new_token()
     sock = bind_socket(args.host, args.port)
     try:
-        session = open_session(args)
+        # Opening a camera or a serial link can take seconds: SIGTERM or SIGHUP meanwhile ends
+        # it like Ctrl-C, so the session's clean-up runs (no empty recording is left behind).
+        with stop_signals_interrupt():
+            session = open_session(args)
     except BaseException:
         sock.close()
         raise
