@@ -81,7 +81,8 @@ class Arbiter:
     @property
     def agreement(self) -> float:
         """Share of the last K human commands the policy agreed with (0 with none yet)."""
-        return sum(self._agreement) / len(self._agreement) if self._agreement else 0.0
+        agreement = tuple(self._agreement)  # one read: the loop thread may clear it meanwhile
+        return sum(agreement) / len(agreement) if agreement else 0.0
 
     @property
     def agreement_count(self) -> int:

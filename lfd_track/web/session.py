@@ -151,7 +151,7 @@ class LoopSession:
         self._view: View | None = None
         self._view_seq = 0
         self.takeovers = 0
-        self.lease = Lease(lambda: self.stop("no heartbeat from the page for 1 s"), lease_s)
+        self.lease = Lease(self._lease_lapsed, lease_s)
         self._thread = threading.Thread(target=self._run, name="lfd-track teaching loop")
         self._thread.daemon = True
 
@@ -317,15 +317,20 @@ class LoopSession:
                         self._cond.wait(remaining)
                         continue
                     rearm, self._rearm = self._rearm, False
+                    driver = self.arbiter.driving
                     self._driving = True
             if preview:
-                self._show_live_frame()
+                try:
+                    self._show_live_frame()
+                except Exception as exc:  # noqa: BLE001 - shown on the page, as below
+                    self._report(exc)
                 continue
             started = time.monotonic()
             try:
                 if rearm:  # a command after a stop: clear the e-stop, take a fresh frame
                     # The robot stands where it stopped: the same run, the same memory.
                     self.loop.reset(options=self._rearm_options, keep_memory=True)
+                    self._keep_driver(driver)
                 step = self.loop.step()
                 if self.loop.episode_over:
                     self._episode_ended()
@@ -342,8 +347,32 @@ class LoopSession:
                 if step.command is not None:
                     self._error = None  # the robot drives again
             if step.command is not None:
-                self._publish()
                 next_step_at = started + self.period_s
+                try:
+                    self._publish()
+                except Exception as exc:  # noqa: BLE001 - the step ran; the view is what failed
+                    self._report(exc)
+
+    def _report(self, exc: Exception) -> None:
+        """Show an error of the loop thread on the page (the thread keeps serving)."""
+        with self._cond:
+            self._error = f"{type(exc).__name__}: {exc}"
+
+    def _lease_lapsed(self) -> None:
+        """The lease watchdog's stop; a failed one (e.g. a lost serial link) is shown on the page
+        and does not end the watchdog, so the next lapse stops the robot again."""
+        try:
+            self.stop("no heartbeat from the page for 1 s")
+        except Exception as exc:  # noqa: BLE001 - the watchdog must live on
+            self._report(exc)
+
+    def _keep_driver(self, driver: str) -> None:
+        """After the re-arm's reset (which hands the wheel to the human): a "let it drive" given
+        since the stop still holds, unless another stop (it asks for a re-arm again) or the end
+        of the lease came meanwhile."""
+        with self._cond:
+            if driver == "policy" and not self._rearm and self.lease.alive:
+                self.arbiter.driving = "policy"
 
     def _episode_ended(self) -> None:
         """Off the felt, reversed, or the real robot's link or camera failed: stop, start over."""
