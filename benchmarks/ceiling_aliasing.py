@@ -3,7 +3,7 @@
 The ceiling study (``benchmarks/studies/ceiling_testing_demo.toml``) teaches HG-DAgger with the
 last-bend memory on the testing loop cut open, so corner 4 is in its demonstrations, and yet
 corner 4 fails as often as when it is not. This relearns the study's repetitions (same seeds,
-same code path as the runner: :func:`lfd_track.benchmark.methods.learn_hg_dagger`), keeps every
+same code path as the runner: :func:`lfd_track.benchmark.runner.learn_repetition`), keeps every
 case the learner saw (the demonstration and each round's interventions, with the pose each was
 recorded at), and asks of the cases recorded near each corner of the loop:
 
@@ -35,8 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from lfd_track.benchmark.methods import learn_hg_dagger
-from lfd_track.benchmark.runner import repetition_seeds, repetition_streams
+from lfd_track.benchmark.runner import learn_repetition, repetition_seeds, repetition_streams
 from lfd_track.control.mlp import mlp_forward
 from lfd_track.demo.dataset import load_demonstration
 from lfd_track.study.spec import load_study
@@ -79,18 +78,7 @@ def analyse_repetition(args: tuple[int, int, float]) -> dict[str, Any]:
     demo_seed, ga_seed, _ = repetition_streams(repetition_seeds(seed, index + 1)[index])
     track = load_track(config.demo_track)
     with tempfile.TemporaryDirectory() as tmp:
-        learned = learn_hg_dagger(
-            Path(tmp),
-            demo_seed=demo_seed,
-            ga_seed=ga_seed,
-            preset=config.preset,
-            human=config.human,
-            ga=config.ga,
-            hg=config.hg_dagger,
-            memory=config.memory,
-            mirror=config.mirror,
-            track=config.demo_track,
-        )
+        learned = learn_repetition(config, Path(tmp), demo_seed=demo_seed, ga_seed=ga_seed)
         inputs, commands, positions = _cases(Path(tmp))
     weights = learned.controller.weights
     predicted = mlp_forward(weights, inputs).argmax(axis=1)

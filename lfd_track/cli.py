@@ -22,8 +22,17 @@ from .cli_types import non_negative_int as _seed
 from .cli_types import positive_int as _positive_int
 from .errors import LfdTrackError
 from .outputs import in_progress_name, keep_partial, shown_path, taken
+from .signals import (
+    EXIT_INTERRUPTED,
+    EXIT_TERMINATED,
+    Terminated,
+    interrupted_exit_code,
+    raise_terminated,
+)
 
-EXIT_OK, EXIT_ERROR, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 1, 2, 130, 143
+EXIT_OK, EXIT_ERROR, EXIT_USAGE = 0, 1, 2
+EXIT_CODES = (EXIT_OK, EXIT_ERROR, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_TERMINATED)
+"""Every exit code of the commands (130, 143: stopped by Ctrl-C, SIGTERM; see signals.py)."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -49,15 +58,6 @@ def _advance(bar: Any, done: float, note: str = "") -> None:
 
 
 # --------------------------------------------------------------------------------- demo
-class _Terminated(BaseException):
-    """SIGTERM arrived: stop like Ctrl-C, keeping what was recorded (a BaseException like
-    KeyboardInterrupt, so no ``except Exception`` takes it for a failure)."""
-
-
-def _raise_terminated(signum: int, frame: Any) -> None:
-    raise _Terminated()
-
-
 def _same_file(a: str | Path, b: str | Path) -> bool:
     """Whether ``a`` and ``b`` name the same file (through links, ``..``, symbolic links)."""
     try:
@@ -120,7 +120,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         commands = n
         bar.update(n - bar.n)
 
-    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    previous = signal.signal(signal.SIGTERM, raise_terminated)
     try:
         # A running count: how many commands the protocol takes is known only when it ends.
         with progress_bar(None, "demonstrating", unit=" commands", enabled=not args.quiet) as bar:
@@ -133,9 +133,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
                 overwrite=args.force and target == out,
                 progress=progress,
             )
-    except (KeyboardInterrupt, _Terminated) as exc:
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not cut the note
-        code = EXIT_TERMINATED if isinstance(exc, _Terminated) else EXIT_INTERRUPTED
+    except (KeyboardInterrupt, Terminated) as exc:
+        code = interrupted_exit_code(exc)
         if not target.exists():
             print("lfd-track demo: interrupted before anything was recorded", file=sys.stderr)
             return code
@@ -283,7 +282,7 @@ def _cmd_drive(args: argparse.Namespace) -> int:
         direction = "reversed" if args.reverse else "file order"
         print(f"{args.track} ({direction}), corners met in order {order}:", flush=True)
     plot_staged: Path | None = None
-    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    previous = signal.signal(signal.SIGTERM, raise_terminated)
     try:
         for lap in range(args.laps):
             # Per-lap bar: percent of the track driven; a lap's line is printed as it ends.
@@ -341,8 +340,8 @@ def _cmd_drive(args: argparse.Namespace) -> int:
         if plot_staged is not None:
             os.replace(plot_staged, args.plot)
             plot_staged = None
-    except (KeyboardInterrupt, _Terminated) as exc:
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not cut the note
+    except (KeyboardInterrupt, Terminated) as exc:
+        code = interrupted_exit_code(exc)
         note = f"lfd-track drive: interrupted after {len(laps)} of {args.laps} laps"
         if video is not None:
             # Half a video is not kept: the encoder, stopped too, may leave it unplayable.
@@ -350,7 +349,7 @@ def _cmd_drive(args: argparse.Namespace) -> int:
             left = "is unchanged" if taken(video.path) else "was not written"
             note += f"; the partial video is discarded ({shown_path(video.path)} {left})"
         print(note, file=sys.stderr)
-        return EXIT_TERMINATED if isinstance(exc, _Terminated) else EXIT_INTERRUPTED
+        return code
     except BaseException:
         if video is not None:
             video.discard()
@@ -426,7 +425,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
     # The run goes to a staging folder and replaces the previous output only once it has
     # succeeded: a failure at any point leaves the previous output as it was. SIGTERM stops it
     # like Ctrl-C, so the staging folder is removed too.
-    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    previous = signal.signal(signal.SIGTERM, raise_terminated)
     try:
         with staged_output(out) as stage:
             start = time.perf_counter()
@@ -446,10 +445,10 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
                 reps = run_benchmark(config, stage / "repetitions", workers=workers, progress=tick)
             wall = time.perf_counter() - start
             text = write_benchmark_outputs(stage, config, reps, wall_s=wall, workers=workers)
-    except (KeyboardInterrupt, _Terminated) as exc:
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not cut the note
+    except (KeyboardInterrupt, Terminated) as exc:
+        code = interrupted_exit_code(exc)
         print(f"lfd-track benchmark: interrupted; {shown_path(out)} is as it was", file=sys.stderr)
-        return EXIT_TERMINATED if isinstance(exc, _Terminated) else EXIT_INTERRUPTED
+        return code
     finally:
         signal.signal(signal.SIGTERM, previous)
     print(text)

@@ -37,6 +37,7 @@ from ..world.track import load_track
 from .methods import (
     METHODS,
     HGDaggerConfig,
+    Learned,
     OnlineConfig,
     learn_baseline,
     learn_hg_dagger,
@@ -59,6 +60,7 @@ __all__ = [
     "check_tracks",
     "check_workers",
     "config_dict",
+    "learn_repetition",
     "repetition_seeds",
     "run_benchmark",
     "run_repetition",
@@ -274,6 +276,30 @@ def run_trial(
     return loop.info, trajectory.array(), loop.counts.steps
 
 
+def learn_repetition(
+    config: BenchmarkConfig, rep_dir: Path, *, demo_seed: int, ga_seed: int
+) -> Learned:
+    """Learn one repetition's controller by ``config.method``; its files go to ``rep_dir``."""
+    common = dict(
+        demo_seed=demo_seed,
+        ga_seed=ga_seed,
+        preset=config.preset,
+        human=config.human,
+        memory=config.memory,
+        mirror=config.mirror,
+        track=config.demo_track,
+    )
+    if config.method == "online":
+        return learn_online(rep_dir, **common, ga=config.ga, online=config.online)
+    if config.method == "hg-dagger":
+        return learn_hg_dagger(rep_dir, **common, ga=config.ga, hg=config.hg_dagger)
+    if config.method == "bc":
+        return learn_baseline(rep_dir, **common, learner=config.bc)
+    if config.method == "cma-es":
+        return learn_baseline(rep_dir, **common, learner=config.cmaes)
+    return learn_paper(rep_dir, **common, ga=config.ga)
+
+
 def run_repetition(
     index: int, seed: int, config: BenchmarkConfig, work_dir: str
 ) -> RepetitionResult:
@@ -287,25 +313,7 @@ def run_repetition(
     timing: dict[str, float] = {}
 
     t0 = time.perf_counter()
-    common = dict(
-        demo_seed=demo_seed,
-        ga_seed=ga_seed,
-        preset=config.preset,
-        human=config.human,
-        memory=config.memory,
-        mirror=config.mirror,
-        track=config.demo_track,
-    )
-    if config.method == "online":
-        learned = learn_online(rep_dir, **common, ga=config.ga, online=config.online)
-    elif config.method == "hg-dagger":
-        learned = learn_hg_dagger(rep_dir, **common, ga=config.ga, hg=config.hg_dagger)
-    elif config.method == "bc":
-        learned = learn_baseline(rep_dir, **common, learner=config.bc)
-    elif config.method == "cma-es":
-        learned = learn_baseline(rep_dir, **common, learner=config.cmaes)
-    else:
-        learned = learn_paper(rep_dir, **common, ga=config.ga)
+    learned = learn_repetition(config, rep_dir, demo_seed=demo_seed, ga_seed=ga_seed)
     controller = learned.controller
     controller.learn = config.keep_learning
     controller.save(rep_dir / "controller.json")

@@ -17,11 +17,10 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from ..errors import LfdTrackError
-from ..signals import stop_signals_interrupt
+from ..signals import EXIT_INTERRUPTED, stop_signals_interrupt
 
 EXIT_OK = 0
 EXIT_ERROR = 1
-EXIT_INTERRUPTED = 130
 
 
 def _fail(message: str) -> int:

@@ -47,8 +47,8 @@ def add_study_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 
 def _cmd_study(args: argparse.Namespace) -> int:
-    from ..cli import EXIT_INTERRUPTED, EXIT_TERMINATED, _raise_terminated, _Terminated
     from ..outputs import shown_path
+    from ..signals import Terminated, interrupted_exit_code, raise_terminated
     from .run import load_finished, run_study
     from .spec import load_study
     from .summary import write_study_outputs
@@ -63,7 +63,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
     show = not args.quiet and sys.stderr.isatty()
     # SIGTERM stops the study like Ctrl-C: the jobs still running are stopped (worker processes
     # too), the finished ones are kept.
-    previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    previous = signal.signal(signal.SIGTERM, raise_terminated)
     try:
         run = run_study(
             study,
@@ -73,14 +73,14 @@ def _cmd_study(args: argparse.Namespace) -> int:
             address=args.address,
             progress=show,
         )
-    except (KeyboardInterrupt, _Terminated) as exc:
-        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # a second SIGTERM must not cut the note
+    except (KeyboardInterrupt, Terminated) as exc:
+        code = interrupted_exit_code(exc)
         print(
             f"lfd-track study: interrupted; the finished jobs are kept in {shown_path(out)}"
             " (run the same command to resume)",
             file=sys.stderr,
         )
-        return EXIT_TERMINATED if isinstance(exc, _Terminated) else EXIT_INTERRUPTED
+        return code
     finally:
         signal.signal(signal.SIGTERM, previous)
     results = write_study_outputs(out, study, load_finished(study, out))

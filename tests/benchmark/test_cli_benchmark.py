@@ -141,27 +141,29 @@ def test_a_bad_track_into_a_new_folder_creates_nothing(tmp_path, capsys, must_no
 
 
 # ------------------------------------------------------------------- failures late in the run
-def test_a_failure_in_the_trials_leaves_the_previous_output(old_output, capsys, monkeypatch):
-    def broken_trial(*args, **kwargs):
-        raise ValueError("simulated failure in an autonomous trial")
-
-    monkeypatch.setattr(runner, "run_trial", broken_trial)
-    kept = Untouched(old_output)
-    assert main(quick(old_output)) == 1
-    assert "simulated failure" in one_line_error(capsys)
-    kept.check()
+def _trial_fails(*args, **kwargs):
+    raise ValueError("simulated failure in an autonomous trial")
 
 
-def test_a_failure_while_writing_the_report_leaves_the_previous_output(
-    old_output, capsys, monkeypatch
+def _disk_full_for_the_report(*args, **kwargs):
+    raise OSError(28, "No space left on device", "report.md")
+
+
+@pytest.mark.parametrize(
+    ("module", "name", "broken", "shown"),
+    [
+        (runner, "run_trial", _trial_fails, "simulated failure"),
+        (report, "write_report_from_results", _disk_full_for_the_report, "No space left on device"),
+    ],
+    ids=["in the trials", "while writing the report"],
+)
+def test_a_late_failure_leaves_the_previous_output(
+    old_output, capsys, monkeypatch, module, name, broken, shown
 ):
-    def broken_report(*args, **kwargs):
-        raise OSError(28, "No space left on device", "report.md")
-
-    monkeypatch.setattr(report, "write_report_from_results", broken_report)
+    monkeypatch.setattr(module, name, broken)
     kept = Untouched(old_output)
     assert main(quick(old_output)) == 1
-    assert "No space left on device" in one_line_error(capsys)
+    assert shown in one_line_error(capsys)
     kept.check()
 
 
