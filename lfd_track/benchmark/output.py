@@ -102,7 +102,7 @@ def _remove_left_stages(out: Path) -> None:
     """Delete the staging folders killed runs into ``out`` left (see the module docstring)."""
     if fcntl is None:  # pragma: no cover - without locks a running run's folder looks the same
         return
-    places = [(out.parent, re.escape(f".{out.name[:100]}.benchmark-"))]
+    places = [(out.parent, re.escape(_stage_prefix(out)))]
     try:
         inside = out.is_dir() and (
             os.stat(out).st_dev != os.stat(out.parent).st_dev or not os.access(out.parent, os.W_OK)
@@ -110,7 +110,7 @@ def _remove_left_stages(out: Path) -> None:
     except OSError:
         inside = False
     if inside:  # where runs stage when they cannot beside it (see _staging_folder)
-        places.append((out, re.escape(".benchmark-")))
+        places.append((out, re.escape(_INSIDE_PREFIX)))
     for folder, prefix in places:
         try:
             names = os.listdir(folder)
@@ -161,6 +161,15 @@ def _signals_held() -> Iterator[None]:
             signal.signal(s, signal.SIG_DFL if handler is None else handler)
 
 
+_INSIDE_PREFIX = ".benchmark-"
+"""Name start of a staging folder made inside the output folder (see :func:`_staging_folder`)."""
+
+
+def _stage_prefix(out: Path) -> str:
+    """Name start of a staging folder beside ``out``: made, and found again when left over."""
+    return f".{out.name[:100]}.benchmark-"
+
+
 def _staging_folder(out: Path) -> Path:
     """A fresh hidden folder on the output's file system: beside ``out`` if possible, else (the
     output folder is a mount point, or its parent is read-only) inside it."""
@@ -169,11 +178,11 @@ def _staging_folder(out: Path) -> Path:
     try:
         if not beside:
             raise OSError("the output folder is on another file system than its parent")
-        stage = Path(tempfile.mkdtemp(prefix=f".{out.name[:100]}.benchmark-", dir=parent))
+        stage = Path(tempfile.mkdtemp(prefix=_stage_prefix(out), dir=parent))
     except OSError:
         if not out.is_dir():
             raise
-        stage = Path(tempfile.mkdtemp(prefix=".benchmark-", dir=out))
+        stage = Path(tempfile.mkdtemp(prefix=_INSIDE_PREFIX, dir=out))
     os.chmod(stage, 0o777 & ~_umask())  # as a plain mkdir would make it (it may become ``out``)
     return stage
 
