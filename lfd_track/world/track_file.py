@@ -5,7 +5,7 @@ Limits (stated in ``tracks/README.md``): at most :data:`MAX_VERTICES` vertices, 
 :data:`~lfd_track.world.track.ROVER_WIDTH_M` to :data:`MAX_WIDTH_M` wide, files up to
 :data:`MAX_FILE_BYTES`. The self-intersection test is a uniform-grid broad phase followed by an
 exact, vectorised segment-distance test on the candidate pairs, so validation takes time about
-linear in the number of vertices (``benchmarks/bench_track_validation.py``: 205 times faster than
+linear in the number of vertices (``benchmarks/speed/bench_track_validation.py``: 205 times faster than
 the wave-1 all-pairs check at 1,000 vertices, 564 times at 2,000).
 """
 

@@ -9,7 +9,8 @@ import pytest
 
 from lfd_track.benchmark.report import write_report_from_results
 
-RESULTS = Path(__file__).resolve().parents[2] / "benchmarks" / "results"
+# Every results folder of the lab notebook (benchmarks/experiments/<question>/.../results/).
+RESULTS = Path(__file__).resolve().parents[2] / "benchmarks" / "experiments"
 FOLDERS = sorted(
     str(p.parent.relative_to(RESULTS))
     for p in RESULTS.rglob("results.json")
@@ -18,7 +19,8 @@ FOLDERS = sorted(
 
 
 def test_there_are_committed_runs():
-    assert {"paper_protocol/seed0", "paper_protocol/careless"} <= set(FOLDERS)
+    assert {"paper_protocol/results/seed0", "paper_protocol/results/careless"} <= set(FOLDERS)
+    assert len(FOLDERS) == 75  # every study job and benchmark run committed
 
 
 @pytest.mark.parametrize("folder", FOLDERS)

@@ -122,7 +122,7 @@ def test_missing_study_file_and_bad_flags(tmp_path, capsys):
 
 
 def test_the_committed_study_names_the_conditions_of_the_plan():
-    path = REPO / "benchmarks" / "studies" / "beyond_the_paper.toml"
+    path = REPO / "benchmarks" / "experiments" / "beyond_the_paper" / "beyond_the_paper.toml"
     study = load_study(path, check_names=False)
     assert study.seeds == (0, 1, 2) and study.repetitions == 10
     rows = {c.name: (c.method, c.config.preset) for c in study.conditions}
@@ -144,7 +144,7 @@ def test_the_committed_study_names_the_conditions_of_the_plan():
 
 
 def test_the_committed_study_validates_once_its_methods_presets_and_tracks_exist():
-    path = REPO / "benchmarks" / "studies" / "beyond_the_paper.toml"
+    path = REPO / "benchmarks" / "experiments" / "beyond_the_paper" / "beyond_the_paper.toml"
     study = load_study(path, check_names=False)
     needed_methods = {c.method for c in study.conditions}
     missing = sorted(needed_methods - set(available_methods() or needed_methods))

@@ -1,0 +1,74 @@
+"""One-thread pinning and machine facts shared by the speed benchmarks.
+
+Every ratio in ``benchmarks/speed/`` is measured with both sides on one core: OpenCV limited to one
+thread (``cv2.setNumThreads(1)``) and the BLAS behind numpy limited to one thread
+(threadpoolctl). On a shared 2-core machine a second thread mostly measures who else is busy.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import subprocess
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+from threadpoolctl import threadpool_info, threadpool_limits
+
+REPO = Path(__file__).resolve().parents[2]
+
+# Child processes (gymnasium's async vector env, the paper protocol's workers) read these when
+# their BLAS starts.
+for _name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ[_name] = "1"
+
+
+def pin_one_thread() -> None:
+    """Limit OpenCV and numpy's BLAS in this process to one thread each."""
+    cv2.setNumThreads(1)
+    threadpool_limits(limits=1)
+
+
+def machine() -> dict[str, Any]:
+    """Versions, thread settings in force, the BLAS kernel, and the load average now."""
+    blas = [
+        {k: info.get(k) for k in ("internal_api", "version", "architecture", "num_threads")}
+        for info in threadpool_info()
+    ]
+    return {
+        "python": platform.python_version(),
+        "processor": platform.machine(),
+        "cpus": os.cpu_count(),
+        "numpy": np.__version__,
+        "opencv": cv2.__version__,
+        "opencv_threads": cv2.getNumThreads(),
+        "blas": blas,
+        "openblas_env": {k: v for k, v in os.environ.items() if k.startswith("OPENBLAS_")},
+    }
+
+
+def load_average() -> list[float]:
+    """1, 5 and 15 minute load averages (runnable processes on the machine's 2 cores)."""
+    return [round(x, 2) for x in os.getloadavg()]
+
+
+def source_state() -> dict[str, object]:
+    """Commit of the checkout and its uncommitted package files (they are what was measured)."""
+
+    def git(*args: str) -> str:
+        try:
+            proc = subprocess.run(
+                ["git", *args], cwd=REPO, capture_output=True, text=True, timeout=10, check=True
+            )
+        except (OSError, subprocess.SubprocessError):
+            return ""
+        return proc.stdout
+
+    # Porcelain lines are "XY path"; the status columns may start with a space.
+    dirty = git("status", "--porcelain", "--", "lfd_track", "envs", "tracks")
+    return {
+        "commit": git("rev-parse", "HEAD").strip() or None,
+        "uncommitted": [line[3:] for line in dirty.splitlines()],
+    }
