@@ -135,7 +135,7 @@ def kernel_timing(inputs: np.ndarray, actions: np.ndarray, population: int, call
     return {
         # False would mean this BLAS rounds the stacked products differently from mlp_forward,
         # so the fitness falls back to one product per network (see population_outputs).
-        "stacked_form_used": fitness._stacked_form_matches(),
+        "stacked_form_used": fitness.stacked_form_matches(),
         "population": population,
         "cases": n,
         "multiply_adds": macs,

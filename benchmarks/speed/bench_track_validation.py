@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lfd_track.world.track_file import _check_no_self_intersection
+from lfd_track.world.track_file import check_no_self_intersection
 
 RESULTS = Path(__file__).resolve().parent / "results" / "track_validation.json"
 WIDTH_M = 0.3
@@ -81,7 +81,7 @@ def main() -> None:
     for n in args.sizes:
         starts, ends = circle(n)
         ours = best_of(
-            3, lambda s=starts, e=ends: _check_no_self_intersection("x", s, e, True, WIDTH_M)
+            3, lambda s=starts, e=ends: check_no_self_intersection("x", s, e, True, WIDTH_M)
         )
         peer = None
         if n <= 2000:

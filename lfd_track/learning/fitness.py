@@ -147,7 +147,7 @@ def population_outputs(weights: np.ndarray, inputs: np.ndarray, *, bias: bool) -
     per process against ``mlp_forward`` on shapes that exercise every case, and ``mlp_forward``
     itself is used if any bit differs.
     """
-    if weights.shape[0] == 0 or inputs.shape[0] < 2 or not _stacked_form_matches(inputs.shape[1]):
+    if weights.shape[0] == 0 or inputs.shape[0] < 2 or not stacked_form_matches(inputs.shape[1]):
         # One row goes to different kernels (and the per-network form is cheap there).
         return mlp_forward(weights, inputs, bias=bias)
     return _stacked_outputs(weights, inputs, bias=bias)
@@ -156,8 +156,9 @@ def population_outputs(weights: np.ndarray, inputs: np.ndarray, *, bias: bool) -
 _STACKED_MATCHES: dict[int, bool] = {}
 
 
-def _stacked_form_matches(n_inputs: int = N_INPUTS) -> bool:
-    """Whether ``_stacked_outputs`` equals ``mlp_forward`` bit for bit with this process's BLAS.
+def stacked_form_matches(n_inputs: int = N_INPUTS) -> bool:
+    """Whether the stacked population kernel (``_stacked_outputs``) equals ``mlp_forward`` bit for
+    bit with this process's BLAS (the fitness falls back to ``mlp_forward`` where it does not).
 
     Probes odd and even case counts, one and several row blocks, populations that do and do not
     fill the padding, with and without biases; computed once per input width and cached.

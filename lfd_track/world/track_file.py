@@ -5,8 +5,8 @@ Limits (stated in ``tracks/README.md``): at most :data:`MAX_VERTICES` vertices, 
 :data:`~lfd_track.world.track.ROVER_WIDTH_M` to :data:`MAX_WIDTH_M` wide, files up to
 :data:`MAX_FILE_BYTES`. The self-intersection test is a uniform-grid broad phase followed by an
 exact, vectorised segment-distance test on the candidate pairs, so validation takes time about
-linear in the number of vertices (``benchmarks/speed/bench_track_validation.py``: 205 times faster than
-the wave-1 all-pairs check at 1,000 vertices, 564 times at 2,000).
+linear in the number of vertices (``benchmarks/speed/bench_track_validation.py``: 205 times
+faster than the wave-1 all-pairs check at 1,000 vertices, 564 times at 2,000).
 """
 
 from __future__ import annotations
@@ -66,7 +66,7 @@ def segment_gaps(p1: np.ndarray, p2: np.ndarray, q1: np.ndarray, q2: np.ndarray)
 _MAX_SEGMENTS_NEAR_A_CELL = 200
 
 
-def _check_no_self_intersection(
+def check_no_self_intersection(
     source: Path | str, starts: np.ndarray, ends: np.ndarray, closed: bool, width: float
 ) -> None:
     """Refuse strips that cross or come within one width of a non-adjacent strip.
@@ -188,7 +188,7 @@ def parse_track(
     lengths = np.linalg.norm(ends - starts, axis=1)
     if (lengths < 1e-6).any():
         raise _fail(source, f"segment {int(np.argmin(lengths))} has zero length (repeated vertex)")
-    _check_no_self_intersection(source, starts, ends, closed, width)
+    check_no_self_intersection(source, starts, ends, closed, width)
     # Adjacent strips folding back on themselves also intersect.
     n = len(starts)
     for i in range(n - (0 if closed else 1)):

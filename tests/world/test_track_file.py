@@ -65,7 +65,7 @@ def test_the_broad_phase_finds_every_close_pair():
         gaps = segment_gaps(starts[i], ends[i], starts[j], ends[j])
         close = gaps < 0.25
         try:
-            track_file._check_no_self_intersection("x", starts, ends, False, 0.25)
+            track_file.check_no_self_intersection("x", starts, ends, False, 0.25)
         except FileFormatError as exc:
             k = np.nonzero(close)[0][0]
             assert f"segments {i[k]} and {j[k]} come within" in str(exc)
