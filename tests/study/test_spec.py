@@ -164,9 +164,8 @@ def test_the_committed_study_validates_once_its_methods_presets_and_tracks_exist
             load_study(path)
 
 
-def test_the_readme_example_study_is_valid(tmp_path):
-    readme = (REPO / "README.md").read_text(encoding="utf-8")
-    section = readme[readme.index("## Studies") :]
+def test_the_documented_example_study_is_valid(tmp_path):
+    section = (REPO / "docs" / "studies.md").read_text(encoding="utf-8")
     example = section[section.index("```toml") + len("```toml") : section.index("```\n", 10)]
     study = load_study(write_study(tmp_path, example))
     assert [c.name for c in study.conditions] == ["paper", "short-ga"]
