@@ -1,7 +1,8 @@
 /*
  * lfd_rover_sim: runs the rover firmware unchanged on simavr (ATmega328P, 16 MHz, headless).
  *
- *   lfd_rover_sim --log motors.csv [--control] [--mcu atmega328p] [--freq 16000000] firmware.elf
+ *   lfd_rover_sim --log motors.csv [--control] [--optiboot] [--mcu atmega328p] [--freq 16000000]
+ *                 firmware.elf
  *
  * - UART0 is bridged to a fresh pseudo-terminal; the only line on stdout, "PTY <path>", tells
  *   the host where to connect (simavr's own messages go to stderr). The line is 9600 baud 8N1
@@ -17,6 +18,10 @@
  *   caused it: CAUSE is the reset flag the MCU status register (MCUSR) holds after it,
  *   "power-on", "external" (reset pin), "brown-out" or "watchdog" (the AVR hardware watchdog
  *   timed out). The log is flushed after every line.
+ * - With --optiboot, every boot (the first one, and after every reset, the watchdog's included)
+ *   hands the reset flags over as the Optiboot bootloader does before it starts the sketch:
+ *   MCUSR is cleared and its old value is left in register r2. The log names the cause from the
+ *   flags before they were moved.
  *   left_pwm/right_pwm: duty 0..255 on D5 (E1, OC0B) / D6 (E2, OC0A): the compare value
  *   while the pin is driven by Timer0 PWM, else 255/0 for a plain high/low output, 0 when the
  *   pin is not an output. left_dir/right_dir: level of D4 (M1) / D7 (M2), 0 unless an output.
@@ -26,7 +31,8 @@
  *                       reset the board with that cause; power-on also scrambles the SRAM
  *                       and registers, as their contents are undefined after power-up;
  *                       "reset CAUSE flags-cleared" leaves MCUSR zero, as a bootloader that
- *                       clears it before starting the firmware does (logged cause "unknown")
+ *                       clears it before starting the firmware and passes nothing on does
+ *                       (r2 is zeroed too; logged cause "unknown")
  *     hang              the firmware stops executing instructions, as if stuck in a loop with
  *                       interrupts off, while the timers run on: the watchdog, if enabled,
  *                       resets the board, which then runs normally again ("# hang t_us" is
@@ -113,6 +119,7 @@ typedef struct {
 	int hung;              /* the "hang" command is in effect */
 	void (*normal_run)(avr_t *avr);
 	int control;           /* stdin carries commands (--control) */
+	int optiboot;          /* hand reset flags over in r2, MCUSR cleared (--optiboot) */
 	char control_buf[128];
 	size_t control_len;
 	uint32_t scramble;     /* xorshift state for the power-on SRAM contents */
@@ -339,6 +346,17 @@ static uint8_t next_random(harness_t *h) {
 	return (uint8_t)x;
 }
 
+/* With --optiboot: moves the reset flags from MCUSR to r2, as Optiboot does before it jumps to
+ * the sketch. Runs before the first instruction after a reset (simavr resets between two
+ * instructions, and the harness sees it before it runs the next). */
+static void bootloader_handover(harness_t *h) {
+	if (!h->optiboot)
+		return;
+	uint16_t mcusr = h->avr->reset_flags.porf.reg;
+	h->avr->data[2] = h->avr->data[mcusr] & 0x0F;
+	h->avr->data[mcusr] = 0;
+}
+
 /* Logs a reset that has just happened (whoever caused it) and restarts the host input. */
 static void after_reset(harness_t *h) {
 	h->reset_seen = 0;
@@ -353,6 +371,7 @@ static void after_reset(harness_t *h) {
 	h->input_hold_until = h->sim_cycles + h->hold_cycles;
 	fprintf(h->log, "# reset %llu %s\n", (unsigned long long)sim_time_us(h), reset_cause(h));
 	fflush(h->log);
+	bootloader_handover(h);
 }
 
 /* Resets the board from outside: "external" (reset pin), "power-on" or "brown-out"; with
@@ -366,10 +385,13 @@ static void reset_board(harness_t *h, const char *cause, int flags_cleared) {
 			avr->data[a] = next_random(h);
 		for (uint32_t a = avr->ioend + 1u; a <= avr->ramend; a++)
 			avr->data[a] = next_random(h);
-		if (!flags_cleared)
-			avr_regbit_set(avr, avr->reset_flags.porf);
-	} else if (flags_cleared) {
-		/* MCUSR stays as avr_reset() left it: zero */
+	}
+	if (flags_cleared) {
+		/* MCUSR stays as avr_reset() left it, zero, and a bootloader that passes nothing on
+		 * leaves no flags in r2 either. */
+		avr->data[2] = 0;
+	} else if (strcmp(cause, "power-on") == 0) {
+		avr_regbit_set(avr, avr->reset_flags.porf);
 	} else if (strcmp(cause, "brown-out") == 0) {
 		avr_regbit_set(avr, avr->reset_flags.borf);
 	} else {
@@ -473,7 +495,8 @@ static int read_control(harness_t *h) {
 }
 
 static void usage(const char *argv0) {
-	fprintf(stderr, "usage: %s --log PATH [--control] [--mcu NAME] [--freq HZ] FIRMWARE.elf\n",
+	fprintf(stderr,
+		"usage: %s --log PATH [--control] [--optiboot] [--mcu NAME] [--freq HZ] FIRMWARE.elf\n",
 		argv0);
 }
 
@@ -484,6 +507,7 @@ int main(int argc, char **argv) {
 	static const struct option options[] = {
 		{"log", required_argument, NULL, 'l'},
 		{"control", no_argument, NULL, 'c'},
+		{"optiboot", no_argument, NULL, 'o'},
 		{"mcu", required_argument, NULL, 'm'},
 		{"freq", required_argument, NULL, 'f'},
 		{"help", no_argument, NULL, 'h'},
@@ -491,10 +515,12 @@ int main(int argc, char **argv) {
 	};
 	int opt;
 	int control = 0;
-	while ((opt = getopt_long(argc, argv, "l:cm:f:h", options, NULL)) != -1) {
+	int optiboot = 0;
+	while ((opt = getopt_long(argc, argv, "l:com:f:h", options, NULL)) != -1) {
 		switch (opt) {
 		case 'l': log_path = optarg; break;
 		case 'c': control = 1; break;
+		case 'o': optiboot = 1; break;
 		case 'm': mcu = optarg; break;
 		case 'f': freq = (uint32_t)strtoul(optarg, NULL, 10); break;
 		default: usage(argv[0]); return opt == 'h' ? 0 : 2;
@@ -517,6 +543,7 @@ int main(int argc, char **argv) {
 	memset(&h, 0, sizeof h);
 	the_harness = &h;
 	h.control = control;
+	h.optiboot = optiboot;
 	h.scramble = 0x9E3779B9u;
 	if (control)
 		fcntl(STDIN_FILENO, F_SETFL, fcntl(STDIN_FILENO, F_GETFL) | O_NONBLOCK);
@@ -580,6 +607,7 @@ int main(int argc, char **argv) {
 
 	fprintf(h.log, "t_us,left_pwm,left_dir,right_pwm,right_dir\n");
 	h.last_cycle = h.avr->cycle;
+	bootloader_handover(&h); /* the first boot, a power-on, goes through the bootloader too */
 	log_motors(&h);
 	fprintf(announce, "PTY %s\n", pty_name);
 	fclose(announce);

@@ -11,12 +11,20 @@ sends stop, rather than driving on blindly. The lease also ends when the board r
 for its e-stop and when the board reboots (its boot frame): a cleared e-stop or a fresh board
 moves again only on a new drive request, never on the keep-alive's.
 
+Firmware 1.2 enforces the second on its side: after every reset it refuses drive frames (stop
+excepted, reason ``BOOT``) until the host sends a hello (``K``) naming the boot count that its
+boot frame announced, so a keep-alive that re-sends the old drive before the host has read the
+boot frame cannot move it, however the two race. ``RobotLink`` sends that hello only inside
+an application's ``drive()`` that asks for motion (after a version query if it has not seen the
+boot count), never from the keep-alive thread; a drive request the board refused with ``BOOT`` (it was written before the
+host saw the boot) returns that refusal, and the next one drives.
+
 Link loss (a serial exception, ``max_consecutive_failures`` requests in a row without a valid
 reply, or more than ``max_corrupt_replies`` undecodable replies in a row) raises ``LinkError``.
 
 ``query_version()`` asks firmware 1.1 and later for its version and the cause of its last reset
-at any time; the boot frame carries both too (and whether the board booted with its e-stop
-latched, as it does after a watchdog or brown-out reset).
+(1.2: and its boot count) at any time; the boot frame carries them too (and whether the board
+booted with its e-stop latched, as it does after a watchdog or brown-out reset).
 """
 
 from __future__ import annotations
@@ -102,6 +110,7 @@ class BoardVersion:
     version: str
     reset_cause: str  # a key of ``protocol.RESET_CAUSES`` (``WDT``, ``PWR``, ...)
     ack: Ack
+    boot_count: int | None = None  # firmware 1.2 and later
 
     @property
     def reset_cause_text(self) -> str:
@@ -138,6 +147,13 @@ def _letter(command: Command | int | str) -> str:
             raise ValueError(f"drive command must be one of F, L, R, S, got {command!r}")
         return letter
     return Command(int(command)).letter
+
+
+def _boot_count(fields: tuple[str, ...]) -> int | None:
+    """The boot count in ``fields[0]`` if there is a valid one (firmware 1.2 and later)."""
+    if fields and fields[0].isdigit() and len(fields[0]) <= 5 and int(fields[0]) < 65536:
+        return int(fields[0])
+    return None
 
 
 @dataclass
@@ -207,6 +223,8 @@ class RobotLink:
         self._thread: threading.Thread | None = None
         self.firmware_version: str | None = None
         self.reset_cause: str | None = None  # from the boot frame or a version query
+        self.boot_count: int | None = None  # the board's current boot (firmware 1.2 and later)
+        self._boot_unanswered = False  # the board waits for a hello before it drives
 
     # ------------------------------------------------------------------ lifecycle
     def __enter__(self) -> RobotLink:
@@ -282,6 +300,11 @@ class RobotLink:
                     f"{self.connect_timeout_s:g} s (is the firmware running and the baud rate "
                     f"{self.baudrate}?)"
                 )
+        # A board that booted before the port opened may still wait for its hello: the first
+        # drive request learns its boot count (a version query) and answers it.
+        with self._io_lock:
+            if self.boot_count is None:
+                self._boot_unanswered = True
         if self.watchdog_ms is not None:
             self.set_watchdog_ms(self.watchdog_ms)
         self._start_keepalive()
@@ -310,19 +333,25 @@ class RobotLink:
         ``command``: a ``Command`` (or its int) or a letter ``F``/``L``/``R``/``S``.
         ``lease_s``: how long the keep-alive thread keeps re-sending this command (default:
         until the next request; pass a bound so a hung caller cannot keep the robot moving).
-        The lease ends early if the board refuses the drive for its e-stop or reboots.
+        The lease ends early if the board refuses the drive for its e-stop or reboots. After a
+        reboot the host has seen, this request first answers the boot (hello ``K``, firmware
+        1.2); one written before the host saw it is refused with ``BOOT`` and returned so.
         ``lease_s=0`` sends the frame once and leaves the stop to the board's watchdog (used by
         the watchdog self-test). Raises ``LinkError`` on link loss.
         """
         letter = _letter(command)
-        now = time.monotonic()
-        with self._lease_lock:
-            if letter == STOP or (lease_s is not None and lease_s <= 0):
-                self._lease.letter, self._lease.until = STOP, 0.0  # nothing to refresh
-            else:
-                self._lease.letter = letter
-                self._lease.until = float("inf") if lease_s is None else now + lease_s
-        return self._drive_now(letter)
+        self._raise_if_failed()
+        # With the link held, so that a boot frame read by a keep-alive exchange in progress
+        # ends the old lease before this one is set, never this one.
+        with self._io_lock:
+            now = time.monotonic()
+            with self._lease_lock:
+                if letter == STOP or (lease_s is not None and lease_s <= 0):
+                    self._lease.letter, self._lease.until = STOP, 0.0  # nothing to refresh
+                else:
+                    self._lease.letter = letter
+                    self._lease.until = float("inf") if lease_s is None else now + lease_s
+            return self._drive_now(letter)
 
     def wait_for_watchdog_stop(self, timeout_s: float) -> float | None:
         """Wait for the board's ``$W`` (its watchdog stopped the motors); seconds waited or None."""
@@ -352,7 +381,10 @@ class RobotLink:
         if not ack.accepted or len(ack.info) < 2:
             return None
         self.firmware_version, self.reset_cause = ack.info[0], ack.info[1]
-        return BoardVersion(ack.info[0], ack.info[1], ack)
+        count = _boot_count(ack.info[2:3])
+        if count is not None:
+            self.boot_count = count
+        return BoardVersion(ack.info[0], ack.info[1], ack, count)
 
     def estop(self) -> Ack:
         """Latch the board's emergency stop (motors off until ``clear_estop()`` and a new drive)."""
@@ -429,7 +461,35 @@ class RobotLink:
                     return ack
 
     def _drive_now(self, letter: str) -> Ack:
-        ack = self._checked(protocol.DRIVE, (letter,))
+        """An application's drive request: answers a boot the host has seen, then drives."""
+        with self._io_lock:
+            if letter != STOP:
+                refused = self._answer_boot()
+                if refused is not None:
+                    self._end_lease()
+                    return Ack(refused.seq, letter, self._state, "", refused.rejected, 0.0)
+            return self._checked(protocol.DRIVE, (letter,))
+
+    def _answer_boot(self) -> Ack | None:
+        """Send the hello for the board's current boot if it waits for one; never from the
+        keep-alive. Returns the board's refusal if it would not take it, else None."""
+        if not self._boot_unanswered:
+            return None
+        if self.boot_count is None and self.query_version() is None:
+            self._boot_unanswered = False  # firmware before 1.1: it knows no hello
+            return None
+        if self.boot_count is None:
+            self._boot_unanswered = False  # firmware 1.1: no boot count, no hello
+            return None
+        ack = self._checked(protocol.HELLO, (str(self.boot_count),))
+        if ack.rejected == protocol.REASON_BOOT:
+            # Not the board's current boot (a boot frame was missed): ask, and try once more.
+            self.boot_count = None
+            if self.query_version() is not None and self.boot_count is not None:
+                ack = self._checked(protocol.HELLO, (str(self.boot_count),))
+        if ack.accepted or ack.rejected == protocol.REASON_TYPE:
+            self._boot_unanswered = False  # answered, or firmware that knows no hello
+            return None
         return ack
 
     def _next_seq(self) -> int:
@@ -481,6 +541,9 @@ class RobotLink:
                         self._stats.boots += 1
                         self._state = STOP  # a fresh board has its motors off
                         self._end_lease()  # and only a new drive request may start them
+                        count = _boot_count(item.args[3:4])
+                        self.boot_count = count
+                        self._boot_unanswered = count is not None  # firmware 1.2 waits
                         if item.args:
                             self.firmware_version = item.args[0]
                         if len(item.args) >= 3:  # firmware 1.1: reset cause, flags
@@ -547,6 +610,12 @@ class RobotLink:
                     self._state = ESTOPPED
                     if frame_type == protocol.DRIVE:
                         self._end_lease()  # else clearing the e-stop would restart the drive
+                if reason == protocol.REASON_BOOT and frame_type == protocol.DRIVE:
+                    # The board rebooted and waits for a hello, which only a new drive request
+                    # sends: the lease of the old one ends here.
+                    self._state = STOP
+                    self._boot_unanswered = True
+                    self._end_lease()
                 return Ack(seq, requested, self._state, "", reason, rtt_ms)
             if self._stats.corrupt > corrupt_before:
                 resend = True  # the reply was damaged: resend now rather than wait it out

@@ -19,11 +19,12 @@ PING = "H"
 ESTOP = "E"  # latched emergency stop
 CLEAR = "C"  # clear the e-stop (does not restart motion)
 SET_WATCHDOG = "T"  # arg: period in ms, 50..2000
-VERSION = "V"  # version query: acked with two more args, firmware version and reset cause
+VERSION = "V"  # version query: acked with more args: firmware version, reset cause, boot count
+HELLO = "K"  # arg: the boot count of the board's boot frame; drive frames are obeyed after it
 # Board -> host frame types.
 ACK = "A"  # args: state, flags
 NAK = "N"  # arg: reason
-BOOT = "B"  # seq 0, args: firmware version, reset cause, flags (version only before 1.1)
+BOOT = "B"  # seq 0, args: version, reset cause, flags, boot count (1.1: no count; 1.0: version)
 WATCHDOG_STOP = "W"  # seq 0, arg: S
 
 DRIVE_ARGS = ("F", "L", "R", "S")
@@ -38,7 +39,16 @@ REASON_ARG = "ARG"
 REASON_ESTOP = "ESTOP"
 REASON_TYPE = "TYPE"
 REASON_LONG = "LONG"
-REASONS = (REASON_CRC, REASON_FRAME, REASON_ARG, REASON_ESTOP, REASON_TYPE, REASON_LONG)
+REASON_BOOT = "BOOT"  # a moving drive before the host answered this boot (or a hello for another)
+REASONS = (
+    REASON_CRC,
+    REASON_FRAME,
+    REASON_ARG,
+    REASON_ESTOP,
+    REASON_TYPE,
+    REASON_LONG,
+    REASON_BOOT,
+)
 
 # Reset causes in boot frames and version replies (from the board's MCU status register).
 RESET_CAUSES = {

@@ -267,6 +267,8 @@ class SimulatedBoard:
         start_timeout_s: how long to wait for the harness to announce its pty.
         keep_files: leave the run folder (motor log, harness stderr) in place on ``close()``;
             by default it is removed.
+        optiboot: hand the reset flags to the firmware as the Optiboot bootloader does, at every
+            boot (watchdog resets included): MCUSR cleared, its old value in register r2.
     """
 
     def __init__(
@@ -274,7 +276,9 @@ class SimulatedBoard:
         build_dir: str | os.PathLike[str] | None = None,
         start_timeout_s: float = 30.0,
         keep_files: bool = False,
+        optiboot: bool = False,
     ) -> None:
+        self._optiboot = optiboot
         self._build_dir = Path(build_dir) if build_dir is not None else None
         self._start_timeout_s = start_timeout_s
         self._keep_files = keep_files
@@ -321,8 +325,9 @@ class SimulatedBoard:
         stderr_path = self._run_dir / "harness.stderr"
         try:
             with open(stderr_path, "wb") as stderr:
+                options = ["--optiboot"] if self._optiboot else []
                 self._proc = subprocess.Popen(
-                    [str(exe), "--log", str(self.log_path), "--control", str(elf)],
+                    [str(exe), "--log", str(self.log_path), "--control", *options, str(elf)],
                     stdin=subprocess.PIPE,
                     stdout=subprocess.PIPE,
                     stderr=stderr,
@@ -366,7 +371,8 @@ class SimulatedBoard:
         ``cause``: ``"external"`` (its reset button or pin), ``"power-on"`` (a power cycle: the
         SRAM comes up scrambled) or ``"brown-out"``; the firmware sees it in its MCU status
         register, unless ``flags_cleared``, which leaves that register zero as a bootloader
-        that clears it does (the log then names the cause ``"unknown"``). The firmware then
+        that clears it and passes nothing on does (register r2 zeroed too; the log then names
+        the cause ``"unknown"``). The firmware then
         boots again (motors off, boot frame sent). Host bytes
         written after this returns are not lost to the reboot: the harness holds host input
         back for 2 ms of simulated time after a reset, until the firmware's UART is listening.

@@ -100,10 +100,19 @@ class BoardLink:
         """Send a frame and return the board's reply to it."""
         return self.reply_to(self.send(frame_type, *args))
 
-    def reset(self, cause: str = "external") -> protocol.Frame:
+    def acknowledge_boot(self, boot: protocol.Frame) -> protocol.Frame:
+        """Tell the board the host has seen ``boot`` (its hello ``K``); return the board's reply.
+
+        Until then the board refuses every drive frame but stop (firmware 1.2).
+        """
+        return self.request(protocol.HELLO, boot.args[3] if len(boot.args) > 3 else "0")
+
+    def reset(self, cause: str = "external", acknowledge: bool = True) -> protocol.Frame:
         """Reset the board; return its boot frame once every frame from before it is consumed.
 
         ``cause``: see ``SimulatedBoard.reset`` (an external reset keeps a latched e-stop).
+        ``acknowledge``: answer the boot with the hello frame, as an application about to
+        drive does, so that drive frames are obeyed again.
 
         The ping sent after the reset is answered only after the new boot frame went out, so
         reading up to its ack skips stale frames, including a late boot frame from an earlier
@@ -114,6 +123,8 @@ class BoardLink:
         _, skipped = self.wait_for(lambda f: f.type == protocol.ACK and f.seq == seq)
         boots = [f for f in skipped if f.type == protocol.BOOT]
         assert boots, f"no boot frame after the reset, only {skipped}"
+        if acknowledge:
+            self.acknowledge_boot(boots[-1])
         return boots[-1]
 
 

@@ -251,8 +251,9 @@ def test_motors_are_off_after_boot_and_a_ping_never_starts_them(rover: BoardLink
 
 def test_boot_frame_carries_version_reset_cause_and_flags(board_link: BoardLink) -> None:
     boot = board_link.reset(cause="power-on")
-    assert boot.seq == 0 and len(boot.args) == 3 and boot.args[0]
-    assert boot.args[1:] == ("PWR", "0")
+    assert boot.seq == 0 and len(boot.args) == 4 and boot.args[0]
+    assert boot.args[1:3] == ("PWR", "0")
+    assert boot.args[3].isdigit() and int(boot.args[3]) < 65536  # the boot count
 
 
 def test_motors_stop_when_the_default_lease_runs_out(rover: BoardLink) -> None:

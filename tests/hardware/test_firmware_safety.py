@@ -300,17 +300,19 @@ def test_a_watchdog_reset_boots_latched_and_says_why(rover: BoardLink, latched: 
     reset = rover.board.hang()
     assert reset.cause == "watchdog"
     boot = expect_boot(rover)
-    assert boot.args[1:] == ("WDT", "1"), boot
+    assert boot.args[1:3] == ("WDT", "1"), boot
     # The watchdog stopped a hung board; whoever drove it must look before it moves again.
     assert_ack_state(rover.request(protocol.PING), "X", 1)
     drive_is_refused_and_motors_never_move(rover, reset.t_s)
     assert_ack_state(rover.request(protocol.CLEAR), "S", 0)
+    assert rover.request(protocol.DRIVE, "F").args == (protocol.REASON_BOOT,)  # no hello yet
+    assert_ack_state(rover.acknowledge_boot(boot), "S", 0)
     assert_ack_state(rover.request(protocol.DRIVE, "F"), "F")
 
 
 def test_a_brown_out_reset_boots_latched(rover: BoardLink) -> None:
     rover.board.reset(cause="brown-out")
-    assert expect_boot(rover).args[1:] == ("BOD", "1")
+    assert expect_boot(rover).args[1:3] == ("BOD", "1")
     drive_is_refused_and_motors_never_move(rover, rover.board.resets()[-1].t_s)
 
 
@@ -319,10 +321,13 @@ def test_an_external_reset_keeps_the_latch_as_it_was(rover: BoardLink, latched: 
     if latched:
         assert_ack_state(rover.request(protocol.ESTOP), "X", 1)
     rover.board.reset(cause="external")
-    assert expect_boot(rover).args[1:] == ("EXT", "1" if latched else "0")
+    boot = expect_boot(rover)
+    assert boot.args[1:3] == ("EXT", "1" if latched else "0")
     if latched:
         drive_is_refused_and_motors_never_move(rover, rover.board.resets()[-1].t_s)
     else:
+        assert rover.request(protocol.DRIVE, "F").args == (protocol.REASON_BOOT,)
+        assert_ack_state(rover.acknowledge_boot(boot), "S", 0)
         assert_ack_state(rover.request(protocol.DRIVE, "F"), "F")
 
 
@@ -332,9 +337,11 @@ def test_only_power_on_clears_the_latch(rover: BoardLink) -> None:
         rover.board.reset(cause=cause)
         assert expect_boot(rover).args[2] == "1", cause
     rover.board.hang()
-    assert expect_boot(rover).args[1:] == ("WDT", "1")
+    assert expect_boot(rover).args[1:3] == ("WDT", "1")
     rover.board.reset(cause="power-on")
-    assert expect_boot(rover).args[1:] == ("PWR", "0")
+    boot = expect_boot(rover)
+    assert boot.args[1:3] == ("PWR", "0")
+    assert_ack_state(rover.acknowledge_boot(boot), "S", 0)
     assert_ack_state(rover.request(protocol.DRIVE, "F"), "F")
 
 
@@ -344,14 +351,14 @@ def test_without_reset_flags_the_latch_stays_as_it_was_and_power_up_noise_never_
     """A bootloader may clear MCUSR first; then only the firmware's RAM record tells."""
     assert_ack_state(rover.request(protocol.ESTOP), "X", 1)
     rover.board.reset(cause="external", flags_cleared=True)
-    assert expect_boot(rover).args[1:] == ("?", "1")
+    assert expect_boot(rover).args[1:3] == ("?", "1")
     assert rover.board.resets()[-1].cause == "unknown"
     # A power-up leaves random RAM; it must never read as a latched e-stop.
     for _ in range(5):
         rover.board.reset(cause="power-on", flags_cleared=True)
-        assert expect_boot(rover).args[1:] == ("?", "0")
+        assert expect_boot(rover).args[1:3] == ("?", "0")
     rover.board.reset(cause="external", flags_cleared=True)  # the record is now "clear"
-    assert expect_boot(rover).args[1:] == ("?", "0")
+    assert expect_boot(rover).args[1:3] == ("?", "0")
 
 
 def test_a_hung_board_is_reset_by_the_watchdog_within_its_period(rover: BoardLink) -> None:
@@ -377,12 +384,13 @@ def test_a_hung_board_is_reset_by_the_watchdog_within_its_period(rover: BoardLin
 
 def test_version_query_names_version_and_reset_cause(rover: BoardLink) -> None:
     reply = rover.request("V")
-    assert reply.type == protocol.ACK and len(reply.args) == 4, reply
-    state, flags, version, cause = reply.args
+    assert reply.type == protocol.ACK and len(reply.args) == 5, reply
+    state, flags, version, cause, count = reply.args
     assert (state, flags, cause) == ("S", "0", "PWR")
     boot = rover.reset()  # external reset
     assert boot.args[0] == version
-    assert rover.request("V").args[2:] == (version, "EXT")
+    assert rover.request("V").args[2:] == (version, "EXT", boot.args[3])
+    assert int(boot.args[3]) == (int(count) + 1) % 65536
     assert rover.request("V", "x").args == (protocol.REASON_ARG,)
 
 

@@ -388,7 +388,7 @@ def test_cli_check_with_lease_test_on_the_simulated_firmware(simulated_board, ca
     out = capsys.readouterr().out
     assert code == 0, out
     # No boot wait and no reset: the version comes from the version query.
-    assert "firmware version: 1.1 (last reset: power-on)" in out
+    assert "firmware version: 1.2 (last reset: power-on)" in out
     assert "lease watchdog stopped the motors" in out and "OK:" in out
 
 
@@ -421,7 +421,7 @@ def test_cli_check_leaves_a_latch_from_a_watchdog_reset_latched(simulated_board,
         )
         out = capsys.readouterr().out
         assert code == 0, out
-        assert "firmware version: 1.1 (last reset: hardware watchdog)" in out
+        assert "firmware version: 1.2 (last reset: hardware watchdog)" in out
         assert "e-stop was latched when check connected" in out and "lease test skipped" in out
         assert _ping_reply(simulated_board.serial_url, 9).args == ("X", "1")
     finally:

@@ -102,7 +102,7 @@ def test_hardware_sim_and_check_run_from_the_installed_wheel(installed: Path, tm
         )  # fmt: skip
         assert check.returncode == 0, check.stdout + check.stderr
         # The version comes from the version query: no boot wait, no reset.
-        assert "firmware version: 1.1 (last reset: power-on)" in check.stdout
+        assert "firmware version: 1.2 (last reset: power-on)" in check.stdout
         assert "OK: ping, e-stop latch" in check.stdout
         sim.send_signal(signal.SIGTERM)
         _, err = sim.communicate(timeout=RUN_TIMEOUT_S)

@@ -3,21 +3,30 @@
 // Speaks the line-framed wire protocol of lfd_track/hardware/protocol.py:
 //
 //   host -> board  $<type>,<seq>[,<arg>]*<CRC>\n
-//     D,<seq>,F|L|R|S  drive forward / spin left / spin right / stop (renews the motor lease)
+//     D,<seq>,F|L|R|S  drive forward / spin left / spin right / stop (renews the motor lease);
+//                      F, L and R are refused with BOOT until the host has answered this boot
+//     K,<seq>,<boot>   hello: the host has seen the boot frame with this boot count; drive
+//                      frames are obeyed from now on (a count of another boot is refused, BOOT)
 //     H,<seq>          ping (never changes the motors, does not renew the lease)
 //     E,<seq>          emergency stop: motors off, latched until C
 //     C,<seq>          clear the e-stop; motors stay off until the next drive frame
-//     T,<seq>,<ms>     set the lease (software watchdog) period, 50..2000 ms
-//     V,<seq>          version query: acked with two more fields, the version and reset cause
+//     T,<seq>,<ms>     set the lease (software watchdog) period, 50..2000 ms, for the drive
+//                      frames that follow (the motion in progress keeps the lease it began with)
+//     V,<seq>          version query: acked with three more fields: version, reset cause, boot
 //   board -> host
 //     $A,<seq>,<state>,<flags>*CRC   ack; state = F/L/R/S (drive now applied) or X (e-stopped)
-//     $A,<seq>,<state>,<flags>,<version>,<cause>*CRC   the ack to V
-//     $N,<seq>,<reason>*CRC          reject; reason = CRC FRAME ARG ESTOP TYPE LONG
-//     $B,0,<version>,<cause>,<flags>*CRC   sent once after every reset
+//     $A,<seq>,<state>,<flags>,<version>,<cause>,<boot>*CRC   the ack to V
+//     $N,<seq>,<reason>*CRC          reject; reason = CRC FRAME ARG ESTOP TYPE LONG BOOT
+//     $B,0,<version>,<cause>,<flags>,<boot>*CRC   sent once after every reset
 //     $W,0,S*CRC                     the lease ran out and the motors were stopped
 //
-// Reset cause, from the MCU status register read at boot: PWR power-on, EXT reset pin, BOD
-// brown-out, WDT hardware watchdog, ? none recorded (a bootloader cleared the register).
+// Boot count: 0..65535, one more at every boot, kept in RAM that resets do not clear (after a
+// power-up it starts from whatever the RAM held). A hello must name the current one, so a
+// hello or drive written for an earlier boot cannot move this one.
+//
+// Reset cause, from the MCU status register (MCUSR) at boot, or, when a bootloader cleared it,
+// from register r2, where Optiboot hands the flags over: PWR power-on, EXT reset pin, BOD
+// brown-out, WDT hardware watchdog, ? none recorded (cleared and not handed over).
 //
 // CRC is CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF) over the bytes between '$' and '*',
 // written as 4 upper-case hex digits; lower-case digits are accepted on input.
@@ -31,6 +40,8 @@
 // failures this seq is only a hint, since the bytes it was read from failed the check.
 //
 // Framing: bytes outside a frame are ignored; '$' always starts a new frame (resynchronises);
+// a frame in progress is dropped when no byte of it came for 50 ms (a newline arriving later
+// cannot complete it);
 // a line longer than 31 bytes ('$' up to, not including, the newline; trailing '\r's are
 // stripped first, within the buffer's one spare byte) is rejected as LONG once its newline
 // arrives. The receive buffer is a
@@ -43,18 +54,20 @@
 // flood of any input can starve the watchdog or delay the lease.
 //
 // Safety: a drive frame is a lease. Motors stop when no accepted drive frame arrived within the
-// lease period (default 300 ms); they are off at reset until the first drive frame; a ping never
-// starts motion; drive frames (stop included) are refused with ESTOP while the e-stop is
-// latched, and clearing it leaves the motors off. The AVR hardware watchdog (250 ms) resets the
-// board if the main loop ever hangs. The e-stop latch survives every reset except power-on: it
-// is kept in RAM the C runtime does not clear (.noinit), and a watchdog or brown-out reset
-// latches it even if it was clear (the board stopped for a fault; the host must look before it
-// drives again). None of this replaces the physical motor-power switch.
+// lease period (default 300 ms); they are off at reset until the first drive frame accepted
+// after the host's hello for this boot, so a host still re-sending the drive it sent before
+// the reset cannot restart them; a ping never starts motion; drive frames (stop included) are
+// refused with ESTOP while the e-stop is latched, and clearing it leaves the motors off. The AVR
+// hardware watchdog (250 ms) resets the board if the main loop ever hangs. The e-stop latch is
+// kept in RAM the C runtime does not clear (.noinit, value and complement): it survives every
+// reset that keeps the RAM (a power-up leaves garbage, read as clear), and a watchdog or
+// brown-out reset latches it even if it was clear (the board stopped for a fault; the host must
+// look before it drives again). None of this replaces the physical motor-power switch.
 
 #include <avr/wdt.h>
 #include <util/crc16.h>
 
-static const char FIRMWARE_VERSION[] = "1.1";
+static const char FIRMWARE_VERSION[] = "1.2";
 static const unsigned long SERIAL_BAUD = 9600;  // HC-05/06 factory default
 
 // DFRobot Romeo motor driver pins.
@@ -75,6 +88,8 @@ static const uint8_t DRIVE_DUTY = 200;
 static const uint16_t LEASE_DEFAULT_MS = 300;
 static const uint16_t LEASE_MIN_MS = 50;
 static const uint16_t LEASE_MAX_MS = 2000;
+// A frame in progress whose next byte has not come for this long is dropped.
+static const uint16_t RX_GAP_MS = 50;
 
 static const uint8_t MAX_LINE_BYTES = 31;
 // One extra byte lets a trailing '\r' in, which is stripped before the length check.
@@ -91,73 +106,92 @@ static char rx_buf[RX_CAPACITY + 1];
 static uint8_t rx_len = 0;
 static bool rx_in_frame = false;
 static bool rx_overflow = false;
+static unsigned long rx_last_byte_ms = 0;
 
 // Drive state.
 static char drive_state = 'S';
 static bool estop_latched = false;
 static bool lease_expired = false;
-static uint16_t lease_ms = LEASE_DEFAULT_MS;
+static uint16_t lease_ms = LEASE_DEFAULT_MS;    // for the next accepted drive frame
+static uint16_t drive_lease_ms = LEASE_DEFAULT_MS;  // of the motion in progress
+static bool boot_answered = false;  // the host's hello named this boot; cleared by every reset
 static unsigned long last_drive_ms = 0;
 static uint8_t left_dir_now = DIR_FORWARD;
 static uint8_t right_dir_now = DIR_FORWARD;
 static bool replies_dropped = false;
 static const char *reset_cause = "?";
 
-// MCUSR as it was at reset. Written in .init3, before the C runtime clears .bss (.init4), so it
-// lives in .noinit.
+// The reset flags of this boot. Written in .init3, before the C runtime clears .bss (.init4), so
+// it lives in .noinit, as does r2 as it was at reset (.init0, before anything can change it).
 static uint8_t reset_flags __attribute__((section(".noinit")));
+static uint8_t r2_at_reset __attribute__((section(".noinit")));
 
-// The e-stop latch as last set, in RAM that no reset clears and the C runtime leaves alone. It
-// counts only while magic, value and check match, which random power-up RAM does once in 2^32.
-struct LatchRecord {
+// The e-stop latch as last set and the boot count, in RAM that no reset clears and the C runtime
+// leaves alone. Each counts only while it matches its complement (and the latch its magic), which
+// random power-up RAM does for the latch once in 2^32.
+struct PersistentRecord {
   uint16_t magic;
   uint8_t latched;
-  uint8_t check;
+  uint8_t latched_inverse;
+  uint16_t boot;
+  uint16_t boot_inverse;
 };
 static const uint16_t LATCH_MAGIC = 0x4C46;  // "LF"
-static LatchRecord latch_record __attribute__((section(".noinit")));
+static PersistentRecord persistent __attribute__((section(".noinit")));
+static uint16_t boot_count = 0;
+
+// Optiboot clears MCUSR before it starts the sketch and leaves the old value in r2. Nothing runs
+// before .init0 but the bootloader, so r2 is saved here, with one store (r1 is not zero yet, so
+// no compiled C may run).
+void save_r2(void) __attribute__((naked, used, section(".init0")));
+void save_r2(void) { asm volatile("sts %0, r2" : "=m"(r2_at_reset)); }
 
 // The watchdog stays enabled across a watchdog reset (at the shortest timeout, 16 ms), so it
 // must be turned off before the C runtime and Arduino init() run, or the board would reset
 // forever; and WDE cannot be cleared while WDRF is set, so MCUSR is saved and cleared first
 // (the avr-libc <avr/wdt.h> recipe). setup() re-arms the watchdog.
 void save_reset_flags_and_disable_watchdog(void) __attribute__((naked, used, section(".init3")));
+// MCUSR holds the flags unless a bootloader cleared it; then they are in r2 if it handed them
+// over (Optiboot), else none are known. Without a bootloader MCUSR always has one set.
 void save_reset_flags_and_disable_watchdog(void) {
   reset_flags = MCUSR;
   MCUSR = 0;
   wdt_disable();
+  if (reset_flags == 0) reset_flags = r2_at_reset & 0x0F;  // PORF, EXTRF, BORF, WDRF
 }
 
-static const uint8_t LATCH_CHECK = 0xA5;
-
 static void remember_latch(bool latched) {
-  latch_record.magic = LATCH_MAGIC;
-  latch_record.latched = latched ? 1 : 0;
-  latch_record.check = latch_record.latched ^ LATCH_CHECK;
+  persistent.magic = LATCH_MAGIC;
+  persistent.latched = latched ? 1 : 0;
+  persistent.latched_inverse = ~persistent.latched;
 }
 
 // True if a valid record says latched (a record left by an earlier run, not power-up noise).
 static bool remembered_latch() {
-  return latch_record.magic == LATCH_MAGIC && latch_record.latched == 1 &&
-         latch_record.check == (1 ^ LATCH_CHECK);
+  return persistent.magic == LATCH_MAGIC && persistent.latched == 1 &&
+         persistent.latched_inverse == (uint8_t)~1;
 }
 
-// Decides the latch at boot from the reset cause; a power-on is the only reset that clears it.
+// One more boot: from the record if it is valid, else from whatever the RAM held (a power-up).
+static void count_boot() {
+  boot_count = persistent.boot + 1;
+  persistent.boot = boot_count;
+  persistent.boot_inverse = ~boot_count;
+}
+
+// Decides the latch at boot: a watchdog or brown-out reset latches; otherwise the record
+// decides, which after a power-up is garbage and reads as clear.
 static bool latch_after_reset() {
   if (reset_flags & _BV(PORF)) {
     reset_cause = "PWR";
-    return false;
-  }
-  if (reset_flags & _BV(WDRF)) {
+  } else if (reset_flags & _BV(WDRF)) {
     reset_cause = "WDT";
-    return true;
-  }
-  if (reset_flags & _BV(BORF)) {
+  } else if (reset_flags & _BV(BORF)) {
     reset_cause = "BOD";
-    return true;
+  } else {
+    reset_cause = (reset_flags & _BV(EXTRF)) ? "EXT" : "?";
   }
-  reset_cause = (reset_flags & _BV(EXTRF)) ? "EXT" : "?";
-  return remembered_latch();
+  return (reset_flags & (_BV(WDRF) | _BV(BORF))) || remembered_latch();
 }
 
 static void set_estop(bool latched) {
@@ -245,8 +279,8 @@ static void send_version(uint16_t seq) {
   char body[32];
   uint8_t flags = current_flags();
   replies_dropped = false;
-  snprintf(body, sizeof body, "A,%u,%c,%u,%s,%s", seq, current_state(), flags, FIRMWARE_VERSION,
-           reset_cause);
+  snprintf(body, sizeof body, "A,%u,%c,%u,%s,%s,%u", seq, current_state(), flags,
+           FIRMWARE_VERSION, reset_cause, boot_count);
   send_frame(body);
 }
 
@@ -295,8 +329,13 @@ static void apply_drive(uint16_t seq, char command) {
     send_nak(seq, "ESTOP");
     return;
   }
+  if (command != 'S' && !boot_answered) {
+    send_nak(seq, "BOOT");
+    return;
+  }
   drive_state = command;
   last_drive_ms = millis();
+  drive_lease_ms = lease_ms;
   lease_expired = false;
   set_motors(command);
   send_ack(seq);
@@ -421,6 +460,20 @@ static void handle_line() {
       send_ack(seq);
       return;
     }
+    case 'K': {
+      uint32_t boot;
+      if (args != 1 || !parse_decimal(field[2], field_len[2], 5, &boot)) {
+        send_nak(seq, "ARG");
+        return;
+      }
+      if (boot != boot_count) {
+        send_nak(seq, "BOOT");
+        return;
+      }
+      boot_answered = true;
+      send_ack(seq);
+      return;
+    }
     case 'V':
       if (args != 0) {
         send_nak(seq, "ARG");
@@ -462,7 +515,7 @@ static bool receive_byte(char c) {
 
 static void check_lease() {
   if (drive_state == 'S') return;
-  if (millis() - last_drive_ms >= lease_ms) {
+  if (millis() - last_drive_ms >= drive_lease_ms) {
     drive_state = 'S';
     lease_expired = true;
     set_motors('S');
@@ -478,10 +531,12 @@ void setup() {
   pinMode(PIN_RIGHT_PWM, OUTPUT);
   set_motors('S');
   set_estop(latch_after_reset());
+  count_boot();
   Serial.begin(SERIAL_BAUD);
   wdt_enable(WDTO_250MS);
-  char body[24];
-  snprintf(body, sizeof body, "B,0,%s,%s,%u", FIRMWARE_VERSION, reset_cause, current_flags());
+  char body[28];
+  snprintf(body, sizeof body, "B,0,%s,%s,%u,%u", FIRMWARE_VERSION, reset_cause, current_flags(),
+           boot_count);
   send_frame(body);
 }
 
@@ -492,7 +547,13 @@ static const uint8_t READ_BUDGET = RX_CAPACITY + 1;
 void loop() {
   wdt_reset();
   check_lease();
+  if (rx_in_frame && millis() - rx_last_byte_ms >= RX_GAP_MS) {
+    rx_in_frame = false;  // its newline never came: drop it, whatever arrives later
+    rx_len = 0;
+    rx_overflow = false;
+  }
   for (uint8_t budget = READ_BUDGET; budget > 0 && Serial.available() > 0; budget--) {
+    rx_last_byte_ms = millis();
     if (receive_byte((char)Serial.read())) break;  // at most one line handled per pass
   }
 }
