@@ -15,7 +15,7 @@ setup: $(BIN)/python
 setup-test: $(BIN)/python
 	$(BIN)/pip install --quiet -e ".[test]"
 
-# Speed benchmarks (benchmarks/*.py) also need DEAP, Box2D and threadpoolctl: `make setup-bench`.
+# Speed benchmarks (benchmarks/speed/*.py) also need DEAP, Box2D and threadpoolctl: `make setup-bench`.
 setup-bench: $(BIN)/python
 	$(BIN)/pip install --quiet -e ".[test,bench]"
 
@@ -27,5 +27,5 @@ test: setup-test
 
 lint: setup-test
 	$(BIN)/pip install --quiet ruff
-	$(BIN)/ruff check lfd_track tests benchmarks
-	$(BIN)/ruff format --check lfd_track tests benchmarks
+	$(BIN)/ruff check lfd_track tests benchmarks scripts
+	$(BIN)/ruff format --check lfd_track tests benchmarks scripts

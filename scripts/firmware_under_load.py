@@ -34,6 +34,21 @@ def _answered_ping(port: serial.SerialBase, parser: protocol.FrameParser, seq: i
     raise RuntimeError("the simulated board answered no ping")
 
 
+def _acknowledged_boot(port: serial.SerialBase, parser: protocol.FrameParser, seq: int) -> None:
+    """Ask the fresh board its boot count (``V``) and answer it with the hello, so it drives."""
+    for attempt in range(20):
+        port.write(protocol.encode_frame(protocol.VERSION, seq + attempt))
+        deadline = time.monotonic() + 1.0
+        while time.monotonic() < deadline:
+            for item in parser.feed(port.read(port.in_waiting or 1)):
+                if isinstance(item, protocol.Frame) and item.seq == seq + attempt:
+                    count = item.args[-1] if len(item.args) > 1 else "0"
+                    port.write(protocol.encode_frame(protocol.HELLO, seq + 100, count))
+                    _answered_ping(port, parser, seq + 200)
+                    return
+    raise RuntimeError("the simulated board answered no version query")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--runs", type=int, default=20)
@@ -48,6 +63,7 @@ def main() -> None:
             for _ in range(args.runs):
                 board.reset(cause="power-on")
                 _answered_ping(port, frames, 60000)
+                _acknowledged_boot(port, frames, 62000)
                 resets = len(board.resets())
                 flood = b"".join(protocol.encode_frame(protocol.PING, 2 + i) for i in range(PINGS))
                 port.write(protocol.encode_frame(protocol.DRIVE, 1, "F") + flood)

@@ -29,7 +29,9 @@ def _name(page: Path) -> str:
 def _blocks(language: str) -> list[tuple[str, int, str]]:
     found = []
     for page in PAGES:
-        blocks = [b for lang, b in FENCE.findall(page.read_text(encoding="utf-8")) if lang == language]
+        blocks = [
+            b for lang, b in FENCE.findall(page.read_text(encoding="utf-8")) if lang == language
+        ]
         found += [(_name(page), i + 1, block) for i, block in enumerate(blocks)]
     return found
 
