@@ -23,6 +23,7 @@ def read_regular_file(
     *,
     check_head: Callable[[bytes], None] | None = None,
     head_bytes: int = 0,
+    max_hole_tail: int | None = None,
 ) -> bytearray:
     """The bytes of the regular file ``path``, at most ``max_bytes`` of them.
 
@@ -30,7 +31,9 @@ def read_regular_file(
     ``check_head``, the first ``head_bytes`` bytes (fewer if the file is shorter) are read and
     passed to it before the rest: it raises to refuse the file, so a large file of the wrong
     kind is refused without reading it whole. The file is read into one buffer of its size (no
-    second copy), and running out of memory is reported as a file error too.
+    second copy), and running out of memory is reported as a file error too. With
+    ``max_hole_tail``, a file whose last ``max_hole_tail`` bytes were never written (a hole: they
+    read as zeros, e.g. a file extended by ``truncate``) is refused before it is read.
 
     Raises:
         FileFormatError: one line naming the file: missing, unreadable, not a regular file,
@@ -67,6 +70,12 @@ def read_regular_file(
         if check_head is not None:
             total = _read_into(fd, view[: min(head_bytes, info.st_size)])
             check_head(bytes(view[:total]))
+        if max_hole_tail is not None and _ends_in_hole(fd, info.st_size, max_hole_tail):
+            raise FileFormatError(
+                path,
+                f"{what} file ends in more than {max_hole_tail} bytes that were never written"
+                " (corrupt file)",
+            )
         total += _read_into(fd, view[total:])
         view.release()
         del buffer[total:]  # the file may have shrunk meanwhile: keep what is there
@@ -85,6 +94,22 @@ def read_regular_file(
         raise FileFormatError(path, f"{what} file is too large to read into memory") from None
     finally:
         os.close(fd)
+
+
+def _ends_in_hole(fd: int, size: int, length: int) -> bool:
+    """Whether the last ``length`` bytes of the open file ``fd`` (of ``size`` bytes) hold no data
+    (one ``SEEK_DATA``; False where the file system cannot tell). The offset is put back."""
+    seek_data = getattr(os, "SEEK_DATA", None)
+    if seek_data is None or size <= length:
+        return False
+    here = os.lseek(fd, 0, os.SEEK_CUR)
+    try:
+        os.lseek(fd, size - length, seek_data)
+    except OSError as exc:
+        return exc.errno == errno.ENXIO  # no data from there to the end
+    finally:
+        os.lseek(fd, here, os.SEEK_SET)
+    return False
 
 
 def _read_into(fd: int, view: memoryview) -> int:

@@ -25,6 +25,7 @@ from lfd_track.errors import FileFormatError
 BINS = 8
 MAGIC_LEN = 8
 FRAME_LEN = 9  # kind u8, length u32, crc u32
+INDEX_LEN = 4  # schema 4: a record's index, first in its payload
 
 
 def _case(rng: np.random.Generator, bins: int = BINS):
@@ -312,7 +313,7 @@ def _with_case_byte(data: bytes, offset: int, value: int) -> bytes:
 
     (length,) = struct.unpack_from("<I", data, offset + 1)
     payload = bytearray(data[offset + FRAME_LEN : offset + FRAME_LEN + length])
-    payload[8] = value  # the command byte, after the int64 step
+    payload[4 + 8] = value  # the command byte, after the record index and the int64 step
     head = struct.pack("<BI", data[offset], length)
     crc = zlib.crc32(bytes(payload), zlib.crc32(head))
     frame = struct.pack("<BII", data[offset], length, crc)
@@ -356,7 +357,7 @@ def test_cases_carry_source_and_round(tmp_path: Path) -> None:
     demo = load_demonstration(path)
     assert demo.sources.tolist() == ["demonstration", "correction", "demonstration"]
     assert demo.rounds.tolist() == [0, 2, 1] and demo.rounds.dtype == np.int64
-    assert demo.metadata["schema_version"] == SCHEMA_VERSION == 2
+    assert demo.metadata["schema_version"] == SCHEMA_VERSION == 4
     copy = tmp_path / "copy.lfdemo"
     save_demonstration(copy, demo)
     again = load_demonstration(copy)
@@ -433,7 +434,7 @@ def test_impossible_values_are_refused(tmp_path: Path) -> None:
     _one_line_error(bad, "case 0: step -5 is negative")
     big = struct.pack("<f", 2.5)
     end = FRAME_LEN + struct.unpack_from("<I", data, offsets[1] + 1)[0]
-    bad.write_bytes(_with_payload(data, offsets[1], end - FRAME_LEN - 4, big))
+    bad.write_bytes(_with_payload(data, offsets[1], end - FRAME_LEN - INDEX_LEN - 4, big))
     _one_line_error(bad, "case 0: region histograms values must lie in [0, 1]")
     bad.write_bytes(_rewrite_header(data, lambda h: {**h, "metadata": {"x": float("nan")}}))
     _one_line_error(bad, "header: non-finite number NaN")
@@ -443,11 +444,13 @@ def test_impossible_values_are_refused(tmp_path: Path) -> None:
 
 
 def _with_payload(data: bytes, offset: int, at: int, new: bytes) -> bytes:
-    """Overwrite payload bytes ``at`` of the record at ``offset`` and fix its CRC."""
+    """Overwrite payload bytes ``at`` (counted after the record's index) of the record at
+    ``offset`` and fix its CRC."""
     import zlib
 
     (length,) = struct.unpack_from("<I", data, offset + 1)
     payload = bytearray(data[offset + FRAME_LEN : offset + FRAME_LEN + length])
+    at += INDEX_LEN
     payload[at : at + len(new)] = new
     head = struct.pack("<BI", data[offset], length)
     frame = struct.pack("<BII", data[offset], length, zlib.crc32(bytes(payload), zlib.crc32(head)))
@@ -529,9 +532,10 @@ def test_footer_that_disagrees_with_the_log_is_refused(tmp_path: Path) -> None:
     _record_with_library(path, 9)
     data = path.read_bytes()
     footer_at = _case_offsets(data)[-1]
-    footer = json.loads(data[footer_at + FRAME_LEN :])
+    index = data[footer_at + FRAME_LEN : footer_at + FRAME_LEN + INDEX_LEN]
+    footer = json.loads(data[footer_at + FRAME_LEN + INDEX_LEN :])
     footer["road_library"]["types"][0]["selections"] += 1
-    payload = json.dumps(footer).encode()
+    payload = index + json.dumps(footer).encode()
     head = struct.pack("<BI", ord("F"), len(payload))
     frame = struct.pack("<BII", ord("F"), len(payload), zlib.crc32(payload, zlib.crc32(head)))
     path.write_bytes(data[:footer_at] + frame + payload)
