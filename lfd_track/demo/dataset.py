@@ -732,7 +732,7 @@ def load_demonstration(path: str | Path) -> Demonstration:
         "demonstration",
         check_head=check_magic,
         head_bytes=len(_MAGIC),
-        max_hole_tail=MAX_ZERO_TAIL_BYTES,
+        max_zero_tail=MAX_ZERO_TAIL_BYTES,
     )
     return _parse(path, memoryview(data))
 
