@@ -2,7 +2,11 @@
 
 User errors (bad files, unknown tracks, bad flags) print one line to stderr and exit 1 (2 for bad
 usage); nothing already saved is overwritten by a half-written file (every output is written
-atomically or, for demonstrations, crash-safely).
+atomically or, for demonstrations, crash-safely). An output only ever replaces a regular file:
+one whose name is a symbolic link (wherever it points), a device, a FIFO or a socket is refused
+before any work (see outputs.py). Names that are not valid UTF-8 are shown with \\x escapes (in
+messages and on plots); a track or preset name that a recording or a benchmark would record
+must be UTF-8 and is otherwise refused before any work.
 """
 
 from __future__ import annotations
@@ -237,7 +241,8 @@ def _cmd_evolve(args: argparse.Namespace) -> int:
             ("best", result.best_history, (200, 30, 30)),
             ("mean", result.mean_history, (30, 80, 200)),
         ],
-        title=f"Fitness of each generation: {shown_path(Path(args.demo).name)}, GA seed {args.seed}",
+        title=f"Fitness of each generation: {shown_path(Path(args.demo).name)},"
+        f" GA seed {args.seed}",
         notes=fitness_notes(config.elitism),
     )
     # Both files or neither: the controller waits under a hidden name beside --out until the
@@ -341,7 +346,8 @@ def _cmd_drive(args: argparse.Namespace) -> int:
                 x, y = env.track.vertices[:, 0], env.track.vertices[:, 1]  # in driving order
                 area2 = float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
                 direction = "counter-clockwise" if area2 > 0 else "clockwise"
-            title = f"{shown_path(args.track)} track, {direction}: {shown_path(Path(args.controller).name)}"
+            controller_name = shown_path(Path(args.controller).name)
+            title = f"{shown_path(args.track)} track, {direction}: {controller_name}"
             picture = laps_plot(
                 env.track,
                 trajectories,
@@ -495,6 +501,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="lfd-track",
         description="Learning from demonstration with encapsulated evolution on a felt-track rover.",
+        epilog="Outputs: an existing file is replaced only where a command says so (--force);"
+        " an output name that is a symbolic link, a device, a FIFO or a socket is always refused."
+        " Track and preset names recorded in a recording or in benchmark results must be UTF-8.",
     )
     parser.add_argument(
         "--quiet",

@@ -13,7 +13,10 @@ File layout (all integers little-endian)::
     magic      8 bytes  b"\\x89LFDEMO\\n"   (binary-safe, catches text-mode transfers)
     record*    kind u8 | length u32 | crc32 u32 | payload[length]
 
-The CRC-32 covers kind, length and payload. Records, in order:
+The CRC-32 covers kind, length and payload. From schema 4 on, every record after the header
+starts its payload with its index ``u32`` (1 for the first record after the header, counting
+every kind), so a record out of order, repeated or missing is refused; the layouts below follow
+the index. Records, in order:
 
 - ``H`` header, once, first: UTF-8 JSON ``{"format", "schema", "bins", "n_values", "n_channels",
   "metadata", "initial_road_library"}``; the last is the library snapshot when recording started
@@ -38,16 +41,21 @@ snapshot (checked at load); a partial file's replayed snapshot becomes its ``"ro
 Schema 1 files (no source, round or library log) still load: every case is a ``"demonstration"``
 of round 0. A recording without memory inputs is written as schema 2 (as before memory existed);
 one with memory inputs as schema 3, whose header adds ``n_memory`` and whose cases carry them.
+Every recording is now written as schema 4: the schema 3 layout with record indexes, its header
+always saying ``n_memory`` (0 without memory). Schemas 1-3 still load exactly as before.
 
 Why a log rather than ``.npz``: each case is one ``write`` of one record on an unbuffered file
 (and by default ``fsync``-ed), so a killed recorder loses at most the case being written, and
 appending stays O(1) per case where rewriting an archive per case would be O(N^2).
 
 Loading reads records until end of file. A record cut short at the end of the file, or a
-complete last record whose CRC fails (a filesystem may extend a file before the data lands), is a
-*torn tail*: it is dropped and reported (``metadata["complete"] = False``,
+complete last record whose CRC fails (a filesystem may extend a file before the data lands: the
+bytes that never landed read as zeros), is a *torn tail*: it is dropped and reported (``metadata["complete"] = False``,
 ``metadata["torn_tail_bytes"]``). A file without a footer is likewise ``complete = False`` but every
-case in it is returned. Anything else — bad magic, unknown schema, a truncated or corrupt header,
+case in it is returned. A footer is never taken for a torn tail when all of its JSON is there (JSON
+holds no zero byte) but its CRC or its length is wrong: that is corruption. A zero tail longer
+than :data:`MAX_ZERO_TAIL_BYTES` is corruption too, refused from the file's last bytes before it
+is read whole. Anything else — bad magic, unknown schema, a truncated or corrupt header,
 a corrupt record with data after it, a length no record of its kind can have, data after the
 footer, values out of range — raises :class:`lfd_track.errors.FileFormatError` with one line
 naming the file and the problem. Only regular files up to :data:`MAX_FILE_BYTES` are read.
