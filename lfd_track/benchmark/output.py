@@ -36,6 +36,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from ..errors import LfdTrackError
+from ..outputs import refuse_unsafe_output
 
 try:
     import fcntl
@@ -46,6 +47,8 @@ REPETITIONS = "repetitions"
 """Sub-folder of the output holding one folder per repetition."""
 LAST = "results.json"
 """Moved into place last: once it is new, so is everything else."""
+FILES = ("trajectories.png", "fitness.png", "report.md", LAST)
+"""The files a run writes at the top of the output folder (checked before the run starts)."""
 STALE_S = 600.0
 """A staging folder nobody holds is left over from a killed run once it is this old (a running
 run locks its folder at once; the wait only covers the moment between making and locking it)."""
@@ -219,8 +222,16 @@ def publish(stage: Path, out: Path) -> None:
         _unlock(lock)
 
 
+def _refuse_unsafe_entries(stage: Path, out: Path, entries: list[Path]) -> None:
+    """Refuse (before any move) an entry of ``out`` to be replaced that is a symbolic link, a
+    device, a FIFO or a socket."""
+    for rel in entries:
+        refuse_unsafe_output(out / rel, folder=None)
+
+
 def _move_in(stage: Path, out: Path) -> None:
     entries = _entries(stage, out)
+    _refuse_unsafe_entries(stage, out, entries)
     aside = Path(tempfile.mkdtemp(prefix=".previous-", dir=stage))
     done: list[tuple[Path, Path | None]] = []  # (entry, where its old version was moved)
     try:
@@ -261,11 +272,16 @@ def staged_output(out: str | Path) -> Iterator[Path]:
     ``out`` when the ``with`` block ends without error, else delete it, leaving ``out`` (and
     everything beside it) as it was.
 
-    Raises ``LfdTrackError`` at once if ``out`` exists and is not a folder.
+    Raises ``LfdTrackError`` at once if ``out`` exists and is not a folder (a symbolic link to
+    one is refused too: outputs are never written through a link), or if a file the run writes
+    (:data:`FILES`) is there and is not a regular file.
     """
     out = Path(os.path.abspath(out))
     if os.path.lexists(out) and not out.is_dir():
         raise LfdTrackError(f"{out}: exists and is not a folder (the benchmark writes a folder)")
+    refuse_unsafe_output(out, folder=True)
+    for name in (*FILES, REPETITIONS):
+        refuse_unsafe_output(out / name, folder=None)
     created = _missing_parents(out.parent)
     out.parent.mkdir(parents=True, exist_ok=True)
     _remove_left_stages(out)

@@ -56,9 +56,14 @@ def _cmd_study(args: argparse.Namespace) -> int:
     if args.address is not None and args.executor != "ray":
         raise LfdTrackError("--address needs --executor ray")
     study = load_study(args.study_file)  # a bad study file fails here, before DIR is touched
+    from ..outputs import refuse_unsafe_output
+
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise LfdTrackError(f"{out}: exists and is not a folder")
+    refuse_unsafe_output(out, folder=True)  # a symbolic link to a folder too
+    for name in ("study.json", "study.md", "study.png"):
+        refuse_unsafe_output(out / name)
     out.mkdir(parents=True, exist_ok=True)
     show = not args.quiet and sys.stderr.isatty()
     # SIGTERM stops the study like Ctrl-C: the jobs still running are stopped (worker processes
