@@ -22,10 +22,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
+from .atomic import replace_file
 from .cli_types import non_negative_int as _seed
 from .cli_types import positive_int as _positive_int
 from .errors import LfdTrackError
-from .atomic import replace_file
 from .outputs import (
     in_progress_name,
     keep_partial,

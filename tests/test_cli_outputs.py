@@ -356,9 +356,7 @@ def test_dev_null_as_an_output_is_refused_and_stays_a_device(controller, small_d
 
 
 @pytest.mark.parametrize("kind", ["fifo", "link"])
-def test_benchmark_refuses_a_linked_output_folder_or_special_files_in_it(
-    tmp_path, capsys, kind
-):
+def test_benchmark_refuses_a_linked_output_folder_or_special_files_in_it(tmp_path, capsys, kind):
     folder = tmp_path / "real"
     folder.mkdir()
     if kind == "link":
@@ -450,9 +448,7 @@ def test_drive_with_names_that_are_not_utf8(controller, tmp_path):
 
 
 @pytest.mark.parametrize("command", ["benchmark", "demo"])
-def test_a_track_named_with_a_byte_that_is_not_utf8_is_refused_before_the_run(
-    tmp_path, command
-):
+def test_a_track_named_with_a_byte_that_is_not_utf8_is_refused_before_the_run(tmp_path, command):
     track = _bad(tmp_path, b"l\xff.toml")
     shutil.copyfile(REPO / "tracks" / "testing.toml", track)
     out = tmp_path / "out"

@@ -430,9 +430,7 @@ def _learned_record(change: LibraryLearned, index: int) -> bytes:
         -1 if out.evicted_type is None else out.evicted_type,
         -1 if out.evicted_example is None else out.evicted_example,
     )
-    return _frame(
-        _KIND_LEARNED, fixed + np.asarray(change.model, dtype="<f4").tobytes(), index
-    )
+    return _frame(_KIND_LEARNED, fixed + np.asarray(change.model, dtype="<f4").tobytes(), index)
 
 
 def _selected_record(per_model: np.ndarray, index: int) -> bytes:

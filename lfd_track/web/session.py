@@ -15,7 +15,6 @@ Nothing moves unless the controlling page holds the lease (:class:`~lfd_track.we
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import threading
 import time

@@ -583,7 +583,7 @@ def test_a_header_that_cannot_be_written_leaves_no_file(tmp_path, monkeypatch, o
 def _records(data: bytes) -> list[bytes]:
     """The whole records after the magic, the header first."""
     offsets = _case_offsets(data) + [len(data)]
-    return [data[a:b] for a, b in zip(offsets, offsets[1:])]
+    return [data[a:b] for a, b in zip(offsets, offsets[1:], strict=False)]
 
 
 def _reframe(record: bytes, payload: bytes) -> bytes:
