@@ -55,6 +55,12 @@ def _outcome_with(key: str, value) -> dict:
 
 
 _DELETE = object()
+FULL = [  # the four trials job_results() holds, in its order
+    outcome("training", "direction_1", ["1", "2"]),
+    outcome("training", "direction_2", ["1"]),
+    outcome("testing", "ccw"),
+    outcome("testing", "cw", ["4"]),
+]
 
 DAMAGED = [
     ("outcomes", _DELETE, "'outcomes'"),
@@ -71,6 +77,13 @@ DAMAGED = [
     ("outcomes", [_outcome_with("failure", ["x"])], "outcomes[0]: 'failure'"),
     ("outcomes", [_outcome_with("failure", "reversed")], "succeeds exactly when"),
     ("outcomes", [_outcome_with("direction", "up")], "direction must be one of"),
+    # The trials must be exactly the job's: every direction, repetition and trial once.
+    ("outcomes", FULL[:3], "holds 0 of the 1 trial(s) of testing/cw (1 repetition(s) x 1"),
+    ("outcomes", FULL[1:], "holds 0 of the 1 trial(s) of training/direction_1"),
+    ("outcomes", [], "holds 0 of the 1 trial(s) of training/direction_1"),
+    ("outcomes", [*FULL, FULL[2]], "outcomes[4]: testing/ccw repetition 0 trial 0 is listed twice"),
+    ("outcomes", [*FULL[:3], {**FULL[3], "trial": 1}], "outcomes[3]: 'trial' must be below the"),
+    ("outcomes", [*FULL, outcome("kite", "ccw")], "outcomes[4]: the job drives no track 'kite'"),
     ("timing_s", "x", "'timing_s' must be an object"),
     ("timing_s", {"wall": "x"}, "'timing_s.wall' must be a finite number"),
     ("training_accuracy", "abc", "'training_accuracy' must be a list"),
