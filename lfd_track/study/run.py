@@ -196,11 +196,16 @@ def _run_pool(ctx: Any, jobs: Sequence[Job], done: JobDone, *, workers: int) -> 
                 idle.clear()
     finally:
         _stop_all(busy + idle)
+    _raise_lost(lost)
+    return again
+
+
+def _raise_lost(lost: list[str]) -> None:
+    """One ``LfdTrackError`` line for the jobs that failed by losing their worker, if any."""
     if lost:
         rest = "the other jobs finished; run the same command to run "
         rest += "it again" if len(lost) == 1 else "them again"
         raise LfdTrackError("; ".join(lost) + f" ({rest})")
-    return again
 
 
 def _times(n: int) -> str:
@@ -336,9 +341,13 @@ def _run_ray(jobs: Sequence[Job], done: JobDone, *, workers: int, address: str |
                 object_store_memory=256 * 1024**2,
                 **options,
             )
+    # A task whose worker process dies is run again by Ray, as the local pool does (a job that
+    # raises is not: Ray retries exceptions only when asked to).
+    lost_worker = (ray.exceptions.WorkerCrashedError, ray.exceptions.OutOfMemoryError)
     pending: dict[Any, Job] = {}
+    lost: list[str] = []
     try:
-        task = ray.remote(num_cpus=1, max_retries=0)(run_job)
+        task = ray.remote(num_cpus=1, max_retries=LOST_WORKER_TRIES - 1)(run_job)
         pending = {task.remote(job): job for job in jobs}
         while pending:
             finished, _ = ray.wait(list(pending), num_returns=1)
@@ -346,10 +355,17 @@ def _run_ray(jobs: Sequence[Job], done: JobDone, *, workers: int, address: str |
                 job = pending.pop(ref)
                 try:
                     files = ray.get(ref)
+                except lost_worker as exc:
+                    lost.append(
+                        f"job {job.key} failed: its worker process died "
+                        f"{_times(LOST_WORKER_TRIES)} ({_first_line(exc)})"
+                    )
+                    continue
                 except Exception as exc:
                     cause = getattr(exc, "cause", None) or exc
                     raise _failed(job, cause) from exc
                 done(job, files)
+        _raise_lost(lost)
     except BaseException:
         for ref in pending:
             ray.cancel(ref, force=True)

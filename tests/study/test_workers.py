@@ -198,3 +198,42 @@ def wait_for_gone(pids: set[int], timeout: float) -> set[int]:
             return left
         time.sleep(0.02)
     return {pid for pid in pids if alive(pid)}
+
+
+def _need_ray() -> None:
+    import importlib.util
+
+    from lfd_test_support import unavailable
+
+    if importlib.util.find_spec("ray") is None:
+        unavailable("the Ray executor tests need Ray (pip install 'lfd-track[cluster]')")
+
+
+RAY = ("--executor", "ray", "--workers", "2")
+
+
+def test_ray_runs_a_killed_worker_s_job_again_then_fails_it_after_the_rest(tmp_path, studies):
+    _need_ray()
+    study, out, folder = write_study(tmp_path), tmp_path / "out", tmp_path / "jobs"
+    proc = studies(study, out, folder, *RAY, block="paper/seed1:2")
+    os.kill(attempt_pid(folder, "paper/seed1", 1, timeout=180), signal.SIGKILL)
+    os.kill(attempt_pid(folder, "paper/seed1", 2), signal.SIGKILL)  # Ray ran it again
+    _, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 1, stderr
+    last = stderr.splitlines()[-1]  # (Ray logs a few lines of its own before)
+    assert last.startswith("lfd-track study: job paper/seed1 failed: its worker process died")
+    assert "Traceback" not in stderr, stderr
+    assert finished(out, (0, 1)) == [0]
+
+
+def test_killing_a_ray_study_ends_its_workers(tmp_path, studies):
+    _need_ray()
+    study, out, folder = write_study(tmp_path), tmp_path / "out", tmp_path / "jobs"
+    proc = studies(study, out, folder, *RAY, block="paper/seed0:1,paper/seed1:1")
+    workers = {attempt_pid(folder, "paper/seed0", timeout=180), attempt_pid(folder, "paper/seed1")}
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait(timeout=60)
+    # Ray ends the raylet with the study and the task workers with the raylet (its dashboard
+    # and runtime-env agents, which run no job, notice about a minute later).
+    left = wait_for_gone(workers, timeout=10.0)
+    assert not left, f"Ray workers still running after the study was killed: {sorted(left)}"
