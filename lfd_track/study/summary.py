@@ -98,10 +98,10 @@ def check_job_results(
     That is: ``outcomes``, a list of trial outcomes (every field of
     :class:`~lfd_track.benchmark.tables.TrialOutcome`, consistent, ``repetition`` below
     ``repetitions``; given ``trials_per_direction`` and ``test_tracks``, exactly the job's
-    trials: each direction it drives, repetition and trial once); if present, ``timing_s.wall``, ``training_accuracy`` and the
-    ``human_effort``/``human`` totals as finite numbers (counts as integers 0 to
-    :data:`MAX_COUNT`); and, for a job that reports no command count, ``demonstrations`` with
-    integer ``cases``.
+    trials: each direction it drives, repetition and trial once); if present,
+    ``timing_s.wall``, ``training_accuracy`` and the ``human_effort``/``human`` totals as finite
+    numbers (counts as integers 0 to :data:`MAX_COUNT`); and, for a job that reports no command
+    count, ``demonstrations`` with integer ``cases``.
     """
     outcomes = results.get("outcomes")
     if "outcomes" not in results:

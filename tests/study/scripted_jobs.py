@@ -14,8 +14,9 @@ import os
 import time
 from pathlib import Path
 
-import lfd_track.study.run as run_module
 from study_helpers import job_results
+
+import lfd_track.study.run as run_module
 
 SCRIPT_DIR = "LFD_TEST_STUDY_DIR"
 """Environment variable naming the folder through which :func:`scripted_job` reports."""

@@ -84,7 +84,7 @@ DAMAGED = [
     ("outcomes", [], "holds 0 of the 1 trial(s) of training/direction_1"),
     ("outcomes", [*FULL, FULL[2]], "outcomes[4]: testing/ccw repetition 0 trial 0 is listed twice"),
     ("outcomes", [*FULL[:3], {**FULL[3], "trial": 1}], "outcomes[3]: 'trial' must be below the"),
-    ("outcomes", [*FULL, outcome("kite", "ccw", ["1"])], "outcomes[4]: the job drives no track 'kite'"),
+    ("outcomes", [*FULL, outcome("kite", "ccw", ["1"])], "outcomes[4]: the job drives no track"),
     ("timing_s", "x", "'timing_s' must be an object"),
     ("timing_s", {"wall": "x"}, "'timing_s.wall' must be a finite number"),
     ("training_accuracy", "abc", "'training_accuracy' must be a list"),

@@ -100,7 +100,8 @@ def descendants(pid: int) -> set[int]:
     parents: dict[int, int] = {}
     for entry in Path("/proc").glob("[0-9]*"):
         try:
-            parents[int(entry.name)] = int((entry / "stat").read_text().rsplit(")", 1)[1].split()[2])
+            fields = (entry / "stat").read_text().rsplit(")", 1)[1].split()
+            parents[int(entry.name)] = int(fields[2])
         except (OSError, ValueError, IndexError):
             continue
     found, frontier = set(), {pid}
@@ -160,7 +161,8 @@ def test_a_second_study_into_a_busy_folder_is_refused_in_one_line(tmp_path, stud
     attempt_pid(tmp_path / "first", "paper/seed0")  # the first study is running a job
     wait_for("the first study's finished job", lambda: workers == "1" or finished(out, (1,)))
     before = _tree(out)
-    other = write_study(tmp_path, TINY_STUDY.replace("generations = 5", "generations = 6"), "other.toml")
+    other_text = TINY_STUDY.replace("generations = 5", "generations = 6")
+    other = write_study(tmp_path, other_text, "other.toml")
     for second_study in (study, other):  # the same study, and one with other settings
         second = studies(second_study, out, tmp_path / "second", "--workers", workers)
         stdout, stderr = second.communicate(timeout=60)
