@@ -77,9 +77,10 @@ def _remove_empty(folders: list[Path]) -> None:
             return
 
 
-def _lock(folder: Path, *, wait: bool = False) -> int | None:
+def _lock(folder: Path, *, wait: bool = False, busy: str | None = None) -> int | None:
     """An open descriptor of ``folder`` holding an exclusive lock on it; None if another
-    process holds one (and not ``wait``) or the file system has no locks."""
+    process holds one (and not ``wait``; with ``busy``, ``LfdTrackError`` "``folder``:
+    ``busy``" instead) or the file system has no locks."""
     if fcntl is None:  # pragma: no cover - not on POSIX
         return None
     try:
@@ -90,6 +91,8 @@ def _lock(folder: Path, *, wait: bool = False) -> int | None:
         fcntl.flock(fd, fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB))
     except BaseException as exc:  # held elsewhere, no locks here, or Ctrl-C while waiting
         os.close(fd)
+        if isinstance(exc, BlockingIOError) and busy is not None:
+            raise LfdTrackError(f"{folder}: {busy}") from None
         if isinstance(exc, OSError):
             return None
         raise
@@ -99,6 +102,18 @@ def _lock(folder: Path, *, wait: bool = False) -> int | None:
 def _unlock(fd: int | None) -> None:
     if fd is not None:
         os.close(fd)
+
+
+@contextmanager
+def locked_folder(folder: Path, busy: str) -> Iterator[None]:
+    """Hold the lock a run takes on its output ``folder`` (an existing folder) for the block;
+    ``LfdTrackError`` "``folder``: ``busy``" at once if another process holds it. Where the
+    file system has no locks the block runs without one."""
+    fd = _lock(folder, busy=busy)
+    try:
+        yield
+    finally:
+        _unlock(fd)
 
 
 def _remove_left_stages(out: Path) -> None:
