@@ -7,9 +7,8 @@ BIN := $(VENV)/bin
 # it anew; tests/test_lock.py fails when it no longer satisfies pyproject.toml.
 LOCK := requirements.lock
 LOCK_EXTRAS := test,bench
-# PIP_CONSTRAINT (not only -c) so that the isolated build of the package takes the locked
-# hatchling too.
-PIP := PIP_CONSTRAINT="$(CURDIR)/$(LOCK)" $(BIN)/python -m pip
+# PIP_BUILD_CONSTRAINT: the isolated build of the package takes the locked hatchling too.
+PIP := PIP_CONSTRAINT="$(CURDIR)/$(LOCK)" PIP_BUILD_CONSTRAINT="$(CURDIR)/$(LOCK)" $(BIN)/python -m pip
 
 .PHONY: benchmark test setup setup-test setup-bench lint lock
 

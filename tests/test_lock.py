@@ -124,7 +124,11 @@ def test_a_lock_line_that_is_not_an_exact_pin_is_refused(text, message):
 
 def test_the_setup_targets_install_from_the_lock():
     makefile = _makefile()
-    assert re.search(r'^PIP := PIP_CONSTRAINT="\$\(CURDIR\)/\$\(LOCK\)" ', makefile, re.M)
+    pip = re.search(r"^PIP := (.*)$", makefile, re.M)
+    assert pip is not None
+    # the packages, and the build backend of the package's isolated build
+    assert 'PIP_CONSTRAINT="$(CURDIR)/$(LOCK)"' in pip[1]
+    assert 'PIP_BUILD_CONSTRAINT="$(CURDIR)/$(LOCK)"' in pip[1]
     assert re.search(r"^LOCK := requirements\.lock$", makefile, re.M)
     installs = [line for line in makefile.splitlines() if re.search(r"\bpip\b.* install", line)]
     # Every install in the setup targets goes through $(PIP); only `make lock` resolves afresh.
