@@ -58,10 +58,10 @@ def _demonstrate(folder: Path, seed: int) -> Any:
     return load_demonstration(path)
 
 
-def _library_decisions(demo: Any) -> tuple[int, int]:
-    library = demo.metadata["road_library"]
-    types = library["types"]
-    return len(types), sum(len(t["examples"]) for t in types)
+def _library_decisions(demo: Any) -> str:
+    """The road library the demonstration ended with (types, models, selection and comparison
+    counts), as text: its similarity decisions are all in it."""
+    return json.dumps(demo.metadata["road_library"], sort_keys=True)
 
 
 def main(argv: list[str] | None = None) -> int:
