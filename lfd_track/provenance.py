@@ -4,7 +4,8 @@ Every ``results.json`` of a benchmark, every ``study.json`` and every speed-benc
 records :func:`environment`. The same seed on the same machine with the same versions gives the
 same bytes; another BLAS kernel (another CPU, another ``OPENBLAS_CORETYPE``) may change the last
 bits of the floating-point numbers (fitness values, network outputs) but not the commands and
-outcomes (README, "What the same seed reproduces"). These fields say which case a comparison is.
+outcomes (README, section on what the same seed reproduces). These fields say which case a
+comparison is.
 """
 
 from __future__ import annotations
