@@ -109,3 +109,66 @@ def wait_until(
         if time.monotonic() > deadline:
             raise AssertionError(f"timed out waiting for {what}")
         time.sleep(poll_s)
+
+
+#: Where the results that pass through BLAS (matrix products, whose last bits depend on the
+#: OpenBLAS kernel and so on the CPU) leave the package: the GA's stacked network outputs, every
+#: network forward pass, and the road-value correlations of the road library.
+BLAS_RESULTS = (
+    ("lfd_track.learning.fitness", "population_outputs"),
+    ("lfd_track.learning.fitness", "mlp_forward"),
+    ("lfd_track.controller", "mlp_forward"),
+    ("lfd_track.teaching.commanders", "mlp_forward"),
+    ("lfd_track.vision.road_library", "similarity_matrix"),
+)
+
+
+def nudge_last_bits(values: Any, rng: np.random.Generator, ulps: int) -> np.ndarray:
+    """``values`` with each element moved 1 to ``ulps`` floating-point steps, up or down at
+    random; exact 0 and ±1 stay (they are set, not summed: flat-histogram correlations,
+    saturated sigmoids)."""
+    a = np.asarray(values, dtype=np.float64)
+    steps = rng.integers(1, ulps + 1, size=a.shape)
+    toward = np.where(rng.random(a.shape) < 0.5, np.inf, -np.inf)
+    fixed = (a == 0.0) | (np.abs(a) == 1.0)
+    out = a.copy()
+    for k in range(ulps):
+        out = np.where((steps > k) & ~fixed, np.nextafter(out, toward), out)
+    return out
+
+
+class PerturbedBLAS:
+    """Context manager: every result in :data:`BLAS_RESULTS` comes back moved by a few ulps
+    (:func:`nudge_last_bits`, one seeded stream), as another BLAS kernel could round it.
+
+    ``calls`` counts the perturbed results per patched name, so a test can check that the
+    patches were reached.
+    """
+
+    def __init__(self, seed: int, ulps: int = 4):
+        self.rng = np.random.default_rng(seed)
+        self.ulps = ulps
+        self.calls: dict[str, int] = {}
+        self._saved: list[tuple[ModuleType, str, Any]] = []
+
+    def __enter__(self) -> PerturbedBLAS:
+        import importlib
+
+        for module_name, name in BLAS_RESULTS:
+            module = importlib.import_module(module_name)
+            original = getattr(module, name)
+            self._saved.append((module, name, original))
+            setattr(module, name, self._wrap(f"{module_name}.{name}", original))
+        return self
+
+    def _wrap(self, key: str, original: Callable[..., Any]) -> Callable[..., Any]:
+        def perturbed(*args: Any, **kwargs: Any) -> np.ndarray:
+            self.calls[key] = self.calls.get(key, 0) + 1
+            return nudge_last_bits(original(*args, **kwargs), self.rng, self.ulps)
+
+        return perturbed
+
+    def __exit__(self, *exc: object) -> None:
+        for module, name, original in reversed(self._saved):
+            setattr(module, name, original)
+        self._saved.clear()

@@ -548,12 +548,9 @@ def summarise(samples: list[Sample]) -> dict:
 def versions() -> dict[str, object]:
     import Box2D
     import pygame
-    import pymunk
 
     return {
-        **machine(),
-        "gymnasium": gym.__version__,
-        "pymunk": pymunk.version,
+        **machine(),  # gymnasium's and pymunk's versions among them
         "box2d": getattr(Box2D, "__version__", "?"),
         "pygame": pygame.version.ver,
     }

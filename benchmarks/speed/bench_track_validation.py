@@ -12,12 +12,12 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import platform
 import time
 from pathlib import Path
 
 import numpy as np
 
+from lfd_track.provenance import environment
 from lfd_track.world.track_file import check_no_self_intersection
 
 RESULTS = Path(__file__).resolve().parent / "results" / "track_validation.json"
@@ -101,7 +101,7 @@ def main() -> None:
             {
                 "benchmark": "track_validation",
                 "method": "best of 3 (grid) / 1 (all pairs) in the same process; valid closed n-gons with 0.35 m sides, width 0.3 m",
-                "machine": {"python": platform.python_version(), "numpy": np.__version__},
+                "machine": environment(),
                 "rows": rows,
             },
             indent=2,

@@ -8,14 +8,14 @@ thread (``cv2.setNumThreads(1)``) and the BLAS behind numpy limited to one threa
 from __future__ import annotations
 
 import os
-import platform
 import subprocess
 from pathlib import Path
 from typing import Any
 
 import cv2
-import numpy as np
-from threadpoolctl import threadpool_info, threadpool_limits
+from threadpoolctl import threadpool_limits
+
+from lfd_track.provenance import environment
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -32,21 +32,9 @@ def pin_one_thread() -> None:
 
 
 def machine() -> dict[str, Any]:
-    """Versions, thread settings in force, the BLAS kernel, and the load average now."""
-    blas = [
-        {k: info.get(k) for k in ("internal_api", "version", "architecture", "num_threads")}
-        for info in threadpool_info()
-    ]
-    return {
-        "python": platform.python_version(),
-        "processor": platform.machine(),
-        "cpus": os.cpu_count(),
-        "numpy": np.__version__,
-        "opencv": cv2.__version__,
-        "opencv_threads": cv2.getNumThreads(),
-        "blas": blas,
-        "openblas_env": {k: v for k, v in os.environ.items() if k.startswith("OPENBLAS_")},
-    }
+    """Versions, the BLAS kernel (lfd_track.provenance), the thread settings in force, and the
+    machine's processor count."""
+    return {**environment(), "opencv_threads": cv2.getNumThreads()}
 
 
 def load_average() -> list[float]:

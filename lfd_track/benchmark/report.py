@@ -18,6 +18,7 @@ from ..plots import (
     write_png,
 )
 from ..presets import load_preset
+from ..provenance import environment
 from ..world.episode import EpisodeTracker
 from ..world.track import load_track
 from .paper import DIRECTION_TITLES
@@ -186,6 +187,8 @@ def write_benchmark_outputs(
     results["training_accuracy"] = [r.training_accuracy for r in reps]
     results["best_fitness"] = [r.fitness_best[-1] if r.fitness_best else None for r in reps]
     results["method"] = config.method
+    # Versions and BLAS kernel this run was computed with (files written before have none).
+    results["environment"] = environment()
     results["human_effort"] = {
         "repetitions": [dict(r.effort, repetition=r.index) for r in reps],
         "total": {

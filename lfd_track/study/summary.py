@@ -9,6 +9,7 @@ controllers (seed × repetition), and ``per_seed`` shows the spread between seed
 
 from __future__ import annotations
 
+import json
 import math
 import statistics
 from collections.abc import Mapping, Sequence
@@ -21,6 +22,7 @@ from ..atomic import atomic_write_text
 from ..benchmark.paper import TRACK_RESULT_KEYS
 from ..benchmark.runner import config_dict, trial_directions
 from ..benchmark.tables import TrialOutcome, results_json_text
+from ..provenance import environment
 from .spec import Job, Study
 from .stats import controller_interval, rate_summary
 
@@ -375,7 +377,20 @@ def build_study_results(
             for t, k in TRACK_RESULT_KEYS.items()
         },
         "wall_s": sum(float(r.get("timing_s", {}).get("wall", 0.0)) for _, r in finished),
+        # Versions and BLAS kernel of the machine that pooled the jobs, and the distinct ones the
+        # jobs ran with (each job's results.json has its own; jobs written before have none).
+        "environment": environment(),
+        "job_environments": _job_environments(finished),
     }
+
+
+def _job_environments(finished: Sequence[tuple[Job, Mapping[str, Any]]]) -> list[Any]:
+    seen: dict[str, Any] = {}
+    for _, r in finished:
+        env = r.get("environment")
+        if env is not None:
+            seen.setdefault(json.dumps(env, sort_keys=True), env)
+    return [seen[k] for k in sorted(seen)]
 
 
 def _trial_key(track: str) -> str:

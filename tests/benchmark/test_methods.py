@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from lfd_test_support import PerturbedBLAS
 
 from lfd_track.benchmark.methods import (
     HGDaggerConfig,
@@ -37,22 +38,70 @@ def _seeds(benchmark_seed=0):
     return tuple(int(x) for x in rng.integers(0, 2**62, size=3))
 
 
-def test_paper_repetition_is_unchanged_by_the_loop_refactor(tmp_path):
+#: The quick paper-protocol repetition of these tests: one trial each way, 30 generations.
+QUICK_PAPER = BenchmarkConfig(repetitions=1, trials_per_direction=1, ga=GAConfig(generations=30))
+QUICK_SEED = 12345
+
+
+def _digest(array) -> str:
+    return hashlib.sha256(np.ascontiguousarray(array).tobytes()).hexdigest()[:16]
+
+
+def _decisions(result, folder: Path) -> dict:
+    """What a repetition decided, none of it rounded by BLAS: the demonstrator's commands, the
+    controller's weights (drawn by the GA's generator and chosen by fitness comparisons), every
+    trial's outcome and the poses its commands drove (pymunk, no BLAS), the human effort and the
+    training accuracy (a count of argmax agreements over the case count)."""
+    demo = load_demonstration(folder / "rep_00" / "demonstration.lfdemo")
+    controller = Controller.load(folder / "rep_00" / "controller.json")
+    return {
+        "commands": _digest(demo.commands),
+        "weights": _digest(controller.weights),
+        "outcomes": [
+            (o.direction, o.corners_reached, o.corners_negotiated, o.failure, o.success, o.steps)
+            for o in result.outcomes
+        ],
+        "trajectories": _digest(np.concatenate([o.trajectory for o in result.outcomes])),
+        "demo": result.demo,
+        "effort": result.effort,
+        "training_accuracy": result.training_accuracy,
+    }
+
+
+@pytest.fixture(scope="module")
+def quick_paper(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("quick_paper")
+    result = run_repetition(0, QUICK_SEED, QUICK_PAPER, str(folder))
+    return folder, result
+
+
+def test_paper_repetition_is_unchanged_by_the_loop_refactor(quick_paper):
     # Reference computed with the wave-1 code (separate demonstrator, runner and Controller
-    # loops, closed-loop evolve) for this exact configuration.
-    config = BenchmarkConfig(repetitions=1, trials_per_direction=1, ga=GAConfig(generations=30))
-    result = run_repetition(0, 12345, config, str(tmp_path))
-    digest = hashlib.sha256()
-    for o in result.outcomes:
-        key = (o.direction, o.corners_reached, o.corners_negotiated, o.failure, o.success, o.steps)
-        digest.update(repr(key).encode())
-        digest.update(o.trajectory.tobytes())
-    digest.update(np.asarray(result.fitness_best).tobytes())
+    # loops, closed-loop evolve) for this exact configuration. Pinned are the decisions, which
+    # every OpenBLAS kernel reproduces (Prescott, Nehalem, Sandybridge, Haswell, one or two
+    # threads); the floats that pass through matrix products (fitness values, road values) differ
+    # in their last bits from one kernel to another, so they are compared with a tolerance.
+    folder, result = quick_paper
+    decisions = _decisions(result, folder)
+    assert decisions["commands"] == "caf64e57e6050f2c"
+    assert decisions["weights"] == "5528548f2339045e"
+    assert decisions["outcomes"] == [
+        ("direction_1", ("1", "2"), ("1", "2"), None, True, 31),
+        ("direction_2", ("2", "1"), ("2", "1"), None, True, 33),
+        ("ccw", ("1", "2", "3", "4"), ("1", "2", "3"), "timeout", False, 306),
+        ("cw", ("3", "2", "1", "4"), ("3", "2", "1"), "timeout", False, 306),
+    ]
+    # The poses are computed from the commands alone (pymunk and the C library's sin/cos, no
+    # BLAS): bit-identical under every kernel above.
+    assert decisions["trajectories"] == "a3f91d6445cadbe5"
     assert result.demo["cases"] == 172
-    assert result.training_accuracy == 0.7325581395348837
-    assert digest.hexdigest()[:16] == "48da32528a3285fb"
-    saved = Controller.load(tmp_path / "rep_00" / "controller.json")
-    assert saved.learner == "ga" and saved.learner_config == config.ga.to_dict()
+    assert result.training_accuracy == 126 / 172
+    # Sums of a few hundred products: other kernels round them differently, by far less than
+    # 1e-12 (the fitness values of one kernel differ from another's from the 15th digit on).
+    assert result.fitness_best[-1] == pytest.approx(0.4529673243710729, rel=0, abs=1e-12)
+    assert len(result.fitness_best) == 30
+    saved = Controller.load(folder / "rep_00" / "controller.json")
+    assert saved.learner == "ga" and saved.learner_config == QUICK_PAPER.ga.to_dict()
     assert result.effort == {
         "commands": 182,
         "corrections": 0,
@@ -60,6 +109,37 @@ def test_paper_repetition_is_unchanged_by_the_loop_refactor(tmp_path):
         "learning_drive_s": pytest.approx(182 * 0.4),
         "autonomous_drive_s": 0.0,
     }
+
+
+def test_a_repetition_gives_the_same_bytes_twice_in_one_process(quick_paper, tmp_path):
+    # Same machine, same versions, same process: the floats too are identical, bit for bit.
+    folder, first = quick_paper
+    again = run_repetition(0, QUICK_SEED, QUICK_PAPER, str(tmp_path))
+    assert _decisions(again, tmp_path) == _decisions(first, folder)
+    assert np.asarray(again.fitness_best).tobytes() == np.asarray(first.fitness_best).tobytes()
+    for name in ("controller.json", "demonstration.lfdemo"):
+        assert (tmp_path / "rep_00" / name).read_bytes() == (folder / "rep_00" / name).read_bytes()
+
+
+def test_a_repetition_decides_the_same_when_blas_rounds_otherwise(quick_paper, tmp_path):
+    """Every result that passes through BLAS (the GA's network outputs, each forward pass, the
+    road-value correlations) moved by 1 to 4 ulps, up or down at random: the same commands,
+    controller, outcomes and poses; only the fitness values move, by far less than 1e-12."""
+    folder, reference = quick_paper
+    with PerturbedBLAS(seed=2024, ulps=4) as perturbed:
+        result = run_repetition(0, QUICK_SEED, QUICK_PAPER, str(tmp_path))
+    # every path was perturbed: the GA's fitness, the training accuracy, the trials' policy (a
+    # commander of the teaching loop) and the road values of demonstration and trials
+    assert set(perturbed.calls) >= {
+        "lfd_track.learning.fitness.population_outputs",
+        "lfd_track.learning.fitness.mlp_forward",
+        "lfd_track.teaching.commanders.mlp_forward",
+        "lfd_track.vision.road_library.similarity_matrix",
+    }, perturbed.calls
+    assert _decisions(result, tmp_path) == _decisions(reference, folder)
+    np.testing.assert_allclose(result.fitness_best, reference.fitness_best, rtol=0, atol=1e-12)
+    # the perturbation did reach the numbers
+    assert not np.array_equal(result.fitness_mean, reference.fitness_mean)
 
 
 @pytest.fixture(scope="module")
@@ -302,6 +382,8 @@ def test_extra_test_tracks_are_lapped_both_ways_and_reported_per_track(tmp_path)
     assert results["test_tracks"][str(loop)]["laps"] == 2
     assert results["testing_track"]["laps"] == 2  # the paper's tables keep the testing track
     assert results["method"] == "paper" and results["human_effort"]["total"]["commands"] > 0
+    # what computed the numbers: versions and BLAS kernel (lfd_track.provenance)
+    assert results["environment"]["numpy"] == np.__version__ and "blas" in results["environment"]
     assert "Extra test loops" in (tmp_path / "out" / "report.md").read_text()
     with pytest.raises(ValueError, match="twice"):
         BenchmarkConfig(test_tracks=("testing", "testing"))

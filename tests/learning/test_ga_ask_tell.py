@@ -21,21 +21,36 @@ def _digest(array):
     [
         # Values computed with the closed-loop evolve() before it became a loop over ask/tell.
         (GAConfig(population_size=12, generations=15), 0.869791217676411, 15,
-         "1ce31fda8a21dead", "4ef18db9b3c53ac1"),
+         "1ce31fda8a21dead", (13.571332719651993, 13.964968543880547)),
         (GAConfig(population_size=10, generations=8, elitism=2), 0.9350588403013554, 8,
-         "61ff0de81057d7eb", "4e1e0c53b7130c58"),
+         "61ff0de81057d7eb", (7.56685381549352, 7.750380837512216)),
     ],
 )  # fmt: skip
-def test_evolve_is_bit_identical_to_the_closed_loop_version(
+def test_evolve_is_unchanged_from_the_closed_loop_version(
     config, fitness, generation, weights, histories
 ):
     x, a = _cases()
     result = evolve(x, a, config, np.random.default_rng(7))
-    assert result.best_fitness == fitness
-    assert result.best_generation == generation
+    # The weights are drawn by the generator and chosen by fitness comparisons, none of them
+    # near a tie: the same bytes under every OpenBLAS kernel (Prescott to Haswell, 1 or 2
+    # threads), and so is the generation that found the best.
     assert _digest(result.best_weights) == weights
-    both = result.best_history.tobytes() + result.mean_history.tobytes()
-    assert hashlib.sha256(both).hexdigest()[:16] == histories
+    assert result.best_generation == generation
+    # Fitness values are sums of network outputs, which BLAS kernels round differently (the
+    # histories' bytes differ between kernels): equal to well within 1e-12.
+    assert result.best_fitness == pytest.approx(fitness, rel=0, abs=1e-12)
+    sums = (result.best_history.sum(), result.mean_history.sum())
+    assert sums == pytest.approx(histories, rel=0, abs=1e-11)
+    assert len(result.best_history) == len(result.mean_history) == config.generations
+
+
+def test_evolve_gives_the_same_bytes_twice_in_one_process():
+    x, a = _cases()
+    config = GAConfig(population_size=12, generations=15)
+    one, two = (evolve(x, a, config, np.random.default_rng(7)) for _ in range(2))
+    assert one.best_fitness == two.best_fitness
+    for name in ("best_weights", "best_history", "mean_history"):
+        assert getattr(one, name).tobytes() == getattr(two, name).tobytes()
 
 
 def test_evolve_requires_a_generator():

@@ -143,3 +143,20 @@ def test_rates_also_carry_an_interval_that_resamples_learned_controllers(study):
     table = study_markdown(summary)
     assert "resample whole learned controllers" in table
     assert f"| paper | – | 50 % [{100 * low:.0f}–{100 * high:.0f}] | – |" in table
+
+
+def test_the_summary_names_its_environment_and_each_distinct_one_of_its_jobs(study):
+    from lfd_track.provenance import environment
+
+    seed0, seed1 = study.jobs()
+    old = job_results([outcome("testing", True, ["1", "2", "3", "4"])])  # written before: none
+    here = dict(old, environment=environment())
+    other = dict(old, environment=dict(environment(), numpy="0.0"))
+    summary = build_study_results(study, [(seed0, old), (seed1, here)])
+    assert summary["environment"] == environment()
+    assert summary["job_environments"] == [environment()]
+    summary = build_study_results(study, [(seed0, here), (seed1, other), (seed1, here)])
+    assert sorted(e["numpy"] for e in summary["job_environments"]) == sorted(
+        ["0.0", environment()["numpy"]]
+    )
+    assert build_study_results(study, [(seed0, old)])["job_environments"] == []
