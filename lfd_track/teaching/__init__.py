@@ -10,9 +10,10 @@ methods are arrangements of :class:`TeachingLoop`, not copies of it.
 
 from .arbiter import Arbiter, Decision
 from .commanders import Commander, PolicyCommander, QueueCommander
-from .loop import Moment, Step, TeachingLoop
+from .loop import TeachingLoop
 from .observers import CallbackObserver, Observer, Recorder, TrajectoryObserver
 from .perception import LEARNING_RULES, Percept, Perception
+from .types import Moment, Step
 
 __all__ = [
     "LEARNING_RULES",

@@ -16,7 +16,7 @@ from ..commands import Command
 from ..control.mlp import mlp_forward, select_action
 
 if TYPE_CHECKING:
-    from .loop import Moment
+    from .types import Moment
 
 
 @runtime_checkable

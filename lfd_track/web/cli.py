@@ -16,11 +16,8 @@ from ..cli_types import positive_float as _positive_float
 from ..cli_types import positive_int as _positive_int
 from ..errors import LfdTrackError
 from ..teaching.memory import MEMORY_KINDS
+from .defaults import DEFAULT_FPS, DEFAULT_HOST, DEFAULT_PORT
 
-DEFAULT_HOST = "127.0.0.1"
-DEFAULT_PORT = 8765
-DEFAULT_FPS = 10.0
-"""[frames/s] rate at which the camera view is pushed to each page."""
 FPS_RANGE = (1.0, 30.0)
 """[frames/s] ``--fps`` allowed: the page's status comes with the view (slower, and it lags);
 a phone camera gives 30 at most."""

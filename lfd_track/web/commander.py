@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 from ..commands import Command
 
 if TYPE_CHECKING:
-    from ..teaching.loop import Moment
+    from ..teaching.types import Moment
 
 MAX_QUEUED = 4
 """Presses kept while the robot is busy; more are dropped (a frantic tapper does not queue a lap)."""
