@@ -22,7 +22,7 @@ from .cli_types import non_negative_int as _seed
 from .cli_types import positive_int as _positive_int
 from .errors import LfdTrackError
 from .outputs import in_progress_name, keep_partial, shown_path, taken
-from .signals import (
+from .utils.signals import (
     EXIT_INTERRUPTED,
     EXIT_TERMINATED,
     Terminated,
@@ -98,7 +98,7 @@ def _temporary_beside(out: Path) -> Path:
 def _cmd_demo(args: argparse.Namespace) -> int:
     from .demo.dataset import load_demonstration
     from .demo.demonstrator import HumanConfig, run_demonstration
-    from .progress import progress_bar
+    from .utils.progress import progress_bar
 
     out = Path(args.out)
     _check_output(out, [("track", args.track), ("preset", args.preset)])
@@ -170,12 +170,12 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 def _cmd_evolve(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from .controller import Controller
     from .demo.dataset import load_demonstration
     from .learning.fitness import training_accuracy
     from .learning.ga import GAConfig, evolve
     from .plots import fitness_notes, fitness_plot, write_png
-    from .progress import progress_bar
+    from .policy.controller import Controller
+    from .utils.progress import progress_bar
     from .vision.road_library import RoadLibrary
 
     png = Path(args.out).with_suffix(".fitness.png")
@@ -259,10 +259,10 @@ def _cmd_drive(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .benchmark.runner import run_trial
-    from .controller import Controller
-    from .env import LfDTrackEnv
+    from .envs.track_env import LfDTrackEnv
     from .plots import TrackRun, laps_plot, write_png
-    from .progress import progress_bar
+    from .policy.controller import Controller
+    from .utils.progress import progress_bar
     from .video import DriveVideo
 
     controller = Controller.load(args.controller)
@@ -398,8 +398,8 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         run_benchmark,
     )
     from .demo.demonstrator import HumanConfig
-    from .progress import progress_bar
-    from .teaching.memory import MemoryConfig
+    from .policy.memory import MemoryConfig
+    from .utils.progress import progress_bar
 
     repetitions = 1 if args.quick and args.repetitions is None else (args.repetitions or 10)
     trials = args.trials or (1 if args.quick else 3)
@@ -462,7 +462,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
 def build_parser() -> argparse.ArgumentParser:
     from .benchmark.methods import METHODS
     from .benchmark.runner import MAX_REPETITIONS, MAX_SEED, MAX_TRIALS_PER_DIRECTION, MAX_WORKERS
-    from .teaching.memory import MEMORY_KINDS
+    from .policy.memory import MEMORY_KINDS
     from .teaching.scripted import TURNAROUND_RULES
 
     """The ``lfd-track`` argument parser."""

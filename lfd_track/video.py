@@ -17,7 +17,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from .commands import Command
+from .core.commands import Command
 from .render.topdown import draw_topdown
 from .vision.overlay import draw_road_values
 

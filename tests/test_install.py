@@ -58,7 +58,7 @@ for action in (0, 1, 2, 0):
     obs, reward, terminated, truncated, info = env.step(action)
 
 import lfd_track
-from lfd_track._data import data_dir
+from lfd_track.utils.data import data_dir
 
 other = gym.make("LfDTrack-v0", track="training", reverse=True, preset="randomized")
 other_obs, _ = other.reset(seed=1)
@@ -107,7 +107,7 @@ def test_wheel_carries_tracks_envs_and_the_cli(wheel):
         )
     missing = [f for f in DATA_FILES if f not in names]
     assert not missing, f"wheel lacks {missing}"
-    assert "lfd_track/__init__.py" in names and "lfd_track/env.py" in names
+    assert "lfd_track/__init__.py" in names and "lfd_track/envs/track_env.py" in names
     # Nothing from the checkout's other top-level folders rides along.
     assert not [n for n in names if n.startswith(("tests/", "benchmarks/", "hardware/", "tracks/"))]
     assert "lfd-track = lfd_track.cli:main" in entry_points

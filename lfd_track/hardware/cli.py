@@ -17,7 +17,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from ..errors import LfdTrackError
-from ..signals import EXIT_INTERRUPTED, stop_signals_interrupt
+from ..utils.signals import EXIT_INTERRUPTED, stop_signals_interrupt
 
 EXIT_OK = 0
 EXIT_ERROR = 1
@@ -189,7 +189,7 @@ def _make_env(args: argparse.Namespace, **kwargs: Any) -> Any:
 
 
 def _cmd_drive(args: argparse.Namespace) -> int:
-    from ..controller import Controller
+    from ..policy.controller import Controller
     from ..teaching import Arbiter, TeachingLoop
 
     controller = Controller.load(args.controller)

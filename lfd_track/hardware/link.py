@@ -37,7 +37,7 @@ from typing import Any
 
 import serial
 
-from ..commands import Command
+from ..core.commands import Command
 from ..errors import LfdTrackError
 from . import protocol
 from .protocol import Frame, FrameError, FrameParser

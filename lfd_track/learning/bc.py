@@ -1,7 +1,7 @@
 """Behaviour cloning baseline: the paper's 40-5-3 network trained by backpropagation (numpy only).
 
 The network is exactly the one the GA evolves (sigmoid hidden and output nodes, no biases unless
-asked; weight order of :mod:`lfd_track.control.mlp`), so a BC fit drops into a controller file
+asked; weight order of :mod:`lfd_track.policy.mlp`), so a BC fit drops into a controller file
 unchanged. The loss is a class-balanced softmax cross-entropy over the three sigmoid outputs
 divided by a temperature:
 
@@ -21,8 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import DictConfig
-from ..control.mlp import N_HIDDEN, N_OUTPUTS, n_weights, sigmoid
+from ..core.config import DictConfig
+from ..policy.mlp import N_HIDDEN, N_OUTPUTS, n_weights, sigmoid
 from .fit import (
     LearnerFit,
     check_bool,

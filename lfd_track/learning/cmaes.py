@@ -1,7 +1,7 @@
 """CMA-ES baseline: the paper's network and Algorithm 3 fitness, optimised by CMA-ES (``cma``).
 
 Only the optimiser differs from the paper's GA: same 40-5-3 network (weight order of
-:mod:`lfd_track.control.mlp`), same fitness (:func:`~lfd_track.learning.fitness.imitation_fitness`,
+:mod:`lfd_track.policy.mlp`), same fitness (:func:`~lfd_track.learning.fitness.imitation_fitness`,
 minimised), and by default the same budget of 40 x 200 = 8000 evaluations. Every generation's
 population is scored in one batched fitness call. All of ``cma``'s random draws come from the
 generator passed in (its ``randn`` option), never from numpy's global state.
@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import DictConfig
-from ..control.mlp import n_weights
+from ..core.config import DictConfig
+from ..policy.mlp import n_weights
 from .fit import (
     LearnerFit,
     check_bool,

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..control.mlp import N_HIDDEN, N_INPUTS, N_OUTPUTS, mlp_forward, n_weights
+from ..policy.mlp import N_HIDDEN, N_INPUTS, N_OUTPUTS, mlp_forward, n_weights
 from .fit import check_actions, check_cases, check_weights
 
 # For expected action e, the two other outputs in index order ("first/second position other

@@ -14,8 +14,8 @@ from typing import Any
 
 import numpy as np
 
-from ..config import DictConfig
-from ..control.mlp import N_INPUTS, n_weights
+from ..core.config import DictConfig
+from ..policy.mlp import N_INPUTS, n_weights
 from .fit import check_bool, check_config, check_int, check_positive
 from .fitness import Cases, checked_cases, population_fitness
 

@@ -20,7 +20,7 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from ..control.mlp import N_INPUTS
+from ..policy.mlp import N_INPUTS
 from .bc import BCConfig, fit_bc
 from .cmaes import CMAESConfig, fit_cmaes
 from .fit import LearnerFit, check_config

@@ -26,10 +26,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..frame import safe_box_slices
+from ..core.frame import safe_box_slices
 from .texture import GroundTexture
 
-#: The safe box as (row, column) slices, from its one owner :data:`lfd_track.frame.SAFE_BOX`.
+#: The safe box as (row, column) slices, from its one owner :data:`lfd_track.core.frame.SAFE_BOX`.
 SAFE_BOX = safe_box_slices()
 #: Rec. 601 luma weights of R, G, B, used to meter brightness.
 _LUMA = np.array([0.299, 0.587, 0.114])

@@ -54,7 +54,7 @@ from pathlib import Path
 from typing import Any
 
 from ..benchmark.runner import BenchmarkConfig, check_tracks
-from ..config import dataclass_from_table, read_toml
+from ..core.config import dataclass_from_table, read_toml
 from ..errors import FileFormatError, LfdTrackError
 from ..learning.fit import shown_int
 
@@ -354,7 +354,7 @@ def available_methods() -> tuple[str, ...] | None:
 
 def check_condition_names(config: BenchmarkConfig, where: str, path: Path | str) -> None:
     """Raise ``FileFormatError`` unless the method, preset and tracks named exist here."""
-    from ..presets import load_preset
+    from ..envs.presets import load_preset
     from ..world.track import load_track
 
     method = getattr(config, "method", "paper")

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..commands import Command
+from ..core.commands import Command
 from ..world.driver import CentrelineDriver, DriverConfig
 from ..world.rover import RoverConfig
 from ..world.track import ProgressTracker, Track

@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from ..commands import Command
+from ..core.commands import Command
 from .arbiter import Decision
 from .perception import Percept
 

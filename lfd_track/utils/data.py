@@ -8,9 +8,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .errors import LfdTrackError
+from ..errors import LfdTrackError
 
-_PACKAGE_DIR = Path(__file__).resolve().parent
+_PACKAGE_DIR = Path(__file__).resolve().parent.parent  # lfd_track/
 
 
 def data_dir(name: str) -> Path:

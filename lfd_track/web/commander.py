@@ -6,7 +6,7 @@ import threading
 from collections import deque
 from typing import TYPE_CHECKING
 
-from ..commands import Command
+from ..core.commands import Command
 
 if TYPE_CHECKING:
     from ..teaching.types import Moment

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from ..commands import Command
+from ..core.commands import Command
 from ..demo.dataset import DemonstrationWriter
 from ..teaching.arbiter import Arbiter
 from ..teaching.commanders import PolicyCommander
@@ -417,7 +417,7 @@ def open_session(args: argparse.Namespace) -> LoopSession:
     out = Path(args.out)
     metadata: dict[str, Any] = {"source": "teach", "backend": args.backend, "online": args.online}
     if args.backend == "sim":
-        from ..env import LfDTrackEnv
+        from ..envs.track_env import LfDTrackEnv
 
         env = LfDTrackEnv(
             track=args.track, preset=args.preset, render_mode="rgb_array", max_steps=10**9
@@ -463,7 +463,7 @@ def open_session(args: argparse.Namespace) -> LoopSession:
         }
     from ..demo.demonstrator import recording_writer
     from ..outputs import in_progress_name
-    from ..teaching.memory import MemoryConfig
+    from ..policy.memory import MemoryConfig
 
     # As ``lfd-track demo --force``: an existing file is kept until the new recording is closed
     # (then replaced, if it holds a case); until then the recording has a name of its own.

@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .._data import resolve_data_file
-from ..config import read_toml
+from ..core.config import read_toml
 from ..errors import FileFormatError, LfdTrackError
+from ..utils.data import resolve_data_file
 from .track_file import MAX_FILE_BYTES, parse_track
 
 #: Shipped loops of our own design that no demonstration uses: a generalization set beside the

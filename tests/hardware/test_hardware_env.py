@@ -200,10 +200,10 @@ def controller_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
     Only 30 generations (a few seconds in all): enough for a real evolved network with a road
     library learned from rendered frames; how well it drives is not what these tests check.
     """
-    from lfd_track.controller import Controller
     from lfd_track.demo.dataset import load_demonstration
     from lfd_track.demo.demonstrator import run_demonstration
     from lfd_track.learning.ga import GAConfig, evolve
+    from lfd_track.policy.controller import Controller
     from lfd_track.vision.road_library import RoadLibrary
 
     folder = tmp_path_factory.mktemp("controller")
@@ -222,8 +222,8 @@ def controller_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.mark.simavr
 def test_end_to_end_on_the_simulated_firmware(simulated_board, controller_file: Path) -> None:
     """Rendered frames -> MJPEG -> saved controller -> serial -> firmware -> motor log."""
-    from lfd_track.controller import Controller
-    from lfd_track.env import LfDTrackEnv
+    from lfd_track.envs.track_env import LfDTrackEnv
+    from lfd_track.policy.controller import Controller
 
     controller = Controller.load(controller_file)
     sim = LfDTrackEnv(track="training")
@@ -350,7 +350,7 @@ def test_cli_demo_without_a_terminal_creates_no_recording(
 
 
 def test_teleop_records_a_demonstration(tmp_path: Path) -> None:
-    from lfd_track.commands import Command
+    from lfd_track.core.commands import Command
     from lfd_track.demo.dataset import load_demonstration
     from lfd_track.hardware.teleop import DemonstrationRecorder, run_teleop
 

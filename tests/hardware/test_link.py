@@ -15,7 +15,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from lfd_track.commands import Command
+from lfd_track.core.commands import Command
 from lfd_track.errors import LfdTrackError
 from lfd_track.hardware import protocol
 from lfd_track.hardware.link import LinkError, RobotLink
