@@ -29,8 +29,6 @@ import numpy as np
 from ..core.frame import safe_box_slices
 from .texture import GroundTexture
 
-#: The safe box as (row, column) slices, from its one owner :data:`lfd_track.core.frame.SAFE_BOX`.
-SAFE_BOX = safe_box_slices()
 #: Rec. 601 luma weights of R, G, B, used to meter brightness.
 _LUMA = np.array([0.299, 0.587, 0.114])
 #: Samples (columns, rows) the auto-exposure meter reads per frame.
@@ -399,7 +397,7 @@ class CameraModel:
         N = 4 for an ideal pinhole (straight edges); a distorted lens bends the box's edges on
         the floor, so each edge is sampled (N = 16).
         """
-        rows, cols = SAFE_BOX
+        rows, cols = safe_box_slices()
         u0, u1 = cols.start - 0.5, cols.stop - 0.5
         v0, v1 = rows.start - 0.5, rows.stop - 0.5
         if self._table is None:
