@@ -371,7 +371,7 @@ def _whole_number_in(low: int, high: int) -> Any:
     whole."""
 
     def parse(text: str) -> int:
-        from .learning.fit import shown_int
+        from .learning.result import shown_int
 
         try:
             value = int(text)

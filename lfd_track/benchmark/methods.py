@@ -52,16 +52,16 @@ from ..envs.presets import Preset
 from ..envs.track_env import LfDTrackEnv
 from ..learning.bc import BCConfig
 from ..learning.cmaes import CMAESConfig
-from ..learning.fit import check_int
 from ..learning.fitness import training_accuracy
 from ..learning.ga import GAConfig, evolve, ga_rescore, ga_result
 from ..learning.learners import learner_for
 from ..learning.mirror import with_mirrored
+from ..learning.result import check_int
 from ..policy.controller import Controller
 from ..policy.memory import MemoryConfig
 from ..teaching.arbiter import Arbiter
 from ..teaching.commanders import PolicyCommander
-from ..teaching.learner import GALearnerFeed
+from ..teaching.learner_feed import GALearnerFeed
 from ..teaching.loop import LoopCounts, TeachingLoop
 from ..teaching.observers import CaseBuffer, LearningTally, Recorder
 from ..teaching.perception import Perception

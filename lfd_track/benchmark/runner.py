@@ -26,8 +26,8 @@ from ..envs.track_env import LfDTrackEnv
 from ..errors import LfdTrackError
 from ..learning.bc import BCConfig
 from ..learning.cmaes import CMAESConfig
-from ..learning.fit import check_int
 from ..learning.ga import GAConfig
+from ..learning.result import check_int
 from ..policy.controller import Controller
 from ..policy.memory import MemoryConfig
 from ..teaching.arbiter import Arbiter

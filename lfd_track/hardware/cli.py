@@ -81,7 +81,7 @@ def _cmd_sim(args: argparse.Namespace) -> int:
 
 # -------------------------------------------------------------------------------------- check
 def _cmd_check(args: argparse.Namespace) -> int:
-    from . import protocol
+    from . import wire
     from .link import RobotLink
 
     link = RobotLink(args.serial, baudrate=args.baud, boot_wait_s=args.boot_wait)
@@ -127,13 +127,13 @@ def _cmd_check(args: argparse.Namespace) -> int:
         if not link.estop().estopped:
             problems.append("e-stop was not latched")
         refused = link.drive("F")
-        if refused.accepted or refused.rejected != protocol.REASON_ESTOP:
+        if refused.accepted or refused.rejected != wire.REASON_ESTOP:
             problems.append("a drive frame was accepted while the e-stop was latched")
         cleared = link.clear_estop()
         if cleared.estopped or cleared.moving:
             problems.append("clearing the e-stop restarted the motors or did not clear")
         try:
-            bad = link.request(protocol.SET_WATCHDOG, "10")  # below the 50 ms minimum
+            bad = link.request(wire.SET_WATCHDOG, "10")  # below the 50 ms minimum
             if bad.accepted:
                 problems.append("the board accepted a 10 ms watchdog period")
         finally:

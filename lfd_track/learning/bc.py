@@ -23,7 +23,8 @@ import numpy as np
 
 from ..core.config import DictConfig
 from ..policy.mlp import N_HIDDEN, N_OUTPUTS, n_weights, sigmoid
-from .fit import (
+from .fitness import checked_cases, population_fitness
+from .result import (
     LearnerFit,
     check_bool,
     check_config,
@@ -31,7 +32,6 @@ from .fit import (
     check_positive,
     initial_weights,
 )
-from .fitness import checked_cases, population_fitness
 
 _W2 = N_OUTPUTS * N_HIDDEN
 

@@ -17,7 +17,8 @@ import numpy as np
 
 from ..core.config import DictConfig
 from ..policy.mlp import n_weights
-from .fit import (
+from .fitness import checked_cases, population_fitness
+from .result import (
     LearnerFit,
     check_bool,
     check_config,
@@ -25,7 +26,6 @@ from .fit import (
     check_positive,
     initial_weights,
 )
-from .fitness import checked_cases, population_fitness
 
 
 @dataclass(frozen=True)

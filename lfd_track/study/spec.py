@@ -56,7 +56,7 @@ from typing import Any
 from ..benchmark.runner import BenchmarkConfig, check_tracks
 from ..core.config import dataclass_from_table, read_toml
 from ..errors import FileFormatError, LfdTrackError
-from ..learning.fit import shown_int
+from ..learning.result import shown_int
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._+-]{0,63}$")
 _STUDY_KEYS = {"name", "description", "seeds", "repetitions"}

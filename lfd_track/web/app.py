@@ -4,7 +4,7 @@ Routes (every one behind :class:`AccessGuard`):
 
 - ``GET /`` — the page (``static/index.html`` with the token filled in);
 - ``GET /static/<file>`` — its script and style sheet, shipped in the package;
-- ``GET /api/status`` — the session's status as JSON (see :data:`protocol.STATUS_FIELDS`);
+- ``GET /api/status`` — the session's status as JSON (see :data:`.contract.STATUS_FIELDS`);
 - ``WS /ws`` — commands and heartbeats in, frames and status out.
 
 WebSocket protocol. The page sends JSON text messages ``{"type": ...}``:
@@ -59,8 +59,8 @@ from starlette.routing import Route, WebSocketRoute
 from starlette.types import ASGIApp, Receive, Scope, Send
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
+from .contract import COMMAND_NAMES, TeachingSession
 from .defaults import DEFAULT_FPS
-from .protocol import COMMAND_NAMES, TeachingSession
 
 STATIC_FILES = {
     "app.js": "text/javascript; charset=utf-8",

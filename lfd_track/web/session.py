@@ -9,7 +9,7 @@ control period, and only when someone has a command (the human pressed, or the p
 Observers record every case to a crash-safe ``.lfdemo``, count cases and corrections, and after
 each step the session publishes the annotated camera view and the simulator's map.
 
-Nothing moves unless the controlling page holds the lease (:class:`~lfd_track.web.protocol.Lease`).
+Nothing moves unless the controlling page holds the lease (:class:`~lfd_track.web.contract.Lease`).
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ from ..teaching.observers import Recorder
 from ..teaching.perception import Perception
 from ..vision.road_library import RoadLibrary
 from .commander import BrowserCommander
-from .protocol import LEASE_S, Lease, View
+from .contract import LEASE_S, Lease, View
 from .view import make_view
 
 HUMAN = "human"
@@ -586,7 +586,7 @@ def _online_parts(
 ) -> tuple[PolicyCommander, Any]:
     """The policy commander and the loop's GA learner feed, which updates its weights."""
     from ..learning.ga import GAConfig
-    from ..teaching.learner import GALearnerFeed
+    from ..teaching.learner_feed import GALearnerFeed
 
     policy = PolicyCommander(None)  # no policy until the first case was learned
     learner = GALearnerFeed(

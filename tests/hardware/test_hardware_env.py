@@ -18,7 +18,7 @@ import serial
 from lfd_test_support import load_test_module
 
 import lfd_track  # noqa: F401 - registers the environments
-from lfd_track.hardware import protocol
+from lfd_track.hardware import wire
 from lfd_track.hardware.env import HardwareEnv
 
 
@@ -126,7 +126,7 @@ def test_stalled_camera_stops_the_robot_within_1_5_s() -> None:
             stop_times = [
                 t
                 for t, f in board.received
-                if f.type == protocol.DRIVE and f.args == ("S",) and t > stalled_at
+                if f.type == wire.DRIVE and f.args == ("S",) and t > stalled_at
             ]
             assert stop_times and stop_times[0] - stalled_at < 1.5
         finally:
@@ -137,7 +137,7 @@ def test_keyboard_interrupt_during_a_drive_sends_stop() -> None:
     drives_seen = []
 
     def interrupt_on_third_forward(board, frame) -> None:
-        if frame.type == protocol.DRIVE and frame.args == ("F",):
+        if frame.type == wire.DRIVE and frame.args == ("F",):
             drives_seen.append(frame)
             if len(drives_seen) == 3:
                 _thread.interrupt_main()  # what Ctrl-C does to the control loop
@@ -392,18 +392,18 @@ def test_cli_check_with_lease_test_on_the_simulated_firmware(simulated_board, ca
     assert "lease watchdog stopped the motors" in out and "OK:" in out
 
 
-def _ping_reply(url: str, seq: int) -> protocol.Frame:
+def _ping_reply(url: str, seq: int) -> wire.Frame:
     """Ping the board at ``url`` until it answers (it may still be booting); return the reply."""
     port = serial.serial_for_url(url, baudrate=9600, timeout=0.05)
     try:
-        parser = protocol.FrameParser()
+        parser = wire.FrameParser()
         deadline = time.monotonic() + 5.0  # failure guard
         while time.monotonic() < deadline:
-            port.write(protocol.encode_frame(protocol.PING, seq))
+            port.write(wire.encode_frame(wire.PING, seq))
             reply_deadline = time.monotonic() + 0.5
             while time.monotonic() < reply_deadline:
                 for item in parser.feed(port.read(64)):
-                    if isinstance(item, protocol.Frame) and item.seq == seq:
+                    if isinstance(item, wire.Frame) and item.seq == seq:
                         return item
         raise AssertionError(f"the board at {url} answered no ping")
     finally:
