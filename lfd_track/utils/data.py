@@ -1,24 +1,50 @@
-"""Locate the data folders (`tracks/`, `envs/`) shipped with the package.
+"""Find the data shipped with the package: tracks, presets and the firmware/harness sources.
 
-In a wheel they live in ``lfd_track/_data/<name>``; in a source checkout (editable install or
-running from the repository) they are the top-level folders of the repository.
+One lookup for all of them. In a wheel they live inside the package, in
+``lfd_track/_data/<kind>`` (``pyproject.toml`` force-includes the checkout's ``tracks/``,
+``envs/`` and the firmware and harness sources under ``hardware/``), found with
+:mod:`importlib.resources`; in a source checkout (editable install, or running from the
+repository) they are the repository's top-level folders of the same name.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from importlib import resources
 from pathlib import Path
 
 from ..errors import LfdTrackError
 
-_PACKAGE_DIR = Path(__file__).resolve().parent.parent  # lfd_track/
+KINDS = ("tracks", "envs", "hardware")
+"""The kinds of shipped data: track files, presets, firmware and harness sources."""
+
+_CHECKOUT = Path(__file__).resolve().parents[2]
+"""The repository root when running from a checkout (the folder holding ``lfd_track/``)."""
 
 
-def data_dir(name: str) -> Path:
-    """Return the folder holding the shipped data files of kind ``name`` ("tracks" or "envs")."""
-    for candidate in (_PACKAGE_DIR / "_data" / name, _PACKAGE_DIR.parent / name):
-        if candidate.is_dir():
+def shipped_dir(kind: str) -> Path:
+    """Where a wheel keeps data of ``kind``: ``lfd_track/_data/<kind>`` (it may not exist)."""
+    if kind not in KINDS:
+        raise ValueError(f"unknown kind of shipped data {kind!r} (known: {', '.join(KINDS)})")
+    folder = resources.files("lfd_track").joinpath("_data", kind)
+    if not isinstance(folder, Path):  # a zipped package: not how lfd-track is installed
+        raise FileNotFoundError(f"lfd_track data folder '{kind}' is not on the file system")
+    return folder
+
+
+def data_dir(kind: str, *, required: Iterable[str] = ()) -> Path:
+    """The folder holding the shipped data of ``kind`` (one of :data:`KINDS`).
+
+    The wheel's copy first, then the checkout's top-level folder; with ``required`` (paths
+    relative to the folder), the first that holds all of them.
+    """
+    needed = tuple(required)
+    for candidate in (shipped_dir(kind), _CHECKOUT / kind):
+        if candidate.is_dir() and all((candidate / name).is_file() for name in needed):
             return candidate
-    raise FileNotFoundError(f"lfd_track data folder '{name}' not found next to {_PACKAGE_DIR}")
+    raise FileNotFoundError(
+        f"lfd_track data folder '{kind}' not found in {shipped_dir(kind)} or {_CHECKOUT / kind}"
+    )
 
 
 _WHAT = {"tracks": "track", "envs": "preset"}
