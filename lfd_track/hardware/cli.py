@@ -251,7 +251,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 # ------------------------------------------------------------------------------------- parser
 def _add_link_options(parser: argparse.ArgumentParser) -> None:
-    from .link import DEFAULT_BAUD
+    from .wire import DEFAULT_BAUD  # not .link: the parser works without pyserial
 
     parser.add_argument(
         "--serial",

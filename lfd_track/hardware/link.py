@@ -35,16 +35,17 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-import serial
-
 from ..core.commands import Command
 from ..errors import LfdTrackError
+from ..utils.extras import needs_extra
 from . import wire
-from .wire import Frame, FrameError, FrameParser
+from .wire import DEFAULT_BAUD, Frame, FrameError, FrameParser
+
+with needs_extra("hardware"):
+    import serial
 
 STOP = "S"
 ESTOPPED = "X"  # ack state while the board's e-stop is latched
-DEFAULT_BAUD = 9600  # the firmware's UART rate (HC-05/06 factory default)
 FLAG_ESTOP = 1  # ack flags are a decimal bitfield
 FLAG_LEASE_EXPIRED = 2  # the watchdog stopped the motors since the last accepted drive frame
 FLAG_REPLIES_DROPPED = 4  # the board dropped replies (its transmit buffer was full) since

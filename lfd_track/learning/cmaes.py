@@ -17,6 +17,7 @@ import numpy as np
 
 from ..core.config import DictConfig
 from ..policy.mlp import n_weights
+from ..utils.extras import needs_extra
 from .fitness import checked_cases, population_fitness
 from .result import (
     LearnerFit,
@@ -71,7 +72,7 @@ def fit_cmaes(
     """
     if not isinstance(rng, np.random.Generator):
         raise ValueError("fit_cmaes needs a numpy Generator (rng) so that runs are reproducible")
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), needs_extra("cmaes"):
         # cma warns on import when matplotlib (only used by its own plotting) is absent.
         warnings.simplefilter("ignore")
         import cma  # imported here: only this learner needs it
