@@ -25,6 +25,11 @@ reply, or more than ``max_corrupt_replies`` undecodable replies in a row) raises
 ``query_version()`` asks firmware 1.1 and later for its version and the cause of its last reset
 (1.2: and its boot count) at any time; the boot frame carries them too (and whether the board
 booted with its e-stop latched, as it does after a watchdog or brown-out reset).
+
+Why one module of about 680 lines: :class:`RobotLink` is one lock-guarded state machine (the
+lease, the keep-alive thread, the boot count, the reply matching) whose safety rules hold only
+together; the value types beside it (:class:`Ack`, :class:`BoardVersion`, :class:`LinkStats`)
+are small, and the wire format itself is :mod:`.wire`.
 """
 
 from __future__ import annotations

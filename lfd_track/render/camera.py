@@ -16,6 +16,11 @@ per-pixel map of the floor points each pixel sees, computed once in the rover's 
 is rigid on the rover) and moved with the pose by one affine transform per frame. Then comes the
 phone's image pipeline: auto-exposure that adapts with a lag, white-balance jitter, vignetting,
 sensor noise, and optionally motion blur and JPEG compression.
+
+Why one module of about 670 lines: the lens model (:class:`CameraModel`: projection, the
+per-pixel floor table, the safe box's footprint) and the renderer that warps through that same
+table are one piece of geometry, checked together by the lens tests; split, each half would
+import the other's private tables.
 """
 
 from __future__ import annotations
