@@ -32,7 +32,7 @@ from .utils.signals import (
 
 EXIT_OK, EXIT_ERROR, EXIT_USAGE = 0, 1, 2
 EXIT_CODES = (EXIT_OK, EXIT_ERROR, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_TERMINATED)
-"""Every exit code of the commands (130, 143: stopped by Ctrl-C, SIGTERM; see utils/signals.py)."""
+"""Every exit code of the commands (130, 143: stopped by Ctrl-C, SIGTERM; see signals.py)."""
 
 
 class _Parser(argparse.ArgumentParser):
