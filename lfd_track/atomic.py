@@ -1,4 +1,9 @@
-"""Atomic file writes: a reader sees the old file or the complete new one, never a partial one."""
+"""Atomic file writes: a reader sees the old file or the complete new one, never a partial one.
+
+Only a regular file is ever replaced: a target that is a device, a FIFO, a socket or a symbolic
+link is refused (:func:`lfd_track.outputs.refuse_unsafe_output`), before writing and again at the
+rename (:func:`replace_file`).
+"""
 
 from __future__ import annotations
 
@@ -6,6 +11,8 @@ import errno
 import os
 import tempfile
 from pathlib import Path
+
+from .outputs import refuse_unsafe_output
 
 
 def _umask() -> int:
@@ -20,11 +27,23 @@ def temporary_prefix(path: Path) -> str:
     return f".{path.name[:50]}."
 
 
+def replace_file(src: str | Path, dst: str | Path) -> None:
+    """Move the finished file ``src`` over ``dst`` (``os.replace``), unless ``dst`` exists and is
+    not a regular file (``LfdTrackError``; ``src`` is left for the caller to remove)."""
+    refuse_unsafe_output(dst)
+    os.replace(src, dst)
+
+
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` through a temporary file in the same folder, then rename."""
+    """Write ``data`` to ``path`` through a temporary file in the same folder, then rename.
+
+    Raises ``IsADirectoryError`` for a folder, ``LfdTrackError`` for a path that exists and is
+    not a regular file (a device, FIFO, socket or symbolic link); nothing is written then.
+    """
     path = Path(path)
-    if path.is_dir():
+    if path.is_dir() and not path.is_symlink():
         raise IsADirectoryError(errno.EISDIR, "is a folder, expected a file name", str(path))
+    refuse_unsafe_output(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=".tmp", dir=path.parent)
     try:
@@ -34,7 +53,7 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
-        os.replace(tmp, path)
+        replace_file(tmp, path)
     except BaseException:
         try:
             os.unlink(tmp)

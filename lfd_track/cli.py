@@ -2,7 +2,11 @@
 
 User errors (bad files, unknown tracks, bad flags) print one line to stderr and exit 1 (2 for bad
 usage); nothing already saved is overwritten by a half-written file (every output is written
-atomically or, for demonstrations, crash-safely).
+atomically or, for demonstrations, crash-safely). An output only ever replaces a regular file:
+one whose name is a symbolic link (wherever it points), a device, a FIFO or a socket is refused
+before any work (see outputs.py). Names that are not valid UTF-8 are shown with \\x escapes (in
+messages and on plots); a track or preset name that a recording or a benchmark would record
+must be UTF-8 and is otherwise refused before any work.
 """
 
 from __future__ import annotations
@@ -18,10 +22,18 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
+from .atomic import replace_file
 from .cli_types import non_negative_int as _seed
 from .cli_types import positive_int as _positive_int
 from .errors import LfdTrackError
-from .outputs import in_progress_name, keep_partial, shown_path, taken
+from .outputs import (
+    in_progress_name,
+    keep_partial,
+    refuse_undecodable,
+    refuse_unsafe_output,
+    shown_path,
+    taken,
+)
 from .utils.signals import (
     EXIT_INTERRUPTED,
     EXIT_TERMINATED,
@@ -68,13 +80,15 @@ def _same_file(a: str | Path, b: str | Path) -> bool:
 
 def _check_output(out: str | Path, inputs: Sequence[tuple[str, str | Path | None]]) -> None:
     """Refuse, before any work, an output that is one of the ``(what, path)`` inputs (it would be
-    replaced by the output), a folder, or below something that is not a folder."""
+    replaced by the output), exists and is not a regular file (a folder, device, FIFO, socket or
+    symbolic link), or is below something that is not a folder."""
     out = Path(out)
     for what, path in inputs:
         if path is not None and Path(path).is_file() and _same_file(out, path):
             raise LfdTrackError(
                 f"{shown_path(out)}: is the {what} this command reads; write to another file"
             )
+    refuse_unsafe_output(out)
     if out.is_dir():
         raise LfdTrackError(f"{shown_path(out)}: is a folder, expected a file name")
     for parent in out.parents:
@@ -102,6 +116,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
     out = Path(args.out)
     _check_output(out, [("track", args.track), ("preset", args.preset)])
+    for what, name in (("track", args.track), ("preset", args.preset)):
+        refuse_undecodable(name, what)  # recorded in the file's metadata
     if taken(out) and not args.force:
         raise LfdTrackError(
             f"{shown_path(out)}: already exists; an earlier recording is never replaced"
@@ -156,7 +172,11 @@ def _cmd_demo(args: argparse.Namespace) -> int:
     finally:
         signal.signal(signal.SIGTERM, previous)
     if target != out:
-        target.replace(out)
+        try:
+            replace_file(target, out)
+        except LfdTrackError as exc:  # ``out`` became a link, device, ... meanwhile
+            kept = keep_partial(target, out)
+            raise LfdTrackError(f"{exc}; the new recording is kept at {shown_path(kept)}") from None
     print(
         f"{shown_path(out)}: {summary.n_cases} cases ({summary.counts['forward']} forward, "
         f"{summary.counts['left']} left, {summary.counts['right']} right), "
@@ -221,7 +241,8 @@ def _cmd_evolve(args: argparse.Namespace) -> int:
             ("best", result.best_history, (200, 30, 30)),
             ("mean", result.mean_history, (30, 80, 200)),
         ],
-        title=f"Fitness of each generation: {Path(args.demo).name}, GA seed {args.seed}",
+        title=f"Fitness of each generation: {shown_path(Path(args.demo).name)},"
+        f" GA seed {args.seed}",
         notes=fitness_notes(config.elitism),
     )
     # Both files or neither: the controller waits under a hidden name beside --out until the
@@ -230,7 +251,7 @@ def _cmd_evolve(args: argparse.Namespace) -> int:
     try:
         controller.save(staged)
         write_png(str(png), picture)
-        os.replace(staged, args.out)
+        replace_file(staged, args.out)
     except BaseException:
         staged.unlink(missing_ok=True)
         raise
@@ -280,7 +301,7 @@ def _cmd_drive(args: argparse.Namespace) -> int:
     if not args.json:
         order = " ".join(c.label for c in env.track.corners)
         direction = "reversed" if args.reverse else "file order"
-        print(f"{args.track} ({direction}), corners met in order {order}:", flush=True)
+        print(f"{shown_path(args.track)} ({direction}), corners met in order {order}:", flush=True)
     plot_staged: Path | None = None
     previous = signal.signal(signal.SIGTERM, raise_terminated)
     try:
@@ -325,7 +346,8 @@ def _cmd_drive(args: argparse.Namespace) -> int:
                 x, y = env.track.vertices[:, 0], env.track.vertices[:, 1]  # in driving order
                 area2 = float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
                 direction = "counter-clockwise" if area2 > 0 else "clockwise"
-            title = f"{args.track} track, {direction}: {Path(args.controller).name}"
+            controller_name = shown_path(Path(args.controller).name)
+            title = f"{shown_path(args.track)} track, {direction}: {controller_name}"
             picture = laps_plot(
                 env.track,
                 trajectories,
@@ -338,7 +360,7 @@ def _cmd_drive(args: argparse.Namespace) -> int:
         if video is not None:
             video.close()
         if plot_staged is not None:
-            os.replace(plot_staged, args.plot)
+            replace_file(plot_staged, args.plot)
             plot_staged = None
     except (KeyboardInterrupt, Terminated) as exc:
         code = interrupted_exit_code(exc)
@@ -359,7 +381,8 @@ def _cmd_drive(args: argparse.Namespace) -> int:
         if plot_staged is not None:
             plot_staged.unlink(missing_ok=True)
     if args.json:
-        print(json.dumps({"track": args.track, "reverse": args.reverse, "laps": laps}, indent=2))
+        track = shown_path(args.track)  # JSON holds text only: undecodable bytes as \\x escapes
+        print(json.dumps({"track": track, "reverse": args.reverse, "laps": laps}, indent=2))
     else:
         print(f"  {sum(lap['success'] for lap in laps)}/{len(laps)} successful")
     return EXIT_OK
@@ -416,6 +439,14 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         mirror=args.mirror,
         demo_track=args.demo_track,
     )
+    # Track and preset names are recorded in results.json and report.md, which hold text only.
+    for what, name in (
+        ("preset", args.preset),
+        ("demonstration track", args.demo_track),
+        *(("test track", track) for track in args.test_track),
+    ):
+        refuse_undecodable(name, what)
+    refuse_unsafe_output(args.out, folder=True)
     workers = args.workers or min(_cores(), MAX_WORKERS)
     check_workers(workers)
     # A bad preset, a track that is not a loop with corners or whose ground texture would be too
@@ -453,7 +484,8 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         signal.signal(signal.SIGTERM, previous)
     print(text)
     print(
-        f"\nreport: {out / 'report.md'}\nresults: {out / 'results.json'}\nplots: {out / 'trajectories.png'}, {out / 'fitness.png'}"
+        f"\nreport: {shown_path(out / 'report.md')}\nresults: {shown_path(out / 'results.json')}"
+        f"\nplots: {shown_path(out / 'trajectories.png')}, {shown_path(out / 'fitness.png')}"
     )
     return EXIT_OK
 
@@ -469,6 +501,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="lfd-track",
         description="Learning from demonstration with encapsulated evolution on a felt-track rover.",
+        epilog="Outputs: an existing file is replaced only where a command says so (--force);"
+        " an output name that is a symbolic link, a device, a FIFO or a socket is always refused."
+        " Track and preset names recorded in a recording or in benchmark results must be UTF-8.",
     )
     parser.add_argument(
         "--quiet",

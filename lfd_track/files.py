@@ -23,6 +23,7 @@ def read_regular_file(
     *,
     check_head: Callable[[bytes], None] | None = None,
     head_bytes: int = 0,
+    max_zero_tail: int | None = None,
 ) -> bytearray:
     """The bytes of the regular file ``path``, at most ``max_bytes`` of them.
 
@@ -30,7 +31,10 @@ def read_regular_file(
     ``check_head``, the first ``head_bytes`` bytes (fewer if the file is shorter) are read and
     passed to it before the rest: it raises to refuse the file, so a large file of the wrong
     kind is refused without reading it whole. The file is read into one buffer of its size (no
-    second copy), and running out of memory is reported as a file error too.
+    second copy), and running out of memory is reported as a file error too. With
+    ``max_zero_tail``, a file that ends in more than ``max_zero_tail`` zero bytes (written, or a
+    hole a ``truncate`` left) is refused from its last ``max_zero_tail + 1`` bytes, before the
+    rest is read.
 
     Raises:
         FileFormatError: one line naming the file: missing, unreadable, not a regular file,
@@ -56,6 +60,14 @@ def read_regular_file(
                 path, f"{what} file is {info.st_size} bytes, more than the {max_bytes} allowed"
             )
         os.set_blocking(fd, True)
+        # The head and the tail are checked before the buffer is made (making it touches every
+        # page of it): a large file of the wrong kind, or one that ends in zeros, costs little.
+        if check_head is not None:
+            check_head(_read_head(fd, min(head_bytes, info.st_size)))
+        if max_zero_tail is not None and _ends_in_zeros(fd, info.st_size, max_zero_tail):
+            raise FileFormatError(
+                path, f"{what} file ends in more than {max_zero_tail} zero bytes (corrupt file)"
+            )
         try:
             buffer = bytearray(info.st_size)
         except MemoryError:
@@ -63,11 +75,7 @@ def read_regular_file(
                 path, f"{what} file is {info.st_size} bytes, more than memory allows"
             ) from None
         view = memoryview(buffer)
-        total = 0
-        if check_head is not None:
-            total = _read_into(fd, view[: min(head_bytes, info.st_size)])
-            check_head(bytes(view[:total]))
-        total += _read_into(fd, view[total:])
+        total = _read_into(fd, view)
         view.release()
         del buffer[total:]  # the file may have shrunk meanwhile: keep what is there
         # Or grown meanwhile: read on, but never past the cap.
@@ -85,6 +93,33 @@ def read_regular_file(
         raise FileFormatError(path, f"{what} file is too large to read into memory") from None
     finally:
         os.close(fd)
+
+
+def _read_head(fd: int, n: int) -> bytes:
+    """The first ``n`` bytes of ``fd`` (fewer if it is shorter), without moving its offset."""
+    head = b""
+    while len(head) < n:
+        chunk = os.pread(fd, n - len(head), len(head))
+        if not chunk:
+            break
+        head += chunk
+    return head
+
+
+def _ends_in_zeros(fd: int, size: int, length: int) -> bool:
+    """Whether the file ``fd`` (of ``size`` bytes) ends in more than ``length`` zero bytes, read
+    with ``pread`` (the offset does not move) from its last ``length + 1`` bytes only."""
+    if size <= length:
+        return False
+    pos = size - length - 1
+    while pos < size:
+        chunk = os.pread(fd, min(1 << 20, size - pos), pos)
+        if not chunk:  # it shrank meanwhile: the read proper tells
+            return False
+        if chunk.count(0) != len(chunk):
+            return False
+        pos += len(chunk)
+    return True
 
 
 def _read_into(fd: int, view: memoryview) -> int:

@@ -1,4 +1,12 @@
-"""Names of the files a command writes beside its output: in-progress and kept partial recordings.
+"""What a command may write to, and the names of the files it writes beside its output.
+
+An output only ever replaces a regular file: a path that exists and is a device, a FIFO, a
+socket or a symbolic link (even one to a regular file) is refused before any work, in one line
+(:func:`refuse_unsafe_output`), and checked again at the moment a finished file is moved into
+place. Names that are not valid UTF-8 (a stray byte in a POSIX name) are shown with \\x escapes
+(:func:`shown_path`), also in the labels drawn on pictures; a name that would be recorded inside
+an output (a track or preset name in a recording's metadata or a benchmark's results) must be
+UTF-8 and is otherwise refused before any work (:func:`refuse_undecodable`).
 
 A recording that is to replace an existing file is written under an in-progress name beside it
 and moved over it only when complete; an interrupted one is kept under a partial name that never
@@ -9,13 +17,73 @@ from __future__ import annotations
 
 import itertools
 import os
+import stat
 from collections.abc import Iterator
 from pathlib import Path
 
+from .errors import LfdTrackError
+
 
 def shown_path(path: str | Path) -> str:
-    """A path as text that can always be printed (undecodable bytes as \\x escapes)."""
-    return os.fsencode(path).decode("utf-8", "backslashreplace")
+    """A path (or any text) as text that can always be printed, encoded and drawn: bytes that
+    are not UTF-8 as \\x escapes, any other unpaired surrogate as a \\u escape."""
+    try:
+        return os.fsencode(path).decode("utf-8", "backslashreplace")
+    except UnicodeEncodeError:  # a surrogate that no undecodable byte stands for
+        return os.fspath(path).encode("utf-8", "backslashreplace").decode("utf-8")
+
+
+def refuse_undecodable(name: str | Path, what: str) -> None:
+    """Raise ``LfdTrackError`` (one line) if ``name`` is not valid UTF-8: it is to be recorded in
+    an output (JSON, Markdown) that holds text only, and ``what`` says what it names."""
+    try:
+        os.fspath(name).encode("utf-8")
+    except UnicodeEncodeError:
+        raise LfdTrackError(
+            f"{shown_path(name)}: the {what} name is not valid UTF-8 and would be recorded in the"
+            " output; rename it (or give it through a link with a UTF-8 name)"
+        ) from None
+
+
+def _kind(mode: int) -> str:
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "a device"
+    if stat.S_ISFIFO(mode):
+        return "a FIFO"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    return "of an unknown kind"
+
+
+def refuse_unsafe_output(path: str | Path, *, folder: bool | None = False) -> None:
+    """Raise ``LfdTrackError`` (one line naming ``path``) if ``path`` exists and is not what an
+    output may replace: a regular file, with ``folder`` a folder, with ``folder=None`` either
+    of them. A symbolic link is always
+    refused, wherever it points: an output is never written through a link. A path that does not
+    exist (or cannot be looked at) passes; writing it reports its own error."""
+    try:
+        info = os.lstat(path)
+    except (OSError, ValueError):
+        return
+    shown = shown_path(path)
+    if stat.S_ISLNK(info.st_mode):
+        raise LfdTrackError(
+            f"{shown}: is a symbolic link; outputs are never written through one"
+            " (give the name of the file itself)"
+        )
+    if folder is None and (stat.S_ISDIR(info.st_mode) or stat.S_ISREG(info.st_mode)):
+        return
+    if folder:
+        if not stat.S_ISDIR(info.st_mode):
+            raise LfdTrackError(f"{shown}: exists and is not a folder (the output is a folder)")
+        return
+    if stat.S_ISDIR(info.st_mode):
+        raise LfdTrackError(f"{shown}: is a folder, expected a file name")
+    if not stat.S_ISREG(info.st_mode):
+        raise LfdTrackError(
+            f"{shown}: exists and is {_kind(info.st_mode)}, not a regular file; an output only"
+            " ever replaces a regular file"
+        )
 
 
 def _free_names(out: Path, tag: str) -> Iterator[Path]:

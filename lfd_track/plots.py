@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from .outputs import shown_path
 from .render.topdown import RGB, TopDownView
 from .world.track import Track
 
@@ -50,11 +51,12 @@ def _text(
     colour: RGB = INK,
     thickness: int = 1,
 ) -> None:
-    cv2.putText(img, text, org, FONT, scale, colour, thickness, cv2.LINE_AA)
+    """Draw ``text``; bytes that are not UTF-8 are drawn as \\x escapes (OpenCV would crash)."""
+    cv2.putText(img, shown_path(text), org, FONT, scale, colour, thickness, cv2.LINE_AA)
 
 
 def _text_width(text: str, scale: float = 0.5, thickness: int = 1) -> int:
-    return cv2.getTextSize(text, FONT, scale, thickness)[0][0]
+    return cv2.getTextSize(shown_path(text), FONT, scale, thickness)[0][0]
 
 
 def _header(
@@ -263,7 +265,7 @@ def _track_picture(
         if run.label and len(pts):
             end = view.to_px(pts[-1])
             org = (int(end[0]) + 8, int(end[1]) - 8)
-            cv2.putText(img, run.label, org, FONT, 0.5, INK, 3, cv2.LINE_AA)
+            cv2.putText(img, shown_path(run.label), org, FONT, 0.5, INK, 3, cv2.LINE_AA)
             _text(img, run.label, org, 0.5, MARK_RGB)
     return img
 

@@ -17,7 +17,9 @@ from typing import Any
 import cv2
 import numpy as np
 
+from .atomic import replace_file
 from .core.commands import Command
+from .outputs import refuse_unsafe_output, shown_path
 from .render.topdown import draw_topdown
 from .utils.extras import needs_extra
 from .vision.overlay import draw_road_values
@@ -32,6 +34,7 @@ VIDEO_FORMATS: dict[str, tuple[str, list[str]]] = {
 
 def _label(canvas: np.ndarray, text: str, org: tuple[int, int], scale: float = 0.6) -> None:
     """White text with a dark outline, readable on felt, carpet and overlay alike."""
+    text = shown_path(text)  # OpenCV crashes on text that is not UTF-8
     for colour, thickness in (((0, 0, 0), 4), ((255, 255, 255), 2)):
         cv2.putText(
             canvas, text, org, cv2.FONT_HERSHEY_SIMPLEX, scale, colour, thickness, cv2.LINE_AA
@@ -71,6 +74,7 @@ class DriveVideo:
         suffix = self.path.suffix.lower()
         if suffix not in VIDEO_FORMATS:
             raise ValueError(f"{self.path}: a video name must end in .mp4 (H.264) or .webm (VP9)")
+        refuse_unsafe_output(self.path)
         _check_writable_name(self.path)
         self.codec, self._options = VIDEO_FORMATS[suffix]
         self.env = env
@@ -168,7 +172,7 @@ class DriveVideo:
             writer, self._writer = self._writer, None
             try:
                 writer.close()  # waits for the encoder to finish the file
-                os.replace(self._tmp, self.path)
+                replace_file(self._tmp, self.path)
             except BaseException:
                 self._tmp.unlink(missing_ok=True)
                 raise

@@ -50,3 +50,23 @@ def test_the_longest_file_names_are_written(tmp_path):
         atomic_write_text(path, "data")
         assert path.read_text() == "data"
     assert len(list(tmp_path.iterdir())) == 2
+
+
+@pytest.mark.parametrize("kind", ["fifo", "link"])
+def test_a_fifo_or_a_symbolic_link_is_never_replaced(tmp_path, kind):
+    from lfd_track.errors import LfdTrackError
+
+    path = tmp_path / "out.json"
+    target = tmp_path / "elsewhere.json"
+    target.write_text("kept")
+    if kind == "fifo":
+        os.mkfifo(path)
+    else:
+        path.symlink_to(target)
+    with pytest.raises(LfdTrackError, match="a FIFO|symbolic link") as info:
+        atomic_write_text(path, "new")
+    assert str(path) in str(info.value)
+    mode = os.lstat(path).st_mode
+    assert stat.S_ISFIFO(mode) if kind == "fifo" else stat.S_ISLNK(mode)
+    assert target.read_text() == "kept"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["elsewhere.json", "out.json"]

@@ -5,6 +5,9 @@ from __future__ import annotations
 import os
 import shutil
 import signal
+import stat
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -273,3 +276,188 @@ def test_demo_below_a_file_says_the_parent_is_not_a_folder(tmp_path, capsys):
     err = _one_line(capsys.readouterr().err)
     assert f"{parent / 'x.lfdemo'}: {parent} is not a folder" in err and "File exists" not in err
     assert parent.read_bytes() == b"not a folder"
+
+
+# --------------------------------------------------------------- outputs replace regular files only
+REPO = Path(__file__).resolve().parent.parent
+
+
+def _special(kind: str, path: Path) -> None:
+    """Make ``path`` a FIFO, a symbolic link to a regular file, or a dangling symbolic link."""
+    if kind == "fifo":
+        os.mkfifo(path)
+    elif kind == "link":
+        target = path.with_name("target-" + path.name)
+        target.write_bytes(b"the file the link points to")
+        path.symlink_to(target)
+    else:
+        path.symlink_to(path.with_name("nowhere-" + path.name))
+
+
+def _unchanged(kind: str, path: Path) -> None:
+    info = os.lstat(path)
+    if kind == "fifo":
+        assert stat.S_ISFIFO(info.st_mode)
+    else:
+        assert stat.S_ISLNK(info.st_mode)
+        if kind == "link":
+            assert os.readlink(path) == str(path.with_name("target-" + path.name))
+            assert path.with_name("target-" + path.name).read_bytes() == (
+                b"the file the link points to"
+            )
+
+
+def _output_commands(controller: Path, demo: Path, out: Path) -> dict[str, list[str]]:
+    return {
+        "evolve --out": ["evolve", str(demo), "--generations", "1", "--out", str(out)],
+        "drive --plot": ["drive", str(controller), "--track", "training", "--plot", str(out)],
+        "drive --video": ["drive", str(controller), "--track", "training", "--video", str(out)],
+        "demo --force --out": ["demo", "--force", "--out", str(out)],
+        "demo --out": ["demo", "--out", str(out)],
+    }
+
+
+SUFFIX = {"evolve --out": ".json", "drive --plot": ".png", "drive --video": ".mp4"}
+
+
+@pytest.mark.parametrize("kind", ["fifo", "link", "dangling link"])
+@pytest.mark.parametrize("command", list(_output_commands(Path(), Path(), Path())))
+def test_an_output_that_is_not_a_regular_file_is_refused_before_any_work(
+    controller, small_demo, tmp_path, monkeypatch, capsys, kind, command
+):
+    out = tmp_path / ("out" + SUFFIX.get(command, ".lfdemo"))
+    _special(kind, out)
+    _no_fsync(monkeypatch)
+    before = sorted(p.name for p in tmp_path.iterdir())
+    code = main(["--quiet", *_output_commands(controller, small_demo, out)[command]])
+    err = _one_line(capsys.readouterr().err)
+    assert code == 1, err
+    assert str(out) in err and ("symbolic link" in err or "a FIFO" in err), err
+    _unchanged(kind, out)
+    assert sorted(p.name for p in tmp_path.iterdir()) == before  # nothing written beside it
+
+
+def test_dev_null_as_an_output_is_refused_and_stays_a_device(controller, small_demo, capsys):
+    from lfd_track.errors import LfdTrackError
+    from lfd_track.outputs import refuse_unsafe_output
+
+    # First the check itself, so that a version without it never gets to replace the device.
+    with pytest.raises(LfdTrackError, match="is a device"):
+        refuse_unsafe_output("/dev/null")
+    before = os.stat("/dev/null")
+    assert stat.S_ISCHR(before.st_mode)
+    for command, args in _output_commands(controller, small_demo, Path("/dev/null")).items():
+        assert main(["--quiet", *args]) == 1, command
+        assert "/dev/null: exists and is a device" in _one_line(capsys.readouterr().err)
+    after = os.stat("/dev/null")
+    assert stat.S_ISCHR(after.st_mode) and after.st_rdev == before.st_rdev
+    assert after.st_ino == before.st_ino
+    assert not Path("/dev/null.fitness.png").exists()
+
+
+@pytest.mark.parametrize("kind", ["fifo", "link"])
+def test_benchmark_refuses_a_linked_output_folder_or_special_files_in_it(tmp_path, capsys, kind):
+    folder = tmp_path / "real"
+    folder.mkdir()
+    if kind == "link":
+        out = tmp_path / "results"
+        out.symlink_to(folder)
+        shown = out
+    else:
+        out = folder
+        shown = folder / "report.md"
+        os.mkfifo(shown)
+    code = main(["--quiet", "benchmark", "--quick", "--workers", "1", "--out", str(out)])
+    err = _one_line(capsys.readouterr().err)
+    assert code == 1 and f"{shown}: " in err, err
+    assert os.listdir(folder) == ([] if kind == "link" else ["report.md"])
+    assert sorted(os.listdir(tmp_path)) == (["real", "results"] if kind == "link" else ["real"])
+
+
+def test_teach_refuses_a_fifo_before_opening_a_session(tmp_path, monkeypatch, capsys):
+    from lfd_track.web import session
+
+    def opened(args):
+        raise AssertionError("the session was opened")
+
+    monkeypatch.setattr(session, "open_session", opened)
+    out = tmp_path / "t.lfdemo"
+    os.mkfifo(out)
+    code = main(["--quiet", "teach", "--force", "--port", "0", "--out", str(out)])
+    assert code == 1 and "a FIFO" in _one_line(capsys.readouterr().err)
+    assert stat.S_ISFIFO(os.lstat(out).st_mode)
+
+
+def test_hardware_demo_refuses_a_link_before_opening_the_robot(tmp_path, monkeypatch, capsys):
+    from lfd_track.hardware import cli as hardware_cli
+
+    def opened(*args, **kwargs):
+        raise AssertionError("the robot was opened")
+
+    monkeypatch.setattr(hardware_cli, "_make_env", opened)
+    out = tmp_path / "h.lfdemo"
+    _special("link", out)
+    args = ["--quiet", "hardware", "demo", "--camera", "0", "--serial", "loop://", "--out"]
+    assert main([*args, str(out)]) == 1
+    assert "symbolic link" in _one_line(capsys.readouterr().err)
+    _unchanged("link", out)
+
+
+# ------------------------------------------------------------------ names that are not UTF-8
+def _run(*args: str | bytes) -> subprocess.CompletedProcess:
+    """The command in a child process (a crash in OpenCV is an exit code, not a dead pytest)."""
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    return subprocess.run(
+        [sys.executable, "-m", "lfd_track.cli", "--quiet", *args],
+        capture_output=True,
+        env=env,
+        timeout=600,
+    )
+
+
+def _bad(folder: Path, name: bytes) -> bytes:
+    """A path in ``folder`` whose last part is ``name`` (bytes that are not UTF-8)."""
+    return os.fsencode(folder) + b"/" + name
+
+
+def test_evolve_from_a_demonstration_named_with_a_byte_that_is_not_utf8(small_demo, tmp_path):
+    demo = _bad(tmp_path, b"x\xff.lfdemo")
+    shutil.copyfile(small_demo, demo)
+    out = tmp_path / "c.json"
+    proc = _run("evolve", demo, "--generations", "1", "--out", str(out))
+    assert proc.returncode == 0, proc.stderr
+    assert out.exists() and tmp_path.joinpath("c.fitness.png").exists()
+    proc.stdout.decode("utf-8")  # what it prints is UTF-8 too
+
+
+def test_drive_with_names_that_are_not_utf8(controller, tmp_path):
+    bad_controller = _bad(tmp_path, b"c\xff.json")
+    shutil.copyfile(controller, bad_controller)
+    track = _bad(tmp_path, b"l\xff.toml")
+    shutil.copyfile(REPO / "tracks" / "training.toml", track)
+    plot = _bad(tmp_path, b"p\xff.png")
+    proc = _run("drive", bad_controller, "--track", track, "--plot", plot)
+    assert proc.returncode == 0, proc.stderr
+    assert os.path.getsize(plot) > 0
+    assert "l\\xff.toml" in proc.stdout.decode("utf-8")
+    proc = _run("drive", str(controller), "--track", track, "--json")
+    assert proc.returncode == 0, proc.stderr
+    import json
+
+    assert json.loads(proc.stdout.decode("utf-8"))["track"].endswith("l\\xff.toml")
+
+
+@pytest.mark.parametrize("command", ["benchmark", "demo"])
+def test_a_track_named_with_a_byte_that_is_not_utf8_is_refused_before_the_run(tmp_path, command):
+    track = _bad(tmp_path, b"l\xff.toml")
+    shutil.copyfile(REPO / "tracks" / "testing.toml", track)
+    out = tmp_path / "out"
+    if command == "benchmark":
+        args = ["benchmark", "--quick", "--workers", "1", "--test-track", track]
+    else:
+        args = ["demo", "--track", track]
+    proc = _run(*args, "--out", str(out))
+    err = proc.stderr.decode("utf-8")
+    assert proc.returncode == 1 and err.count("\n") == 1, err
+    assert "l\\xff.toml: the " in err and "not valid UTF-8" in err
+    assert not out.exists()

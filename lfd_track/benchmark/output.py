@@ -36,6 +36,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from ..errors import LfdTrackError
+from ..outputs import refuse_unsafe_output
 
 try:
     import fcntl
@@ -46,6 +47,8 @@ REPETITIONS = "repetitions"
 """Sub-folder of the output holding one folder per repetition."""
 LAST = "results.json"
 """Moved into place last: once it is new, so is everything else."""
+FILES = ("trajectories.png", "fitness.png", "report.md", LAST)
+"""The files a run writes at the top of the output folder (checked before the run starts)."""
 STALE_S = 600.0
 """A staging folder nobody holds is left over from a killed run once it is this old (a running
 run locks its folder at once; the wait only covers the moment between making and locking it)."""
@@ -74,9 +77,10 @@ def _remove_empty(folders: list[Path]) -> None:
             return
 
 
-def _lock(folder: Path, *, wait: bool = False) -> int | None:
+def _lock(folder: Path, *, wait: bool = False, busy: str | None = None) -> int | None:
     """An open descriptor of ``folder`` holding an exclusive lock on it; None if another
-    process holds one (and not ``wait``) or the file system has no locks."""
+    process holds one (and not ``wait``; with ``busy``, ``LfdTrackError`` "``folder``:
+    ``busy``" instead) or the file system has no locks."""
     if fcntl is None:  # pragma: no cover - not on POSIX
         return None
     try:
@@ -87,6 +91,8 @@ def _lock(folder: Path, *, wait: bool = False) -> int | None:
         fcntl.flock(fd, fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB))
     except BaseException as exc:  # held elsewhere, no locks here, or Ctrl-C while waiting
         os.close(fd)
+        if isinstance(exc, BlockingIOError) and busy is not None:
+            raise LfdTrackError(f"{folder}: {busy}") from None
         if isinstance(exc, OSError):
             return None
         raise
@@ -96,6 +102,18 @@ def _lock(folder: Path, *, wait: bool = False) -> int | None:
 def _unlock(fd: int | None) -> None:
     if fd is not None:
         os.close(fd)
+
+
+@contextmanager
+def locked_folder(folder: Path, busy: str) -> Iterator[None]:
+    """Hold the lock a run takes on its output ``folder`` (an existing folder) for the block;
+    ``LfdTrackError`` "``folder``: ``busy``" at once if another process holds it. Where the
+    file system has no locks the block runs without one."""
+    fd = _lock(folder, busy=busy)
+    try:
+        yield
+    finally:
+        _unlock(fd)
 
 
 def _remove_left_stages(out: Path) -> None:
@@ -219,8 +237,16 @@ def publish(stage: Path, out: Path) -> None:
         _unlock(lock)
 
 
+def _refuse_unsafe_entries(stage: Path, out: Path, entries: list[Path]) -> None:
+    """Refuse (before any move) an entry of ``out`` to be replaced that is a symbolic link, a
+    device, a FIFO or a socket."""
+    for rel in entries:
+        refuse_unsafe_output(out / rel, folder=None)
+
+
 def _move_in(stage: Path, out: Path) -> None:
     entries = _entries(stage, out)
+    _refuse_unsafe_entries(stage, out, entries)
     aside = Path(tempfile.mkdtemp(prefix=".previous-", dir=stage))
     done: list[tuple[Path, Path | None]] = []  # (entry, where its old version was moved)
     try:
@@ -261,11 +287,16 @@ def staged_output(out: str | Path) -> Iterator[Path]:
     ``out`` when the ``with`` block ends without error, else delete it, leaving ``out`` (and
     everything beside it) as it was.
 
-    Raises ``LfdTrackError`` at once if ``out`` exists and is not a folder.
+    Raises ``LfdTrackError`` at once if ``out`` exists and is not a folder (a symbolic link to
+    one is refused too: outputs are never written through a link), or if a file the run writes
+    (:data:`FILES`) is there and is not a regular file.
     """
     out = Path(os.path.abspath(out))
     if os.path.lexists(out) and not out.is_dir():
         raise LfdTrackError(f"{out}: exists and is not a folder (the benchmark writes a folder)")
+    refuse_unsafe_output(out, folder=True)
+    for name in (*FILES, REPETITIONS):
+        refuse_unsafe_output(out / name, folder=None)
     created = _missing_parents(out.parent)
     out.parent.mkdir(parents=True, exist_ok=True)
     _remove_left_stages(out)

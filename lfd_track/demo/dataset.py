@@ -13,7 +13,10 @@ File layout (all integers little-endian)::
     magic      8 bytes  b"\\x89LFDEMO\\n"   (binary-safe, catches text-mode transfers)
     record*    kind u8 | length u32 | crc32 u32 | payload[length]
 
-The CRC-32 covers kind, length and payload. Records, in order:
+The CRC-32 covers kind, length and payload. From schema 4 on, every record after the header
+starts its payload with its index ``u32`` (1 for the first record after the header, counting
+every kind), so a record out of order, repeated or missing is refused; the layouts below follow
+the index. Records, in order:
 
 - ``H`` header, once, first: UTF-8 JSON ``{"format", "schema", "bins", "n_values", "n_channels",
   "metadata", "initial_road_library"}``; the last is the library snapshot when recording started
@@ -38,16 +41,21 @@ snapshot (checked at load); a partial file's replayed snapshot becomes its ``"ro
 Schema 1 files (no source, round or library log) still load: every case is a ``"demonstration"``
 of round 0. A recording without memory inputs is written as schema 2 (as before memory existed);
 one with memory inputs as schema 3, whose header adds ``n_memory`` and whose cases carry them.
+Every recording is now written as schema 4: the schema 3 layout with record indexes, its header
+always saying ``n_memory`` (0 without memory). Schemas 1-3 still load exactly as before.
 
 Why a log rather than ``.npz``: each case is one ``write`` of one record on an unbuffered file
 (and by default ``fsync``-ed), so a killed recorder loses at most the case being written, and
 appending stays O(1) per case where rewriting an archive per case would be O(N^2).
 
 Loading reads records until end of file. A record cut short at the end of the file, or a
-complete last record whose CRC fails (a filesystem may extend a file before the data lands), is a
-*torn tail*: it is dropped and reported (``metadata["complete"] = False``,
+complete last record whose CRC fails (a filesystem may extend a file before the data lands: the
+bytes that never landed read as zeros), is a *torn tail*: it is dropped and reported (``metadata["complete"] = False``,
 ``metadata["torn_tail_bytes"]``). A file without a footer is likewise ``complete = False`` but every
-case in it is returned. Anything else — bad magic, unknown schema, a truncated or corrupt header,
+case in it is returned. A footer is never taken for a torn tail when all of its JSON is there (JSON
+holds no zero byte) but its CRC or its length is wrong: that is corruption. A zero tail longer
+than :data:`MAX_ZERO_TAIL_BYTES` is corruption too, refused from the file's last bytes before it
+is read whole. Anything else — bad magic, unknown schema, a truncated or corrupt header,
 a corrupt record with data after it, a length no record of its kind can have, data after the
 footer, values out of range — raises :class:`lfd_track.errors.FileFormatError` with one line
 naming the file and the problem. Only regular files up to :data:`MAX_FILE_BYTES` are read.
@@ -63,6 +71,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import stat
 import struct
 import zlib
 from collections.abc import Mapping
@@ -76,14 +85,17 @@ from ..atomic import atomic_write_bytes
 from ..core.commands import Command
 from ..errors import FileFormatError
 from ..files import read_regular_file
+from ..outputs import refuse_unsafe_output
 from ..policy.memory import MemoryConfig
 from ..vision.road_library import LibraryChange, LibraryLearned, RoadLibrary
 
-SCHEMA_VERSION = 2
-"""Version of the record layout of a recording without memory inputs."""
+SCHEMA_VERSION = 4
+"""Version of the record layout written now: every record after the header carries its index."""
 SCHEMA_WITH_MEMORY = 3
-"""Version of the record layout of a recording with memory inputs (``n_memory`` > 0)."""
-READABLE_SCHEMAS = (1, 2, 3)
+"""The first version whose header may declare memory inputs (``n_memory``)."""
+SCHEMA_INDEXED = 4
+"""The first version whose records carry their index (1 for the first record after the header)."""
+READABLE_SCHEMAS = (1, 2, 3, 4)
 """Schema versions this version of lfd-track loads."""
 SOURCES = ("demonstration", "correction")
 """Case sources; a case stores the index into this tuple."""
@@ -99,10 +111,14 @@ N_CHANNELS = 5  # R, G, B, H, S histograms per region
 DEFAULT_BINS = 32
 MAX_MEMORY_INPUTS = 16
 """Most memory inputs a case may carry."""
+MAX_ZERO_TAIL_BYTES = 1 << 24
+"""Longest run of zero bytes at the end of a file taken as writes that never landed (16 MiB:
+far more than the records written between two fsyncs); a longer one is corruption."""
 
 _MAGIC = b"\x89LFDEMO\n"
 _BAD_MAGIC = f"not a demonstration file (bad magic; expected a {FILE_EXTENSION} log)"
 _FRAME = struct.Struct("<BII")  # kind, payload length, crc32
+_INDEX = struct.Struct("<I")  # schema 4: a record's index, first in its payload
 _CASE_FIXED_V1 = struct.Struct("<qBBH4d")  # step, command, learned, phase length, x, y, theta, s
 # step, command, learned, source, round, phase length, x, y, theta, s
 _CASE_FIXED = struct.Struct("<qBBBIH4d")
@@ -226,7 +242,10 @@ class Demonstration:
 # --------------------------------------------------------------------------- encoding
 
 
-def _frame(kind: int, payload: bytes) -> bytes:
+def _frame(kind: int, payload: bytes, index: int | None = None) -> bytes:
+    """A record; with ``index`` (schema 4) the payload starts with it."""
+    if index is not None:
+        payload = _INDEX.pack(index) + payload
     head = struct.pack("<BI", kind, len(payload))
     crc = zlib.crc32(payload, zlib.crc32(head))
     return _FRAME.pack(kind, len(payload), crc) + payload
@@ -252,23 +271,24 @@ def _header_record(
     meta.setdefault("created_by", f"lfd-track {__version__}")
     header = {
         "format": FORMAT_NAME,
-        "schema": SCHEMA_WITH_MEMORY if n_memory else SCHEMA_VERSION,
+        "schema": SCHEMA_VERSION,
         "bins": bins,
         "n_values": N_VALUES,
         "n_channels": N_CHANNELS,
         "metadata": meta,
         "initial_road_library": initial_library,
+        "n_memory": n_memory,
     }
-    if n_memory:
-        header["n_memory"] = n_memory
     return _frame(_KIND_HEADER, _json_bytes(header, "demonstration metadata"))
 
 
-def _footer_record(final_metadata: Mapping[str, Any], counts: dict[str, int], n: int) -> bytes:
+def _footer_record(
+    final_metadata: Mapping[str, Any], counts: dict[str, int], n: int, index: int
+) -> bytes:
     footer = dict(final_metadata)
     footer["n_cases"] = n
     footer["counts"] = counts
-    return _frame(_KIND_FOOTER, _json_bytes(footer, "final metadata"))
+    return _frame(_KIND_FOOTER, _json_bytes(footer, "final metadata"), index)
 
 
 def _case_record(
@@ -285,8 +305,10 @@ def _case_record(
     round_: int = 0,
     memory: Any = None,
     n_memory: int = 0,
+    index: int = 0,
 ) -> bytes:
-    """Validate one case and encode it as a ``C`` record (raises ValueError on bad input)."""
+    """Validate one case and encode it as a ``C`` record numbered ``index`` (raises ValueError on
+    bad input)."""
     if int(command) not in (0, 1, 2) or int(command) != command:
         raise ValueError(f"command must be 0, 1 or 2, got {command!r}")
     if source not in SOURCES:
@@ -346,7 +368,7 @@ def _case_record(
             hists.tobytes(),
         )
     )
-    return _frame(_KIND_CASE, payload)
+    return _frame(_KIND_CASE, payload, index)
 
 
 def _road_value_problem(values: np.ndarray) -> str:
@@ -400,7 +422,7 @@ def _max_case_length(bins: int, n_memory: int = 0) -> int:
     return _CASE_FIXED.size + _MAX_PHASE_BYTES + values + 4 * N_VALUES * N_CHANNELS * bins
 
 
-def _learned_record(change: LibraryLearned) -> bytes:
+def _learned_record(change: LibraryLearned, index: int) -> bytes:
     out = change.outcome
     joined = -1 if out.new_type else out.type_index
     fixed = _LEARNED_FIXED.pack(
@@ -408,15 +430,17 @@ def _learned_record(change: LibraryLearned) -> bytes:
         -1 if out.evicted_type is None else out.evicted_type,
         -1 if out.evicted_example is None else out.evicted_example,
     )
-    return _frame(_KIND_LEARNED, fixed + np.asarray(change.model, dtype="<f4").tobytes())
+    return _frame(_KIND_LEARNED, fixed + np.asarray(change.model, dtype="<f4").tobytes(), index)
 
 
-def _selected_record(per_model: np.ndarray) -> bytes:
+def _selected_record(per_model: np.ndarray, index: int) -> bytes:
     counts = np.asarray(per_model)
     if counts.size > _MAX_MODELS:
         raise ValueError(f"a logged road library holds at most {_MAX_MODELS} models")
     return _frame(
-        _KIND_SELECTED, _SELECTED_FIXED.pack(counts.size) + counts.astype(np.uint8).tobytes()
+        _KIND_SELECTED,
+        _SELECTED_FIXED.pack(counts.size) + counts.astype(np.uint8).tobytes(),
+        index,
     )
 
 
@@ -440,6 +464,27 @@ def _check_bins(bins: int) -> int:
 
 
 # --------------------------------------------------------------------------- writing
+
+
+def _open_recording(path: Path, overwrite: bool) -> Any:
+    """``path`` opened for writing, unbuffered: a new file, or with ``overwrite`` an existing
+    regular file emptied. Nothing but a regular file is opened (not through a symbolic link, nor
+    a FIFO or a device that appeared since :func:`refuse_unsafe_output` looked)."""
+    if not overwrite:
+        return open(path, "xb", buffering=0)  # noqa: SIM115 - exclusive: never an existing file
+    flags = os.O_WRONLY | os.O_CREAT | getattr(os, "O_CLOEXEC", 0)
+    flags |= getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
+    fd = os.open(path, flags, 0o666)
+    try:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            refuse_unsafe_output(path)
+            raise FileFormatError(path, "not a regular file; an output only replaces one")
+        os.set_blocking(fd, True)
+        os.ftruncate(fd, 0)
+    except BaseException:
+        os.close(fd)
+        raise
+    return open(fd, "wb", buffering=0)  # noqa: SIM115
 
 
 class DemonstrationWriter:
@@ -478,15 +523,17 @@ class DemonstrationWriter:
         self.n_memory = _check_n_memory(n_memory)
         self._fsync = fsync
         self._commands: list[int] = []
+        self._records = 0  # records written after the header (each carries its index)
         self._unsubscribe: Any = None
         if library is not None and library.bins != self.bins:
             raise ValueError(f"library has {library.bins} bins, the file {self.bins}")
         initial = None if library is None else library.to_dict()
         header = _header_record(metadata, self.bins, initial, self.n_memory)
+        refuse_unsafe_output(self.path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         # Unbuffered: each record reaches the kernel in one write() call, so SIGKILL cannot
         # leave a record half in a user-space buffer.
-        self._file = open(self.path, "wb" if overwrite else "xb", buffering=0)  # noqa: SIM115
+        self._file = _open_recording(self.path, overwrite)
         try:
             self._write(_MAGIC + header)
             self._sync_directory()
@@ -503,12 +550,12 @@ class DemonstrationWriter:
         if self._file.closed:
             return
         if isinstance(change, LibraryLearned):
-            record = _learned_record(change)
+            record = _learned_record(change, self._records + 1)
         else:
-            record = _selected_record(change.per_model)
+            record = _selected_record(change.per_model, self._records + 1)
         # No fsync of its own: the next case's fsync makes it durable (unbuffered writes already
         # survive a killed process).
-        self._write(record, sync=False)
+        self._write_record(record, sync=False)
 
     @property
     def n_cases(self) -> int:
@@ -569,8 +616,9 @@ class DemonstrationWriter:
             round,
             memory,
             self.n_memory,
+            self._records + 1,
         )
-        self._write(record)
+        self._write_record(record)
         self._commands.append(int(command))
 
     def close(self, final_metadata: Mapping[str, Any] | None = None) -> None:
@@ -579,8 +627,10 @@ class DemonstrationWriter:
             return
         self._stop_logging()
         try:
-            footer = _footer_record(final_metadata or {}, _counts(self._commands), self.n_cases)
-            self._write(footer)
+            footer = _footer_record(
+                final_metadata or {}, _counts(self._commands), self.n_cases, self._records + 1
+            )
+            self._write_record(footer)
         finally:
             self._file.close()
 
@@ -594,6 +644,11 @@ class DemonstrationWriter:
         if self._unsubscribe is not None:
             self._unsubscribe()
             self._unsubscribe = None
+
+    def _write_record(self, record: bytes, *, sync: bool = True) -> None:
+        """Write a record after the header (numbered ``self._records + 1``)."""
+        self._write(record, sync=sync)
+        self._records += 1
 
     def _write(self, data: bytes, *, sync: bool = True) -> None:
         view = memoryview(data)
@@ -648,9 +703,10 @@ def save_demonstration(path: str | Path, demonstration: Demonstration) -> None:
                 int(demo.rounds[i]),
                 demo.memory[i],
                 n_memory,
+                i + 1,
             )
         )
-    parts.append(_footer_record({}, _counts(demo.commands), demo.n_cases))
+    parts.append(_footer_record({}, _counts(demo.commands), demo.n_cases, demo.n_cases + 1))
     atomic_write_bytes(path, b"".join(parts))
 
 
@@ -677,7 +733,12 @@ def load_demonstration(path: str | Path) -> Demonstration:
             raise _fail(path, _BAD_MAGIC)
 
     data = read_regular_file(
-        path, MAX_FILE_BYTES, "demonstration", check_head=check_magic, head_bytes=len(_MAGIC)
+        path,
+        MAX_FILE_BYTES,
+        "demonstration",
+        check_head=check_magic,
+        head_bytes=len(_MAGIC),
+        max_zero_tail=MAX_ZERO_TAIL_BYTES,
     )
     return _parse(path, memoryview(data))
 
@@ -765,14 +826,17 @@ def _parse(path: Path, data: memoryview) -> Demonstration:
         replay = _Replay(path, header["initial_road_library"], bins)
     offset = end
 
+    indexed = schema >= SCHEMA_INDEXED
+    extra = _INDEX.size if indexed else 0
     max_case = _max_case_length(bins, n_memory)
-    limits = {_KIND_CASE: max_case, _KIND_FOOTER: _MAX_JSON_BYTES}
+    limits = {_KIND_CASE: max_case + extra, _KIND_FOOTER: _MAX_JSON_BYTES + extra}
     if replay is not None:
-        limits[_KIND_LEARNED] = _LEARNED_FIXED.size + 4 * N_CHANNELS * bins
-        limits[_KIND_SELECTED] = _SELECTED_FIXED.size + _MAX_MODELS
+        limits[_KIND_LEARNED] = _LEARNED_FIXED.size + 4 * N_CHANNELS * bins + extra
+        limits[_KIND_SELECTED] = _SELECTED_FIXED.size + _MAX_MODELS + extra
     cases: list[tuple[Any, ...]] = []
     footer: dict[str, Any] | None = None
     torn = 0
+    records = 0  # records read after the header
     while offset < size:
         start = offset
         if footer is not None:
@@ -783,7 +847,14 @@ def _parse(path: Path, data: memoryview) -> Demonstration:
         kind, length, crc = _FRAME.unpack_from(data, offset)
         limit = limits.get(kind)
         if limit is None or length > limit:
-            if not any(data[start:]):  # zero fill a filesystem left past the last write
+            if not np.frombuffer(data, np.uint8, size - start, start).any():
+                # Zero fill a filesystem left past the last writes, if it is not too long.
+                if size - start > MAX_ZERO_TAIL_BYTES:
+                    raise _fail(
+                        path,
+                        f"{size - start} zero bytes from byte {start} to the end, more than"
+                        " writes that never landed leave (corrupt file)",
+                    )
                 torn = size - start
                 break
             if limit is None:
@@ -791,14 +862,32 @@ def _parse(path: Path, data: memoryview) -> Demonstration:
             raise _fail(path, f"record at byte {start} has impossible length {length} (corrupt)")
         end = offset + _FRAME.size + length
         if end > size:
+            if kind == _KIND_FOOTER and _whole_json(data[offset + _FRAME.size + extra :]):
+                raise _fail(path, f"footer at byte {start} has a wrong length (corrupt file)")
             torn = size - start
             break
         payload = data[offset + _FRAME.size : end]
         if not _crc_ok(kind, payload, crc):
-            if end == size:  # a last record whose bytes never fully landed
+            # A last record whose bytes never fully landed (they read as zeros) is a torn tail;
+            # a footer all of whose JSON is there (JSON holds no zero byte) is damaged instead.
+            landed = kind == _KIND_FOOTER and 0 not in bytes(payload[extra:])
+            if end == size and not landed:
                 torn = size - start
                 break
-            raise _fail(path, f"record at byte {start} is corrupt (CRC mismatch)")
+            what = "footer" if kind == _KIND_FOOTER else "record"
+            raise _fail(path, f"{what} at byte {start} is corrupt (CRC mismatch)")
+        records += 1
+        if indexed:
+            if length < _INDEX.size:
+                raise _fail(path, f"record at byte {start} is too short for its index (corrupt)")
+            (index,) = _INDEX.unpack_from(payload, 0)
+            if index != records:
+                raise _fail(
+                    path,
+                    f"record at byte {start} is record {index}, expected record {records}:"
+                    " records are missing, repeated or out of order (corrupt file)",
+                )
+            payload = payload[_INDEX.size :]
         if kind == _KIND_CASE:
             cases.append(_decode_case(path, payload, bins, len(cases), schema, n_memory))
         elif kind == _KIND_LEARNED:
@@ -812,6 +901,16 @@ def _parse(path: Path, data: memoryview) -> Demonstration:
         offset = end
 
     return _assemble(path, cases, bins, schema, user_meta, footer, torn, replay, n_memory)
+
+
+def _whole_json(data: memoryview) -> bool:
+    """Whether ``data`` is one whole JSON object (a footer cut short never is)."""
+    if not data or 0 in bytes(data[:1]):
+        return False
+    try:
+        return isinstance(json.loads(bytes(data).decode("utf-8")), dict)
+    except (ValueError, RecursionError):
+        return False
 
 
 def _crc_ok(kind: int, payload: memoryview, crc: int) -> bool:
@@ -861,13 +960,17 @@ def _check_header(path: Path, header: dict[str, Any]) -> tuple[int, int, dict[st
     if schema < SCHEMA_WITH_MEMORY and "n_memory" in header:
         raise _fail(path, f"a schema {schema} header cannot declare n_memory (memory is schema 3)")
     n_memory = header.get("n_memory") if schema >= SCHEMA_WITH_MEMORY else 0
+    # Schema 3 is the memory layout (at least one input); schema 4 says n_memory, 0 or more.
+    fewest = 1 if schema == SCHEMA_WITH_MEMORY else 0
     if (
         not isinstance(n_memory, int)
         or isinstance(n_memory, bool)
-        or not (schema < SCHEMA_WITH_MEMORY or 1 <= n_memory <= MAX_MEMORY_INPUTS)
+        or not (schema < SCHEMA_WITH_MEMORY or fewest <= n_memory <= MAX_MEMORY_INPUTS)
     ):
         raise _fail(
-            path, f"header n_memory must be an integer in 1..{MAX_MEMORY_INPUTS}, got {n_memory!r}"
+            path,
+            f"header n_memory must be an integer in {fewest}..{MAX_MEMORY_INPUTS},"
+            f" got {n_memory!r}",
         )
     return schema, bins, meta, n_memory
 

@@ -222,8 +222,11 @@ def _cmd_drive(args: argparse.Namespace) -> int:
 
 # --------------------------------------------------------------------------------------- demo
 def _cmd_demo(args: argparse.Namespace) -> int:
+    from ..outputs import refuse_undecodable, refuse_unsafe_output
     from .teleop import DemonstrationRecorder, TerminalKeys, run_teleop
 
+    refuse_unsafe_output(args.out)  # before the camera and the link are opened
+    refuse_undecodable(args.camera, "camera")  # recorded in the file's metadata
     env = _make_env(args, between_steps="stop")
     try:
         obs, _ = env.reset()

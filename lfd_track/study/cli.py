@@ -49,41 +49,47 @@ def add_study_parser(subparsers: Any) -> argparse.ArgumentParser:
 def _cmd_study(args: argparse.Namespace) -> int:
     from ..outputs import shown_path
     from ..utils.signals import Terminated, interrupted_exit_code, raise_terminated
-    from .run import load_finished, run_study
+    from .run import load_finished, locked_out, run_study
     from .spec import load_study
     from .summary import write_study_outputs
 
     if args.address is not None and args.executor != "ray":
         raise LfdTrackError("--address needs --executor ray")
     study = load_study(args.study_file)  # a bad study file fails here, before DIR is touched
+    from ..outputs import refuse_unsafe_output
+
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise LfdTrackError(f"{out}: exists and is not a folder")
+    refuse_unsafe_output(out, folder=True)  # a symbolic link to a folder too
+    for name in ("study.json", "study.md", "study.png"):
+        refuse_unsafe_output(out / name)
     out.mkdir(parents=True, exist_ok=True)
     show = not args.quiet and sys.stderr.isatty()
-    # SIGTERM stops the study like Ctrl-C: the jobs still running are stopped (worker processes
-    # too), the finished ones are kept.
-    previous = signal.signal(signal.SIGTERM, raise_terminated)
-    try:
-        run = run_study(
-            study,
-            out,
-            executor=args.executor,
-            workers=args.workers,
-            address=args.address,
-            progress=show,
-        )
-    except (KeyboardInterrupt, Terminated) as exc:
-        code = interrupted_exit_code(exc)
-        print(
-            f"lfd-track study: interrupted; the finished jobs are kept in {shown_path(out)}"
-            " (run the same command to resume)",
-            file=sys.stderr,
-        )
-        return code
-    finally:
-        signal.signal(signal.SIGTERM, previous)
-    results = write_study_outputs(out, study, load_finished(study, out))
+    with locked_out(out):  # one study at a time per folder; refused before any job runs
+        # SIGTERM stops the study like Ctrl-C: the jobs still running are stopped (worker
+        # processes too), the finished ones are kept.
+        previous = signal.signal(signal.SIGTERM, raise_terminated)
+        try:
+            run = run_study(
+                study,
+                out,
+                executor=args.executor,
+                workers=args.workers,
+                address=args.address,
+                progress=show,
+            )
+        except (KeyboardInterrupt, Terminated) as exc:
+            code = interrupted_exit_code(exc)
+            print(
+                f"lfd-track study: interrupted; the finished jobs are kept in {shown_path(out)}"
+                " (run the same command to resume)",
+                file=sys.stderr,
+            )
+            return code
+        finally:
+            signal.signal(signal.SIGTERM, previous)
+        results = write_study_outputs(out, study, load_finished(study, out))
     for c in results["conditions"]:
         testing = c["testing"]
         low, high = testing["ci95"]
@@ -92,8 +98,12 @@ def _cmd_study(args: argparse.Namespace) -> int:
             f"[{100 * low:.0f}–{100 * high:.0f} %], training "
             f"{c['training']['successes']}/{c['training']['trials']}"
         )
+    again = ""
+    if run.again:
+        whose = "its worker process" if run.again == 1 else "their worker processes"
+        again = f" ({run.again} again after {whose} died)"
     print(
-        f"{run.ran} jobs run, {run.skipped} already finished, {run.wall_s:.0f} s; "
+        f"{run.ran} jobs run{again}, {run.skipped} already finished, {run.wall_s:.0f} s; "
         f"tables {out / 'study.md'}, results {out / 'study.json'}, plot {out / 'study.png'}"
     )
     return 0

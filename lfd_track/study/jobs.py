@@ -69,8 +69,9 @@ def finished_results(out: Path, job: Job) -> dict[str, Any] | None:
     Raises ``FileFormatError`` (one line naming the results.json) if the stored results were
     produced with other settings than the study now asks for (rerunning would mix two studies
     in one folder), or are damaged: unreadable, not a regular file, larger than
-    :data:`MAX_RESULTS_BYTES`, not JSON, nested too deeply, or missing (or holding wrongly typed)
-    any field the summary reads (:func:`~lfd_track.study.summary.check_job_results`).
+    :data:`MAX_RESULTS_BYTES`, not JSON, nested too deeply, missing (or holding wrongly typed)
+    any field the summary reads, or holding other trials than the job's repetitions x trials
+    per direction of each direction (:func:`~lfd_track.study.summary.check_job_results`).
 
     A damaged file is an error, never a reason to rerun: the study stops before running any job
     and the file is left as it is; the message tells the user to delete that job's folder, so
@@ -99,7 +100,12 @@ def finished_results(out: Path, job: Job) -> dict[str, Any] | None:
     from .summary import check_job_results
 
     try:
-        check_job_results(results, job.config.repetitions)
+        check_job_results(
+            results,
+            job.config.repetitions,
+            job.config.trials_per_direction,
+            job.config.test_tracks,
+        )
     except ValueError as exc:
         raise FileFormatError(path, f"damaged results: {_first_line(exc)}; {rerun}") from None
     return results

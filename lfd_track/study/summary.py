@@ -19,7 +19,7 @@ import numpy as np
 
 from ..atomic import atomic_write_text
 from ..benchmark.paper import TRACK_RESULT_KEYS
-from ..benchmark.runner import config_dict
+from ..benchmark.runner import config_dict, trial_directions
 from ..benchmark.tables import TrialOutcome, results_json_text
 from .spec import Job, Study
 from .stats import controller_interval, rate_summary
@@ -86,16 +86,22 @@ _OUTCOME_TYPES: dict[str, tuple[type, ...]] = {
 }
 
 
-def check_job_results(results: Mapping[str, Any], repetitions: int) -> None:
+def check_job_results(
+    results: Mapping[str, Any],
+    repetitions: int,
+    trials_per_direction: int | None = None,
+    test_tracks: Sequence[str] | None = None,
+) -> None:
     """Raise ``ValueError`` (one line) unless ``results`` holds, with the right types, every
     field this module reads from a job's results.json.
 
     That is: ``outcomes``, a list of trial outcomes (every field of
     :class:`~lfd_track.benchmark.tables.TrialOutcome`, consistent, ``repetition`` below
-    ``repetitions``); if present, ``timing_s.wall``, ``training_accuracy`` and the
-    ``human_effort``/``human`` totals as finite numbers (counts as integers 0 to
-    :data:`MAX_COUNT`); and, for a job that reports no command count, ``demonstrations`` with
-    integer ``cases``.
+    ``repetitions``; given ``trials_per_direction`` and ``test_tracks``, exactly the job's
+    trials: each direction it drives, repetition and trial once); if present,
+    ``timing_s.wall``, ``training_accuracy`` and the ``human_effort``/``human`` totals as finite
+    numbers (counts as integers 0 to :data:`MAX_COUNT`); and, for a job that reports no command
+    count, ``demonstrations`` with integer ``cases``.
     """
     outcomes = results.get("outcomes")
     if "outcomes" not in results:
@@ -104,6 +110,8 @@ def check_job_results(results: Mapping[str, Any], repetitions: int) -> None:
         raise ValueError(f"'outcomes' must be a list, got {type(outcomes).__name__}")
     for index, o in enumerate(outcomes):
         _check_outcome(o, f"outcomes[{index}]", repetitions)
+    if trials_per_direction is not None and test_tracks is not None:
+        _check_trials(outcomes, repetitions, trials_per_direction, tuple(test_tracks))
     timing = results.get("timing_s", {})
     if not isinstance(timing, Mapping):
         raise ValueError("'timing_s' must be an object")
@@ -164,6 +172,41 @@ def _check_outcome(o: Any, where: str, repetitions: int) -> None:
         TrialOutcome.from_dict(o)  # the benchmark's own consistency rules
     except ValueError as exc:
         raise ValueError(f"{where}: {str(exc).splitlines()[0]}") from None
+
+
+def _check_trials(
+    outcomes: list[Mapping[str, Any]], repetitions: int, trials: int, test_tracks: tuple[str, ...]
+) -> None:
+    """The outcomes must be the job's trials, each once: a missing trial would pool as fewer
+    laps, a repeated one as more."""
+    grid = {(track, direction): 0 for track, _, direction in trial_directions(test_tracks)}
+    seen: set[tuple[str, str, int, int]] = set()
+    for index, o in enumerate(outcomes):
+        track, direction = o["track"], o["direction"]
+        if (track, direction) not in grid:
+            raise ValueError(
+                f"outcomes[{index}]: the job drives no track '{track}' {direction} "
+                f"(its test tracks: {', '.join(test_tracks)})"
+            )
+        if o["trial"] >= trials:
+            raise ValueError(
+                f"outcomes[{index}]: 'trial' must be below the job's {trials} trial(s) per "
+                f"direction, got {o['trial']}"
+            )
+        trial = (track, direction, o["repetition"], o["trial"])
+        if trial in seen:
+            raise ValueError(
+                f"outcomes[{index}]: {track}/{direction} repetition {o['repetition']} "
+                f"trial {o['trial']} is listed twice"
+            )
+        seen.add(trial)
+        grid[track, direction] += 1
+    for (track, direction), held in grid.items():
+        if held != repetitions * trials:
+            raise ValueError(
+                f"'outcomes' holds {held} of the {repetitions * trials} trial(s) of "
+                f"{track}/{direction} ({repetitions} repetition(s) x {trials} per direction)"
+            )
 
 
 def _number(value: Any, name: str) -> None:

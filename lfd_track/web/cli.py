@@ -49,7 +49,12 @@ def run_teach(args: argparse.Namespace) -> int:
         raise LfdTrackError("--backend hardware needs --camera URL and --serial URL")
     if args.backend == "sim" and (args.camera or args.serial):
         raise LfdTrackError("--camera and --serial are for --backend hardware")
+    from ..outputs import refuse_undecodable, refuse_unsafe_output
+
     out = Path(args.out)
+    refuse_unsafe_output(out)
+    for what, name in (("track", args.track), ("preset", args.preset)):
+        refuse_undecodable(name, what)
     if out.exists() and not args.force:
         raise LfdTrackError(f"{out}: already exists (use --force to replace it)")
     replacing = out.exists()  # kept until the new recording holds a case

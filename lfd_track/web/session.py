@@ -15,7 +15,6 @@ Nothing moves unless the controlling page holds the lease (:class:`~lfd_track.we
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import threading
 import time
@@ -570,7 +569,14 @@ class _ReplacingWriter:
                 recording.unlink(missing_ok=True)
             raise
         if self._writer.n_cases:
-            os.replace(recording, self.out)
+            from ..atomic import replace_file
+            from ..errors import LfdTrackError
+
+            try:
+                replace_file(recording, self.out)
+            except LfdTrackError as exc:  # ``out`` became a link, device, ... meanwhile
+                kept = keep_partial(recording, self.out)
+                raise LfdTrackError(f"{exc}; the recording is kept at {shown_path(kept)}") from None
             return
         recording.unlink(missing_ok=True)
         if not self.quiet:

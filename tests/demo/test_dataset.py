@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import signal
+import stat
 import struct
 import subprocess
 import sys
@@ -25,6 +26,7 @@ from lfd_track.errors import FileFormatError
 BINS = 8
 MAGIC_LEN = 8
 FRAME_LEN = 9  # kind u8, length u32, crc u32
+INDEX_LEN = 4  # schema 4: a record's index, first in its payload
 
 
 def _case(rng: np.random.Generator, bins: int = BINS):
@@ -312,7 +314,7 @@ def _with_case_byte(data: bytes, offset: int, value: int) -> bytes:
 
     (length,) = struct.unpack_from("<I", data, offset + 1)
     payload = bytearray(data[offset + FRAME_LEN : offset + FRAME_LEN + length])
-    payload[8] = value  # the command byte, after the int64 step
+    payload[4 + 8] = value  # the command byte, after the record index and the int64 step
     head = struct.pack("<BI", data[offset], length)
     crc = zlib.crc32(bytes(payload), zlib.crc32(head))
     frame = struct.pack("<BII", data[offset], length, crc)
@@ -356,7 +358,7 @@ def test_cases_carry_source_and_round(tmp_path: Path) -> None:
     demo = load_demonstration(path)
     assert demo.sources.tolist() == ["demonstration", "correction", "demonstration"]
     assert demo.rounds.tolist() == [0, 2, 1] and demo.rounds.dtype == np.int64
-    assert demo.metadata["schema_version"] == SCHEMA_VERSION == 2
+    assert demo.metadata["schema_version"] == SCHEMA_VERSION == 4
     copy = tmp_path / "copy.lfdemo"
     save_demonstration(copy, demo)
     again = load_demonstration(copy)
@@ -433,7 +435,7 @@ def test_impossible_values_are_refused(tmp_path: Path) -> None:
     _one_line_error(bad, "case 0: step -5 is negative")
     big = struct.pack("<f", 2.5)
     end = FRAME_LEN + struct.unpack_from("<I", data, offsets[1] + 1)[0]
-    bad.write_bytes(_with_payload(data, offsets[1], end - FRAME_LEN - 4, big))
+    bad.write_bytes(_with_payload(data, offsets[1], end - FRAME_LEN - INDEX_LEN - 4, big))
     _one_line_error(bad, "case 0: region histograms values must lie in [0, 1]")
     bad.write_bytes(_rewrite_header(data, lambda h: {**h, "metadata": {"x": float("nan")}}))
     _one_line_error(bad, "header: non-finite number NaN")
@@ -443,11 +445,13 @@ def test_impossible_values_are_refused(tmp_path: Path) -> None:
 
 
 def _with_payload(data: bytes, offset: int, at: int, new: bytes) -> bytes:
-    """Overwrite payload bytes ``at`` of the record at ``offset`` and fix its CRC."""
+    """Overwrite payload bytes ``at`` (counted after the record's index) of the record at
+    ``offset`` and fix its CRC."""
     import zlib
 
     (length,) = struct.unpack_from("<I", data, offset + 1)
     payload = bytearray(data[offset + FRAME_LEN : offset + FRAME_LEN + length])
+    at += INDEX_LEN
     payload[at : at + len(new)] = new
     head = struct.pack("<BI", data[offset], length)
     frame = struct.pack("<BII", data[offset], length, zlib.crc32(bytes(payload), zlib.crc32(head)))
@@ -529,9 +533,10 @@ def test_footer_that_disagrees_with_the_log_is_refused(tmp_path: Path) -> None:
     _record_with_library(path, 9)
     data = path.read_bytes()
     footer_at = _case_offsets(data)[-1]
-    footer = json.loads(data[footer_at + FRAME_LEN :])
+    index = data[footer_at + FRAME_LEN : footer_at + FRAME_LEN + INDEX_LEN]
+    footer = json.loads(data[footer_at + FRAME_LEN + INDEX_LEN :])
     footer["road_library"]["types"][0]["selections"] += 1
-    payload = json.dumps(footer).encode()
+    payload = index + json.dumps(footer).encode()
     head = struct.pack("<BI", ord("F"), len(payload))
     frame = struct.pack("<BII", ord("F"), len(payload), zlib.crc32(payload, zlib.crc32(head)))
     path.write_bytes(data[:footer_at] + frame + payload)
@@ -572,3 +577,199 @@ def test_a_header_that_cannot_be_written_leaves_no_file(tmp_path, monkeypatch, o
     with pytest.raises(OSError, match="No space left"):
         DemonstrationWriter(path, {}, bins=4, fsync=False, overwrite=overwrite)
     assert not path.exists()
+
+
+# --------------------------------------------------------------------------- integrity (schema 4)
+def _records(data: bytes) -> list[bytes]:
+    """The whole records after the magic, the header first."""
+    offsets = _case_offsets(data) + [len(data)]
+    return [data[a:b] for a, b in zip(offsets, offsets[1:], strict=False)]
+
+
+def _reframe(record: bytes, payload: bytes) -> bytes:
+    """``record``'s kind with ``payload`` and a valid CRC."""
+    import zlib
+
+    head = struct.pack("<BI", record[0], len(payload))
+    return struct.pack("<BII", record[0], len(payload), zlib.crc32(payload, zlib.crc32(head))) + (
+        payload
+    )
+
+
+def _corrupt_footer(data: bytes, how: str) -> bytes:
+    footer_at = _case_offsets(data)[-1]
+    assert data[footer_at] == ord("F")
+    damaged = bytearray(data)
+    (length,) = struct.unpack_from("<I", data, footer_at + 1)
+    if how == "a JSON byte flipped":
+        damaged[-5] ^= 0x20
+    elif how == "its CRC flipped":
+        damaged[footer_at + 5] ^= 0x01
+    elif how == "its length too long":
+        struct.pack_into("<I", damaged, footer_at + 1, length + 7)
+    elif how == "its length too short":
+        struct.pack_into("<I", damaged, footer_at + 1, length - 7)
+    else:  # its kind changed
+        damaged[footer_at] = ord("Q")
+    return bytes(damaged)
+
+
+@pytest.mark.parametrize(
+    "how",
+    [
+        "a JSON byte flipped",
+        "its CRC flipped",
+        "its length too long",
+        "its length too short",
+        "its kind changed",
+    ],
+)
+def test_a_corrupted_footer_is_corruption_not_an_interrupted_recording(tmp_path, how):
+    path = tmp_path / "demo.lfdemo"
+    _record(path, 3)
+    path.write_bytes(_corrupt_footer(path.read_bytes(), how))
+    with pytest.raises(FileFormatError, match="corrupt") as info:
+        load_demonstration(path)
+    assert str(path) in str(info.value) and "\n" not in str(info.value)
+
+
+def _rearranged(data: bytes, how: str) -> bytes:
+    header, *rest = _records(data)
+    cases = [i for i, r in enumerate(rest) if r[0] == ord("C")]
+    if how == "two cases swapped":
+        a, b = cases[0], cases[1]
+        rest[a], rest[b] = rest[b], rest[a]
+    elif how == "a case repeated":
+        rest.insert(cases[1], rest[cases[1]])
+    elif how == "a case missing":
+        del rest[cases[1]]
+    elif how == "the last case missing":
+        del rest[cases[-1]]
+    elif how == "a library record missing":
+        del rest[next(i for i, r in enumerate(rest) if r[0] == ord("L"))]
+    else:  # a selection record repeated
+        i = next(i for i, r in enumerate(rest) if r[0] == ord("S"))
+        rest.insert(i, rest[i])
+    return data[:MAGIC_LEN] + header + b"".join(rest)
+
+
+@pytest.mark.parametrize(
+    "how",
+    [
+        "two cases swapped",
+        "a case repeated",
+        "a case missing",
+        "the last case missing",
+        "a library record missing",
+        "a selection record repeated",
+    ],
+)
+@pytest.mark.parametrize("closed", [True, False])
+def test_records_out_of_order_repeated_or_missing_are_refused(tmp_path, how, closed):
+    path = tmp_path / "demo.lfdemo"
+    if "library" in how or "selection" in how:
+        _record_with_library(path, 9, close=closed)
+    else:
+        _record(path, 4, close=closed)
+    path.write_bytes(_rearranged(path.read_bytes(), how))
+    if how == "the last case missing" and not closed:
+        # Cut at a record boundary: exactly what an interrupted recording looks like.
+        assert load_demonstration(path).metadata["complete"] is False
+        return
+    with pytest.raises(FileFormatError, match="missing, repeated or out of order") as info:
+        load_demonstration(path)
+    assert str(path) in str(info.value) and "\n" not in str(info.value)
+
+
+def _older_schema(data: bytes, schema: int) -> bytes:
+    """The same recording in the layout of ``schema`` (2 or 3): no record indexes."""
+    import json
+
+    header, *rest = _records(data)
+    meta = json.loads(header[FRAME_LEN:])
+    n_memory = meta.pop("n_memory")
+    if schema == 3:
+        meta["n_memory"] = n_memory
+    meta["schema"] = schema
+    older = [_reframe(header, json.dumps(meta).encode())]
+    older += [_reframe(r, r[FRAME_LEN + INDEX_LEN :]) for r in rest]
+    return data[:MAGIC_LEN] + b"".join(older)
+
+
+@pytest.mark.parametrize("schema", [2, 3])
+@pytest.mark.parametrize("closed", [True, False])
+def test_schema_2_and_3_files_load_as_before(tmp_path, schema, closed):
+    path = tmp_path / "new.lfdemo"
+    n_memory = 1 if schema == 3 else 0
+    with DemonstrationWriter(
+        path, {"kind": "test"}, bins=BINS, fsync=False, n_memory=n_memory
+    ) as writer:
+        rng = np.random.default_rng(5)
+        for i in range(4):
+            memory = [0.5] if n_memory else None
+            writer.append(*_case(rng), pose=(0.1 * i, 0.0, 0.0), memory=memory)
+        if not closed:
+            writer.abandon()
+    new = load_demonstration(path)
+    old_path = tmp_path / "old.lfdemo"
+    old_path.write_bytes(_older_schema(path.read_bytes(), schema))
+    old = load_demonstration(old_path)
+    assert old.metadata["schema_version"] == schema and new.metadata["schema_version"] == 4
+    assert {**old.metadata, "schema_version": 4} == new.metadata
+    for name in ("commands", "road_values", "histograms", "poses", "steps", "memory"):
+        assert getattr(old, name).tobytes() == getattr(new, name).tobytes(), name
+
+
+@pytest.mark.parametrize("sparse", [True, False])
+def test_a_header_followed_by_a_huge_zero_tail_is_refused(tmp_path, monkeypatch, sparse):
+    from lfd_track import files
+    from lfd_track.demo.dataset import MAX_ZERO_TAIL_BYTES
+
+    path = tmp_path / "demo.lfdemo"
+    _record(path, 2, close=False)
+    size = path.stat().st_size + MAX_ZERO_TAIL_BYTES + (1 << 20)
+    with open(path, "r+b") as f:
+        if sparse:
+            f.truncate(size)  # a hole: never written, reads as zeros
+        else:
+            f.seek(0, os.SEEK_END)
+            f.write(bytes(size - f.tell()))
+    reads = []
+    real_readv = os.readv
+
+    def counting_readv(fd, buffers):
+        n = real_readv(fd, buffers)
+        reads.append(n)
+        return n
+
+    monkeypatch.setattr(files.os, "readv", counting_readv)
+    with pytest.raises(FileFormatError, match="corrupt") as info:
+        load_demonstration(path)
+    assert str(path) in str(info.value) and "\n" not in str(info.value)
+    assert sum(reads) == 0  # refused from its head and its tail, not read whole
+
+
+@pytest.mark.parametrize("kind", ["fifo", "link"])
+def test_a_recording_never_replaces_a_fifo_or_a_symbolic_link(tmp_path, kind):
+    from lfd_track.errors import LfdTrackError
+
+    path = tmp_path / "demo.lfdemo"
+    target = tmp_path / "elsewhere.lfdemo"
+    target.write_bytes(b"kept")
+    reader = None
+    if kind == "fifo":
+        os.mkfifo(path)
+        reader = os.open(path, os.O_RDONLY | os.O_NONBLOCK)  # so opening it never blocks
+    else:
+        path.symlink_to(target)
+    try:
+        with pytest.raises(LfdTrackError, match="a FIFO|symbolic link"):
+            DemonstrationWriter(path, {}, bins=BINS, fsync=False, overwrite=True)
+        if reader is not None:
+            assert os.read(reader, 1) == b""  # nothing was written into it
+    finally:
+        if reader is not None:
+            os.close(reader)
+    mode = os.lstat(path).st_mode
+    assert stat.S_ISFIFO(mode) if kind == "fifo" else stat.S_ISLNK(mode)
+    assert target.read_bytes() == b"kept"

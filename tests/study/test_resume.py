@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import os
+from pathlib import Path
 
 import pytest
 from study_helpers import job_results, outcome, write_study
@@ -55,6 +56,12 @@ def _outcome_with(key: str, value) -> dict:
 
 
 _DELETE = object()
+FULL = [  # the four trials job_results() holds, in its order
+    outcome("training", "direction_1", ["1", "2"]),
+    outcome("training", "direction_2", ["1"]),
+    outcome("testing", "ccw"),
+    outcome("testing", "cw", ["4"]),
+]
 
 DAMAGED = [
     ("outcomes", _DELETE, "'outcomes'"),
@@ -71,6 +78,13 @@ DAMAGED = [
     ("outcomes", [_outcome_with("failure", ["x"])], "outcomes[0]: 'failure'"),
     ("outcomes", [_outcome_with("failure", "reversed")], "succeeds exactly when"),
     ("outcomes", [_outcome_with("direction", "up")], "direction must be one of"),
+    # The trials must be exactly the job's: every direction, repetition and trial once.
+    ("outcomes", FULL[:3], "holds 0 of the 1 trial(s) of testing/cw (1 repetition(s) x 1"),
+    ("outcomes", FULL[1:], "holds 0 of the 1 trial(s) of training/direction_1"),
+    ("outcomes", [], "holds 0 of the 1 trial(s) of training/direction_1"),
+    ("outcomes", [*FULL, FULL[2]], "outcomes[4]: testing/ccw repetition 0 trial 0 is listed twice"),
+    ("outcomes", [*FULL[:3], {**FULL[3], "trial": 1}], "outcomes[3]: 'trial' must be below the"),
+    ("outcomes", [*FULL, outcome("kite", "ccw", ["1"])], "outcomes[4]: the job drives no track"),
     ("timing_s", "x", "'timing_s' must be an object"),
     ("timing_s", {"wall": "x"}, "'timing_s.wall' must be a finite number"),
     ("training_accuracy", "abc", "'training_accuracy' must be a list"),
@@ -161,3 +175,31 @@ def test_cli_refuses_a_damaged_result_in_one_line_and_keeps_everything(stored, c
     assert path.read_text() == text
     assert sorted(p.name for p in out.iterdir()) == [job.condition]  # no study.json, no job ran
     assert [p.name for p in (out / job.condition).iterdir()] == [f"seed{job.seed}"]
+
+
+REPO = Path(__file__).resolve().parents[2]
+COMMITTED = sorted(p.parent for p in (REPO / "benchmarks").rglob("study.json"))
+
+
+def test_there_are_committed_studies():
+    assert len(COMMITTED) >= 1
+
+
+@pytest.mark.parametrize("folder", COMMITTED, ids=[p.name for p in COMMITTED])
+def test_committed_studies_are_accepted_and_pool_as_committed(folder, monkeypatch):
+    """Every committed study's job results pass the resume checks and pool to the committed
+    totals (the trial checks refuse no honest run)."""
+    committed = json.loads((folder / "study.json").read_text(encoding="utf-8"))
+    (source,) = (REPO / "benchmarks").rglob(f"{committed['study']}.toml")
+    monkeypatch.chdir(REPO)  # as the studies were run (a demo_track is kept as it was given)
+    study = load_study(source.relative_to(REPO))
+    pooled = build_study_results(study, load_finished(study, folder))
+
+    def totals(summary):
+        return [
+            (c["name"], c[track]["successes"], c[track]["trials"])
+            for c in summary["conditions"]
+            for track in ("training", "testing")
+        ]
+
+    assert totals(pooled) == totals(committed)

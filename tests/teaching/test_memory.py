@@ -163,11 +163,11 @@ def _write_demo(path, n_memory, memory_rows):
             w.append(1, rng.uniform(0, 1, 40), hists, memory=row)
 
 
-def test_demonstrations_carry_memory_inputs_as_schema_3(tmp_path):
+def test_demonstrations_carry_memory_inputs(tmp_path):
     path = tmp_path / "m.lfdemo"
     _write_demo(path, 1, [[0.5], [1.0], [0.0]])
     demo = load_demonstration(path)
-    assert demo.metadata["schema_version"] == 3
+    assert demo.metadata["schema_version"] == 4  # memory inputs, records numbered
     assert demo.memory.tolist() == [[0.5], [1.0], [0.0]]
     assert demo.inputs.shape == (3, 41)
     np.testing.assert_array_equal(demo.inputs[:, :40], demo.road_values)
@@ -179,7 +179,7 @@ def test_demonstrations_carry_memory_inputs_as_schema_3(tmp_path):
     plain = tmp_path / "plain.lfdemo"
     _write_demo(plain, 0, [None, None])
     old = load_demonstration(plain)
-    assert old.metadata["schema_version"] == 2  # no memory: the same file as before
+    assert old.metadata["schema_version"] == 4  # no memory: n_memory 0
     assert old.memory.shape == (2, 0) and old.inputs is old.road_values
 
 
