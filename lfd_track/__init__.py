@@ -10,31 +10,31 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from .registration import register_envs
+from .envs.registration import register_envs
 
 __version__ = "0.1.0"
 
 # Public name -> module that defines it (imported lazily to keep `import lfd_track` light).
 _LAZY = {
-    "Command": "lfd_track.commands",
+    "Command": "lfd_track.core.commands",
     "Track": "lfd_track.world.track",
     "load_track": "lfd_track.world.track",
-    "LfDTrackEnv": "lfd_track.env",
+    "LfDTrackEnv": "lfd_track.envs.track_env",
     "RoadLibrary": "lfd_track.vision.road_library",
     "draw_road_values": "lfd_track.vision.overlay",
-    "mlp_forward": "lfd_track.control.mlp",
+    "mlp_forward": "lfd_track.policy.mlp",
     "imitation_fitness": "lfd_track.learning.fitness",
     "GAConfig": "lfd_track.learning.ga",
     "EvolutionResult": "lfd_track.learning.ga",
     "evolve": "lfd_track.learning.ga",
-    "Controller": "lfd_track.controller",
-    "RoadValueObservation": "lfd_track.wrappers",
+    "Controller": "lfd_track.policy.controller",
+    "RoadValueObservation": "lfd_track.envs.wrappers",
     "Demonstration": "lfd_track.demo.dataset",
     "load_demonstration": "lfd_track.demo.dataset",
     "run_demonstration": "lfd_track.demo.demonstrator",
     "HumanConfig": "lfd_track.demo.demonstrator",
-    "Preset": "lfd_track.presets",
-    "load_preset": "lfd_track.presets",
+    "Preset": "lfd_track.envs.presets",
+    "load_preset": "lfd_track.envs.presets",
     "training_accuracy": "lfd_track.learning.fitness",
 }
 

@@ -34,7 +34,7 @@ from .outputs import (
     shown_path,
     taken,
 )
-from .signals import (
+from .utils.signals import (
     EXIT_INTERRUPTED,
     EXIT_TERMINATED,
     Terminated,
@@ -112,7 +112,7 @@ def _temporary_beside(out: Path) -> Path:
 def _cmd_demo(args: argparse.Namespace) -> int:
     from .demo.dataset import load_demonstration
     from .demo.demonstrator import HumanConfig, run_demonstration
-    from .progress import progress_bar
+    from .utils.progress import progress_bar
 
     out = Path(args.out)
     _check_output(out, [("track", args.track), ("preset", args.preset)])
@@ -190,12 +190,12 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 def _cmd_evolve(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from .controller import Controller
     from .demo.dataset import load_demonstration
     from .learning.fitness import training_accuracy
     from .learning.ga import GAConfig, evolve
     from .plots import fitness_notes, fitness_plot, write_png
-    from .progress import progress_bar
+    from .policy.controller import Controller
+    from .utils.progress import progress_bar
     from .vision.road_library import RoadLibrary
 
     png = Path(args.out).with_suffix(".fitness.png")
@@ -280,10 +280,10 @@ def _cmd_drive(args: argparse.Namespace) -> int:
     import numpy as np
 
     from .benchmark.runner import run_trial
-    from .controller import Controller
-    from .env import LfDTrackEnv
+    from .envs.track_env import LfDTrackEnv
     from .plots import TrackRun, laps_plot, write_png
-    from .progress import progress_bar
+    from .policy.controller import Controller
+    from .utils.progress import progress_bar
     from .video import DriveVideo
 
     controller = Controller.load(args.controller)
@@ -394,7 +394,7 @@ def _whole_number_in(low: int, high: int) -> Any:
     whole."""
 
     def parse(text: str) -> int:
-        from .learning.fit import shown_int
+        from .learning.result import shown_int
 
         try:
             value = int(text)
@@ -421,8 +421,8 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
         run_benchmark,
     )
     from .demo.demonstrator import HumanConfig
-    from .progress import progress_bar
-    from .teaching.memory import MemoryConfig
+    from .policy.memory import MemoryConfig
+    from .utils.progress import progress_bar
 
     repetitions = 1 if args.quick and args.repetitions is None else (args.repetitions or 10)
     trials = args.trials or (1 if args.quick else 3)
@@ -494,7 +494,7 @@ def _cmd_benchmark(args: argparse.Namespace) -> int:
 def build_parser() -> argparse.ArgumentParser:
     from .benchmark.methods import METHODS
     from .benchmark.runner import MAX_REPETITIONS, MAX_SEED, MAX_TRIALS_PER_DIRECTION, MAX_WORKERS
-    from .teaching.memory import MEMORY_KINDS
+    from .policy.memory import MEMORY_KINDS
     from .teaching.scripted import TURNAROUND_RULES
 
     """The ``lfd-track`` argument parser."""

@@ -18,9 +18,10 @@ import cv2
 import numpy as np
 
 from .atomic import replace_file
-from .commands import Command
+from .core.commands import Command
 from .outputs import refuse_unsafe_output, shown_path
 from .render.topdown import draw_topdown
+from .utils.extras import needs_extra
 from .vision.overlay import draw_road_values
 
 #: File suffix → (FFmpeg encoder, its options). Fast presets: a drive's video should cost about
@@ -142,7 +143,8 @@ class DriveVideo:
         canvas = self.compose(frame, road_values, info, lap=lap, command=command)
         canvas = canvas[: canvas.shape[0] // 2 * 2, : canvas.shape[1] // 2 * 2]
         if self._writer is None:
-            import imageio_ffmpeg
+            with needs_extra("video"):
+                import imageio_ffmpeg
 
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._writer = imageio_ffmpeg.write_frames(

@@ -16,34 +16,34 @@ import time
 
 import serial
 
-from lfd_track.hardware import protocol
+from lfd_track.hardware import wire
 from lfd_track.hardware.simavr import FIRMWARE_BAUD, SimulatedBoard
 
 PINGS = 60
 
 
-def _answered_ping(port: serial.SerialBase, parser: protocol.FrameParser, seq: int) -> None:
+def _answered_ping(port: serial.SerialBase, parser: wire.FrameParser, seq: int) -> None:
     """Ping until one is answered (replies the board could not queue are dropped)."""
     for attempt in range(20):
-        port.write(protocol.encode_frame(protocol.PING, seq + attempt))
+        port.write(wire.encode_frame(wire.PING, seq + attempt))
         deadline = time.monotonic() + 1.0
         while time.monotonic() < deadline:
             for item in parser.feed(port.read(port.in_waiting or 1)):
-                if isinstance(item, protocol.Frame) and item.seq == seq + attempt:
+                if isinstance(item, wire.Frame) and item.seq == seq + attempt:
                     return
     raise RuntimeError("the simulated board answered no ping")
 
 
-def _acknowledged_boot(port: serial.SerialBase, parser: protocol.FrameParser, seq: int) -> None:
+def _acknowledged_boot(port: serial.SerialBase, parser: wire.FrameParser, seq: int) -> None:
     """Ask the fresh board its boot count (``V``) and answer it with the hello, so it drives."""
     for attempt in range(20):
-        port.write(protocol.encode_frame(protocol.VERSION, seq + attempt))
+        port.write(wire.encode_frame(wire.VERSION, seq + attempt))
         deadline = time.monotonic() + 1.0
         while time.monotonic() < deadline:
             for item in parser.feed(port.read(port.in_waiting or 1)):
-                if isinstance(item, protocol.Frame) and item.seq == seq + attempt:
+                if isinstance(item, wire.Frame) and item.seq == seq + attempt:
                     count = item.args[-1] if len(item.args) > 1 else "0"
-                    port.write(protocol.encode_frame(protocol.HELLO, seq + 100, count))
+                    port.write(wire.encode_frame(wire.HELLO, seq + 100, count))
                     _answered_ping(port, parser, seq + 200)
                     return
     raise RuntimeError("the simulated board answered no version query")
@@ -58,15 +58,15 @@ def main() -> None:
     started = time.monotonic()
     with SimulatedBoard() as board:
         port = serial.serial_for_url(board.serial_url, baudrate=FIRMWARE_BAUD, timeout=0.05)
-        frames = protocol.FrameParser()
+        frames = wire.FrameParser()
         try:
             for _ in range(args.runs):
                 board.reset(cause="power-on")
                 _answered_ping(port, frames, 60000)
                 _acknowledged_boot(port, frames, 62000)
                 resets = len(board.resets())
-                flood = b"".join(protocol.encode_frame(protocol.PING, 2 + i) for i in range(PINGS))
-                port.write(protocol.encode_frame(protocol.DRIVE, 1, "F") + flood)
+                flood = b"".join(wire.encode_frame(wire.PING, 2 + i) for i in range(PINGS))
+                port.write(wire.encode_frame(wire.DRIVE, 1, "F") + flood)
                 _answered_ping(port, frames, 61000)
                 watchdog_resets += sum(r.cause == "watchdog" for r in board.resets()[resets:])
                 samples = board.motor_log(since_reset=True)

@@ -44,7 +44,7 @@ def load_test_module(path: Path, alias: str) -> ModuleType:
 @functools.cache
 def training_track_frame() -> np.ndarray:
     """A camera frame on the training track's felt (seed 1), rendered once per process."""
-    from lfd_track.env import LfDTrackEnv
+    from lfd_track.envs.track_env import LfDTrackEnv
 
     env = LfDTrackEnv(track="training")
     frame, _ = env.reset(seed=1)
@@ -117,7 +117,7 @@ def wait_until(
 BLAS_RESULTS = (
     ("lfd_track.learning.fitness", "population_outputs"),
     ("lfd_track.learning.fitness", "mlp_forward"),
-    ("lfd_track.controller", "mlp_forward"),
+    ("lfd_track.policy.controller", "mlp_forward"),
     ("lfd_track.teaching.commanders", "mlp_forward"),
     ("lfd_track.vision.road_library", "similarity_matrix"),
 )

@@ -246,9 +246,9 @@ def test_a_demonstration_with_an_empty_road_library_is_one_line(tmp_path):
 def test_evolve_keeps_a_demonstrations_memory_inputs(tmp_path):
     """A demonstration recorded with memory inputs evolves a controller that reads them; one
     whose memory settings do not fit its cases is refused in one line, nothing written."""
-    from lfd_track.controller import Controller
     from lfd_track.demo.dataset import DemonstrationWriter
-    from lfd_track.teaching.memory import MemoryConfig
+    from lfd_track.policy.controller import Controller
+    from lfd_track.policy.memory import MemoryConfig
 
     rng = np.random.default_rng(0)
     library = RoadLibrary()

@@ -104,7 +104,7 @@ def test_output_names_that_are_not_utf8_work(partial_recording, tmp_path, capsys
 _VIDEO = """
 import os, sys
 import numpy as np
-from lfd_track.env import LfDTrackEnv
+from lfd_track.envs.track_env import LfDTrackEnv
 from lfd_track.video import DriveVideo
 
 env = LfDTrackEnv(track="training")

@@ -4,9 +4,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lfd_track.controller import Controller, checksum
 from lfd_track.errors import FileFormatError
 from lfd_track.learning.ga import GAConfig, evolve
+from lfd_track.policy.controller import Controller, checksum
 from lfd_track.vision.road_library import RoadLibrary
 from lfd_track.vision.synthetic import synthetic_frames
 
@@ -195,7 +195,7 @@ def test_policy_does_not_import_its_trainer(tmp_path):
     import sys
 
     code = (
-        "import sys, lfd_track.controller;"
+        "import sys, lfd_track.policy.controller;"
         "print([m for m in sys.modules if m.startswith('lfd_track.learning')])"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)

@@ -243,7 +243,7 @@ def test_randomized_preset_varies_the_world_per_episode():
 
 
 def test_track_and_preset_paths_are_accepted(tmp_path):
-    from lfd_track._data import data_dir
+    from lfd_track.utils.data import data_dir
 
     track_path = data_dir("tracks") / "sbend.toml"
     preset_path = tmp_path / "mine.toml"

@@ -8,7 +8,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-from lfd_track.env import LfDTrackEnv
+from lfd_track.envs.track_env import LfDTrackEnv
 
 
 @pytest.mark.parametrize("max_steps", [0, -5, 2.5, True, "10", np.float64(3.0)])

@@ -58,7 +58,8 @@ for action in (0, 1, 2, 0):
     obs, reward, terminated, truncated, info = env.step(action)
 
 import lfd_track
-from lfd_track._data import data_dir
+from lfd_track.hardware import simavr
+from lfd_track.utils.data import data_dir
 
 other = gym.make("LfDTrack-v0", track="training", reverse=True, preset="randomized")
 other_obs, _ = other.reset(seed=1)
@@ -68,6 +69,7 @@ print(json.dumps({
     "package_file": str(Path(lfd_track.__file__).resolve()),
     "tracks_dir": str(data_dir("tracks").resolve()),
     "envs_dir": str(data_dir("envs").resolve()),
+    "hardware_dir": str(simavr.HARDWARE_DIR.resolve()),
     "obs_shape": list(obs.shape),
     "obs_dtype": str(obs.dtype),
     "obs_std": float(obs.std()),
@@ -107,7 +109,7 @@ def test_wheel_carries_tracks_envs_and_the_cli(wheel):
         )
     missing = [f for f in DATA_FILES if f not in names]
     assert not missing, f"wheel lacks {missing}"
-    assert "lfd_track/__init__.py" in names and "lfd_track/env.py" in names
+    assert "lfd_track/__init__.py" in names and "lfd_track/envs/track_env.py" in names
     # Nothing from the checkout's other top-level folders rides along.
     assert not [n for n in names if n.startswith(("tests/", "benchmarks/", "hardware/", "tracks/"))]
     assert "lfd-track = lfd_track.cli:main" in entry_points
@@ -137,7 +139,20 @@ def test_installed_wheel_makes_the_env_from_an_unrelated_directory(wheel, tmp_pa
     assert Path(report["package_file"]).is_relative_to(site)
     assert Path(report["tracks_dir"]) == site / "lfd_track" / "_data" / "tracks"
     assert Path(report["envs_dir"]) == site / "lfd_track" / "_data" / "envs"
+    assert Path(report["hardware_dir"]) == site / "lfd_track" / "_data" / "hardware"
     assert report["obs_shape"] == [480, 640, 3] and report["obs_dtype"] == "uint8"
     assert report["obs_std"] > 1.0  # a rendered picture, not a blank frame
     assert report["steps"] == 4
     assert report["other_obs_shape"] == [480, 640, 3]
+
+
+def test_checkout_finds_its_data_through_the_same_lookup():
+    from lfd_track.hardware import simavr
+    from lfd_track.utils.data import data_dir
+
+    assert data_dir("tracks") == REPO / "tracks"
+    assert data_dir("envs") == REPO / "envs"
+    assert simavr.HARDWARE_DIR == data_dir("hardware", required=simavr.HARDWARE_SOURCES)
+    assert simavr.HARDWARE_DIR == REPO / "hardware"
+    with pytest.raises(FileNotFoundError, match="'hardware' not found"):
+        data_dir("hardware", required=["no/such/file.c"])

@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from lfd_track.envs.presets import BOUNDS, SECTIONS, load_preset
 from lfd_track.errors import FileFormatError
-from lfd_track.presets import BOUNDS, SECTIONS, load_preset
 
 README = Path(__file__).resolve().parents[1] / "envs" / "README.md"
 

@@ -56,7 +56,7 @@ def test_the_check_sees_private_names():
     source = (
         "from lfd_track.world.track_file import _check\n"
         "from lfd_track.learning import fitness\n"
-        "import lfd_track.env as env\n"
+        "import lfd_track.envs.track_env as env\n"
         "fitness._matches()\n"
         "env.LfDTrackEnv._reset\n"
         "fitness.__name__\n"

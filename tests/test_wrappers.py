@@ -2,9 +2,9 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
+from lfd_track.envs.wrappers import RoadValueObservation
 from lfd_track.vision.road_library import RoadLibrary
 from lfd_track.vision.synthetic import synthetic_frames
-from lfd_track.wrappers import RoadValueObservation
 
 
 class FrameEnv(gym.Env):

@@ -39,8 +39,7 @@ from typing import Any
 
 import numpy as np
 
-from ..config import DictConfig
-from ..controller import Controller
+from ..core.config import DictConfig
 from ..demo.dataset import Demonstration, load_demonstration
 from ..demo.demonstrator import (
     DemonstrationSummary,
@@ -49,20 +48,21 @@ from ..demo.demonstrator import (
     recording_writer,
     run_demonstration,
 )
-from ..env import LfDTrackEnv
+from ..envs.presets import Preset
+from ..envs.track_env import LfDTrackEnv
 from ..learning.bc import BCConfig
 from ..learning.cmaes import CMAESConfig
-from ..learning.fit import check_int
 from ..learning.fitness import training_accuracy
 from ..learning.ga import GAConfig, evolve, ga_rescore, ga_result
 from ..learning.learners import learner_for
 from ..learning.mirror import with_mirrored
-from ..presets import Preset
+from ..learning.result import check_int
+from ..policy.controller import Controller
+from ..policy.memory import MemoryConfig
 from ..teaching.arbiter import Arbiter
 from ..teaching.commanders import PolicyCommander
-from ..teaching.learner import GALearnerFeed
+from ..teaching.learner_feed import GALearnerFeed
 from ..teaching.loop import LoopCounts, TeachingLoop
-from ..teaching.memory import MemoryConfig
 from ..teaching.observers import CaseBuffer, LearningTally, Recorder
 from ..teaching.perception import Perception
 from ..teaching.scripted import InterventionConfig, ProtocolHuman
@@ -310,7 +310,7 @@ def _relabel(controller: Controller, learner: str, config: dict[str, Any]) -> Co
 
 
 def _period_s(preset: str | Preset) -> float:
-    from ..presets import load_preset
+    from ..envs.presets import load_preset
 
     p = preset if isinstance(preset, Preset) else load_preset(preset)
     return float(p.rover.control_period_s)

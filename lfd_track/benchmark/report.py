@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from ..envs.presets import load_preset
 from ..plots import (
     DirectionRuns,
     TrackRun,
@@ -17,7 +18,6 @@ from ..plots import (
     trajectory_grid,
     write_png,
 )
-from ..presets import load_preset
 from ..provenance import environment
 from ..world.episode import EpisodeTracker
 from ..world.track import load_track

@@ -20,18 +20,18 @@ from typing import Any
 
 import numpy as np
 
-from ..controller import Controller
 from ..demo.demonstrator import HumanConfig
-from ..env import LfDTrackEnv
+from ..envs.presets import load_preset
+from ..envs.track_env import LfDTrackEnv
 from ..errors import LfdTrackError
 from ..learning.bc import BCConfig
 from ..learning.cmaes import CMAESConfig
-from ..learning.fit import check_int
 from ..learning.ga import GAConfig
-from ..presets import load_preset
+from ..learning.result import check_int
+from ..policy.controller import Controller
+from ..policy.memory import MemoryConfig
 from ..teaching.arbiter import Arbiter
 from ..teaching.loop import Step, TeachingLoop
-from ..teaching.memory import MemoryConfig
 from ..teaching.observers import CallbackObserver, TrajectoryObserver
 from ..world.track import load_track
 from .methods import (

@@ -25,7 +25,7 @@ the index. Records, in order:
   phase_len u16 | x, y, theta, progress_m f64 | phase utf-8 | road_values 40 f64 |
   memory n_memory f64 | histograms 40*5*bins f32``. ``source`` is an index into
   :data:`SOURCES`; ``memory`` holds the policy's memory inputs at that moment
-  (:mod:`lfd_track.teaching.memory`), present from schema 3 on (the header's ``n_memory``).
+  (:mod:`lfd_track.policy.memory`), present from schema 3 on (the header's ``n_memory``).
 - ``L`` library learned (only with a logged library): ``joined_type i16 | evicted_type i16 |
   evicted_example i16 | model 5*bins f32``; -1 means none (a new type; nothing evicted).
 - ``S`` library selections (only with a logged library): ``n_models u16 | counts u8[n_models]``,
@@ -82,11 +82,11 @@ from typing import Any
 import numpy as np
 
 from ..atomic import atomic_write_bytes
-from ..commands import Command
+from ..core.commands import Command
 from ..errors import FileFormatError
 from ..files import read_regular_file
 from ..outputs import refuse_unsafe_output
-from ..teaching.memory import MemoryConfig
+from ..policy.memory import MemoryConfig
 from ..vision.road_library import LibraryChange, LibraryLearned, RoadLibrary
 
 SCHEMA_VERSION = 4

@@ -26,11 +26,11 @@ from typing import Any
 
 import numpy as np
 
-from ..env import LfDTrackEnv
-from ..presets import Preset
+from ..envs.presets import Preset
+from ..envs.track_env import LfDTrackEnv
+from ..policy.memory import MemoryConfig
 from ..teaching.arbiter import Arbiter
 from ..teaching.loop import TeachingLoop
-from ..teaching.memory import MemoryConfig
 from ..teaching.observers import CallbackObserver, LearningTally, Recorder
 from ..teaching.perception import Perception
 from ..teaching.scripted import (

@@ -17,7 +17,7 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from ..errors import LfdTrackError
-from ..signals import EXIT_INTERRUPTED, stop_signals_interrupt
+from ..utils.signals import EXIT_INTERRUPTED, stop_signals_interrupt
 
 EXIT_OK = 0
 EXIT_ERROR = 1
@@ -81,7 +81,7 @@ def _cmd_sim(args: argparse.Namespace) -> int:
 
 # -------------------------------------------------------------------------------------- check
 def _cmd_check(args: argparse.Namespace) -> int:
-    from . import protocol
+    from . import wire
     from .link import RobotLink
 
     link = RobotLink(args.serial, baudrate=args.baud, boot_wait_s=args.boot_wait)
@@ -127,13 +127,13 @@ def _cmd_check(args: argparse.Namespace) -> int:
         if not link.estop().estopped:
             problems.append("e-stop was not latched")
         refused = link.drive("F")
-        if refused.accepted or refused.rejected != protocol.REASON_ESTOP:
+        if refused.accepted or refused.rejected != wire.REASON_ESTOP:
             problems.append("a drive frame was accepted while the e-stop was latched")
         cleared = link.clear_estop()
         if cleared.estopped or cleared.moving:
             problems.append("clearing the e-stop restarted the motors or did not clear")
         try:
-            bad = link.request(protocol.SET_WATCHDOG, "10")  # below the 50 ms minimum
+            bad = link.request(wire.SET_WATCHDOG, "10")  # below the 50 ms minimum
             if bad.accepted:
                 problems.append("the board accepted a 10 ms watchdog period")
         finally:
@@ -189,7 +189,7 @@ def _make_env(args: argparse.Namespace, **kwargs: Any) -> Any:
 
 
 def _cmd_drive(args: argparse.Namespace) -> int:
-    from ..controller import Controller
+    from ..policy.controller import Controller
     from ..teaching import Arbiter, TeachingLoop
 
     controller = Controller.load(args.controller)
@@ -254,7 +254,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 # ------------------------------------------------------------------------------------- parser
 def _add_link_options(parser: argparse.ArgumentParser) -> None:
-    from .link import DEFAULT_BAUD
+    from .wire import DEFAULT_BAUD  # not .link: the parser works without pyserial
 
     parser.add_argument(
         "--serial",

@@ -15,7 +15,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from ..commands import Command
+from ..core.commands import Command
 from .camera import FRAME_SHAPE, CameraError, CameraTimeout, FrameSource, open_camera
 from .link import Ack, LinkError, RobotLink
 

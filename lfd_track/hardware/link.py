@@ -1,4 +1,4 @@
-"""Serial link from the host to the robot board, speaking the wire protocol of ``protocol``.
+"""Serial link from the host to the robot board, speaking the wire protocol of :mod:`.wire`.
 
 ``RobotLink`` wraps ``serial.serial_for_url`` (``/dev/rfcomm0`` for an HC-05/06, a pty path,
 ``socket://host:port``, ``loop://``). Every request is one frame with a fresh sequence number and
@@ -25,6 +25,11 @@ reply, or more than ``max_corrupt_replies`` undecodable replies in a row) raises
 ``query_version()`` asks firmware 1.1 and later for its version and the cause of its last reset
 (1.2: and its boot count) at any time; the boot frame carries them too (and whether the board
 booted with its e-stop latched, as it does after a watchdog or brown-out reset).
+
+Why one module of about 680 lines: :class:`RobotLink` is one lock-guarded state machine (the
+lease, the keep-alive thread, the boot count, the reply matching) whose safety rules hold only
+together; the value types beside it (:class:`Ack`, :class:`BoardVersion`, :class:`LinkStats`)
+are small, and the wire format itself is :mod:`.wire`.
 """
 
 from __future__ import annotations
@@ -35,16 +40,17 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-import serial
-
-from ..commands import Command
+from ..core.commands import Command
 from ..errors import LfdTrackError
-from . import protocol
-from .protocol import Frame, FrameError, FrameParser
+from ..utils.extras import needs_extra
+from . import wire
+from .wire import DEFAULT_BAUD, Frame, FrameError, FrameParser
+
+with needs_extra("hardware"):
+    import serial
 
 STOP = "S"
 ESTOPPED = "X"  # ack state while the board's e-stop is latched
-DEFAULT_BAUD = 9600  # the firmware's UART rate (HC-05/06 factory default)
 FLAG_ESTOP = 1  # ack flags are a decimal bitfield
 FLAG_LEASE_EXPIRED = 2  # the watchdog stopped the motors since the last accepted drive frame
 FLAG_REPLIES_DROPPED = 4  # the board dropped replies (its transmit buffer was full) since
@@ -108,14 +114,14 @@ class BoardVersion:
     """The answer to a version query: firmware version, why the board last reset, its ack."""
 
     version: str
-    reset_cause: str  # a key of ``protocol.RESET_CAUSES`` (``WDT``, ``PWR``, ...)
+    reset_cause: str  # a key of ``wire.RESET_CAUSES`` (``WDT``, ``PWR``, ...)
     ack: Ack
     boot_count: int | None = None  # firmware 1.2 and later
 
     @property
     def reset_cause_text(self) -> str:
         """The reset cause in words (``hardware watchdog``, ``power-on``, ...)."""
-        return protocol.RESET_CAUSES.get(self.reset_cause, f"unknown ({self.reset_cause})")
+        return wire.RESET_CAUSES.get(self.reset_cause, f"unknown ({self.reset_cause})")
 
 
 @dataclass
@@ -143,7 +149,7 @@ class LinkStats:
 def _letter(command: Command | int | str) -> str:
     if isinstance(command, str):
         letter = command.upper()
-        if letter not in protocol.DRIVE_ARGS:
+        if letter not in wire.DRIVE_ARGS:
             raise ValueError(f"drive command must be one of F, L, R, S, got {command!r}")
         return letter
     return Command(int(command)).letter
@@ -286,7 +292,7 @@ class RobotLink:
         while True:
             try:
                 with self._io_lock:
-                    ack = self._request(protocol.PING, (), count_failure=False)
+                    ack = self._request(wire.PING, (), count_failure=False)
                 if ack is not None:
                     self._stats.consecutive_failures = 0
                     break
@@ -368,7 +374,7 @@ class RobotLink:
 
     def ping(self) -> Ack:
         """Ping the board (never starts motion); returns its ack with the round-trip time."""
-        return self._checked(protocol.PING, ())
+        return self._checked(wire.PING, ())
 
     def query_version(self) -> BoardVersion | None:
         """Ask the board for its firmware version and last reset cause (``V``; never moves).
@@ -377,7 +383,7 @@ class RobotLink:
         open when the board started. Sets ``firmware_version`` and ``reset_cause``. Returns None
         if the board does not know the query (firmware before 1.1 rejects it as ``TYPE``).
         """
-        ack = self._checked(protocol.VERSION, ())
+        ack = self._checked(wire.VERSION, ())
         if not ack.accepted or len(ack.info) < 2:
             return None
         self.firmware_version, self.reset_cause = ack.info[0], ack.info[1]
@@ -390,20 +396,20 @@ class RobotLink:
         """Latch the board's emergency stop (motors off until ``clear_estop()`` and a new drive)."""
         with self._lease_lock:
             self._lease.letter, self._lease.until = STOP, 0.0
-        return self._checked(protocol.ESTOP, ())
+        return self._checked(wire.ESTOP, ())
 
     def clear_estop(self) -> Ack:
         """Clear a latched e-stop; the motors stay off until the next drive command."""
-        return self._checked(protocol.CLEAR, ())
+        return self._checked(wire.CLEAR, ())
 
     def set_watchdog_ms(self, ms: int) -> Ack:
         """Set the board's motor watchdog period [ms] (50..2000)."""
-        if not protocol.WATCHDOG_MIN_MS <= int(ms) <= protocol.WATCHDOG_MAX_MS:
+        if not wire.WATCHDOG_MIN_MS <= int(ms) <= wire.WATCHDOG_MAX_MS:
             raise ValueError(
-                f"watchdog period must be {protocol.WATCHDOG_MIN_MS}..{protocol.WATCHDOG_MAX_MS} "
+                f"watchdog period must be {wire.WATCHDOG_MIN_MS}..{wire.WATCHDOG_MAX_MS} "
                 f"ms, got {ms}"
             )
-        ack = self._checked(protocol.SET_WATCHDOG, (str(int(ms)),))
+        ack = self._checked(wire.SET_WATCHDOG, (str(int(ms)),))
         if ack.accepted:
             self.watchdog_ms = int(ms)
         return ack
@@ -417,9 +423,9 @@ class RobotLink:
         try:
             with self._io_lock:
                 for _ in range(2):  # one retry: stopping matters more than latency
-                    ack = self._request(protocol.DRIVE, (STOP,), count_failure=False)
+                    ack = self._request(wire.DRIVE, (STOP,), count_failure=False)
                     if ack is not None:
-                        return ack.accepted or ack.rejected == protocol.REASON_ESTOP
+                        return ack.accepted or ack.rejected == wire.REASON_ESTOP
         except BaseException:  # noqa: BLE001 - best effort, including KeyboardInterrupt mid-write
             pass
         return False
@@ -468,7 +474,7 @@ class RobotLink:
                 if refused is not None:
                     self._end_lease()
                     return Ack(refused.seq, letter, self._state, "", refused.rejected, 0.0)
-            return self._checked(protocol.DRIVE, (letter,))
+            return self._checked(wire.DRIVE, (letter,))
 
     def _answer_boot(self) -> Ack | None:
         """Send the hello for the board's current boot if it waits for one; never from the
@@ -481,19 +487,19 @@ class RobotLink:
         if self.boot_count is None:
             self._boot_unanswered = False  # firmware 1.1: no boot count, no hello
             return None
-        ack = self._checked(protocol.HELLO, (str(self.boot_count),))
-        if ack.rejected == protocol.REASON_BOOT:
+        ack = self._checked(wire.HELLO, (str(self.boot_count),))
+        if ack.rejected == wire.REASON_BOOT:
             # Not the board's current boot (a boot frame was missed): ask, and try once more.
             self.boot_count = None
             if self.query_version() is not None and self.boot_count is not None:
-                ack = self._checked(protocol.HELLO, (str(self.boot_count),))
-        if ack.accepted or ack.rejected == protocol.REASON_TYPE:
+                ack = self._checked(wire.HELLO, (str(self.boot_count),))
+        if ack.accepted or ack.rejected == wire.REASON_TYPE:
             self._boot_unanswered = False  # answered, or firmware that knows no hello
             return None
         return ack
 
     def _next_seq(self) -> int:
-        self._seq = self._seq % (protocol.SEQ_MODULO - 1) + 1  # 1..65535; 0 is the board's
+        self._seq = self._seq % (wire.SEQ_MODULO - 1) + 1  # 1..65535; 0 is the board's
         return self._seq
 
     def _end_lease(self) -> None:
@@ -537,7 +543,7 @@ class RobotLink:
                             )
                         continue
                     self._corrupt_run = 0
-                    if item.type == protocol.BOOT:
+                    if item.type == wire.BOOT:
                         self._stats.boots += 1
                         self._state = STOP  # a fresh board has its motors off
                         self._end_lease()  # and only a new drive request may start them
@@ -551,7 +557,7 @@ class RobotLink:
                             flags = item.args[2]
                             if flags.isdigit() and int(flags) & FLAG_ESTOP:
                                 self._state = ESTOPPED  # booted latched (e.g. after a fault)
-                    elif item.type == protocol.WATCHDOG_STOP:
+                    elif item.type == wire.WATCHDOG_STOP:
                         self._stats.watchdog_stops += 1
                         self._state = STOP
                     else:
@@ -572,23 +578,23 @@ class RobotLink:
         if self._port is None:
             raise self._fail("link is not connected")
         seq = self._next_seq()
-        data = protocol.encode_frame(frame_type, seq, *args)
+        data = wire.encode_frame(frame_type, seq, *args)
         sent_at = time.monotonic()
         self._write(data)
         self._stats.sent += 1
-        if frame_type == protocol.DRIVE:
+        if frame_type == wire.DRIVE:
             self._last_drive_sent = sent_at
         deadline = sent_at + self.ack_timeout_s
         corrupt_before = self._stats.corrupt
-        requested = args[0] if frame_type == protocol.DRIVE else frame_type
+        requested = args[0] if frame_type == wire.DRIVE else frame_type
         resend = False
         while not resend and time.monotonic() < deadline:
             for frame in self._read_frames(deadline):
-                if frame.seq != seq or frame.type not in (protocol.ACK, protocol.NAK):
+                if frame.seq != seq or frame.type not in (wire.ACK, wire.NAK):
                     self._stats.stale += 1  # an older reply, or one the host did not ask for
                     continue
                 rtt_ms = (time.monotonic() - sent_at) * 1000.0
-                if frame.type == protocol.ACK:
+                if frame.type == wire.ACK:
                     self._stats.acks += 1
                     self._stats.consecutive_failures = 0
                     self._stats.rtt_ms = rtt_ms
@@ -598,7 +604,7 @@ class RobotLink:
                     self._state = state
                     return Ack(seq, requested, state, flags, None, rtt_ms, frame.args[2:])
                 reason = frame.args[0] if frame.args else "?"
-                if reason in (protocol.REASON_CRC, protocol.REASON_FRAME):
+                if reason in (wire.REASON_CRC, wire.REASON_FRAME):
                     # Our frame was damaged on the way: resend. Counts as a failure so a link
                     # that damages everything still ends in LinkError.
                     self._stats.naks += 1
@@ -606,11 +612,11 @@ class RobotLink:
                     break
                 self._stats.naks += 1
                 self._stats.consecutive_failures = 0
-                if reason == protocol.REASON_ESTOP:
+                if reason == wire.REASON_ESTOP:
                     self._state = ESTOPPED
-                    if frame_type == protocol.DRIVE:
+                    if frame_type == wire.DRIVE:
                         self._end_lease()  # else clearing the e-stop would restart the drive
-                if reason == protocol.REASON_BOOT and frame_type == protocol.DRIVE:
+                if reason == wire.REASON_BOOT and frame_type == wire.DRIVE:
                     # The board rebooted and waits for a hello, which only a new drive request
                     # sends: the lease of the old one ends here.
                     self._state = STOP
@@ -663,7 +669,7 @@ class RobotLink:
                 return None
             if time.monotonic() - self._last_drive_sent < self.keepalive_period_s * 0.9:
                 return None  # a drive went out recently anyway
-            ack = self._checked(protocol.DRIVE, (letter,))
+            ack = self._checked(wire.DRIVE, (letter,))
             self._stats.keepalives += 1
             return ack
 

@@ -30,10 +30,10 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import NamedTuple
 
+from ..utils.data import data_dir, shipped_dir
+
 FIRMWARE_BAUD = 9600
 """UART baud rate of the firmware (HC-05/06 factory default); the pty itself ignores it."""
-
-_PACKAGE_DIR = Path(__file__).resolve().parents[1]
 
 HARDWARE_SOURCES = (
     "firmware/lfd_rover/lfd_rover.ino",
@@ -45,10 +45,10 @@ HARDWARE_SOURCES = (
 
 
 def _find_hardware_dir() -> Path:
-    for candidate in (_PACKAGE_DIR / "_data" / "hardware", _PACKAGE_DIR.parent / "hardware"):
-        if all((candidate / name).is_file() for name in HARDWARE_SOURCES):
-            return candidate
-    return _PACKAGE_DIR / "_data" / "hardware"
+    try:
+        return data_dir("hardware", required=HARDWARE_SOURCES)
+    except FileNotFoundError:  # missing_tools() names the absent sources and this folder
+        return shipped_dir("hardware")
 
 
 HARDWARE_DIR = _find_hardware_dir()

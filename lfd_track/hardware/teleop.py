@@ -24,7 +24,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from ..commands import Command
+from ..core.commands import Command
 
 QUIT = "quit"
 STOP = "stop"

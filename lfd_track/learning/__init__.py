@@ -4,7 +4,6 @@ behind one seam (:mod:`lfd_track.learning.learners`)."""
 
 from .bc import BCConfig, fit_bc
 from .cmaes import CMAESConfig, fit_cmaes
-from .fit import LearnerFit
 from .fitness import imitation_fitness
 from .ga import EvolutionResult, GAConfig, evolve
 from .learners import (
@@ -15,6 +14,7 @@ from .learners import (
     Learner,
     learner_for,
 )
+from .result import LearnerFit
 
 __all__ = [
     "BCConfig",

@@ -1,7 +1,7 @@
 """Behaviour cloning baseline: the paper's 40-5-3 network trained by backpropagation (numpy only).
 
 The network is exactly the one the GA evolves (sigmoid hidden and output nodes, no biases unless
-asked; weight order of :mod:`lfd_track.control.mlp`), so a BC fit drops into a controller file
+asked; weight order of :mod:`lfd_track.policy.mlp`), so a BC fit drops into a controller file
 unchanged. The loss is a class-balanced softmax cross-entropy over the three sigmoid outputs
 divided by a temperature:
 
@@ -21,9 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import DictConfig
-from ..control.mlp import N_HIDDEN, N_OUTPUTS, n_weights, sigmoid
-from .fit import (
+from ..core.config import DictConfig
+from ..policy.mlp import N_HIDDEN, N_OUTPUTS, n_weights, sigmoid
+from .fitness import checked_cases, population_fitness
+from .result import (
     LearnerFit,
     check_bool,
     check_config,
@@ -31,7 +32,6 @@ from .fit import (
     check_positive,
     initial_weights,
 )
-from .fitness import checked_cases, population_fitness
 
 _W2 = N_OUTPUTS * N_HIDDEN
 

@@ -1,7 +1,7 @@
 """CMA-ES baseline: the paper's network and Algorithm 3 fitness, optimised by CMA-ES (``cma``).
 
 Only the optimiser differs from the paper's GA: same 40-5-3 network (weight order of
-:mod:`lfd_track.control.mlp`), same fitness (:func:`~lfd_track.learning.fitness.imitation_fitness`,
+:mod:`lfd_track.policy.mlp`), same fitness (:func:`~lfd_track.learning.fitness.imitation_fitness`,
 minimised), and by default the same budget of 40 x 200 = 8000 evaluations. Every generation's
 population is scored in one batched fitness call. All of ``cma``'s random draws come from the
 generator passed in (its ``randn`` option), never from numpy's global state.
@@ -15,9 +15,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..config import DictConfig
-from ..control.mlp import n_weights
-from .fit import (
+from ..core.config import DictConfig
+from ..policy.mlp import n_weights
+from ..utils.extras import needs_extra
+from .fitness import checked_cases, population_fitness
+from .result import (
     LearnerFit,
     check_bool,
     check_config,
@@ -25,7 +27,6 @@ from .fit import (
     check_positive,
     initial_weights,
 )
-from .fitness import checked_cases, population_fitness
 
 
 @dataclass(frozen=True)
@@ -71,7 +72,7 @@ def fit_cmaes(
     """
     if not isinstance(rng, np.random.Generator):
         raise ValueError("fit_cmaes needs a numpy Generator (rng) so that runs are reproducible")
-    with warnings.catch_warnings():
+    with warnings.catch_warnings(), needs_extra("cmaes"):
         # cma warns on import when matplotlib (only used by its own plotting) is absent.
         warnings.simplefilter("ignore")
         import cma  # imported here: only this learner needs it

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..control.mlp import N_HIDDEN, N_INPUTS, N_OUTPUTS, mlp_forward, n_weights
-from .fit import check_actions, check_cases, check_weights
+from ..policy.mlp import N_HIDDEN, N_INPUTS, N_OUTPUTS, mlp_forward, n_weights
+from .result import check_actions, check_cases, check_weights
 
 # For expected action e, the two other outputs in index order ("first/second position other
 # than the winner").
@@ -59,7 +59,7 @@ class Cases:
 
 
 def checked_cases(inputs: np.ndarray, actions: np.ndarray) -> Cases:
-    """Validate cases with the learners' shared :func:`~lfd_track.learning.fit.check_cases`."""
+    """Validate cases with the learners' shared :func:`~lfd_track.learning.result.check_cases`."""
     x, a = check_cases(inputs, actions)
     return Cases(x, a, _category_weights(a))
 

@@ -14,10 +14,10 @@ from typing import Any
 
 import numpy as np
 
-from ..config import DictConfig
-from ..control.mlp import N_INPUTS, n_weights
-from .fit import check_bool, check_config, check_int, check_positive
+from ..core.config import DictConfig
+from ..policy.mlp import N_INPUTS, n_weights
 from .fitness import Cases, checked_cases, population_fitness
+from .result import check_bool, check_config, check_int, check_positive
 
 MAX_POPULATION = 100_000
 """Largest population (and tournament) size accepted: far above any useful run, low enough that a

@@ -20,12 +20,12 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from ..control.mlp import N_INPUTS
+from ..policy.mlp import N_INPUTS
 from .bc import BCConfig, fit_bc
 from .cmaes import CMAESConfig, fit_cmaes
-from .fit import LearnerFit, check_config
 from .fitness import population_fitness
 from .ga import GAConfig, GAState, evolve, ga_ask, ga_cases, ga_init, ga_tell, rescore_cases
+from .result import LearnerFit, check_config
 
 __all__ = [
     "BCLearner",

@@ -5,7 +5,7 @@ depend on where in the region a pixel lies, so flipping a frame left to right on
 region's value to the mirrored column of the 8 x 5 grid (the grid and the safe box are symmetric
 about the image's centre line): the mirrored frame's road values are the original's with each
 row reversed, exactly. The command swaps left and right, and a memory input swaps its sides
-(:meth:`lfd_track.teaching.memory.MemoryConfig.mirror`).
+(:meth:`lfd_track.policy.memory.MemoryConfig.mirror`).
 
 Learning from the cases plus their mirror images makes the network treat left and right alike.
 The paper's demonstration is not symmetric: it starts at the training track's right end, so the
@@ -17,8 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..frame import GRID_COLUMNS, GRID_ROWS, N_REGIONS
-from ..teaching.memory import MemoryConfig
+from ..core.frame import GRID_COLUMNS, GRID_ROWS, N_REGIONS
+from ..policy.memory import MemoryConfig
 
 #: Command each command becomes in a mirror: forward stays, left and right swap.
 MIRRORED_COMMAND = np.array([0, 2, 1], dtype=np.intp)

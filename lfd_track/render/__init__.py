@@ -4,7 +4,6 @@ Physics never imports this package; rendering reads the world (tracks, poses) on
 """
 
 from .camera import (
-    SAFE_BOX,
     CameraConfig,
     CameraModel,
     CameraRenderer,
@@ -15,7 +14,6 @@ from .texture import AppearanceConfig, GroundTexture, LightingConfig, ShadowBand
 from .topdown import TopDownView, draw_topdown, draw_trajectories
 
 __all__ = [
-    "SAFE_BOX",
     "AppearanceConfig",
     "CameraConfig",
     "CameraModel",

@@ -16,6 +16,11 @@ per-pixel map of the floor points each pixel sees, computed once in the rover's 
 is rigid on the rover) and moved with the pose by one affine transform per frame. Then comes the
 phone's image pipeline: auto-exposure that adapts with a lag, white-balance jitter, vignetting,
 sensor noise, and optionally motion blur and JPEG compression.
+
+Why one module of about 670 lines: the lens model (:class:`CameraModel`: projection, the
+per-pixel floor table, the safe box's footprint) and the renderer that warps through that same
+table are one piece of geometry, checked together by the lens tests; split, each half would
+import the other's private tables.
 """
 
 from __future__ import annotations
@@ -26,11 +31,9 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..frame import safe_box_slices
+from ..core.frame import safe_box_slices
 from .texture import GroundTexture
 
-#: The safe box as (row, column) slices, from its one owner :data:`lfd_track.frame.SAFE_BOX`.
-SAFE_BOX = safe_box_slices()
 #: Rec. 601 luma weights of R, G, B, used to meter brightness.
 _LUMA = np.array([0.299, 0.587, 0.114])
 #: Samples (columns, rows) the auto-exposure meter reads per frame.
@@ -399,7 +402,7 @@ class CameraModel:
         N = 4 for an ideal pinhole (straight edges); a distorted lens bends the box's edges on
         the floor, so each edge is sampled (N = 16).
         """
-        rows, cols = SAFE_BOX
+        rows, cols = safe_box_slices()
         u0, u1 = cols.start - 0.5, cols.stop - 0.5
         v0, v1 = rows.start - 0.5, rows.stop - 0.5
         if self._table is None:

@@ -48,7 +48,7 @@ def add_study_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def _cmd_study(args: argparse.Namespace) -> int:
     from ..outputs import shown_path
-    from ..signals import Terminated, interrupted_exit_code, raise_terminated
+    from ..utils.signals import Terminated, interrupted_exit_code, raise_terminated
     from .run import load_finished, locked_out, run_study
     from .spec import load_study
     from .summary import write_study_outputs

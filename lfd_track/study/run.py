@@ -17,7 +17,7 @@ from typing import Any
 
 from ..benchmark.output import locked_folder
 from ..errors import LfdTrackError
-from ..signals import EXIT_TERMINATED
+from ..utils.signals import EXIT_TERMINATED
 from .jobs import finished_results, run_job, store_job
 from .spec import Job, Study
 

@@ -54,9 +54,9 @@ from pathlib import Path
 from typing import Any
 
 from ..benchmark.runner import BenchmarkConfig, check_tracks
-from ..config import dataclass_from_table, read_toml
+from ..core.config import dataclass_from_table, read_toml
 from ..errors import FileFormatError, LfdTrackError
-from ..learning.fit import shown_int
+from ..learning.result import shown_int
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._+-]{0,63}$")
 _STUDY_KEYS = {"name", "description", "seeds", "repetitions"}
@@ -354,7 +354,7 @@ def available_methods() -> tuple[str, ...] | None:
 
 def check_condition_names(config: BenchmarkConfig, where: str, path: Path | str) -> None:
     """Raise ``FileFormatError`` unless the method, preset and tracks named exist here."""
-    from ..presets import load_preset
+    from ..envs.presets import load_preset
     from ..world.track import load_track
 
     method = getattr(config, "method", "paper")

@@ -15,7 +15,7 @@ from __future__ import annotations
 from collections import deque
 from dataclasses import dataclass
 
-from ..commands import Command
+from ..core.commands import Command
 
 ARBITER_MODES = ("human", "policy", "takeover")
 

@@ -12,11 +12,11 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 import numpy as np
 
-from ..commands import Command
-from ..control.mlp import mlp_forward, select_action
+from ..core.commands import Command
+from ..policy.mlp import mlp_forward, select_action
 
 if TYPE_CHECKING:
-    from .loop import Moment
+    from .types import Moment
 
 
 @runtime_checkable

@@ -1,5 +1,5 @@
 """Perception: the road library, the rule that says when it may learn (paper §4.2.1, §6), and the
-policy's memory inputs (:mod:`lfd_track.teaching.memory`), if any.
+policy's memory inputs (:mod:`lfd_track.policy.memory`), if any.
 
 Learning rules:
 
@@ -22,9 +22,9 @@ from functools import cached_property
 
 import numpy as np
 
-from ..commands import Command
+from ..core.commands import Command
+from ..policy.memory import MemoryConfig, memory_for
 from ..vision.road_library import RoadLibrary
-from .memory import MemoryConfig, memory_for
 
 LEARNING_RULES = ("careful", "paused", "frozen", "always")
 

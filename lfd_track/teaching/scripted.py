@@ -21,11 +21,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..commands import Command
+from ..core.commands import Command
 from ..world.driver import CentrelineDriver, DriverConfig
 from ..world.rover import RoverConfig
 from ..world.track import ProgressTracker, Track
-from .loop import Moment
+from .types import Moment
 
 PHASE_LIBRARY_ONLY = "library_only"
 PHASE_DRIVE = "drive"

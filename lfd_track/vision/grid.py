@@ -1,8 +1,8 @@
-"""Pixel geometry of the vision code, re-exported from its one owner, :mod:`lfd_track.frame`."""
+"""Pixel geometry of the vision code, re-exported from its one owner, :mod:`lfd_track.core.frame`."""
 
 from __future__ import annotations
 
-from ..frame import (
+from ..core.frame import (
     FRAME_HEIGHT,
     FRAME_WIDTH,
     GRID_COLUMNS,

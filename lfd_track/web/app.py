@@ -4,7 +4,7 @@ Routes (every one behind :class:`AccessGuard`):
 
 - ``GET /`` — the page (``static/index.html`` with the token filled in);
 - ``GET /static/<file>`` — its script and style sheet, shipped in the package;
-- ``GET /api/status`` — the session's status as JSON (see :data:`protocol.STATUS_FIELDS`);
+- ``GET /api/status`` — the session's status as JSON (see :data:`.contract.STATUS_FIELDS`);
 - ``WS /ws`` — commands and heartbeats in, frames and status out.
 
 WebSocket protocol. The page sends JSON text messages ``{"type": ...}``:
@@ -52,15 +52,17 @@ from importlib import resources
 from typing import Any
 from urllib.parse import parse_qs, urlsplit
 
-from starlette.applications import Starlette
-from starlette.requests import Request
-from starlette.responses import HTMLResponse, JSONResponse, PlainTextResponse, Response
-from starlette.routing import Route, WebSocketRoute
-from starlette.types import ASGIApp, Receive, Scope, Send
-from starlette.websockets import WebSocket, WebSocketDisconnect
+from ..utils.extras import needs_extra
+from .contract import COMMAND_NAMES, TeachingSession
+from .defaults import DEFAULT_FPS
 
-from .cli import DEFAULT_FPS
-from .protocol import COMMAND_NAMES, TeachingSession
+with needs_extra("web"):
+    from starlette.applications import Starlette
+    from starlette.requests import Request
+    from starlette.responses import HTMLResponse, JSONResponse, PlainTextResponse, Response
+    from starlette.routing import Route, WebSocketRoute
+    from starlette.types import ASGIApp, Receive, Scope, Send
+    from starlette.websockets import WebSocket, WebSocketDisconnect
 
 STATIC_FILES = {
     "app.js": "text/javascript; charset=utf-8",

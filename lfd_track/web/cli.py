@@ -15,18 +15,15 @@ from ..cli_types import port, share
 from ..cli_types import positive_float as _positive_float
 from ..cli_types import positive_int as _positive_int
 from ..errors import LfdTrackError
-from ..teaching.memory import MEMORY_KINDS
+from ..policy.memory import MEMORY_KINDS
+from .defaults import DEFAULT_FPS, DEFAULT_HOST, DEFAULT_PORT
 
-DEFAULT_HOST = "127.0.0.1"
-DEFAULT_PORT = 8765
-DEFAULT_FPS = 10.0
-"""[frames/s] rate at which the camera view is pushed to each page."""
 FPS_RANGE = (1.0, 30.0)
 """[frames/s] ``--fps`` allowed: the page's status comes with the view (slower, and it lags);
 a phone camera gives 30 at most."""
 PERIOD_RANGE = (0.02, 5.0)
 """[s] ``--period`` allowed: a preset's bounds on a control period (``rover.control_period_s``
-in :data:`lfd_track.presets.BOUNDS`; not imported here, to keep the command line quick)."""
+in :data:`lfd_track.envs.presets.BOUNDS`; not imported here, to keep the command line quick)."""
 
 
 def _float_in(low: float, high: float) -> Any:
@@ -43,7 +40,7 @@ def _float_in(low: float, high: float) -> Any:
 
 def run_teach(args: argparse.Namespace) -> int:
     """The ``teach`` command: open the session, serve the page, close everything on exit."""
-    from ..signals import stop_signals_interrupt
+    from ..utils.signals import stop_signals_interrupt
     from .app import create_app, is_loopback, new_token
     from .server import StationServer, bind_socket, station_url
     from .session import open_session

@@ -6,10 +6,10 @@ import threading
 from collections import deque
 from typing import TYPE_CHECKING
 
-from ..commands import Command
+from ..core.commands import Command
 
 if TYPE_CHECKING:
-    from ..teaching.loop import Moment
+    from ..teaching.types import Moment
 
 MAX_QUEUED = 4
 """Presses kept while the robot is busy; more are dropped (a frantic tapper does not queue a lap)."""

@@ -25,11 +25,15 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
-import uvicorn
-from uvicorn.protocols.http.h11_impl import H11Protocol
-from uvicorn.protocols.websockets.websockets_sansio_impl import WebSocketsSansIOProtocol
-
 from ..errors import LfdTrackError
+from ..utils.extras import needs_extra
+
+with needs_extra("web"):
+    # The only module that knows uvicorn: it extends these two protocol classes, whose
+    # internals tests/web/test_uvicorn_internals.py checks against the installed uvicorn.
+    import uvicorn
+    from uvicorn.protocols.http.h11_impl import H11Protocol
+    from uvicorn.protocols.websockets.websockets_sansio_impl import WebSocketsSansIOProtocol
 
 _STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 

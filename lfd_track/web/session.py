@@ -9,7 +9,7 @@ control period, and only when someone has a command (the human pressed, or the p
 Observers record every case to a crash-safe ``.lfdemo``, count cases and corrections, and after
 each step the session publishes the annotated camera view and the simulator's map.
 
-Nothing moves unless the controlling page holds the lease (:class:`~lfd_track.web.protocol.Lease`).
+Nothing moves unless the controlling page holds the lease (:class:`~lfd_track.web.contract.Lease`).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ..commands import Command
+from ..core.commands import Command
 from ..demo.dataset import DemonstrationWriter
 from ..teaching.arbiter import Arbiter
 from ..teaching.commanders import PolicyCommander
@@ -34,7 +34,7 @@ from ..teaching.observers import Recorder
 from ..teaching.perception import Perception
 from ..vision.road_library import RoadLibrary
 from .commander import BrowserCommander
-from .protocol import LEASE_S, Lease, View
+from .contract import LEASE_S, Lease, View
 from .view import make_view
 
 HUMAN = "human"
@@ -416,7 +416,7 @@ def open_session(args: argparse.Namespace) -> LoopSession:
     out = Path(args.out)
     metadata: dict[str, Any] = {"source": "teach", "backend": args.backend, "online": args.online}
     if args.backend == "sim":
-        from ..env import LfDTrackEnv
+        from ..envs.track_env import LfDTrackEnv
 
         env = LfDTrackEnv(
             track=args.track, preset=args.preset, render_mode="rgb_array", max_steps=10**9
@@ -462,7 +462,7 @@ def open_session(args: argparse.Namespace) -> LoopSession:
         }
     from ..demo.demonstrator import recording_writer
     from ..outputs import in_progress_name
-    from ..teaching.memory import MemoryConfig
+    from ..policy.memory import MemoryConfig
 
     # As ``lfd-track demo --force``: an existing file is kept until the new recording is closed
     # (then replaced, if it holds a case); until then the recording has a name of its own.
@@ -592,7 +592,7 @@ def _online_parts(
 ) -> tuple[PolicyCommander, Any]:
     """The policy commander and the loop's GA learner feed, which updates its weights."""
     from ..learning.ga import GAConfig
-    from ..teaching.learner import GALearnerFeed
+    from ..teaching.learner_feed import GALearnerFeed
 
     policy = PolicyCommander(None)  # no policy until the first case was learned
     learner = GALearnerFeed(

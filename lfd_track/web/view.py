@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 
 from ..vision.overlay import draw_road_values
-from .protocol import View
+from .contract import View
 
 JPEG_QUALITY = 80
 TOPDOWN_WIDTH_PX = 360  # [px] the map is an inset; its labels stay readable at this width

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..commands import Command
+from ..core.commands import Command
 from .track import Track
 
 

@@ -13,13 +13,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import LfdTrackError
-from .dimensions import ROVER_BODY_WIDTH_M
+from ..core.config import read_toml
+from ..errors import FileFormatError, LfdTrackError
+from ..utils.data import resolve_data_file
+from .track_file import MAX_FILE_BYTES, parse_track
 
-#: Rover body width [m] (owned by :mod:`lfd_track.world.dimensions`).
-ROVER_WIDTH_M = ROVER_BODY_WIDTH_M
-#: Largest coordinate accepted in a track file [m] (a floor, not a continent).
-MAX_COORDINATE_M = 1000.0
 #: Shipped loops of our own design that no demonstration uses: a generalization set beside the
 #: paper's testing track (``tracks/README.md``).
 UNSEEN_TRACKS: tuple[str, ...] = ("notch", "bolt", "step")
@@ -318,6 +316,21 @@ def load_track(
     Raises FileFormatError (one line naming the file and the problem) for malformed files; the
     file format and its limits are in :mod:`lfd_track.world.track_file`.
     """
-    from .track_file import load_track_file  # the parser builds on this module's geometry
-
-    return load_track_file(name_or_path, reverse=reverse, start_corner=start_corner)
+    path = resolve_data_file("tracks", name_or_path)
+    data = read_toml(path, max_bytes=MAX_FILE_BYTES, what="track")
+    name, vertices, closed, width, corners = parse_track(data, path)
+    try:
+        return build_track(
+            name,
+            vertices,
+            closed,
+            width,
+            corners,
+            reverse=reverse,
+            start_corner=start_corner,
+            source=str(path),
+        )
+    except StartCornerError:
+        raise  # the argument is wrong, not the file
+    except ValueError as exc:
+        raise FileFormatError(path, str(exc).split(": ", 1)[-1]) from None

@@ -1,8 +1,9 @@
-"""Track files: reading and validating a track TOML (geometry lives in :mod:`.track`).
+"""Track files: validating a track TOML table (geometry lives in :mod:`.track`, which reads the
+file and builds the :class:`~lfd_track.world.track.Track`; this module imports none of it).
 
 Limits (stated in ``tracks/README.md``): at most :data:`MAX_VERTICES` vertices, the felt within a
 :data:`MAX_TRACK_SIZE_M` square (centreline plus one strip width on every side), strips
-:data:`~lfd_track.world.track.ROVER_WIDTH_M` to :data:`MAX_WIDTH_M` wide, files up to
+:data:`~lfd_track.world.dimensions.ROVER_BODY_WIDTH_M` to :data:`MAX_WIDTH_M` wide, files up to
 :data:`MAX_FILE_BYTES`. The self-intersection test is a uniform-grid broad phase followed by an
 exact, vectorised segment-distance test on the candidate pairs, so validation takes time about
 linear in the number of vertices (``benchmarks/speed/bench_track_validation.py``: 205 times
@@ -18,10 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from .._data import resolve_data_file
-from ..config import read_toml
 from ..errors import FileFormatError
-from .track import MAX_COORDINATE_M, ROVER_WIDTH_M, StartCornerError, Track, build_track
+from .dimensions import ROVER_BODY_WIDTH_M as ROVER_WIDTH_M
 
 MAX_VERTICES = 10_000
 """Most centreline vertices in a track file."""
@@ -32,6 +31,8 @@ MAX_WIDTH_M = 2.0
 """[m] widest strip accepted."""
 MAX_FILE_BYTES = 4 << 20
 """Largest track file read."""
+MAX_COORDINATE_M = 1000.0
+"""[m] largest coordinate accepted (a floor, not a continent)."""
 _MAX_LABEL_CHARS = 100
 _TRACK_KEYS = {"name", "description", "closed", "width_m", "vertices", "corners"}
 
@@ -218,27 +219,3 @@ def parse_track(
     if len(set(label_to_vertex.values())) != len(label_to_vertex):
         raise _fail(source, "two corners name the same vertex")
     return name, vertices, closed, width, label_to_vertex
-
-
-def load_track_file(
-    name_or_path: str | Path, *, reverse: bool = False, start_corner: str | None = None
-) -> Track:
-    """Load a shipped track by name or a track TOML file, in driving order (see ``load_track``)."""
-    path = resolve_data_file("tracks", name_or_path)
-    data = read_toml(path, max_bytes=MAX_FILE_BYTES, what="track")
-    name, vertices, closed, width, corners = parse_track(data, path)
-    try:
-        return build_track(
-            name,
-            vertices,
-            closed,
-            width,
-            corners,
-            reverse=reverse,
-            start_corner=start_corner,
-            source=str(path),
-        )
-    except StartCornerError:
-        raise  # the argument is wrong, not the file
-    except ValueError as exc:
-        raise FileFormatError(path, str(exc).split(": ", 1)[-1]) from None

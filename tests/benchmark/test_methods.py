@@ -23,12 +23,12 @@ from lfd_track.benchmark.runner import (
     run_benchmark,
     run_repetition,
 )
-from lfd_track.controller import Controller
 from lfd_track.demo.dataset import load_demonstration
 from lfd_track.demo.demonstrator import HumanConfig
 from lfd_track.learning.bc import BCConfig
 from lfd_track.learning.cmaes import CMAESConfig
 from lfd_track.learning.ga import GAConfig
+from lfd_track.policy.controller import Controller
 from lfd_track.vision.road_library import RoadLibrary
 
 
@@ -251,8 +251,8 @@ def test_hg_dagger_with_memory_keeps_it_in_every_file(tmp_path):
     """Memory runs: the demonstration, each round's interventions and the controller carry the
     memory settings (the demonstration, which holds the road library, evolves on its own)."""
     from lfd_track.cli import main
-    from lfd_track.controller import Controller
-    from lfd_track.teaching.memory import MemoryConfig
+    from lfd_track.policy.controller import Controller
+    from lfd_track.policy.memory import MemoryConfig
 
     demo_seed, ga_seed, _ = _seeds(0)
     memory = MemoryConfig(kind="last_bend")
@@ -361,8 +361,8 @@ def test_trial_directions_put_extra_loops_last():
 
 
 def test_extra_test_tracks_are_lapped_both_ways_and_reported_per_track(tmp_path):
-    from lfd_track._data import resolve_data_file
     from lfd_track.benchmark.report import write_benchmark_outputs
+    from lfd_track.utils.data import resolve_data_file
 
     text = Path(resolve_data_file("tracks", "testing")).read_text()
     loop = tmp_path / "other_loop.toml"

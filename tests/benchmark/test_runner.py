@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from lfd_track.benchmark.runner import BenchmarkConfig, repetition_seeds, run_trial
-from lfd_track.controller import Controller
-from lfd_track.env import LfDTrackEnv
+from lfd_track.envs.track_env import LfDTrackEnv
+from lfd_track.policy.controller import Controller
 from lfd_track.vision.road_library import RoadLibrary
 
 

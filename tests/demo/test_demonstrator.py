@@ -123,7 +123,7 @@ def _decide_all(config, intended, seed=0):
 
 
 def test_reaction_delay_answers_the_previous_frame():
-    from lfd_track.commands import Command as C
+    from lfd_track.core.commands import Command as C
 
     calm = HumanConfig(reaction_delay_prob=0.0, lapse_prob=0.0)
     late = HumanConfig(reaction_delay_prob=1.0, lapse_prob=0.0)
@@ -140,7 +140,7 @@ def test_reaction_delay_answers_the_previous_frame():
 
 
 def test_lapses_repeat_the_last_command():
-    from lfd_track.commands import Command as C
+    from lfd_track.core.commands import Command as C
 
     lapsing = HumanConfig(reaction_delay_prob=0.0, lapse_prob=1.0)
     intended = [C.LEFT, C.FORWARD, C.RIGHT, C.FORWARD]
@@ -148,7 +148,7 @@ def test_lapses_repeat_the_last_command():
 
 
 def test_never_left_straight_after_right():
-    from lfd_track.commands import Command as C
+    from lfd_track.core.commands import Command as C
 
     calm = HumanConfig(reaction_delay_prob=0.0, lapse_prob=0.0)
     intended = [C.LEFT, C.RIGHT, C.RIGHT, C.LEFT, C.FORWARD, C.LEFT]

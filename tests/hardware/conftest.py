@@ -13,7 +13,7 @@ import pytest
 import serial
 from lfd_test_support import unavailable
 
-from lfd_track.hardware import protocol
+from lfd_track.hardware import wire
 from lfd_track.hardware.simavr import FIRMWARE_BAUD, SimulatedBoard, ToolMissingError, missing_tools
 
 # Failure guard only: every wait below returns as soon as the awaited data arrives.
@@ -47,12 +47,12 @@ class BoardLink:
     def __init__(self, board: SimulatedBoard, port: serial.SerialBase) -> None:
         self.board = board
         self.port = port
-        self._parser = protocol.FrameParser()
-        self._pending: list[protocol.Frame | protocol.FrameError] = []
+        self._parser = wire.FrameParser()
+        self._pending: list[wire.Frame | wire.FrameError] = []
         self._seq = 0
 
     def next_seq(self) -> int:
-        self._seq = (self._seq + 1) % protocol.SEQ_MODULO
+        self._seq = (self._seq + 1) % wire.SEQ_MODULO
         return self._seq
 
     def write(self, data: bytes) -> None:
@@ -62,10 +62,10 @@ class BoardLink:
     def send(self, frame_type: str, *args: str) -> int:
         """Send one well-formed frame; return its seq."""
         seq = self.next_seq()
-        self.write(protocol.encode_frame(frame_type, seq, *args))
+        self.write(wire.encode_frame(frame_type, seq, *args))
         return seq
 
-    def read_frame(self, timeout_s: float = REPLY_TIMEOUT_S) -> protocol.Frame:
+    def read_frame(self, timeout_s: float = REPLY_TIMEOUT_S) -> wire.Frame:
         """Next frame from the board; fails on a malformed one or when nothing comes in time."""
         deadline = time.monotonic() + timeout_s
         while not self._pending:
@@ -73,12 +73,12 @@ class BoardLink:
                 raise AssertionError(f"no frame from the board within {timeout_s} s")
             self._pending.extend(self._parser.feed(self.port.read(self.port.in_waiting or 1)))
         item = self._pending.pop(0)
-        assert isinstance(item, protocol.Frame), f"board sent a malformed line: {item}"
+        assert isinstance(item, wire.Frame), f"board sent a malformed line: {item}"
         return item
 
     def wait_for(
-        self, accept: Callable[[protocol.Frame], bool], timeout_s: float = REPLY_TIMEOUT_S
-    ) -> tuple[protocol.Frame, list[protocol.Frame]]:
+        self, accept: Callable[[wire.Frame], bool], timeout_s: float = REPLY_TIMEOUT_S
+    ) -> tuple[wire.Frame, list[wire.Frame]]:
         """Read until a frame satisfies ``accept``; return it and the frames skipped before it."""
         deadline = time.monotonic() + timeout_s
         skipped = []
@@ -88,26 +88,26 @@ class BoardLink:
                 return frame, skipped
             skipped.append(frame)
 
-    def reply_to(self, seq: int) -> protocol.Frame:
+    def reply_to(self, seq: int) -> wire.Frame:
         """The ack or reject carrying ``seq``; any other frame in between fails the test."""
         frame = self.read_frame()
-        assert frame.type in (protocol.ACK, protocol.NAK) and frame.seq == seq, (
+        assert frame.type in (wire.ACK, wire.NAK) and frame.seq == seq, (
             f"expected the reply to seq {seq}, got {frame}"
         )
         return frame
 
-    def request(self, frame_type: str, *args: str) -> protocol.Frame:
+    def request(self, frame_type: str, *args: str) -> wire.Frame:
         """Send a frame and return the board's reply to it."""
         return self.reply_to(self.send(frame_type, *args))
 
-    def acknowledge_boot(self, boot: protocol.Frame) -> protocol.Frame:
+    def acknowledge_boot(self, boot: wire.Frame) -> wire.Frame:
         """Tell the board the host has seen ``boot`` (its hello ``K``); return the board's reply.
 
         Until then the board refuses every drive frame but stop (firmware 1.2).
         """
-        return self.request(protocol.HELLO, boot.args[3] if len(boot.args) > 3 else "0")
+        return self.request(wire.HELLO, boot.args[3] if len(boot.args) > 3 else "0")
 
-    def reset(self, cause: str = "external", acknowledge: bool = True) -> protocol.Frame:
+    def reset(self, cause: str = "external", acknowledge: bool = True) -> wire.Frame:
         """Reset the board; return its boot frame once every frame from before it is consumed.
 
         ``cause``: see ``SimulatedBoard.reset`` (an external reset keeps a latched e-stop).
@@ -119,9 +119,9 @@ class BoardLink:
         boot, and leaves the stream empty.
         """
         self.board.reset(cause=cause)
-        seq = self.send(protocol.PING)
-        _, skipped = self.wait_for(lambda f: f.type == protocol.ACK and f.seq == seq)
-        boots = [f for f in skipped if f.type == protocol.BOOT]
+        seq = self.send(wire.PING)
+        _, skipped = self.wait_for(lambda f: f.type == wire.ACK and f.seq == seq)
+        boots = [f for f in skipped if f.type == wire.BOOT]
         assert boots, f"no boot frame after the reset, only {skipped}"
         if acknowledge:
             self.acknowledge_boot(boots[-1])

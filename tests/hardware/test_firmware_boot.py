@@ -20,7 +20,7 @@ from typing import TYPE_CHECKING
 import pytest
 import serial
 
-from lfd_track.hardware import protocol
+from lfd_track.hardware import wire
 from lfd_track.hardware.link import RobotLink
 from lfd_track.hardware.simavr import FIRMWARE_BAUD, SimulatedBoard
 
@@ -137,21 +137,21 @@ def test_the_links_keepalive_never_restarts_a_reset_board(
         assert moved_since(board, reset_at)
 
 
-def settle(rover: BoardLink) -> list[protocol.Frame]:
+def settle(rover: BoardLink) -> list[wire.Frame]:
     """Ping until a ping is answered (the board has worked through its input); the frames
     before that answer. A reply that did not fit the board's transmit buffer is dropped, so a
     ping may go unanswered while a flood's replies drain; the next one is then answered."""
-    frames: list[protocol.Frame] = []
+    frames: list[wire.Frame] = []
     deadline = time.monotonic() + WAIT_S
     while time.monotonic() < deadline:
-        ping = rover.send(protocol.PING)
+        ping = rover.send(wire.PING)
         ping_deadline = min(deadline, time.monotonic() + 1.0)
         while time.monotonic() < ping_deadline:
             try:
                 frame = rover.read_frame(timeout_s=0.05)
             except AssertionError:  # nothing came yet
                 continue
-            if frame.type == protocol.ACK and frame.seq == ping:
+            if frame.type == wire.ACK and frame.seq == ping:
                 return frames
             frames.append(frame)
     raise AssertionError(f"the board answered no ping within {WAIT_S} s")
@@ -169,33 +169,33 @@ def test_stale_drive_frames_racing_the_boot_frame_are_refused(
     flood of drive frames after it are refused too. Nothing moves."""
     tried = refused = dropped = 0
     for delay_s in RACE_DELAYS_S:
-        reply = rover.request(protocol.VERSION)
+        reply = rover.request(wire.VERSION)
         old_count = reply.args[4] if len(reply.args) > 4 else "0"  # firmware 1.1: no count
-        assert rover.request(protocol.DRIVE, "F").args[0] == "F"
+        assert rover.request(wire.DRIVE, "F").args[0] == "F"
         reset_at = reset_board(rover.board, cause, cleared)
         if delay_s:
             time.sleep(delay_s)  # the race itself: how late the stale frame is written
-        seqs = [rover.send(protocol.DRIVE, "F")]
-        seqs.append(rover.send(protocol.HELLO, old_count))  # the previous boot's hello
-        seqs += [rover.send(protocol.DRIVE, "FLR"[i % 3]) for i in range(20)]  # a flood
+        seqs = [rover.send(wire.DRIVE, "F")]
+        seqs.append(rover.send(wire.HELLO, old_count))  # the previous boot's hello
+        seqs += [rover.send(wire.DRIVE, "FLR"[i % 3]) for i in range(20)]  # a flood
         # The flood's replies outrun 9600 baud and some are dropped (ack flag 4): ping until
         # a ping is answered, i.e. the board has worked through all of it.
         frames = settle(rover)
-        boots = [f for f in frames if f.type == protocol.BOOT]
+        boots = [f for f in frames if f.type == wire.BOOT]
         assert len(boots) == 1, frames
         boot = boots[0]
         replies = {f.seq: f for f in frames if f.seq in seqs}
         tried += len(seqs)
         dropped += len(seqs) - len(replies)
-        reasons = (protocol.REASON_BOOT, protocol.REASON_ESTOP)
-        refused += sum(f.type == protocol.NAK and f.args[0] in reasons for f in replies.values())
-        assert all(f.type == protocol.NAK for f in replies.values()), (delay_s, boot, replies)
+        reasons = (wire.REASON_BOOT, wire.REASON_ESTOP)
+        refused += sum(f.type == wire.NAK and f.args[0] in reasons for f in replies.values())
+        assert all(f.type == wire.NAK for f in replies.values()), (delay_s, boot, replies)
         assert replies.get(seqs[0]) is not None  # the first stale frame's reply always fits
         assert moved_since(rover.board, reset_at) == [], (delay_s, boot, replies)
         assert boot.args[3] != old_count
         if boot.args[2] == "1":
-            assert rover.request(protocol.CLEAR).type == protocol.ACK
-        assert rover.acknowledge_boot(boot).type == protocol.ACK
+            assert rover.request(wire.CLEAR).type == wire.ACK
+        assert rover.acknowledge_boot(boot).type == wire.ACK
     print(
         f"{cause}{' flags cleared' if cleared else ''}: {tried} stale frames tried, "
         f"{refused} refused, {dropped} replies dropped, 0 moved"
@@ -205,33 +205,33 @@ def test_stale_drive_frames_racing_the_boot_frame_are_refused(
 
 def test_a_stop_is_obeyed_and_a_hello_for_another_boot_is_refused(rover: BoardLink) -> None:
     boot = rover.reset(acknowledge=False)
-    assert rover.request(protocol.DRIVE, "S").args[0] == "S"  # stopping needs no hello
-    refused = rover.request(protocol.DRIVE, "F")
-    assert (refused.type, refused.args) == (protocol.NAK, (protocol.REASON_BOOT,))
+    assert rover.request(wire.DRIVE, "S").args[0] == "S"  # stopping needs no hello
+    refused = rover.request(wire.DRIVE, "F")
+    assert (refused.type, refused.args) == (wire.NAK, (wire.REASON_BOOT,))
     wrong = str((int(boot.args[3]) + 1) % 65536)
-    assert rover.request(protocol.HELLO, wrong).args == (protocol.REASON_BOOT,)
-    assert rover.request(protocol.HELLO).args == (protocol.REASON_ARG,)
-    assert rover.request(protocol.HELLO, "x").args == (protocol.REASON_ARG,)
-    assert rover.request(protocol.DRIVE, "L").args == (protocol.REASON_BOOT,)
-    assert rover.request(protocol.VERSION).args[4] == boot.args[3]
+    assert rover.request(wire.HELLO, wrong).args == (wire.REASON_BOOT,)
+    assert rover.request(wire.HELLO).args == (wire.REASON_ARG,)
+    assert rover.request(wire.HELLO, "x").args == (wire.REASON_ARG,)
+    assert rover.request(wire.DRIVE, "L").args == (wire.REASON_BOOT,)
+    assert rover.request(wire.VERSION).args[4] == boot.args[3]
     assert rover.acknowledge_boot(boot).args[0] == "S"
     assert rover.acknowledge_boot(boot).args[0] == "S"  # idempotent
-    assert rover.request(protocol.DRIVE, "L").args[0] == "L"
+    assert rover.request(wire.DRIVE, "L").args[0] == "L"
 
 
 def test_the_boot_count_survives_resets_and_changes_at_every_boot(rover: BoardLink) -> None:
     counts = [int(rover.reset(cause=cause).args[3]) for cause in ("external",) * 3]
     assert counts[1] == (counts[0] + 1) % 65536 and counts[2] == (counts[1] + 1) % 65536
     rover.board.hang()
-    watchdog, _ = rover.wait_for(lambda f: f.type == protocol.BOOT)
+    watchdog, _ = rover.wait_for(lambda f: f.type == wire.BOOT)
     assert int(watchdog.args[3]) == (counts[2] + 1) % 65536
 
 
 # --- Optiboot: reset flags handed over in r2 ----------------------------------------------
 
 
-def expect_boot(rover: BoardLink) -> protocol.Frame:
-    frame, _ = rover.wait_for(lambda f: f.type == protocol.BOOT)
+def expect_boot(rover: BoardLink) -> wire.Frame:
+    frame, _ = rover.wait_for(lambda f: f.type == wire.BOOT)
     return frame
 
 
@@ -240,18 +240,18 @@ def test_under_optiboot_a_watchdog_reset_is_named_and_latches(
     optiboot_rover: BoardLink, latched: bool
 ) -> None:
     rover = optiboot_rover
-    assert rover.request(protocol.SET_WATCHDOG, "2000").type == protocol.ACK
+    assert rover.request(wire.SET_WATCHDOG, "2000").type == wire.ACK
     if latched:
-        assert rover.request(protocol.ESTOP).args[:2] == ("X", "1")
+        assert rover.request(wire.ESTOP).args[:2] == ("X", "1")
     else:
-        assert rover.request(protocol.DRIVE, "F").args[0] == "F"
+        assert rover.request(wire.DRIVE, "F").args[0] == "F"
     reset = rover.board.hang()
     assert reset.cause == "watchdog"
     boot = expect_boot(rover)
     assert boot.args[1:3] == ("WDT", "1"), boot
-    assert rover.request(protocol.VERSION).args[3] == "WDT"
+    assert rover.request(wire.VERSION).args[3] == "WDT"
     for command in "FLR":
-        assert rover.request(protocol.DRIVE, command).args == (protocol.REASON_ESTOP,)
+        assert rover.request(wire.DRIVE, command).args == (wire.REASON_ESTOP,)
     assert moved_since(rover.board, reset.t_s) == []
 
 
@@ -261,11 +261,11 @@ def test_under_optiboot_an_external_reset_keeps_the_latch_and_is_named(
 ) -> None:
     rover = optiboot_rover
     if latched:
-        assert rover.request(protocol.ESTOP).args[:2] == ("X", "1")
+        assert rover.request(wire.ESTOP).args[:2] == ("X", "1")
     boot = rover.reset(cause="external", acknowledge=False)
     assert boot.args[1:3] == ("EXT", "1" if latched else "0"), boot
-    reason = protocol.REASON_ESTOP if latched else protocol.REASON_BOOT
-    assert rover.request(protocol.DRIVE, "F").args == (reason,)
+    reason = wire.REASON_ESTOP if latched else wire.REASON_BOOT
+    assert rover.request(wire.DRIVE, "F").args == (reason,)
     assert moved_since(rover.board, rover.board.resets()[-1].t_s) == []
 
 
@@ -289,14 +289,14 @@ def test_a_power_on_boots_unlatched_with_motors_off_and_refuses_to_drive(
     """RAM is garbage after a power-up: it never reads as a latch record (the board boots
     unlatched) nor as an answered boot; every drive until the hello is refused."""
     link = request.getfixturevalue(fixture)
-    assert link.request(protocol.ESTOP).args[:2] == ("X", "1")
+    assert link.request(wire.ESTOP).args[:2] == ("X", "1")
     for _ in range(6):
         link.board.reset(cause="power-on", flags_cleared=cleared)
         reset_at = link.board.resets()[-1].t_s
         boot = expect_boot(link)
         assert boot.args[1:3] == ("?" if cleared else "PWR", "0"), boot
         for command in "FLR":
-            assert link.request(protocol.DRIVE, command).args == (protocol.REASON_BOOT,)
+            assert link.request(wire.DRIVE, command).args == (wire.REASON_BOOT,)
         assert moved_since(link.board, reset_at) == []
 
 
@@ -305,12 +305,12 @@ def test_a_power_on_boots_unlatched_with_motors_off_and_refuses_to_drive(
 
 @pytest.mark.parametrize("gap_s", [0.2, 3.0])
 def test_a_drive_frame_completed_after_a_gap_is_discarded(rover: BoardLink, gap_s: float) -> None:
-    drive = protocol.encode_frame(protocol.DRIVE, rover.next_seq(), "F")
+    drive = wire.encode_frame(wire.DRIVE, rover.next_seq(), "F")
     since = rover.board.mark()
     rover.write(drive[:-1])  # everything but the newline
     wait_sim_time(rover.board, since + gap_s)
     rover.write(b"\n")
-    ping = rover.send(protocol.PING)
+    ping = rover.send(wire.PING)
     reply, skipped = rover.wait_for(lambda f: f.seq == ping)
     assert skipped == [] and reply.args[0] == "S", (skipped, reply)
     assert moved_since(rover.board, since) == []
@@ -318,7 +318,7 @@ def test_a_drive_frame_completed_after_a_gap_is_discarded(rover: BoardLink, gap_
 
 def test_a_frame_written_in_two_pieces_without_a_pause_is_obeyed(rover: BoardLink) -> None:
     seq = rover.next_seq()
-    drive = protocol.encode_frame(protocol.DRIVE, seq, "F")
+    drive = wire.encode_frame(wire.DRIVE, seq, "F")
     rover.write(drive[:9])
     rover.write(drive[9:])
     assert rover.reply_to(seq).args[0] == "F"
@@ -330,19 +330,19 @@ def test_a_frame_written_in_two_pieces_without_a_pause_is_obeyed(rover: BoardLin
 def test_a_lease_change_mid_lease_does_not_extend_the_motion_in_progress(
     rover: BoardLink,
 ) -> None:
-    seq = rover.send(protocol.DRIVE, "F")
+    seq = rover.send(wire.DRIVE, "F")
     assert rover.reply_to(seq).args[0] == "F"
     started = rover.board.mark()
     wait_sim_time(rover.board, started + 0.1)
-    assert rover.request(protocol.SET_WATCHDOG, "2000").args[0] == "F"
-    rover.wait_for(lambda f: f.type == protocol.WATCHDOG_STOP)
+    assert rover.request(wire.SET_WATCHDOG, "2000").args[0] == "F"
+    rover.wait_for(lambda f: f.type == wire.WATCHDOG_STOP)
     samples = rover.board.motor_log(since_reset=True)
     start = next(s.t_s for s in samples if moving(s))
     stop = next(s.t_s for s in samples if s.t_s > start and not moving(s))
     assert abs((stop - start) - LEASE_S) <= LEASE_TOLERANCE_S, stop - start
     # The next drive frame runs on the new lease.
-    assert rover.request(protocol.DRIVE, "L").args[0] == "L"
+    assert rover.request(wire.DRIVE, "L").args[0] == "L"
     again = rover.board.mark()
     wait_sim_time(rover.board, again + 3 * LEASE_S)
-    assert rover.request(protocol.PING).args[0] == "L"
-    assert rover.request(protocol.DRIVE, "S").args[0] == "S"
+    assert rover.request(wire.PING).args[0] == "L"
+    assert rover.request(wire.DRIVE, "S").args[0] == "S"

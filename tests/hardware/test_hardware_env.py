@@ -18,7 +18,7 @@ import serial
 from lfd_test_support import load_test_module
 
 import lfd_track  # noqa: F401 - registers the environments
-from lfd_track.hardware import protocol
+from lfd_track.hardware import wire
 from lfd_track.hardware.env import HardwareEnv
 
 
@@ -126,7 +126,7 @@ def test_stalled_camera_stops_the_robot_within_1_5_s() -> None:
             stop_times = [
                 t
                 for t, f in board.received
-                if f.type == protocol.DRIVE and f.args == ("S",) and t > stalled_at
+                if f.type == wire.DRIVE and f.args == ("S",) and t > stalled_at
             ]
             assert stop_times and stop_times[0] - stalled_at < 1.5
         finally:
@@ -137,7 +137,7 @@ def test_keyboard_interrupt_during_a_drive_sends_stop() -> None:
     drives_seen = []
 
     def interrupt_on_third_forward(board, frame) -> None:
-        if frame.type == protocol.DRIVE and frame.args == ("F",):
+        if frame.type == wire.DRIVE and frame.args == ("F",):
             drives_seen.append(frame)
             if len(drives_seen) == 3:
                 _thread.interrupt_main()  # what Ctrl-C does to the control loop
@@ -200,10 +200,10 @@ def controller_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
     Only 30 generations (a few seconds in all): enough for a real evolved network with a road
     library learned from rendered frames; how well it drives is not what these tests check.
     """
-    from lfd_track.controller import Controller
     from lfd_track.demo.dataset import load_demonstration
     from lfd_track.demo.demonstrator import run_demonstration
     from lfd_track.learning.ga import GAConfig, evolve
+    from lfd_track.policy.controller import Controller
     from lfd_track.vision.road_library import RoadLibrary
 
     folder = tmp_path_factory.mktemp("controller")
@@ -222,8 +222,8 @@ def controller_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.mark.simavr
 def test_end_to_end_on_the_simulated_firmware(simulated_board, controller_file: Path) -> None:
     """Rendered frames -> MJPEG -> saved controller -> serial -> firmware -> motor log."""
-    from lfd_track.controller import Controller
-    from lfd_track.env import LfDTrackEnv
+    from lfd_track.envs.track_env import LfDTrackEnv
+    from lfd_track.policy.controller import Controller
 
     controller = Controller.load(controller_file)
     sim = LfDTrackEnv(track="training")
@@ -350,7 +350,7 @@ def test_cli_demo_without_a_terminal_creates_no_recording(
 
 
 def test_teleop_records_a_demonstration(tmp_path: Path) -> None:
-    from lfd_track.commands import Command
+    from lfd_track.core.commands import Command
     from lfd_track.demo.dataset import load_demonstration
     from lfd_track.hardware.teleop import DemonstrationRecorder, run_teleop
 
@@ -392,18 +392,18 @@ def test_cli_check_with_lease_test_on_the_simulated_firmware(simulated_board, ca
     assert "lease watchdog stopped the motors" in out and "OK:" in out
 
 
-def _ping_reply(url: str, seq: int) -> protocol.Frame:
+def _ping_reply(url: str, seq: int) -> wire.Frame:
     """Ping the board at ``url`` until it answers (it may still be booting); return the reply."""
     port = serial.serial_for_url(url, baudrate=9600, timeout=0.05)
     try:
-        parser = protocol.FrameParser()
+        parser = wire.FrameParser()
         deadline = time.monotonic() + 5.0  # failure guard
         while time.monotonic() < deadline:
-            port.write(protocol.encode_frame(protocol.PING, seq))
+            port.write(wire.encode_frame(wire.PING, seq))
             reply_deadline = time.monotonic() + 0.5
             while time.monotonic() < reply_deadline:
                 for item in parser.feed(port.read(64)):
-                    if isinstance(item, protocol.Frame) and item.seq == seq:
+                    if isinstance(item, wire.Frame) and item.seq == seq:
                         return item
         raise AssertionError(f"the board at {url} answered no ping")
     finally:

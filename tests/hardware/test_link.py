@@ -15,9 +15,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from lfd_track.commands import Command
+from lfd_track.core.commands import Command
 from lfd_track.errors import LfdTrackError
-from lfd_track.hardware import protocol
+from lfd_track.hardware import wire
 from lfd_track.hardware.link import LinkError, RobotLink
 
 WAIT_S = 5.0  # upper bound for event waits; never reached when the code works
@@ -53,7 +53,7 @@ class FakeBoard:
         self.boot_delay_s = boot_delay_s
         self.on_frame = on_frame
         self.version = version
-        self.received: list[tuple[float, protocol.Frame]] = []
+        self.received: list[tuple[float, wire.Frame]] = []
         self.state = "S"
         self.estopped = False
         self.watchdog_ms = 300
@@ -89,7 +89,7 @@ class FakeBoard:
     def drives(self) -> list[str]:
         """Drive letters received so far, in order."""
         with self.changed:
-            return [f.args[0] for _, f in self.received if f.type == protocol.DRIVE and f.args]
+            return [f.args[0] for _, f in self.received if f.type == wire.DRIVE and f.args]
 
     def wait_for(self, predicate, timeout_s: float = WAIT_S) -> bool:
         """Wait until ``predicate(self)`` holds (woken by every received frame)."""
@@ -97,7 +97,7 @@ class FakeBoard:
             return self.changed.wait_for(lambda: predicate(self), timeout=timeout_s)
 
     def _reply(self, conn: socket.socket, frame_type: str, seq: int, *args: str) -> None:
-        data = protocol.encode_frame(frame_type, seq, *args)
+        data = wire.encode_frame(frame_type, seq, *args)
         if self.mode == "corrupt" and self._faulty():
             data = data[:-3] + (b"0" if data[-3:-2] != b"0" else b"1") + data[-2:]
         conn.sendall(data)
@@ -105,9 +105,9 @@ class FakeBoard:
     def _faulty(self) -> bool:
         return len(self.received) > self.fault_after
 
-    def _handle(self, conn: socket.socket, frame: protocol.Frame) -> bool:
+    def _handle(self, conn: socket.socket, frame: wire.Frame) -> bool:
         now = time.monotonic()
-        if frame.type == protocol.DRIVE:
+        if frame.type == wire.DRIVE:
             moving = self.state in ("F", "L", "R")
             if moving and now - self._last_drive_at > self.watchdog_ms / 1000:
                 self.lease_lapses += 1
@@ -121,27 +121,27 @@ class FakeBoard:
             return False
         if self._faulty() and self.mode == "silent":
             return True
-        if frame.type == protocol.DRIVE:
+        if frame.type == wire.DRIVE:
             if self.estopped:
-                self._reply(conn, protocol.NAK, frame.seq, protocol.REASON_ESTOP)
+                self._reply(conn, wire.NAK, frame.seq, wire.REASON_ESTOP)
                 return True
             self.state = frame.args[0]
-        elif frame.type == protocol.ESTOP:
+        elif frame.type == wire.ESTOP:
             self.estopped, self.state = True, "X"
-        elif frame.type == protocol.CLEAR:
+        elif frame.type == wire.CLEAR:
             self.estopped = False
             self.state = "S"
-        elif frame.type == protocol.SET_WATCHDOG:
+        elif frame.type == wire.SET_WATCHDOG:
             ms = int(frame.args[0])
-            if not protocol.WATCHDOG_MIN_MS <= ms <= protocol.WATCHDOG_MAX_MS:
-                self._reply(conn, protocol.NAK, frame.seq, protocol.REASON_ARG)
+            if not wire.WATCHDOG_MIN_MS <= ms <= wire.WATCHDOG_MAX_MS:
+                self._reply(conn, wire.NAK, frame.seq, wire.REASON_ARG)
                 return True
             self.watchdog_ms = ms
-        elif frame.type == protocol.VERSION and self.version is not None:
+        elif frame.type == wire.VERSION and self.version is not None:
             flags = "1" if self.estopped else "0"
-            self._reply(conn, protocol.ACK, frame.seq, self.state, flags, self.version, "EXT")
+            self._reply(conn, wire.ACK, frame.seq, self.state, flags, self.version, "EXT")
             return True
-        self._reply(conn, protocol.ACK, frame.seq, self.state, "1" if self.estopped else "0")
+        self._reply(conn, wire.ACK, frame.seq, self.state, "1" if self.estopped else "0")
         return True
 
     def _serve(self) -> None:
@@ -150,7 +150,7 @@ class FakeBoard:
         except OSError:
             return
         self._conn = conn
-        parser = protocol.FrameParser()
+        parser = wire.FrameParser()
         # Like a real bootloader, announce a moment after the port opens (pyserial drops input
         # that arrives while it is still opening the port); frames are answered meanwhile.
         boot_at = time.monotonic() + self.boot_delay_s if self.boot else None
@@ -158,7 +158,7 @@ class FakeBoard:
             while not self._closed.is_set():
                 if boot_at is not None:
                     if time.monotonic() >= boot_at:
-                        conn.sendall(protocol.encode_frame(protocol.BOOT, 0, "fake-1"))
+                        conn.sendall(wire.encode_frame(wire.BOOT, 0, "fake-1"))
                         boot_at = None
                     conn.settimeout(
                         None if boot_at is None else max(boot_at - time.monotonic(), 0.001)
@@ -170,8 +170,8 @@ class FakeBoard:
                 if not data:
                     return
                 for item in parser.feed(data):
-                    if isinstance(item, protocol.FrameError):
-                        self._reply(conn, protocol.NAK, 0, item.reason)
+                    if isinstance(item, wire.FrameError):
+                        self._reply(conn, wire.NAK, 0, item.reason)
                     elif not self._handle(conn, item):
                         conn.shutdown(socket.SHUT_RDWR)
                         conn.close()
@@ -188,9 +188,9 @@ def make_link(board: FakeBoard, **kwargs) -> RobotLink:
 def test_connect_reads_boot_version_and_pings() -> None:
     with FakeBoard() as board, make_link(board) as link:
         assert link.firmware_version == "fake-1"
-        assert [f.type for _, f in board.received][:1] == [protocol.PING]
+        assert [f.type for _, f in board.received][:1] == [wire.PING]
         ack = link.ping()
-        assert ack.accepted and ack.requested == protocol.PING
+        assert ack.accepted and ack.requested == wire.PING
         assert link.stats().rtt_ms > 0
 
 
@@ -209,7 +209,7 @@ def test_estop_latches_and_drive_is_refused_until_cleared() -> None:
         stopped = link.estop()
         assert stopped.accepted and stopped.estopped and not stopped.moving
         refused = link.drive(Command.FORWARD)
-        assert refused.rejected == protocol.REASON_ESTOP and refused.state == "X"
+        assert refused.rejected == wire.REASON_ESTOP and refused.state == "X"
         assert refused.estopped and not refused.accepted
         assert link.stop()  # stop is "done" when the board is e-stopped
         cleared = link.clear_estop()
@@ -242,7 +242,7 @@ def test_keepalive_refreshes_the_lease_faster_than_the_watchdog() -> None:
         assert board.watchdog_ms == 1000
         link.drive(Command.FORWARD, lease_s=10.0)
         assert board.wait_for(lambda b: b.drives().count("F") >= 10)
-        times = [t for t, f in board.received if f.type == protocol.DRIVE and f.args == ("F",)]
+        times = [t for t, f in board.received if f.type == wire.DRIVE and f.args == ("F",)]
         gaps = [b - a for a, b in zip(times, times[1:], strict=False)]
         assert board.lease_lapses == 0, gaps
         assert statistics.median(gaps) < 0.25, gaps
@@ -340,7 +340,7 @@ def test_reply_handling_never_crashes_on_random_bytes(noise: bytes) -> None:
         assert ack.requested == "F"  # random bytes cannot forge a CRC-checked ack for seq 1..
     except LinkError:
         pass
-    assert link._parser.buffered <= protocol.MAX_LINE_BYTES + 1
+    assert link._parser.buffered <= wire.MAX_LINE_BYTES + 1
     link.close()
     assert b"$D," in bytes(port.written)
 
@@ -348,7 +348,7 @@ def test_reply_handling_never_crashes_on_random_bytes(noise: bytes) -> None:
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(st.binary(max_size=200), st.binary(max_size=50))
 def test_valid_ack_is_found_among_noise(before: bytes, after: bytes) -> None:
-    ack = protocol.encode_frame(protocol.ACK, 1, "F", "0")
+    ack = wire.encode_frame(wire.ACK, 1, "F", "0")
     port = ScriptedPort(before + ack + after)
     # The ack is always there; 2 ms was too short for a loaded machine to read it.
     link = RobotLink("scripted", ack_timeout_s=0.05, port_factory=lambda: port)
@@ -360,7 +360,7 @@ def test_valid_ack_is_found_among_noise(before: bytes, after: bytes) -> None:
         assert "corrupt replies" in str(exc)
     else:
         assert (reply.seq, reply.state, reply.accepted) == (1, "F", True)
-    assert link._parser.buffered <= protocol.MAX_LINE_BYTES + 1
+    assert link._parser.buffered <= wire.MAX_LINE_BYTES + 1
     link.ack_timeout_s = 0.002  # close() sends stop, which nothing answers here
     link.close()
 
@@ -379,7 +379,7 @@ def test_query_version_reads_version_and_reset_cause() -> None:
 
 def test_query_version_of_firmware_without_it_is_none() -> None:
     # Firmware 1.0 rejects the unknown type; a plain ack carries no version either.
-    port = ScriptedPort(protocol.encode_frame(protocol.NAK, 1, protocol.REASON_TYPE))
+    port = ScriptedPort(wire.encode_frame(wire.NAK, 1, wire.REASON_TYPE))
     link = RobotLink("scripted", ack_timeout_s=0.05, port_factory=lambda: port)
     link.open()
     assert link.query_version() is None and link.firmware_version is None
@@ -388,19 +388,19 @@ def test_query_version_of_firmware_without_it_is_none() -> None:
 
 
 def test_a_boot_frame_names_the_reset_cause_and_a_latched_boot() -> None:
-    boot = protocol.encode_frame(protocol.BOOT, 0, "1.1", "WDT", "1")
+    boot = wire.encode_frame(wire.BOOT, 0, "1.1", "WDT", "1")
     port = ScriptedPort(boot)
     link = RobotLink("scripted", ack_timeout_s=0.05, port_factory=lambda: port)
     link.open()
     link.poll()
     assert (link.firmware_version, link.reset_cause, link.state) == ("1.1", "WDT", "X")
-    port.reply(protocol.encode_frame(protocol.NAK, 1, protocol.REASON_ESTOP))
+    port.reply(wire.encode_frame(wire.NAK, 1, wire.REASON_ESTOP))
     refused = link.drive("F")
-    assert refused.rejected == protocol.REASON_ESTOP and refused.estopped
+    assert refused.rejected == wire.REASON_ESTOP and refused.estopped
 
 
 def test_ack_flags_report_dropped_replies() -> None:
-    port = ScriptedPort(protocol.encode_frame(protocol.ACK, 1, "S", "4"))
+    port = ScriptedPort(wire.encode_frame(wire.ACK, 1, "S", "4"))
     link = RobotLink("scripted", ack_timeout_s=0.05, port_factory=lambda: port)
     link.open()
     ack = link.ping()
@@ -415,7 +415,7 @@ def _drives_after(board: FakeBoard, frame_type: str) -> list[str]:
     with board.changed:
         frames = [f for _, f in board.received]
     last = max(i for i, f in enumerate(frames) if f.type == frame_type)
-    return [f.args[0] for f in frames[last + 1 :] if f.type == protocol.DRIVE and f.args]
+    return [f.args[0] for f in frames[last + 1 :] if f.type == wire.DRIVE and f.args]
 
 
 def test_a_stop_is_not_overtaken_by_a_keepalive_of_the_old_lease() -> None:
@@ -426,8 +426,8 @@ def test_a_stop_is_not_overtaken_by_a_keepalive_of_the_old_lease() -> None:
     stop, and the board drove on for a whole lease (up to 2 s).
     """
 
-    def slow_stop_ack(_board: FakeBoard, frame: protocol.Frame) -> None:
-        if frame.type == protocol.DRIVE and frame.args == ("S",):
+    def slow_stop_ack(_board: FakeBoard, frame: wire.Frame) -> None:
+        if frame.type == wire.DRIVE and frame.args == ("S",):
             time.sleep(0.11)  # within the 0.15 s ack timeout, longer than 0.9 x 0.1 s
 
     with FakeBoard(on_frame=slow_stop_ack) as board, make_link(board) as link:
@@ -447,11 +447,11 @@ def test_a_drive_refused_for_the_estop_is_not_kept_alive_and_clearing_does_not_r
     with FakeBoard() as board, make_link(board) as link:
         board.estopped, board.state = True, "X"
         refused = link.drive(Command.FORWARD)  # lease until the next request
-        assert refused.rejected == protocol.REASON_ESTOP
+        assert refused.rejected == wire.REASON_ESTOP
         assert link.lease_letter() == "S"
         assert link.clear_estop().accepted
         time.sleep(0.4)  # four keep-alive periods
-        assert _drives_after(board, protocol.CLEAR) == []
+        assert _drives_after(board, wire.CLEAR) == []
         assert board.state == "S"
 
 

@@ -1,10 +1,10 @@
 import numpy as np
 import pytest
 
-from lfd_track.control.mlp import mlp_forward
 from lfd_track.learning.bc import BCConfig, bc_loss_and_gradient, fit_bc
 from lfd_track.learning.fitness import category_weights, imitation_fitness, training_accuracy
 from lfd_track.learning.ga import GAConfig, evolve
+from lfd_track.policy.mlp import mlp_forward
 
 
 def random_cases(seed=0, n=30):

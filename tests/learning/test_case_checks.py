@@ -1,5 +1,5 @@
 """Every learner and the fitness refuse bad cases, weights and settings up front, through one
-shared check (``lfd_track.learning.fit.check_cases``), instead of returning NaN, inf or a
+shared check (``lfd_track.learning.result.check_cases``), instead of returning NaN, inf or a
 meaningless fitness, or failing later with an AttributeError."""
 
 from __future__ import annotations

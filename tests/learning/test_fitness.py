@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from lfd_track.control.mlp import mlp_forward
 from lfd_track.learning.fitness import category_weights, imitation_fitness, population_outputs
+from lfd_track.policy.mlp import mlp_forward
 
 
 def literal_algorithm_3(weights, inputs, actions, threshold=0.4):
@@ -74,8 +74,8 @@ def test_rejects_bad_actions():
 
 
 def test_training_accuracy_counts_argmax_agreement():
-    from lfd_track.control.mlp import mlp_forward
     from lfd_track.learning.fitness import training_accuracy
+    from lfd_track.policy.mlp import mlp_forward
 
     rng = np.random.default_rng(3)
     weights = rng.uniform(-1, 1, 215)

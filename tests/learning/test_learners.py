@@ -6,7 +6,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lfd_track.control.mlp import n_weights
 from lfd_track.learning import (
     BCConfig,
     CMAESConfig,
@@ -18,6 +17,7 @@ from lfd_track.learning import (
     evolve,
     learner_for,
 )
+from lfd_track.policy.mlp import n_weights
 
 
 @pytest.fixture(scope="module")

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from lfd_track.benchmark.runner import BenchmarkConfig, config_dict
-from lfd_track.env import LfDTrackEnv
+from lfd_track.envs.track_env import LfDTrackEnv
 from lfd_track.learning.mirror import mirror_cases, with_mirrored
-from lfd_track.teaching.memory import MemoryConfig
+from lfd_track.policy.memory import MemoryConfig
 from lfd_track.vision.road_library import RoadLibrary
 
 LAST_BEND = MemoryConfig(kind="last_bend")

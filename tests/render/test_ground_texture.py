@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from lfd_track.config import dataclass_from_table
+from lfd_track.core.config import dataclass_from_table
 from lfd_track.errors import FileFormatError
 from lfd_track.render.texture import (
     MAX_TEXTURE_BYTES,

@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from lfd_track.env import LfDTrackEnv
+from lfd_track.envs.presets import load_preset
+from lfd_track.envs.track_env import LfDTrackEnv
 from lfd_track.errors import FileFormatError
-from lfd_track.presets import load_preset
 from lfd_track.render.camera import (
     CameraConfig,
     CameraModel,

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
+from lfd_track.core.frame import safe_box_slices
 from lfd_track.render.camera import (
-    SAFE_BOX,
     CameraConfig,
     CameraModel,
     CameraRenderer,
@@ -109,7 +109,7 @@ def test_config_rejects_a_horizon_in_view():
 
 
 def test_safe_box_constant_matches_the_design():
-    rows, cols = SAFE_BOX
+    rows, cols = safe_box_slices()
     assert (rows.start, rows.stop, cols.start, cols.stop) == (430, 480, 295, 345)
 
 
@@ -126,7 +126,7 @@ def test_safe_box_floor_polygon_is_on_the_felt_on_a_straight(track):
 def test_frame_shows_felt_in_the_safe_box_and_carpet_off_the_track(track, ground):
     frame = render_sequence(ground, [STRAIGHT], seed=1)[0]
     assert frame.shape == (480, 640, 3) and frame.dtype == np.uint8
-    box = frame[SAFE_BOX].reshape(-1, 3).astype(float).mean(axis=0)
+    box = frame[safe_box_slices()].reshape(-1, 3).astype(float).mean(axis=0)
     assert box[2] > box[0] + 40  # bluish: blue well above red
 
     # Top-right corner region: check first that it really sees carpet only.
@@ -254,7 +254,7 @@ def test_highlight_shoulder_keeps_bright_felt_from_clipping(ground):
             white_balance_cast=0.0,
             white_balance_jitter=0.0,
         )
-        return render_sequence(ground, [STRAIGHT], 0, sensor)[0][SAFE_BOX]
+        return render_sequence(ground, [STRAIGHT], 0, sensor)[0][safe_box_slices()]
 
     hard, soft = box(1.0), box(0.7)
     assert (hard == 255).mean() > 0.3  # overexposed felt clips flat with a linear curve

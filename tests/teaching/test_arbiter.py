@@ -1,6 +1,6 @@
 import pytest
 
-from lfd_track.commands import Command
+from lfd_track.core.commands import Command
 from lfd_track.teaching.arbiter import Arbiter
 
 F, L, R = Command.FORWARD, Command.LEFT, Command.RIGHT

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from lfd_test_support import library_with_road
 
-from lfd_track.commands import Command
-from lfd_track.env import LfDTrackEnv
+from lfd_track.core.commands import Command
+from lfd_track.envs.track_env import LfDTrackEnv
 from lfd_track.teaching import (
     Arbiter,
     Perception,

@@ -6,18 +6,18 @@ import numpy as np
 import pytest
 from lfd_test_support import library_with_road, training_track_frame
 
-from lfd_track.commands import Command
-from lfd_track.control.mlp import mlp_forward, n_weights
-from lfd_track.controller import Controller
+from lfd_track.core.commands import Command
 from lfd_track.demo.dataset import DemonstrationWriter, load_demonstration, save_demonstration
-from lfd_track.env import LfDTrackEnv
+from lfd_track.envs.track_env import LfDTrackEnv
 from lfd_track.errors import FileFormatError
 from lfd_track.learning.bc import BCConfig, fit_bc
 from lfd_track.learning.cmaes import CMAESConfig, fit_cmaes
 from lfd_track.learning.fitness import imitation_fitness, population_outputs
 from lfd_track.learning.ga import GAConfig, evolve
+from lfd_track.policy.controller import Controller
+from lfd_track.policy.memory import UNKNOWN_SIDE, MemoryConfig, TurnMemory
+from lfd_track.policy.mlp import mlp_forward, n_weights
 from lfd_track.teaching import Arbiter, Perception, QueueCommander, TeachingLoop
-from lfd_track.teaching.memory import UNKNOWN_SIDE, MemoryConfig, TurnMemory
 from lfd_track.teaching.observers import CaseBuffer
 
 F, L, R = Command.FORWARD, Command.LEFT, Command.RIGHT

@@ -195,16 +195,24 @@ def test_safe_box_model_uses_the_bottom_centre_patch(frames):
     assert not np.array_equal(library.safe_box_model(frame), model)
 
 
-def test_safe_box_matches_renderer():
-    from lfd_track.render import camera
+def test_one_safe_box_everywhere():
+    """SAFE_BOX means one thing: the (x, y, w, h) rectangle of lfd_track.core.frame."""
+    import importlib
+    import pkgutil
 
-    rows, cols = safe_box_slices()
-    render_box = camera.SAFE_BOX
-    probe = np.zeros((480, 640), np.uint8)
-    probe[render_box] = 1
-    ours = np.zeros_like(probe)
-    ours[rows, cols] = 1
-    np.testing.assert_array_equal(probe, ours)
+    import lfd_track
+    from lfd_track.core import frame as frame_module
+
+    owners = []
+    for info in pkgutil.walk_packages(lfd_track.__path__, "lfd_track."):
+        if info.name.startswith(("lfd_track.web", "lfd_track.hardware")):
+            continue  # optional stacks; neither names the safe box
+        module = importlib.import_module(info.name)
+        if hasattr(module, "SAFE_BOX"):
+            owners.append(info.name)
+            assert module.SAFE_BOX is frame_module.SAFE_BOX, info.name
+    assert "lfd_track.render.camera" not in owners
+    assert set(owners) >= {"lfd_track.core.frame", "lfd_track.vision.grid"}
 
 
 def test_to_dict_from_dict_is_lossless_through_json(frames):

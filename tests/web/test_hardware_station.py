@@ -41,7 +41,7 @@ def _motors_on(sample) -> bool:
 @pytest.fixture(scope="module")
 def felt_frame() -> np.ndarray:
     """A rendered camera frame of the training track (BGR, as a phone's stream encodes it)."""
-    from lfd_track.env import LfDTrackEnv
+    from lfd_track.envs.track_env import LfDTrackEnv
 
     env = LfDTrackEnv(track="training")
     frame, _ = env.reset(seed=0)

@@ -7,10 +7,10 @@ import time
 
 import pytest
 
-from lfd_track.commands import Command
+from lfd_track.core.commands import Command
 from lfd_track.web.app import is_loopback
 from lfd_track.web.commander import MAX_QUEUED, BrowserCommander
-from lfd_track.web.protocol import Lease
+from lfd_track.web.contract import Lease
 from lfd_track.web.server import station_url
 
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from lfd_test_support import library_with_road
 
-from lfd_track.commands import Command
+from lfd_track.core.commands import Command
 from lfd_track.teaching import Arbiter, Perception, PolicyCommander, TeachingLoop
 from lfd_track.web.commander import BrowserCommander
 from lfd_track.web.session import CaseTally, LoopSession

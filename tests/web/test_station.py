@@ -17,9 +17,9 @@ from lfd_test_support import wait_until
 from websockets.exceptions import InvalidStatus
 from websockets.sync.client import connect
 
-from lfd_track.commands import Command
+from lfd_track.core.commands import Command
 from lfd_track.demo.dataset import load_demonstration
-from lfd_track.web.protocol import STATUS_FIELDS
+from lfd_track.web.contract import STATUS_FIELDS
 
 pytestmark = pytest.mark.browser
 

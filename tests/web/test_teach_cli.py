@@ -128,8 +128,8 @@ def test_ctrl_c_keeps_what_was_taught_for_evolve(tmp_path: Path, capsys, stop_si
 
 def test_memory_inputs_are_recorded_and_evolve_into_a_memory_controller(tmp_path: Path) -> None:
     """``--memory last_bend``: each case carries the side of the last bend before it."""
-    from lfd_track.controller import Controller
-    from lfd_track.teaching.memory import MemoryConfig
+    from lfd_track.policy.controller import Controller
+    from lfd_track.policy.memory import MemoryConfig
 
     out = tmp_path / "taught.lfdemo"
     commands = ["left", "left", "forward", "right", "right", "forward"]

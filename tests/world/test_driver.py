@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pytest
 
-from lfd_track.commands import Command
+from lfd_track.core.commands import Command
 from lfd_track.world.driver import CentrelineDriver, DriverConfig
 from lfd_track.world.rover import Rover, RoverConfig
 from lfd_track.world.track import ProgressTracker, Track, load_track

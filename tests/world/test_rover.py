@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from lfd_track.config import dataclass_from_table
+from lfd_track.core.config import dataclass_from_table
 from lfd_track.errors import FileFormatError
 from lfd_track.world.rover import Rover, RoverConfig, wrap_angle
 

@@ -6,7 +6,7 @@ one class: ``first`` (no corner before it in the lap, so a last-bend memory hold
 way). A lap arrives at a corner when it negotiated every corner before it; its first corner not
 negotiated is where it failed (the benchmark's own counting: a lap that turns back on the
 straight after a corner is charged to the next corner). This is what a memory of the last bend can and cannot help with
-(``lfd_track/teaching/memory.py``): it points the right way at ``same`` corners only.
+(``lfd_track/policy/memory.py``): it points the right way at ``same`` corners only.
 
 Run: ``.venv/bin/python benchmarks/experiments/goal_selection/corners_by_last_bend.py STUDY_OUT_DIR [--track NAME ...]`` —
 prints, per condition, failures / arrivals in each class, pooled over the condition's seeds

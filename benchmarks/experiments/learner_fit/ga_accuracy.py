@@ -30,12 +30,12 @@ from typing import Any
 
 import numpy as np
 
-from lfd_track.commands import Command
-from lfd_track.control.mlp import mlp_forward
+from lfd_track.core.commands import Command
 from lfd_track.demo.dataset import load_demonstration
 from lfd_track.demo.demonstrator import run_demonstration
 from lfd_track.learning.fitness import imitation_fitness
 from lfd_track.learning.ga import GAConfig, evolve
+from lfd_track.policy.mlp import mlp_forward
 
 RESULTS = Path(__file__).resolve().parent / "results" / "ga_accuracy.json"
 CLASSES = [c.name.lower() for c in Command]  # forward, left, right

@@ -39,13 +39,13 @@ from typing import Any
 import numpy as np
 
 from lfd_track.benchmark.runner import repetition_seeds, run_trial
-from lfd_track.controller import Controller
 from lfd_track.demo.dataset import load_demonstration
 from lfd_track.demo.demonstrator import HumanConfig, run_demonstration
-from lfd_track.env import LfDTrackEnv
+from lfd_track.envs.presets import Preset, load_preset
+from lfd_track.envs.track_env import LfDTrackEnv
 from lfd_track.learning.fitness import training_accuracy
 from lfd_track.learning.ga import GAConfig, evolve
-from lfd_track.presets import Preset, load_preset
+from lfd_track.policy.controller import Controller
 from lfd_track.render.camera import CameraConfig, CameraModel
 from lfd_track.vision.road_library import RoadLibrary
 

@@ -1,6 +1,6 @@
 // lfd_rover: drive firmware for the tracked rover (DFRobot Romeo, ATmega328P at 16 MHz).
 //
-// Speaks the line-framed wire protocol of lfd_track/hardware/protocol.py:
+// Speaks the line-framed wire protocol of lfd_track/hardware/wire.py:
 //
 //   host -> board  $<type>,<seq>[,<arg>]*<CRC>\n
 //     D,<seq>,F|L|R|S  drive forward / spin left / spin right / stop (renews the motor lease);

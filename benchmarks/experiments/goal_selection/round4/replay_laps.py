@@ -31,10 +31,10 @@ from lfd_track.benchmark.runner import (
     run_trial,
     trial_worlds,
 )
-from lfd_track.controller import Controller
 from lfd_track.demo.demonstrator import HumanConfig
-from lfd_track.env import LfDTrackEnv
-from lfd_track.teaching.memory import MEMORY_KINDS, MemoryConfig
+from lfd_track.envs.track_env import LfDTrackEnv
+from lfd_track.policy.controller import Controller
+from lfd_track.policy.memory import MEMORY_KINDS, MemoryConfig
 from lfd_track.teaching.scripted import TURNAROUND_RULES
 
 COMMAND_NAMES = ("F", "L", "R")

@@ -26,13 +26,13 @@ from typing import Any
 
 import numpy as np
 
-from ._data import resolve_data_file
-from .config import dataclass_from_table, read_toml
-from .errors import FileFormatError
-from .render.camera import CameraConfig, SensorConfig
-from .render.texture import AppearanceConfig, LightingConfig
-from .world.episode import EpisodeRules
-from .world.rover import RoverConfig
+from ..core.config import dataclass_from_table, read_toml
+from ..errors import FileFormatError
+from ..render.camera import CameraConfig, SensorConfig
+from ..render.texture import AppearanceConfig, LightingConfig
+from ..utils.data import resolve_data_file
+from ..world.episode import EpisodeRules
+from ..world.rover import RoverConfig
 
 SECTIONS: dict[str, type] = {
     "rover": RoverConfig,

@@ -3,7 +3,7 @@ import math
 import numpy as np
 import pytest
 
-from lfd_track.control.mlp import mlp_forward, n_weights, select_action
+from lfd_track.policy.mlp import mlp_forward, n_weights, select_action
 
 
 def literal_forward(w, x, bias=False):

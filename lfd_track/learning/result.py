@@ -1,7 +1,7 @@
 """What every baseline learner returns, and the checks they share on training cases.
 
 A learner turns demonstration cases (road values and the commands given) into the weights of the
-paper's 40-5-3 sigmoid network (see :mod:`lfd_track.control.mlp` for the weight order). Whatever
+paper's 40-5-3 sigmoid network (see :mod:`lfd_track.policy.mlp` for the weight order). Whatever
 the learner optimises internally, :attr:`LearnerFit.fitness` is the paper's Algorithm 3 imitation
 fitness of the returned weights, so learners can be compared on one scale.
 """
@@ -14,7 +14,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from ..control.mlp import N_INPUTS, N_OUTPUTS, check_numbers, n_weights
+from ..policy.mlp import N_INPUTS, N_OUTPUTS, check_numbers, n_weights
 
 T = TypeVar("T")
 

@@ -10,8 +10,8 @@ import numpy as np
 from ..learning.ga import GAConfig, GAState
 from ..learning.learners import GALearner
 from .commanders import PolicyCommander
-from .loop import Step
 from .observers import CaseBuffer
+from .types import Step
 
 
 class GALearnerFeed:

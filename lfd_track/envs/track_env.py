@@ -11,14 +11,14 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.envs.registration import EnvSpec
 
-from .commands import Command
+from ..core.commands import Command
+from ..render.camera import CameraModel, CameraRenderer
+from ..render.texture import MAX_TEXTURE_BYTES, GroundTexture, build_ground
+from ..render.topdown import draw_topdown
+from ..world.episode import EpisodeTracker, reference_step_count
+from ..world.rover import Rover
+from ..world.track import Track, load_track
 from .presets import Preset, load_preset
-from .render.camera import CameraModel, CameraRenderer
-from .render.texture import MAX_TEXTURE_BYTES, GroundTexture, build_ground
-from .render.topdown import draw_topdown
-from .world.episode import EpisodeTracker, reference_step_count
-from .world.rover import Rover
-from .world.track import Track, load_track
 
 #: Step budget per episode as a multiple of the commands an ideal driver needs (see
 #: ``world/episode.py``: ``reference_step_count``).

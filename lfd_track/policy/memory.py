@@ -26,9 +26,9 @@ from typing import ClassVar
 
 import numpy as np
 
-from ..commands import Command
-from ..config import DictConfig
-from ..frame import N_REGIONS
+from ..core.commands import Command
+from ..core.config import DictConfig
+from ..core.frame import N_REGIONS
 
 MEMORY_KINDS = ("none", "last_bend")
 #: Value of the ``last_bend`` input before the first bend of an episode.

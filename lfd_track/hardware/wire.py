@@ -11,6 +11,7 @@ from __future__ import annotations
 import binascii
 from dataclasses import dataclass
 
+DEFAULT_BAUD = 9600  # the firmware's UART rate (HC-05/06 factory default)
 MAX_LINE_BYTES = 31
 
 # Host -> board frame types.

@@ -14,7 +14,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from ..commands import Command
+from ..core.commands import Command
 
 LEASE_S = 1.0
 """[s] the robot stops when the controlling page sent no heartbeat for this long."""

@@ -12,7 +12,7 @@ canonical JSON (sorted keys, no spaces, UTF-8) of every other key, so a changed 
 refused (unless the number still parses to the very same value, which changes nothing). Schema 1 files (wave 1: ``ga_config`` instead of ``learner``/``learner_config``, no
 ``policy_kind`` or checksum) still load as ``learner="ga"``.
 
-A controller whose network also reads memory inputs (:mod:`lfd_track.teaching.memory`) is saved
+A controller whose network also reads memory inputs (:mod:`lfd_track.policy.memory`) is saved
 as schema 3: the schema 2 keys plus ``memory`` (the memory settings), with ``layer_sizes``
 ``[40 + m, 5, 3]``. A controller without memory is still written as schema 2.
 
@@ -30,17 +30,17 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .atomic import atomic_write_text
-from .control.mlp import check_numbers, layer_sizes, mlp_forward, n_weights, select_action
-from .errors import FileFormatError
-from .files import read_regular_text
-from .teaching.commanders import PolicyCommander
-from .teaching.memory import MemoryConfig, policy_inputs
-from .teaching.perception import Perception
-from .vision.road_library import RoadLibrary
+from ..atomic import atomic_write_text
+from ..errors import FileFormatError
+from ..files import read_regular_text
+from ..teaching.commanders import PolicyCommander
+from ..teaching.perception import Perception
+from ..vision.road_library import RoadLibrary
+from .memory import MemoryConfig, policy_inputs
+from .mlp import check_numbers, layer_sizes, mlp_forward, n_weights, select_action
 
 if TYPE_CHECKING:
-    from .learning.ga import EvolutionResult
+    from ..learning.ga import EvolutionResult
 
 CONTROLLER_FORMAT = "lfd-track-controller"
 CONTROLLER_SCHEMA_VERSION = 2

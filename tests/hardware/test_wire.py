@@ -8,8 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from lfd_track.hardware import protocol
-from lfd_track.hardware.protocol import (
+from lfd_track.hardware import wire
+from lfd_track.hardware.wire import (
     MAX_LINE_BYTES,
     Frame,
     FrameError,
@@ -56,12 +56,12 @@ def test_lower_case_crc_digits_are_accepted() -> None:
 @pytest.mark.parametrize(
     ("line", "reason"),
     [
-        (b"$D,1,F*0000", protocol.REASON_CRC),
-        (b"$D,1,F", protocol.REASON_FRAME),  # no CRC
-        (b"$D,1,F*12", protocol.REASON_FRAME),  # short CRC
-        (b"$D,1,F*ZZZZ", protocol.REASON_FRAME),
-        (b"D,1,F*0000", protocol.REASON_FRAME),  # no '$'
-        (b"$D,1*2*3", protocol.REASON_FRAME),
+        (b"$D,1,F*0000", wire.REASON_CRC),
+        (b"$D,1,F", wire.REASON_FRAME),  # no CRC
+        (b"$D,1,F*12", wire.REASON_FRAME),  # short CRC
+        (b"$D,1,F*ZZZZ", wire.REASON_FRAME),
+        (b"D,1,F*0000", wire.REASON_FRAME),  # no '$'
+        (b"$D,1*2*3", wire.REASON_FRAME),
     ],
 )
 def test_bad_lines_are_rejected_with_a_reason(line: bytes, reason: str) -> None:
@@ -73,7 +73,7 @@ def test_bad_fields_with_a_valid_crc_are_frame_errors() -> None:
     for body in (b"DD,1", b"D,x", b"D,65536", b"D", b"1,2"):
         line = b"$" + body + b"*" + b"%04X" % crc16(body)
         result = decode_line(line)
-        assert isinstance(result, FrameError) and result.reason == protocol.REASON_FRAME, body
+        assert isinstance(result, FrameError) and result.reason == wire.REASON_FRAME, body
 
 
 def test_lines_over_31_bytes_are_rejected() -> None:
@@ -84,8 +84,8 @@ def test_lines_over_31_bytes_are_rejected() -> None:
     long_body = b"T,1," + b"9" * 22
     long_line = b"$" + long_body + b"*" + b"%04X" % crc16(long_body)
     assert len(long_line) == MAX_LINE_BYTES + 1
-    assert decode_line(long_line) == FrameError(protocol.REASON_LONG, long_line)
-    assert FrameParser().feed(long_line + b"\n")[0].reason == protocol.REASON_LONG
+    assert decode_line(long_line) == FrameError(wire.REASON_LONG, long_line)
+    assert FrameParser().feed(long_line + b"\n")[0].reason == wire.REASON_LONG
     with pytest.raises(ValueError, match="longer"):
         encode_frame("T", 1, "9" * 22)
 
@@ -118,7 +118,7 @@ def test_overflow_is_reported_once_then_parsing_continues() -> None:
     out = parser.feed(b"$" + b"x" * 500)
     assert out == [] and parser.buffered <= MAX_LINE_BYTES + 1
     out = parser.feed(b"more\n" + encode_frame("H", 4))
-    assert [getattr(item, "reason", None) for item in out] == [protocol.REASON_LONG, None]
+    assert [getattr(item, "reason", None) for item in out] == [wire.REASON_LONG, None]
     assert out[1] == Frame("H", 4)
 
 
@@ -130,7 +130,7 @@ def test_parser_fuzz_never_raises_and_stays_bounded(chunks: list[bytes]) -> None
         for item in parser.feed(chunk):
             assert isinstance(item, (Frame, FrameError))
             if isinstance(item, FrameError):
-                assert item.reason in protocol.REASONS
+                assert item.reason in wire.REASONS
                 assert len(item.raw) <= MAX_LINE_BYTES + 1
         # The partial frame held never exceeds one maximal line (plus an allowed '\r').
         assert parser.buffered <= MAX_LINE_BYTES + 1

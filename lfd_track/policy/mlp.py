@@ -6,7 +6,7 @@ With ``bias=True`` the 5 hidden biases and then the 3 output biases follow (223 
 bias-free vector is a prefix of the bias layout.
 
 The input layer is the 40 road values, optionally followed by memory inputs
-(:mod:`lfd_track.teaching.memory`): a network with ``n`` inputs has ``5 n + 15`` weights (plus 8
+(:mod:`lfd_track.policy.memory`): a network with ``n`` inputs has ``5 n + 15`` weights (plus 8
 biases); its number of inputs is read from the inputs it is given.
 """
 

@@ -13,6 +13,6 @@ def register_envs() -> None:
         # on the track (3x the commands an ideal driver needs, lfd_track/world/episode.py). The
         # made env's spec states that budget as max_episode_steps (LfDTrackEnv.spec). The
         # hardware env has no step limit: it drives until stopped.
-        gym.register(id="LfDTrack-v0", entry_point="lfd_track.env:LfDTrackEnv")
+        gym.register(id="LfDTrack-v0", entry_point="lfd_track.envs.track_env:LfDTrackEnv")
     if "LfDTrack-Hardware-v0" not in registry:
         gym.register(id="LfDTrack-Hardware-v0", entry_point="lfd_track.hardware.env:HardwareEnv")

@@ -10,8 +10,8 @@ import typing
 from pathlib import Path
 from typing import Any, ClassVar, Self, TypeVar
 
-from .errors import FileFormatError
-from .files import read_regular_text
+from ..errors import FileFormatError
+from ..files import read_regular_text
 
 T = TypeVar("T")
 

@@ -7,9 +7,9 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from .teaching.perception import Perception
-from .vision.grid import N_REGIONS
-from .vision.road_library import RoadLibrary
+from ..teaching.perception import Perception
+from ..vision.grid import N_REGIONS
+from ..vision.road_library import RoadLibrary
 
 
 class RoadValueObservation(gym.ObservationWrapper):

@@ -3,7 +3,7 @@
 The host codec's documented contract: ``encode_frame`` returns a frame that decodes back to what
 was encoded, or raises ``ValueError`` (and nothing else) for anything that is not a valid frame;
 ``decode_line`` and ``FrameParser.feed`` never raise, and return either a ``Frame`` that is a
-faithful reading of the line or a ``FrameError`` with one of ``protocol.REASONS``. The last test
+faithful reading of the line or a ``FrameError`` with one of ``wire.REASONS``. The last test
 sends random and mutated lines to the real firmware in simavr and checks that board and host
 reject exactly the same lines for the same reason.
 
@@ -20,8 +20,8 @@ import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
-from lfd_track.hardware import protocol
-from lfd_track.hardware.protocol import (
+from lfd_track.hardware import wire
+from lfd_track.hardware.wire import (
     MAX_LINE_BYTES,
     Frame,
     FrameError,
@@ -36,7 +36,7 @@ if TYPE_CHECKING:
 NOT_FRAMING = [b for b in range(256) if b not in b"$\n\r"]  # bytes that do not end a line
 ARG_ALPHABET = "".join(c for c in string.printable if c not in ",*$\r\n\t\x0b\x0c")
 letters = st.sampled_from(string.ascii_letters)
-seqs = st.integers(0, protocol.SEQ_MODULO - 1)
+seqs = st.integers(0, wire.SEQ_MODULO - 1)
 args_lists = st.lists(st.text(ARG_ALPHABET, min_size=1, max_size=8), max_size=4)
 
 
@@ -93,7 +93,7 @@ def test_encode_returns_a_decodable_frame_or_raises_value_error(
 def _check_decoded(line: bytes) -> Frame | FrameError:
     result = decode_line(line)
     if isinstance(result, FrameError):
-        assert result.reason in protocol.REASONS
+        assert result.reason in wire.REASONS
         event(f"rejected: {result.reason}")
         return result
     # Accepted: the line is '$', the fields, '*', then the fields' CRC as 4 hex digits.
@@ -102,7 +102,7 @@ def _check_decoded(line: bytes) -> Frame | FrameError:
     body, crc = stripped[1:].split(b"*")
     assert stripped[:1] == b"$" and len(stripped) <= MAX_LINE_BYTES
     assert len(crc) == 4 and all(c in b"0123456789abcdefABCDEF" for c in crc)
-    assert int(crc, 16) == protocol.crc16(body)
+    assert int(crc, 16) == wire.crc16(body)
     fields = body.decode("ascii").split(",")
     assert (result.type, result.args) == (fields[0], tuple(fields[2:]))
     assert result.seq == int(fields[1]) and fields[1].isdigit()
@@ -183,7 +183,7 @@ def test_only_hex_digits_spell_the_crc(frame_type: str, seq: int, pad: bytes, at
         spelled = pad + crc[1:] if crc[:1] == b"0" else pad + crc[1:]
     line = head + spelled
     event("zero-led CRC (int() would accept)" if crc[:1] == b"0" else "other CRC")
-    assert decode_line(line) == FrameError(protocol.REASON_FRAME, line)
+    assert decode_line(line) == FrameError(wire.REASON_FRAME, line)
 
 
 # --- the firmware against the host codec -------------------------------------------------------
@@ -212,15 +212,15 @@ def test_the_firmware_rejects_exactly_what_the_host_codec_rejects(
 ) -> None:
     expected = decode_line(line)
     board_link.write(line + b"\n")
-    reply, _ = board_link.wait_for(lambda f: f.type in (protocol.ACK, protocol.NAK))
+    reply, _ = board_link.wait_for(lambda f: f.type in (wire.ACK, wire.NAK))
     if isinstance(expected, FrameError):
         event(f"both rejected: {expected.reason}")
-        assert reply.type == protocol.NAK and reply.args == (expected.reason,), (line, reply)
+        assert reply.type == wire.NAK and reply.args == (expected.reason,), (line, reply)
     else:
         event(f"host accepted; board {reply.type} {reply.args[0]}")
         assert reply.seq == expected.seq, (line, reply)
-        assert reply.type == protocol.ACK or reply.args[0] in (
-            protocol.REASON_ARG,
-            protocol.REASON_TYPE,
-            protocol.REASON_ESTOP,
+        assert reply.type == wire.ACK or reply.args[0] in (
+            wire.REASON_ARG,
+            wire.REASON_TYPE,
+            wire.REASON_ESTOP,
         ), (line, reply)

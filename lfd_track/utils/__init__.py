@@ -1,0 +1,1 @@
+"""Plumbing, each helper once: shipped data lookup, progress bars, signal handling."""
