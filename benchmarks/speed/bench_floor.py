@@ -91,6 +91,50 @@ class FilteredClosedLoop(ClosedLoop):
         self._new_controller()
 
 
+def vector_scaling(texture_filter: str, seconds: float, rounds: int, seed: int) -> dict:
+    """Steps/s of ``make_vec(num_envs=2, async)`` against one env (random actions), interleaved
+    in rounds, with the given texture filter; the vector env's steps count both sub-envs."""
+    preset = preset_with(texture_filter)
+    single = gym.make("LfDTrack-v0", preset=preset)
+    single.reset(seed=seed)
+    vec = gym.make_vec("LfDTrack-v0", num_envs=2, vectorization_mode="async", preset=preset)
+    vec.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+
+    def run_single() -> float:
+        steps, t0 = 0, time.perf_counter()
+        while time.perf_counter() - t0 < seconds:
+            _, _, terminated, truncated, _ = single.step(int(rng.integers(3)))
+            steps += 1
+            if terminated or truncated:
+                single.reset()
+        return steps / (time.perf_counter() - t0)
+
+    def run_vec() -> float:
+        steps, t0 = 0, time.perf_counter()
+        while time.perf_counter() - t0 < seconds:
+            vec.step(rng.integers(3, size=2))
+            steps += 2
+        return steps / (time.perf_counter() - t0)
+
+    rows = []
+    for r in range(rounds + 1):
+        pair = (
+            (run_single(), run_vec()) if r % 2 == 0 else tuple(reversed((run_vec(), run_single())))
+        )
+        if r > 0:
+            rows.append({"one": pair[0], "two_async": pair[1], "load_average": load_average()})
+    single.close()
+    vec.close()
+    return {
+        "texture_filter": texture_filter,
+        "rounds": rows,
+        "one_env_steps_per_s": statistics.median(r["one"] for r in rows),
+        "two_async_envs_steps_per_s": statistics.median(r["two_async"] for r in rows),
+        "scaling": statistics.median(r["two_async"] / r["one"] for r in rows),
+    }
+
+
 def median_ms(fn: Callable[[int], object], calls: int) -> float:
     times = []
     for i in range(calls):
@@ -193,6 +237,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rounds", type=int, default=5, help="counted rounds (after a warm-up)")
     parser.add_argument("--calls", type=int, default=200, help="calls per floor piece per round")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--vec-rounds", type=int, default=3, help="rounds of one env vs 2 async envs (0: skip)"
+    )
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
     pin_one_thread()
@@ -241,6 +288,10 @@ def main(argv: list[str] | None = None) -> int:
             lambda r, wl=wl: r["steps_per_s"][f"{wl}_mipmap"] / r["steps_per_s"][f"{wl}_bilinear"]
         )
     summary["ratios"] = ratios
+    if args.vec_rounds > 0:
+        summary["two_async_envs"] = vector_scaling(
+            "mipmap", args.seconds, args.vec_rounds, args.seed
+        )
     result = {
         "benchmark": "floor",
         "command": "benchmarks/speed/bench_floor.py " + " ".join(sys.argv[1:] if argv is None else argv),
@@ -258,6 +309,12 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  {k:45s} {v:6.3f} ms")
     for k, v in ratios.items():
         print(f"{k:40s} {v:5.2f}x")
+    if "two_async_envs" in summary:
+        vec = summary["two_async_envs"]
+        print(
+            f"2 async envs (mipmap) {vec['two_async_envs_steps_per_s']:.0f} vs one"
+            f" {vec['one_env_steps_per_s']:.0f} steps/s: {vec['scaling']:.2f}x"
+        )
     print(f"load average {result['load_average_before']} -> {result['load_average_after']}")
     return 0
 
