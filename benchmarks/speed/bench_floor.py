@@ -26,7 +26,11 @@ Left out of the floor: the camera's image pipeline (auto-exposure, tone curve, v
 balance, sensor noise), the episode's bookkeeping and Python's glue — they are our step's
 overhead over the floor.
 
-Also measured in the same process, in interleaved rounds (``bench_env.py``'s workloads): the env
+Our step against the floor: the closed loop's time per step without resets (a reset, every ~20
+steps of a random controller, renders a frame and places the rover, which no step needs), and
+with them. Also measured: the env step's budget per texture filter (physics, the whole render and each
+camera stage inside it, ``bench_env.py``'s instrumentation), and, in the same process, in
+interleaved rounds (``bench_env.py``'s workloads): the env
 alone and the closed loop with ``texture_filter = "bilinear"`` and ``"mipmap"``, and
 Gymnasium's ``CarRacing-v3``, so every ratio is taken within one round. Everything runs on one
 thread (``single_thread.pin_one_thread``).
@@ -49,7 +53,15 @@ from pathlib import Path
 import cv2
 import gymnasium as gym
 import numpy as np
-from bench_env import ClosedLoop, RandomCarRacing, RandomLfDTrack, full_library, run_for
+from bench_env import (
+    ClosedLoop,
+    RandomCarRacing,
+    RandomLfDTrack,
+    full_library,
+    instrument,
+    run_for,
+    time_camera_stages,
+)
 from single_thread import load_average, machine, pin_one_thread, source_state
 
 import lfd_track  # noqa: F401  (registers LfDTrack-v0)
@@ -133,6 +145,25 @@ def vector_scaling(texture_filter: str, seconds: float, rounds: int, seed: int) 
         "two_async_envs_steps_per_s": statistics.median(r["two_async"] for r in rows),
         "scaling": statistics.median(r["two_async"] / r["one"] for r in rows),
     }
+
+
+def stage_budget(texture_filter: str, steps: int, seed: int) -> dict[str, float]:
+    """Median ms per env step of physics, the render and each camera stage inside it (the
+    OpenCV calls of ``lfd_track/render/camera.py``, timed call by call), random actions."""
+    env = gym.make("LfDTrack-v0", preset=preset_with(texture_filter))
+    env.reset(seed=seed)
+    times = instrument(env)
+    rng = np.random.default_rng(seed)
+    time_camera_stages(True)
+    try:
+        for _ in range(steps):
+            _, _, terminated, truncated, _ = env.step(int(rng.integers(3)))
+            if terminated or truncated:
+                env.reset()
+    finally:
+        time_camera_stages(False)
+        env.close()
+    return {k.removeprefix("stage: "): 1e3 * statistics.median(v) for k, v in times.items()}
 
 
 def median_ms(fn: Callable[[int], object], calls: int) -> float:
@@ -251,12 +282,17 @@ def main(argv: list[str] | None = None) -> int:
     rounds = []
     for r in range(args.rounds + 1):
         order = workloads if r % 2 == 0 else workloads[::-1]
-        rates = {wl.name: run_for(wl, args.seconds).rate for wl in order}
+        samples = {wl.name: run_for(wl, args.seconds) for wl in order}
+        rates = {name: sample.rate for name, sample in samples.items()}
+        step_rates = {name: sample.step_only_rate for name, sample in samples.items()}
         pieces = floor_pieces(library, args.seed + r, args.calls)
+        budgets = {f: stage_budget(f, args.calls, args.seed + r) for f in FILTERS}
         if r == 0:
             continue  # warm-up
         floor = floor_ms(pieces)
-        row = {"steps_per_s": rates, "floor_pieces_ms": pieces, "floor_ms": floor}
+        row = {"steps_per_s": rates, "steps_only_per_s": step_rates}
+        row.update(floor_pieces_ms=pieces, floor_ms=floor)
+        row["env_step_budget_ms"] = budgets
         row["floor_steps_per_s"] = 1e3 / floor
         row["load_average"] = load_average()
         rounds.append(row)
@@ -272,11 +308,19 @@ def main(argv: list[str] | None = None) -> int:
         "floor_ms": med(lambda r: r["floor_ms"]),
         "floor_pieces_ms": {k: med(lambda r, k=k: r["floor_pieces_ms"][k]) for k in rounds[0]["floor_pieces_ms"]},
         "steps_per_s": {k: med(lambda r, k=k: r["steps_per_s"][k]) for k in rounds[0]["steps_per_s"]},
+        "steps_only_per_s": {k: med(lambda r, k=k: r["steps_only_per_s"][k]) for k in rounds[0]["steps_only_per_s"]},
+    }  # fmt: skip
+    summary["env_step_budget_ms"] = {
+        f: {k: med(lambda r, f=f, k=k: r["env_step_budget_ms"][f][k]) for k in rounds[0]["env_step_budget_ms"][f]}
+        for f in FILTERS
     }  # fmt: skip
     ratios: dict[str, float] = {}
     for f in FILTERS:
         loop = f"closed_loop_{f}"
         ratios[f"{loop} step / floor"] = med(
+            lambda r, loop=loop: r["floor_steps_per_s"] / r["steps_only_per_s"][loop]
+        )
+        ratios[f"{loop} step with resets / floor"] = med(
             lambda r, loop=loop: r["floor_steps_per_s"] / r["steps_per_s"][loop]
         )
         for wl in (f"lfdtrack_{f}", loop):
@@ -309,6 +353,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"  {k:45s} {v:6.3f} ms")
     for k, v in ratios.items():
         print(f"{k:40s} {v:5.2f}x")
+    for f, budget in summary["env_step_budget_ms"].items():
+        print(f"env step budget, {f}: " + ", ".join(f"{k} {v:.2f}" for k, v in budget.items()))
     if "two_async_envs" in summary:
         vec = summary["two_async_envs"]
         print(
