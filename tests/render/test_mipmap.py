@@ -142,3 +142,22 @@ def test_two_mipmap_envs_with_one_seed_render_the_same_bytes():
     bilinear = gym.make("LfDTrack-v0")
     assert bilinear.reset(seed=11)[0].tobytes() != frames[0][0]  # the filter does change frames
     bilinear.close()
+
+
+def test_a_distorted_lens_is_banded_too_and_its_level_0_rows_are_unchanged():
+    wide = load_preset("wide").camera
+    rng = np.random.default_rng(5)
+    rgba = rng.integers(0, 256, size=(int(3.0 / MPP), int(3.0 / MPP), 4), dtype=np.uint8)
+    ground = synthetic_ground(rgba)
+    pose = np.array([0.0, 0.0, 0.2])
+    mip = CameraRenderer(dataclasses.replace(wide, texture_filter="mipmap"))
+    bands = mip.mip_bands(MPP)
+    assert len(bands) > 1 and bands[-1][2] == 0 and bands[0][2] > 0
+    plain = CameraRenderer(wide)._remap_lens(ground, pose)
+    banded = mip._remap_lens(ground, pose)
+    first_level_0 = bands[-1][0]
+    np.testing.assert_array_equal(banded[first_level_0:], plain[first_level_0:])
+    # Coarser rows show the same floor, low-passed: their mean level barely moves.
+    top = slice(0, bands[0][1])
+    assert abs(float(banded[top].mean()) - float(plain[top].mean())) < 2.0
+    assert banded[top].std() < plain[top].std()
