@@ -13,7 +13,9 @@ k = 0 is the equidistant fisheye). See ``CameraConfig.distortion``.
 Rendering an ideal pinhole is one ground-plane homography (``cv2.warpPerspective``, linear
 interpolation) from the ground texture. A distorted lens is rendered by ``cv2.remap`` through a
 per-pixel map of the floor points each pixel sees, computed once in the rover's frame (the camera
-is rigid on the rover) and moved with the pose by one affine transform per frame. Then comes the
+is rigid on the rover) and moved with the pose by one affine transform per frame. With
+``texture_filter = "mipmap"`` each band of image rows is sampled the same way from the texture's
+pre-filtered mip level that matches the pixel's floor footprint (``mip_bands``). Then comes the
 phone's image pipeline: auto-exposure that adapts with a lag, white-balance jitter, vignetting,
 sensor noise, and optionally motion blur and JPEG compression.
 """
