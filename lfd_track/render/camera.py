@@ -13,7 +13,9 @@ k = 0 is the equidistant fisheye). See ``CameraConfig.distortion``.
 Rendering an ideal pinhole is one ground-plane homography (``cv2.warpPerspective``, linear
 interpolation) from the ground texture. A distorted lens is rendered by ``cv2.remap`` through a
 per-pixel map of the floor points each pixel sees, computed once in the rover's frame (the camera
-is rigid on the rover) and moved with the pose by one affine transform per frame. Then comes the
+is rigid on the rover) and moved with the pose by one affine transform per frame. With
+``texture_filter = "mipmap"`` each band of image rows is sampled the same way from the texture's
+pre-filtered mip level that matches the pixel's floor footprint (``mip_bands``). Then comes the
 phone's image pipeline: auto-exposure that adapts with a lag, white-balance jitter, vignetting,
 sensor noise, and optionally motion blur and JPEG compression.
 
@@ -47,6 +49,10 @@ _LENS_MAX_THETA = {"pinhole": math.radians(89.0), "fisheye": math.radians(175.0)
 _EDGE_SAMPLES = 24
 #: Smallest angle below the horizon any pixel must look [deg] ("the horizon is never in view").
 _HORIZON_MARGIN_DEG = 0.5
+#: How the renderer samples the ground texture (see ``CameraConfig.texture_filter``).
+TEXTURE_FILTERS = ("bilinear", "mipmap")
+#: Coarsest mip level the ``"mipmap"`` filter uses (2^6 = 64 texels per level-6 texel).
+MAX_MIP_LEVEL = 6
 
 
 @dataclass(frozen=True)
@@ -78,6 +84,14 @@ class CameraConfig:
     principal_shift_px: float = 0.0
     """Principal point's distance above the image centre [px]: > 0 makes the frame the lower part
     of the lens's picture (an off-centre crop). ``vfov_deg`` is the field of the centred frame."""
+    texture_filter: str = "bilinear"
+    """How a pixel samples the ground texture. ``"bilinear"``: the 4 texels nearest the point the
+    pixel centre sees, however much floor the pixel covers (towards the top of the frame one pixel
+    covers about 1.5 × 9 texels of the paper's 2 mm texture, so fine carpet and felt texture
+    alias). ``"mipmap"``: bilinear from a pre-filtered, halved copy of the texture (a mip level)
+    whose texels are about as large as the pixel's floor footprint: the level is
+    round(½·log2(footprint area in texels)), fixed per band of image rows (on a flat floor the
+    footprint depends on the row), which is the averaging a real lens and sensor pixel do."""
 
     @property
     def is_ideal_pinhole(self) -> bool:
@@ -93,6 +107,11 @@ class CameraConfig:
             raise ValueError(f"height_m must be > 0, got {self.height_m}")
         if not 0.0 < self.vfov_deg < 170.0:
             raise ValueError(f"vfov_deg must be in (0, 170), got {self.vfov_deg}")
+        if self.texture_filter not in TEXTURE_FILTERS:
+            raise ValueError(
+                f"texture_filter must be one of {', '.join(TEXTURE_FILTERS)},"
+                f" got {self.texture_filter!r}"
+            )
         if self.lens not in LENSES:
             raise ValueError(f"lens must be one of {', '.join(LENSES)}, got {self.lens!r}")
         if len(self.distortion) != 4 or not all(math.isfinite(k) for k in self.distortion):
@@ -319,6 +338,26 @@ class CameraModel:
         pts = self.floor_points(np.column_stack([u.ravel(), v.ravel()]), np.zeros(3))
         return pts.reshape(c.height_px, c.width_px, 2).astype(np.float32)
 
+    def row_footprint_area_m2(self) -> np.ndarray:
+        """(H,) floor area [m²] one pixel covers on each image row, at the centre column.
+
+        The quad the pixel's four corners see on the floor (shoelace formula). For an ideal
+        pinhole over a flat floor it depends on the row only; a distorted lens is measured on the
+        centre column.
+        """
+        c = self.config
+        u = (c.width_px - 1) / 2.0
+        rows = np.arange(c.height_px, dtype=np.float64)
+        corners = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)]
+        quad = [
+            self.floor_points(np.column_stack([np.full_like(rows, u + du), rows + dv]), np.zeros(3))
+            for du, dv in corners
+        ]
+        area = np.zeros(c.height_px)
+        for a, b in zip(quad, quad[1:] + quad[:1], strict=True):
+            area += a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1]
+        return np.abs(area) / 2.0
+
     def _extrinsics(self, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """World→camera rotation (3, 3) and camera centre (3,) in world coordinates [m]."""
         x, y, theta = (float(v) for v in pose)
@@ -442,6 +481,24 @@ def _vignette(config: CameraConfig, strength: float) -> np.ndarray:
     return 1.0 - strength * r2 * (0.6 + 0.4 * r2)
 
 
+def mip_bands(area_m2: np.ndarray, metres_per_px: float) -> tuple[tuple[int, int, int], ...]:
+    """Bands of image rows (first row, stop row, mip level) for per-row footprints ``area_m2``.
+
+    A row's level is round(½·log2(area / texel area)), clamped to 0 .. ``MAX_MIP_LEVEL``: the
+    level whose texels cover about as much floor as the pixel does. Consecutive rows with the same
+    level form one band.
+    """
+    texels = np.maximum(np.asarray(area_m2, dtype=np.float64) / metres_per_px**2, 1e-12)
+    levels = np.clip(np.rint(0.5 * np.log2(texels)), 0, MAX_MIP_LEVEL).astype(int)
+    bands = []
+    start = 0
+    for v in range(1, len(levels) + 1):
+        if v == len(levels) or levels[v] != levels[start]:
+            bands.append((start, v, int(levels[start])))
+            start = v
+    return tuple(bands)
+
+
 #: Fixed-point unit of the gain maps: a map value of 200 is a gain of 1 (so gains up to 1.27 fit).
 _GAIN_ONE = 200.0
 
@@ -471,6 +528,19 @@ class CameraRenderer:
         self._last_raw: np.ndarray | None = None
         # A distorted lens is rendered through a per-pixel floor map (rover frame), built once.
         self._floor_map = None if self.model.is_homography else self.model.floor_map_rover()
+        self._mipmap = self.camera.texture_filter == "mipmap"
+        self._row_area_m2 = self.model.row_footprint_area_m2() if self._mipmap else None
+        self._bands: dict[float, tuple[tuple[int, int, int], ...]] = {}
+
+    def mip_bands(self, metres_per_px: float) -> tuple[tuple[int, int, int], ...]:
+        """Row bands (first row, stop row, mip level) the ``"mipmap"`` filter renders for a
+        texture of ``metres_per_px``; one band at level 0 for ``"bilinear"``."""
+        if self._row_area_m2 is None:
+            return ((0, self.camera.height_px, 0),)
+        bands = self._bands.get(metres_per_px)
+        if bands is None:
+            bands = self._bands[metres_per_px] = mip_bands(self._row_area_m2, metres_per_px)
+        return bands
 
     @property
     def exposure_gain(self) -> float | None:
@@ -565,6 +635,8 @@ class CameraRenderer:
         tex_from_img = np.linalg.inv(self.model.homography(pose, ground))
         size = (c.width_px, c.height_px)
         flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
+        if self._mipmap:
+            return self._warp_bands(ground, pose, tex_from_img)
         if self._sees_past_margin(ground, pose):
             # Mirroring the whole texture would bring felt back into view: fill the picture with
             # mirrored carpet first, then draw the texture over it where it reaches.
@@ -585,6 +657,65 @@ class CameraRenderer:
             )
         return raw
 
+    def _warp_bands(
+        self, ground: GroundTexture, pose: np.ndarray, tex_from_img: np.ndarray
+    ) -> np.ndarray:
+        """(H, W, 4) uint8 view through an ideal pinhole, each band of rows warped from its mip
+        level: level L's texel coordinates are level 0's divided by 2^L."""
+        c = self.camera
+        raw = np.empty((c.height_px, c.width_px, 4), dtype=np.uint8)
+        flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
+        past = self._sees_past_margin(ground, pose)
+        for v0, v1, level in self.mip_bands(ground.metres_per_px):
+            scale = 0.5**level
+            m = np.diag([scale, scale, 1.0]) @ tex_from_img
+            m[:, 2] += m[:, 1] * v0  # band row 0 is image row v0
+            size = (c.width_px, v1 - v0)
+            dst = raw[v0:v1]
+            if past:
+                cv2.warpPerspective(
+                    ground.carpet_band_at(level),
+                    m,
+                    size,
+                    dst=dst,
+                    flags=flags,
+                    borderMode=cv2.BORDER_REFLECT,
+                )
+                border = cv2.BORDER_TRANSPARENT
+            else:
+                border = cv2.BORDER_REFLECT
+            out = cv2.warpPerspective(
+                ground.mip_level(level), m, size, dst=dst, flags=flags, borderMode=border
+            )
+            if out is not dst and not np.shares_memory(out, dst):
+                dst[...] = out
+        return raw
+
+    def _remap_bands(self, ground: GroundTexture, maps: np.ndarray, past: bool) -> np.ndarray:
+        """(H, W, 4) uint8 view through a distorted lens, each band of rows remapped from its mip
+        level (level-0 texel coordinates ``maps`` divided by 2^L)."""
+        c = self.camera
+        raw = np.empty((c.height_px, c.width_px, 4), dtype=np.uint8)
+        for v0, v1, level in self.mip_bands(ground.metres_per_px):
+            band = maps[v0:v1] * np.float32(0.5**level) if level else maps[v0:v1]
+            dst = raw[v0:v1]
+            if past:
+                cv2.remap(
+                    ground.carpet_band_at(level),
+                    band,
+                    None,
+                    cv2.INTER_LINEAR,
+                    dst=dst,
+                    borderMode=cv2.BORDER_REFLECT,
+                )
+            border = cv2.BORDER_TRANSPARENT if past else cv2.BORDER_REFLECT
+            out = cv2.remap(
+                ground.mip_level(level), band, None, cv2.INTER_LINEAR, dst=dst, borderMode=border
+            )
+            if out is not dst and not np.shares_memory(out, dst):
+                dst[...] = out
+        return raw
+
     def _remap_lens(self, ground: GroundTexture, pose: np.ndarray) -> np.ndarray:
         """(H, W, 4) uint8 RGBA view through a distorted lens: the rover-frame floor map, moved
         to ``pose`` and into texel coordinates by one affine transform, then ``cv2.remap``."""
@@ -594,6 +725,8 @@ class CameraRenderer:
         world_from_rover = np.array([[ct, -st, x], [st, ct, y], [0.0, 0.0, 1.0]])
         tex_from_rover = (ground.texture_from_world() @ world_from_rover)[:2]
         maps = cv2.transform(self._floor_map, tex_from_rover)  # (H, W, 2) float32 texel coords
+        if self._mipmap:
+            return self._remap_bands(ground, maps, self._sees_past_margin(ground, pose))
         if self._sees_past_margin(ground, pose):
             raw = cv2.remap(
                 ground.carpet_band, maps, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT

@@ -166,6 +166,32 @@ class GroundTexture:
     shadows: tuple[ShadowBand, ...]
     margin_m: float  # carpet-only border between the felt's bounding box and the texture edge [m]
 
+    def mip_level(self, level: int) -> np.ndarray:
+        """(H_L, W_L, 4) uint8 texture pre-filtered and halved ``level`` times (0 = ``rgba``).
+
+        Each level is ``cv2.pyrDown`` of the one before (a 5 × 5 binomial low-pass, then every
+        second texel): level L's texel (c, r) sits at level 0's texel (2^L·c, 2^L·r) and averages
+        about 2^L × 2^L of its texels, as the camera's pixel does where it covers that many.
+        Built on first use and kept (a third more memory than ``rgba``); deterministic.
+        """
+        if level < 0:
+            raise ValueError(f"mip level must be >= 0, got {level}")
+        levels = self._mips()
+        while len(levels) <= level:
+            levels.append(cv2.pyrDown(levels[-1], borderType=cv2.BORDER_REFLECT_101))
+        return levels[level]
+
+    def _mips(self) -> list[np.ndarray]:
+        levels = self.__dict__.get("_mip_cache")
+        if levels is None:
+            levels = [self.rgba]
+            object.__setattr__(self, "_mip_cache", levels)  # frozen dataclass: a private cache
+        return levels
+
+    def carpet_band_at(self, level: int) -> np.ndarray:
+        """``carpet_band`` of mip level ``level`` (its top rows, which hold carpet only)."""
+        return self.mip_level(level)[: max(self.carpet_band.shape[0] >> level, 1)]
+
     @property
     def carpet_band(self) -> np.ndarray:
         """(M, W, 4) view of the texture's top rows, which hold carpet only (M spans the margin).
