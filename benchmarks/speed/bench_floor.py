@@ -62,12 +62,12 @@ from bench_env import (
     run_for,
     time_camera_stages,
 )
+from lfd_track.control.mlp import mlp_forward, n_weights, select_action
 from single_thread import load_average, machine, pin_one_thread, source_state
 
 import lfd_track  # noqa: F401  (registers LfDTrack-v0)
 from lfd_track.atomic import atomic_write_text
-from lfd_track.control.mlp import mlp_forward, n_weights, select_action
-from lfd_track.presets import Preset, load_preset
+from lfd_track.envs.presets import Preset, load_preset
 from lfd_track.render.camera import CameraRenderer
 from lfd_track.render.texture import build_ground
 from lfd_track.vision.histograms import GridHistogrammer, centred_unit, similarity_matrix
