@@ -11,7 +11,7 @@ import pytest
 from lfd_test_support import interrupt_demo_after
 
 from lfd_track.cli import EXIT_INTERRUPTED, EXIT_TERMINATED, main
-from lfd_track.demo.dataset import load_demonstration
+from lfd_track.dataset import load_demonstration
 
 
 def _interrupt_after(monkeypatch, commands: int, signum: int = signal.SIGTERM) -> None:

@@ -21,7 +21,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from lfd_track.controller import MAX_ABS_WEIGHT, Controller, checksum
-from lfd_track.demo.dataset import DemonstrationWriter, load_demonstration
+from lfd_track.dataset import DemonstrationWriter, load_demonstration
 from lfd_track.errors import FileFormatError
 from lfd_track.presets import BOUNDS, SECTIONS, load_preset
 from lfd_track.vision.road_library import RoadLibrary

@@ -41,12 +41,12 @@ import numpy as np
 
 from ..config import DictConfig
 from ..controller import Controller
-from ..demo.dataset import Demonstration, load_demonstration
+from ..dataset import Demonstration, load_demonstration
+from ..dataset.recording import recording_writer
 from ..demo.demonstrator import (
     DemonstrationSummary,
     HumanConfig,
     protocol_human,
-    recording_writer,
     run_demonstration,
 )
 from ..env import LfDTrackEnv

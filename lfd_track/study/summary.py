@@ -17,10 +17,10 @@ from typing import Any
 
 import numpy as np
 
-from ..atomic import atomic_write_text
 from ..benchmark.paper import TRACK_RESULT_KEYS
 from ..benchmark.runner import config_dict, trial_directions
 from ..benchmark.tables import TrialOutcome, results_json_text
+from ..utils.atomic import atomic_write_text
 from .spec import Job, Study
 from .stats import controller_interval, rate_summary
 

@@ -23,7 +23,7 @@ from lfd_track.benchmark.runner import (
     run_repetition,
 )
 from lfd_track.controller import Controller
-from lfd_track.demo.dataset import load_demonstration
+from lfd_track.dataset import load_demonstration
 from lfd_track.demo.demonstrator import HumanConfig
 from lfd_track.learning.bc import BCConfig
 from lfd_track.learning.cmaes import CMAESConfig

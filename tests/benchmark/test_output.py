@@ -12,7 +12,7 @@ import pytest
 from lfd_test_support import snapshot
 
 from lfd_track.benchmark import output
-from lfd_track.benchmark.output import staged_output
+from lfd_track.utils.staging import staged_output
 
 
 def write_run(folder: Path, tag: str, reps: int = 2) -> None:

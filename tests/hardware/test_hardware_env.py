@@ -201,7 +201,7 @@ def controller_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
     library learned from rendered frames; how well it drives is not what these tests check.
     """
     from lfd_track.controller import Controller
-    from lfd_track.demo.dataset import load_demonstration
+    from lfd_track.dataset import load_demonstration
     from lfd_track.demo.demonstrator import run_demonstration
     from lfd_track.learning.ga import GAConfig, evolve
     from lfd_track.vision.road_library import RoadLibrary
@@ -269,7 +269,7 @@ def test_end_to_end_on_the_simulated_firmware(simulated_board, controller_file: 
 
 # ------------------------------------------------------------------------------------ CLI
 def _run_cli(*argv: str) -> int:
-    from lfd_track.hardware.cli import main
+    from lfd_track.cli.hardware import main
 
     return main(["hardware", *argv])
 
@@ -351,7 +351,7 @@ def test_cli_demo_without_a_terminal_creates_no_recording(
 
 def test_teleop_records_a_demonstration(tmp_path: Path) -> None:
     from lfd_track.commands import Command
-    from lfd_track.demo.dataset import load_demonstration
+    from lfd_track.dataset import load_demonstration
     from lfd_track.hardware.teleop import DemonstrationRecorder, run_teleop
 
     class ScriptedKeys:
@@ -444,7 +444,7 @@ def _processes_mentioning(text: str) -> list[int]:
 @pytest.mark.parametrize("keep_log", [False, True])
 def test_cli_sim_stops_cleanly_on_sigterm(simulated_board, keep_log: bool) -> None:
     """``kill PID`` stops the harness and removes its files, as Ctrl-C does."""
-    argv = [sys.executable, "-m", "lfd_track.hardware.cli", "hardware", "sim"]
+    argv = [sys.executable, "-m", "lfd_track.cli.hardware", "hardware", "sim"]
     proc = subprocess.Popen(
         argv + (["--keep-log"] if keep_log else []),
         stdout=subprocess.PIPE,

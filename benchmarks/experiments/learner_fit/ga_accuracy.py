@@ -32,7 +32,7 @@ import numpy as np
 
 from lfd_track.commands import Command
 from lfd_track.control.mlp import mlp_forward
-from lfd_track.demo.dataset import load_demonstration
+from lfd_track.dataset import load_demonstration
 from lfd_track.demo.demonstrator import run_demonstration
 from lfd_track.learning.fitness import imitation_fitness
 from lfd_track.learning.ga import GAConfig, evolve

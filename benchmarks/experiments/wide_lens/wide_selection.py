@@ -40,7 +40,7 @@ import numpy as np
 
 from lfd_track.benchmark.runner import repetition_seeds, run_trial
 from lfd_track.controller import Controller
-from lfd_track.demo.dataset import load_demonstration
+from lfd_track.dataset import load_demonstration
 from lfd_track.demo.demonstrator import HumanConfig, run_demonstration
 from lfd_track.env import LfDTrackEnv
 from lfd_track.learning.fitness import training_accuracy

@@ -1,0 +1,1 @@
+"""Plumbing every part of lfd-track shares, each helper once."""
