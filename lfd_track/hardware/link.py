@@ -25,6 +25,10 @@ reply, or more than ``max_corrupt_replies`` undecodable replies in a row) raises
 ``query_version()`` asks firmware 1.1 and later for its version and the cause of its last reset
 (1.2: and its boot count) at any time; the boot frame carries them too (and whether the board
 booted with its e-stop latched, as it does after a watchdog or brown-out reset).
+
+It stays one module: the request/reply exchange, the lease keep-alive and the stop guarantees
+share the link's locks (``_io_lock``, ``_lease_lock``) and one view of its state; split, the
+locking rules would span files.
 """
 
 from __future__ import annotations

@@ -16,6 +16,9 @@ per-pixel map of the floor points each pixel sees, computed once in the rover's 
 is rigid on the rover) and moved with the pose by one affine transform per frame. Then comes the
 phone's image pipeline: auto-exposure that adapts with a lag, white-balance jitter, vignetting,
 sensor noise, and optionally motion blur and JPEG compression.
+
+It stays one module: the projection and the phone's image pipeline are the stages of one
+camera model, configured together and applied in order to every frame.
 """
 
 from __future__ import annotations

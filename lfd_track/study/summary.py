@@ -5,6 +5,9 @@ Rates pool every trial of a condition over its seeds and repetitions, with Wilso
 controller, so it can be narrower than the spread between controllers warrants. Each pooled rate
 therefore also carries ``ci95_controllers``: a bootstrap interval that resamples whole learned
 controllers (seed × repetition), and ``per_seed`` shows the spread between seeds.
+
+It stays one module: study.json, study.md and study.png are three views of one summary, built
+once here, so a number can never differ between them.
 """
 
 from __future__ import annotations

@@ -482,3 +482,49 @@ def test_cli_sim_stops_cleanly_on_sigterm(simulated_board, keep_log: bool) -> No
             for pid in _processes_mentioning(str(log_path)):
                 os.kill(pid, signal.SIGKILL)
             shutil.rmtree(log_path.parent, ignore_errors=True)
+
+
+@pytest.mark.simavr
+def test_cli_demo_records_memory_inputs_on_the_simulated_firmware(
+    simulated_board, tmp_path: Path, capsys, monkeypatch
+) -> None:
+    """``hardware demo --memory last_bend`` records the memory inputs with every case, as
+    ``demo`` and ``teach`` do, and says so in the file (so ``evolve`` trains a policy reading
+    them)."""
+    from lfd_track.commands import Command
+    from lfd_track.dataset import load_demonstration
+    from lfd_track.hardware import teleop
+    from lfd_track.teaching.memory import MemoryConfig
+
+    class Keys:
+        """Forward, left, right, forward, then quit."""
+
+        def __init__(self, *args: object) -> None:
+            self.keys = ["w", "a", "d", "w", "q"]
+
+        def __enter__(self) -> Keys:
+            return self
+
+        def __exit__(self, *exc: object) -> None:
+            pass
+
+        def poll(self, timeout_s: float) -> str | None:
+            return self.keys.pop(0) if self.keys else "q"
+
+    monkeypatch.setattr(teleop, "TerminalKeys", Keys)
+    simulated_board.reset(cause="power-on")
+    out = tmp_path / "memory.lfdemo"
+    with MjpegServer() as server:
+        code = _run_cli(
+            "demo", "--out", str(out), "--camera", server.url,
+            "--serial", simulated_board.serial_url, "--period", "0.1",
+            "--library-only", "0", "--memory", "last_bend",
+        )  # fmt: skip
+    assert code == 0, capsys.readouterr().err
+    demo = load_demonstration(out)
+    memory = MemoryConfig(kind="last_bend")
+    assert demo.metadata["complete"]
+    assert demo.commands.tolist() == [Command.FORWARD, Command.LEFT, Command.RIGHT, Command.FORWARD]
+    assert demo.memory_settings() == memory
+    assert demo.memory is not None and demo.memory.shape == (4, memory.n_inputs)
+    assert demo.inputs.shape == (4, 40 + memory.n_inputs)
