@@ -59,7 +59,7 @@ from starlette.routing import Route, WebSocketRoute
 from starlette.types import ASGIApp, Receive, Scope, Send
 from starlette.websockets import WebSocket, WebSocketDisconnect
 
-from .cli import DEFAULT_FPS
+from ..cli.teach import DEFAULT_FPS
 from .protocol import COMMAND_NAMES, TeachingSession
 
 STATIC_FILES = {
