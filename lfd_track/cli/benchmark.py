@@ -11,10 +11,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ..benchmark import report, runner
+from ..benchmark import runner
 from ..benchmark.methods import METHODS
 from ..demo.demonstrator import HumanConfig
-from ..progress import progress_bar
 from ..signals import Terminated, interrupted_exit_code, raise_terminated
 from ..teaching.memory import MEMORY_KINDS, MemoryConfig
 from ..teaching.scripted import TURNAROUND_RULES
@@ -131,6 +130,10 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """The ``benchmark`` command."""
+    # Lazy: the drawing and progress-bar stack (OpenCV, tqdm) loads only when the command runs.
+    from ..benchmark import report
+    from ..progress import progress_bar
+
     repetitions = 1 if args.quick and args.repetitions is None else (args.repetitions or 10)
     trials = args.trials or (1 if args.quick else 3)
     config = runner.BenchmarkConfig(

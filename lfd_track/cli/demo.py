@@ -17,7 +17,6 @@ from ..dataset import load_demonstration
 from ..dataset.recording import RecordingTarget
 from ..demo import demonstrator
 from ..errors import LfdTrackError
-from ..progress import progress_bar
 from ..signals import Terminated, interrupted_exit_code, raise_terminated
 from ..utils.outputs import refuse_undecodable, shown_path, taken
 from .outputs import check_output
@@ -54,6 +53,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """The ``demo`` command."""
+    # Lazy: the drawing and progress-bar stack (OpenCV, tqdm) loads only when the command runs.
+    from ..progress import progress_bar
+
     out = Path(args.out)
     check_output(out, [("track", args.track), ("preset", args.preset)])
     for what, name in (("track", args.track), ("preset", args.preset)):

@@ -12,12 +12,10 @@ from typing import Any
 
 import numpy as np
 
-from .. import plots
 from ..benchmark import runner
 from ..controller import Controller
 from ..env import LfDTrackEnv
 from ..errors import LfdTrackError
-from ..progress import progress_bar
 from ..signals import Terminated, interrupted_exit_code, raise_terminated
 from ..utils.atomic import replace_file, temporary_beside
 from ..utils.outputs import same_file, shown_path, taken
@@ -78,7 +76,10 @@ def _lap_line(lap: dict[str, Any]) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """The ``drive`` command."""
-    from ..video import DriveVideo  # lazy: the video writer loads only for a drive with --video
+    # Lazy: the drawing, progress-bar and video stack (OpenCV, tqdm) loads only when it runs.
+    from .. import plots
+    from ..progress import progress_bar
+    from ..video import DriveVideo
 
     controller = Controller.load(args.controller)
     controller.learn = controller.learn or args.keep_learning

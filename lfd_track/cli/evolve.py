@@ -9,13 +9,11 @@ from typing import Any
 
 import numpy as np
 
-from .. import plots
 from ..controller import Controller
 from ..dataset import load_demonstration
 from ..errors import LfdTrackError
 from ..learning.fitness import training_accuracy
 from ..learning.ga import GAConfig, evolve
-from ..progress import progress_bar
 from ..utils.atomic import replace_file, temporary_beside
 from ..utils.outputs import shown_path
 from ..vision.road_library import RoadLibrary
@@ -53,6 +51,10 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """The ``evolve`` command."""
+    # Lazy: the drawing and progress-bar stack (OpenCV, tqdm) loads only when the command runs.
+    from .. import plots
+    from ..progress import progress_bar
+
     png = Path(args.out).with_suffix(".fitness.png")
     for out in (args.out, png):
         check_output(out, [("demonstration", args.demo)])

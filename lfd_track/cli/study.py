@@ -13,7 +13,6 @@ from ..errors import LfdTrackError
 from ..signals import Terminated, interrupted_exit_code, raise_terminated
 from ..study.run import load_finished, locked_out, run_study
 from ..study.spec import load_study
-from ..study.summary import write_study_outputs
 from ..utils.outputs import refuse_unsafe_output, shown_path
 from .types import EXIT_OK
 from .types import positive_int as _workers
@@ -55,6 +54,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """The ``study`` command."""
+    # Lazy: the summary draws study.png (the drawing stack, OpenCV) only when a study runs.
+    from ..study.summary import write_study_outputs
+
     if args.address is not None and args.executor != "ray":
         raise LfdTrackError("--address needs --executor ray")
     study = load_study(args.study_file)  # a bad study file fails here, before DIR is touched
