@@ -14,3 +14,10 @@ class FileFormatError(LfdTrackError, ValueError):
         self.path = str(path)
         self.problem = problem
         super().__init__(f"{self.path}: {problem}")
+
+
+def first_line(exc: BaseException) -> str:
+    """The first line of ``exc``'s message (its type's name when it has none): what a one-line
+    error shows."""
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__

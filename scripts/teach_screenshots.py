@@ -19,6 +19,7 @@ from pathlib import Path
 from playwright.sync_api import sync_playwright
 
 from lfd_track.cli import build_parser
+from lfd_track.cli.teach import teach_config
 from lfd_track.web.app import create_app
 from lfd_track.web.server import StationServer, bind_socket, station_url
 from lfd_track.web.session import open_session
@@ -48,7 +49,7 @@ def main() -> None:
     out_dir.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory() as tmp:
         argv = ["teach", "--online", "--port", "0", "--out", f"{tmp}/taught.lfdemo"]
-        session = open_session(build_parser().parse_args(argv))
+        session = open_session(teach_config(build_parser().parse_args(argv)))
         server = StationServer(create_app(session), bind_socket("127.0.0.1", 0)).start()
         url = station_url("127.0.0.1", server.port, None)
         try:

@@ -7,7 +7,7 @@ import stat
 
 import pytest
 
-from lfd_track.atomic import atomic_write_bytes, atomic_write_text
+from lfd_track.utils.atomic import atomic_write_bytes, atomic_write_text
 
 
 def test_write_replaces_the_file_whole_with_ordinary_permissions(tmp_path):

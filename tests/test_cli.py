@@ -68,7 +68,7 @@ def test_drive_reports_per_lap_corner_outcomes_as_json(controller_file, capsys, 
 def test_drive_video_shows_camera_and_top_down(controller_file, tmp_path, monkeypatch):
     import cv2
 
-    from lfd_track.video import DriveVideo
+    from lfd_track.viz.video import DriveVideo
 
     captions = []
     real_add = DriveVideo.add
@@ -213,10 +213,11 @@ def test_truncated_demonstration_and_wrong_schema_controller(tmp_path, controlle
 def test_wrong_schema_demonstration_is_one_line(tmp_path, monkeypatch):
     import numpy as np
 
-    from lfd_track.demo import dataset
+    from lfd_track import dataset
+    from lfd_track.dataset import records
 
     bad = tmp_path / "future.lfdemo"
-    monkeypatch.setattr(dataset, "SCHEMA_VERSION", max(dataset.READABLE_SCHEMAS) + 1)
+    monkeypatch.setattr(records, "SCHEMA_VERSION", max(dataset.READABLE_SCHEMAS) + 1)
     with dataset.DemonstrationWriter(bad, {"track": "training"}, bins=32, fsync=False) as writer:
         writer.append(0, np.zeros(40), np.zeros((40, 5, 32), np.float32))
     proc = run_cli("evolve", str(bad), "--out", str(tmp_path / "c.json"))
@@ -229,7 +230,7 @@ def test_wrong_schema_demonstration_is_one_line(tmp_path, monkeypatch):
 def test_a_demonstration_with_an_empty_road_library_is_one_line(tmp_path):
     import numpy as np
 
-    from lfd_track.demo import dataset
+    from lfd_track import dataset
     from lfd_track.vision.road_library import RoadLibrary
 
     bad = tmp_path / "unlearned.lfdemo"
@@ -246,7 +247,7 @@ def test_a_demonstration_with_an_empty_road_library_is_one_line(tmp_path):
 def test_evolve_keeps_a_demonstrations_memory_inputs(tmp_path):
     """A demonstration recorded with memory inputs evolves a controller that reads them; one
     whose memory settings do not fit its cases is refused in one line, nothing written."""
-    from lfd_track.demo.dataset import DemonstrationWriter
+    from lfd_track.dataset import DemonstrationWriter
     from lfd_track.policy.controller import Controller
     from lfd_track.policy.memory import MemoryConfig
 
@@ -368,7 +369,7 @@ def test_drive_shows_per_lap_progress_on_a_terminal_only(controller_file, capsys
 
 
 def test_demo_count_ends_where_the_work_ends(tmp_path, monkeypatch):
-    from lfd_track.demo.dataset import load_demonstration
+    from lfd_track.dataset import load_demonstration
 
     terminal = _Terminal()
     monkeypatch.setattr(sys, "stderr", terminal)

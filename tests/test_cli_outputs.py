@@ -14,9 +14,9 @@ import pytest
 from lfd_test_support import interrupt_demo_after
 
 from lfd_track.cli import EXIT_INTERRUPTED, EXIT_TERMINATED, main
+from lfd_track.dataset import load_demonstration
 from lfd_track.demo import demonstrator
-from lfd_track.demo.dataset import load_demonstration
-from lfd_track.video import DriveVideo
+from lfd_track.viz.video import DriveVideo
 
 DATA = Path(__file__).parent / "data"
 
@@ -339,7 +339,7 @@ def test_an_output_that_is_not_a_regular_file_is_refused_before_any_work(
 
 def test_dev_null_as_an_output_is_refused_and_stays_a_device(controller, small_demo, capsys):
     from lfd_track.errors import LfdTrackError
-    from lfd_track.outputs import refuse_unsafe_output
+    from lfd_track.utils.outputs import refuse_unsafe_output
 
     # First the check itself, so that a version without it never gets to replace the device.
     with pytest.raises(LfdTrackError, match="is a device"):
@@ -389,7 +389,7 @@ def test_teach_refuses_a_fifo_before_opening_a_session(tmp_path, monkeypatch, ca
 
 
 def test_hardware_demo_refuses_a_link_before_opening_the_robot(tmp_path, monkeypatch, capsys):
-    from lfd_track.hardware import cli as hardware_cli
+    from lfd_track.cli import hardware as hardware_cli
 
     def opened(*args, **kwargs):
         raise AssertionError("the robot was opened")

@@ -11,7 +11,7 @@ import pytest
 from lfd_test_support import interrupt_demo_after
 
 from lfd_track.cli import EXIT_INTERRUPTED, EXIT_TERMINATED, main
-from lfd_track.demo.dataset import load_demonstration
+from lfd_track.dataset import load_demonstration
 
 
 def _interrupt_after(monkeypatch, commands: int, signum: int = signal.SIGTERM) -> None:
@@ -105,7 +105,7 @@ _VIDEO = """
 import os, sys
 import numpy as np
 from lfd_track.envs.track_env import LfDTrackEnv
-from lfd_track.video import DriveVideo
+from lfd_track.viz.video import DriveVideo
 
 env = LfDTrackEnv(track="training")
 frame, info = env.reset(seed=0)

@@ -70,7 +70,7 @@ def test_the_cli_names_the_missing_extra_in_one_line(tmp_path, blocked, args, ex
         (
             ["imageio_ffmpeg"],
             "import numpy as np, gymnasium as gym\nimport lfd_track\n"
-            "from lfd_track.video import DriveVideo\n"
+            "from lfd_track.viz.video import DriveVideo\n"
             "env = gym.make('LfDTrack-v0'); obs, info = env.reset(seed=0)\n"
             "DriveVideo('v.mp4', env.unwrapped).add(obs, np.zeros(40), info)",
             "video",

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from lfd_track import files
-from lfd_track.demo.dataset import load_demonstration
+from lfd_track.dataset import load_demonstration
 from lfd_track.errors import FileFormatError
+from lfd_track.utils import files
 
 
 def test_contents_are_read_whole_and_the_head_is_checked_first(tmp_path: Path) -> None:

@@ -143,7 +143,7 @@ def test_the_graph_sees_function_level_and_relative_imports():
     # `from .track_file import …` at module level, resolved against lfd_track.world.
     assert "lfd_track.world.track_file" in graph["lfd_track.world.track"]
     # `from .app import create_app, …` inside the function that runs the command.
-    assert "lfd_track.web.app" in graph["lfd_track.web.cli"]
+    assert "lfd_track.web.app" in graph["lfd_track.cli.teach"]
     # `from .arbiter import …` in a package __init__ re-exporting its submodules.
     assert "lfd_track.teaching.arbiter" in graph["lfd_track.teaching"]
 

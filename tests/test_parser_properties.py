@@ -20,7 +20,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from lfd_track.demo.dataset import DemonstrationWriter, load_demonstration
+from lfd_track.dataset import DemonstrationWriter, load_demonstration
 from lfd_track.envs.presets import BOUNDS, SECTIONS, load_preset
 from lfd_track.errors import FileFormatError
 from lfd_track.policy.controller import MAX_ABS_WEIGHT, Controller, checksum

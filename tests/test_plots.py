@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lfd_track.plots import (
+from lfd_track.render.topdown import TopDownView
+from lfd_track.viz.plots import (
     FAILURE_RGB,
     SUCCESS_RGB,
     TIMEOUT_RGB,
@@ -19,7 +20,6 @@ from lfd_track.plots import (
     nice_ticks,
     trajectory_grid,
 )
-from lfd_track.render.topdown import TopDownView
 from lfd_track.world.track import load_track
 
 

@@ -1,4 +1,4 @@
-"""Every results file names what computed it: versions and the BLAS kernel (lfd_track.provenance)."""
+"""Every results file names what computed it: versions and the BLAS kernel (lfd_track.utils.provenance)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import numpy as np
 import pymunk
 import pytest
 
-from lfd_track.provenance import blas_libraries, environment
+from lfd_track.utils.provenance import blas_libraries, environment
 
 
 def test_the_environment_names_the_versions_and_the_blas_kernel():
@@ -44,7 +44,7 @@ def test_the_kernel_recorded_is_the_one_running():
     assert libraries is not None, "threadpoolctl, a dependency, is not installed"
     if not any(lib["internal_api"] == "openblas" for lib in libraries):
         pytest.skip("numpy does not use OpenBLAS here")
-    code = "import json; from lfd_track.provenance import environment; print(json.dumps(environment()))"
+    code = "import json; from lfd_track.utils.provenance import environment; print(json.dumps(environment()))"
     env = {**os.environ, "OPENBLAS_CORETYPE": "Nehalem", "OPENBLAS_NUM_THREADS": "1"}
     proc = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120

@@ -15,8 +15,8 @@ from lfd_test_support import unavailable
 
 from lfd_track.envs.track_env import LfDTrackEnv
 from lfd_track.render.topdown import TRAJECTORY_RGB
-from lfd_track.video import DriveVideo
 from lfd_track.vision.road_library import RoadLibrary
+from lfd_track.viz.video import DriveVideo
 
 CHROMIUM = "/usr/bin/chromium"
 

@@ -62,14 +62,14 @@ from bench_env import (
     run_for,
     time_camera_stages,
 )
-from lfd_track.control.mlp import mlp_forward, n_weights, select_action
 from single_thread import load_average, machine, pin_one_thread, source_state
 
 import lfd_track  # noqa: F401  (registers LfDTrack-v0)
-from lfd_track.atomic import atomic_write_text
 from lfd_track.envs.presets import Preset, load_preset
+from lfd_track.policy.mlp import mlp_forward, n_weights, select_action
 from lfd_track.render.camera import CameraRenderer
 from lfd_track.render.texture import build_ground
+from lfd_track.utils.atomic import atomic_write_text
 from lfd_track.vision.histograms import GridHistogrammer, centred_unit, similarity_matrix
 from lfd_track.world.rover import Rover
 from lfd_track.world.track import load_track

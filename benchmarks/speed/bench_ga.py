@@ -32,11 +32,11 @@ import numpy as np
 from deap import base, creator, tools
 from single_thread import load_average, machine, pin_one_thread, source_state
 
-from lfd_track.atomic import atomic_write_text
 from lfd_track.learning import fitness
 from lfd_track.learning.fitness import imitation_fitness
 from lfd_track.learning.ga import GAConfig, evolve
 from lfd_track.policy.mlp import N_HIDDEN, N_INPUTS, N_OUTPUTS, n_weights
+from lfd_track.utils.atomic import atomic_write_text
 from lfd_track.vision.road_library import RoadLibrary
 from lfd_track.vision.synthetic import felt_on_carpet_frame
 

@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 from single_thread import load_average, machine, pin_one_thread, source_state
 
-from lfd_track.atomic import atomic_write_text
+from lfd_track.utils.atomic import atomic_write_text
 from lfd_track.vision.road_library import RoadLibrary
 from lfd_track.vision.synthetic import patch_library, synthetic_frames
 

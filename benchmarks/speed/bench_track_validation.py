@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lfd_track.provenance import environment
+from lfd_track.utils.provenance import environment
 from lfd_track.world.track_file import check_no_self_intersection
 
 RESULTS = Path(__file__).resolve().parent / "results" / "track_validation.json"

@@ -15,7 +15,7 @@ from typing import Any
 import cv2
 from threadpoolctl import threadpool_limits
 
-from lfd_track.provenance import environment
+from lfd_track.utils.provenance import environment
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -32,7 +32,7 @@ def pin_one_thread() -> None:
 
 
 def machine() -> dict[str, Any]:
-    """Versions, the BLAS kernel (lfd_track.provenance), the thread settings in force, and the
+    """Versions, the BLAS kernel (lfd_track.utils.provenance), the thread settings in force, and the
     machine's processor count."""
     return {**environment(), "opencv_threads": cv2.getNumThreads()}
 

@@ -40,12 +40,12 @@ from typing import Any
 import numpy as np
 
 from ..core.config import DictConfig
-from ..demo.dataset import Demonstration, load_demonstration
+from ..dataset import Demonstration, load_demonstration
+from ..dataset.recording import recording_writer
 from ..demo.demonstrator import (
     DemonstrationSummary,
     HumanConfig,
     protocol_human,
-    recording_writer,
     run_demonstration,
 )
 from ..envs.presets import Preset

@@ -10,7 +10,8 @@ from typing import Any
 import numpy as np
 
 from ..envs.presets import load_preset
-from ..plots import (
+from ..utils.provenance import environment
+from ..viz.plots import (
     DirectionRuns,
     TrackRun,
     fitness_notes,
@@ -18,7 +19,6 @@ from ..plots import (
     trajectory_grid,
     write_png,
 )
-from ..provenance import environment
 from ..world.episode import EpisodeTracker
 from ..world.track import load_track
 from .paper import DIRECTION_TITLES

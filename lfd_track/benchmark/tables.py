@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from ..atomic import atomic_write_text
+from ..utils.atomic import atomic_write_text
 from .paper import (
     CORNER_ORDER,
     DIRECTION_TITLES,

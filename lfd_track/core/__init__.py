@@ -1,6 +1,6 @@
 """The shared vocabulary every other part imports: commands, frame geometry, typed configs.
 
 Its modules import nothing of the package but :mod:`lfd_track.errors` and
-:mod:`lfd_track.files` (configs read their files); nothing is re-exported here, so importing
+:mod:`lfd_track.utils.files` (configs read their files); nothing is re-exported here, so importing
 one of them stays cheap.
 """

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any, ClassVar, Self, TypeVar
 
 from ..errors import FileFormatError
-from ..files import read_regular_text
+from ..utils.files import read_regular_text
 
 T = TypeVar("T")
 

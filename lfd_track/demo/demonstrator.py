@@ -26,6 +26,8 @@ from typing import Any
 
 import numpy as np
 
+from ..dataset import load_demonstration
+from ..dataset.recording import recording_writer
 from ..envs.presets import Preset
 from ..envs.track_env import LfDTrackEnv
 from ..policy.memory import MemoryConfig
@@ -43,7 +45,6 @@ from ..teaching.scripted import (
 )
 from ..vision.road_library import RoadLibrary
 from ..world.track import load_track
-from .dataset import DemonstrationWriter, load_demonstration
 
 __all__ = [
     "PHASE_DRIVE",
@@ -80,32 +81,6 @@ def protocol_human(
     if forward.closed:
         raise ValueError(f"the demonstration protocol needs an open track, '{track}' is a loop")
     return ProtocolHuman((forward, load_track(track, reverse=True)), human, rng, **kwargs)
-
-
-def recording_writer(
-    path: str | Path,
-    metadata: dict[str, Any],
-    perception: Perception,
-    *,
-    fsync: bool,
-    overwrite: bool,
-    log_library: bool = True,
-) -> DemonstrationWriter:
-    """A writer for a recording through ``perception``: it logs the perception's road library
-    (unless ``log_library`` is False), adds its memory settings (if any) to ``metadata`` and
-    carries its memory inputs per case."""
-    memory = perception.memory_config
-    if memory.kind != "none":
-        metadata = {**metadata, "memory": memory.to_dict()}
-    return DemonstrationWriter(
-        path,
-        metadata,
-        bins=perception.library.bins,
-        fsync=fsync,
-        overwrite=overwrite,
-        library=perception.library if log_library else None,
-        n_memory=memory.n_inputs,
-    )
 
 
 def run_demonstration(

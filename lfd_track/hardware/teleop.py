@@ -8,7 +8,7 @@ stops, ``p`` pauses/resumes road-library learning (for moments the safe box is o
 paper §6), ``q`` quits.
 
 Each command is recorded with the road values of the frame it was given on, computed with the
-record-time library, in the format of ``lfd_track.demo.dataset`` (one ``.lfdemo`` file).
+record-time library, in the format of ``lfd_track.dataset`` (one ``.lfdemo`` file).
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from ..core.commands import Command
+from ..policy.memory import MemoryConfig
 
 QUIT = "quit"
 STOP = "stop"
@@ -113,7 +114,8 @@ class DemonstrationRecorder:
     The library learns from each commanded frame (rule ``careful``; ``learning = False`` switches
     to ``paused``) as the paper's robot did while a careful human drove; the first
     ``library_only`` commands only build the library. It is an observer of the teaching loop:
-    cases go through ``lfd_track.demo.dataset.DemonstrationWriter``.
+    cases go through ``lfd_track.dataset.DemonstrationWriter``, with the perception's memory
+    inputs (``memory``, none by default) if it has any.
     """
 
     def __init__(
@@ -124,19 +126,21 @@ class DemonstrationRecorder:
         library_only: int = LIBRARY_ONLY_COMMANDS,
         metadata: Mapping[str, Any] | None = None,
         overwrite: bool = False,
+        memory: MemoryConfig | None = None,
     ) -> None:
-        from ..demo.dataset import DemonstrationWriter
+        from ..dataset.recording import RecordingTarget
         from ..teaching.observers import Recorder
         from ..teaching.perception import Perception
         from ..vision.road_library import RoadLibrary
 
         self.library = RoadLibrary(bins=bins)
-        self.perception = Perception(self.library, "careful")
+        self.perception = Perception(self.library, "careful", memory)
         self.library_only = int(library_only)
         meta = {"source": "hardware teleop", **dict(metadata or {})}
-        # The library is logged as it changes, so an interrupted recording still trains.
-        self._writer = DemonstrationWriter(
-            path, meta, bins, overwrite=overwrite, library=self.library
+        # The library is logged as it changes, so an interrupted recording still trains; the
+        # perception's memory inputs (if any) go with every case.
+        self._writer = RecordingTarget(path).writer(
+            meta, self.perception, fsync=True, overwrite=overwrite
         )
         self._recorder = Recorder(self._writer, lambda step: {"phase": "drive", "step": None})
 

@@ -30,11 +30,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..atomic import atomic_write_text
 from ..errors import FileFormatError
-from ..files import read_regular_text
 from ..teaching.commanders import PolicyCommander
 from ..teaching.perception import Perception
+from ..utils.atomic import atomic_write_text
+from ..utils.files import NonFiniteNumber as _NonFiniteError
+from ..utils.files import read_regular_text
+from ..utils.files import reject_constant as _reject_constant
 from ..vision.road_library import RoadLibrary
 from .memory import MemoryConfig, policy_inputs
 from .mlp import check_numbers, layer_sizes, mlp_forward, n_weights, select_action
@@ -427,15 +429,6 @@ def _check_ga_config(config: dict[str, Any], bias: bool) -> None:
         raise ValueError("GA config mutation_rate must be in [0, 1]")
     if "bias" in config and config["bias"] != bias:
         raise ValueError("'bias' disagrees with the GA config's bias")
-
-
-class _NonFiniteError(ValueError):
-    pass
-
-
-def _reject_constant(name: str) -> float:
-    # json accepts NaN/Infinity by default; a controller file never legitimately holds them.
-    raise _NonFiniteError(name)
 
 
 def _is_finite_number(value: Any) -> bool:

@@ -15,11 +15,11 @@ import time
 from pathlib import Path
 from typing import Any
 
-from ..atomic import atomic_write_bytes
 from ..benchmark.runner import config_dict, run_benchmark
 from ..benchmark.tables import results_json_text
-from ..errors import FileFormatError
-from ..files import read_regular_text
+from ..errors import FileFormatError, first_line
+from ..utils.atomic import atomic_write_bytes
+from ..utils.files import read_regular_text
 from .spec import Job
 
 RESULTS_FILE = "results.json"
@@ -90,7 +90,7 @@ def finished_results(out: Path, job: Job) -> dict[str, Any] | None:
     except MemoryError:
         raise FileFormatError(path, f"unreadable results (too large for memory); {rerun}") from None
     except ValueError as exc:  # not JSON, or an integer of thousands of digits
-        raise FileFormatError(path, f"unreadable results ({_first_line(exc)}); {rerun}") from None
+        raise FileFormatError(path, f"unreadable results ({first_line(exc)}); {rerun}") from None
     if not isinstance(results, dict) or results.get("config") != expected_config(job):
         raise FileFormatError(
             path,
@@ -107,10 +107,5 @@ def finished_results(out: Path, job: Job) -> dict[str, Any] | None:
             job.config.test_tracks,
         )
     except ValueError as exc:
-        raise FileFormatError(path, f"damaged results: {_first_line(exc)}; {rerun}") from None
+        raise FileFormatError(path, f"damaged results: {first_line(exc)}; {rerun}") from None
     return results
-
-
-def _first_line(exc: BaseException) -> str:
-    text = str(exc).strip()
-    return text.splitlines()[0] if text else type(exc).__name__

@@ -15,9 +15,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..benchmark.output import locked_folder
-from ..errors import LfdTrackError
+from ..errors import LfdTrackError, first_line
 from ..utils.signals import EXIT_TERMINATED
+from ..utils.staging import locked_folder
 from .jobs import finished_results, run_job, store_job
 from .spec import Job, Study
 
@@ -120,13 +120,8 @@ def locked_out(out: Path) -> Iterator[None]:
         yield
 
 
-def _first_line(exc: BaseException) -> str:
-    text = str(exc).strip()
-    return text.splitlines()[0] if text else type(exc).__name__
-
-
 def _failed(job: Job, exc: BaseException) -> LfdTrackError:
-    return LfdTrackError(f"job {job.key} failed: {_first_line(exc)}")
+    return LfdTrackError(f"job {job.key} failed: {first_line(exc)}")
 
 
 def _run_local(jobs: Sequence[Job], done: JobDone, *, workers: int) -> int:
@@ -299,7 +294,7 @@ def _work(jobs: Any, results: Any) -> None:
         try:
             reply = (index, run_job(job), None)
         except Exception as exc:
-            reply = (index, {}, _first_line(exc))
+            reply = (index, {}, first_line(exc))
         results.send(reply)
         busy.clear()
 
@@ -358,7 +353,7 @@ def _run_ray(jobs: Sequence[Job], done: JobDone, *, workers: int, address: str |
                 except lost_worker as exc:
                     lost.append(
                         f"job {job.key} failed: its worker process died "
-                        f"{_times(LOST_WORKER_TRIES)} ({_first_line(exc)})"
+                        f"{_times(LOST_WORKER_TRIES)} ({first_line(exc)})"
                     )
                     continue
                 except Exception as exc:

@@ -5,6 +5,9 @@ Rates pool every trial of a condition over its seeds and repetitions, with Wilso
 controller, so it can be narrower than the spread between controllers warrants. Each pooled rate
 therefore also carries ``ci95_controllers``: a bootstrap interval that resamples whole learned
 controllers (seed × repetition), and ``per_seed`` shows the spread between seeds.
+
+It stays one module: study.json, study.md and study.png are three views of one summary, built
+once here, so a number can never differ between them.
 """
 
 from __future__ import annotations
@@ -18,11 +21,11 @@ from typing import Any
 
 import numpy as np
 
-from ..atomic import atomic_write_text
 from ..benchmark.paper import TRACK_RESULT_KEYS
 from ..benchmark.runner import config_dict, trial_directions
 from ..benchmark.tables import TrialOutcome, results_json_text
-from ..provenance import environment
+from ..utils.atomic import atomic_write_text
+from ..utils.provenance import environment
 from .spec import Job, Study
 from .stats import controller_interval, rate_summary
 
@@ -615,7 +618,7 @@ def write_study_outputs(
     out: Path, study: Study, finished: Sequence[tuple[Job, Mapping[str, Any]]]
 ) -> dict[str, Any]:
     """Write study.json, study.md and study.png into ``out``; returns the study.json dict."""
-    from ..plots import write_png
+    from ..viz.plots import write_png
 
     results = build_study_results(study, finished)
     atomic_write_text(out / "study.json", results_json_text(results))

@@ -8,8 +8,8 @@ from typing import TYPE_CHECKING, Any, Protocol
 import numpy as np
 
 if TYPE_CHECKING:
-    from ..demo.dataset import DemonstrationWriter
-    from .types import Step
+    from ..dataset import DemonstrationWriter
+    from .loop import Step
 
 
 class Observer(Protocol):
@@ -26,7 +26,7 @@ class Recorder:
     """Writes every teaching case to a crash-safe ``.lfdemo`` file (one ``append`` per case).
 
     ``annotate(step)`` returns extra per-case fields for
-    :meth:`~lfd_track.demo.dataset.DemonstrationWriter.append` (``pose``, ``progress_m``,
+    :meth:`~lfd_track.dataset.DemonstrationWriter.append` (``pose``, ``progress_m``,
     ``phase``, ``step`` …); a step that is not a case is skipped. Road values and histograms are
     the record-time ones from the step's percept. Every case is written with ``round`` (0 for the
     initial demonstration, r for the r-th round of autonomous runs) and ``source``: ``"correction"``

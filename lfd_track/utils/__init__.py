@@ -1,1 +1,2 @@
-"""Plumbing, each helper once: shipped data lookup, progress bars, signal handling."""
+"""Plumbing every part of lfd-track shares, each helper once: atomic writes, regular-file reads,
+output names and checks, staging and locks, shipped data lookup, extras, progress bars, signals."""

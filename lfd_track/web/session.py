@@ -14,19 +14,20 @@ Nothing moves unless the controlling page holds the lease (:class:`~lfd_track.we
 
 from __future__ import annotations
 
-import argparse
-import sys
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..benchmark.methods import OnlineConfig
 from ..core.commands import Command
-from ..demo.dataset import DemonstrationWriter
+from ..dataset import DemonstrationWriter
+from ..dataset.recording import RecordingTarget, ReplacingWriter
+from ..policy.memory import MemoryConfig
 from ..teaching.arbiter import Arbiter
 from ..teaching.commanders import PolicyCommander
 from ..teaching.loop import Step, TeachingLoop
@@ -44,17 +45,39 @@ PHASE_CORRECTION = "correction"
 
 
 @dataclass(frozen=True)
-class OnlineSettings:
-    """How the policy learns and earns the wheel with ``--online``."""
+class TeachConfig:
+    """What ``lfd-track teach`` asked for (the command line builds it; see
+    :mod:`lfd_track.cli.teach` for each setting's meaning)."""
 
-    generations_per_case: int = 2
-    """GA generations run after each new case (population re-scored on all cases first)."""
-    window: int = 10
-    """K: the agreement is measured over the human's last K commands."""
-    threshold: float = 0.9
-    """Share of those K the policy must have agreed with before the takeover is offered."""
+    out: Path
+    """The demonstration file to write (``.lfdemo``)."""
+    backend: str = "sim"
+    """``"sim"`` or ``"hardware"``."""
+    track: str = "training"
+    preset: str = "paper"
+    seed: int = 0
+    """Seed of the world and of the online learner."""
+    camera: str | None = None
+    """The phone camera's stream URL (hardware)."""
+    serial: str | None = None
+    """The serial port or pyserial URL of the board (hardware)."""
+    period_s: float | None = None
+    """[s] control period; None: the preset's (sim) or 0.4 s (hardware)."""
+    online: bool = False
+    """Evolve a policy while the person teaches; it is offered the wheel when it agrees."""
+    takeover: OnlineConfig = field(default_factory=OnlineConfig)
+    """How the policy learns (generations per case) and earns the wheel (window, threshold);
+    the intervention settings are the benchmark's only."""
     population_size: int = 40
-    """GA population (the paper's 40)."""
+    """GA population of the online learner (the paper's 40)."""
+    memory: str = "none"
+    """Memory inputs recorded with every case (a :data:`~lfd_track.policy.memory.MEMORY_KINDS`)."""
+    library_only: int = 0
+    """The first N commands only build the road library and are not recorded."""
+    force: bool = False
+    """Replace an existing ``out`` (kept until the new recording holds a case)."""
+    fps: float = 10.0
+    """[frames/s] live view rate of a standing robot's camera."""
 
 
 class CaseTally:
@@ -408,38 +431,41 @@ class LoopSession:
 
 
 # ------------------------------------------------------------------------------- arrangement
-def open_session(args: argparse.Namespace) -> LoopSession:
-    """The session ``lfd-track teach`` asked for, started (close it when done).
-
-    ``args`` as parsed by :func:`lfd_track.web.cli.add_teach_parser`.
-    """
-    out = Path(args.out)
-    metadata: dict[str, Any] = {"source": "teach", "backend": args.backend, "online": args.online}
-    if args.backend == "sim":
+def open_session(config: TeachConfig) -> LoopSession:
+    """The session ``lfd-track teach`` asked for, started (close it when done)."""
+    out = Path(config.out)
+    metadata: dict[str, Any] = {
+        "source": "teach",
+        "backend": config.backend,
+        "online": config.online,
+    }
+    if config.backend == "sim":
         from ..envs.track_env import LfDTrackEnv
 
         env = LfDTrackEnv(
-            track=args.track, preset=args.preset, render_mode="rgb_array", max_steps=10**9
+            track=config.track, preset=config.preset, render_mode="rgb_array", max_steps=10**9
         )
-        period_s = args.period or env.preset.rover.control_period_s
-        metadata.update(kind="simulated", track=args.track, preset=args.preset, seed=args.seed)
+        period_s = config.period_s or env.preset.rover.control_period_s
+        metadata.update(
+            kind="simulated", track=config.track, preset=config.preset, seed=config.seed
+        )
         stop_robot = None
         topdown: Callable[[], np.ndarray] | None = env.render
         rearm = None
         live_frame = None
     else:
-        from ..hardware.env import HardwareEnv
+        from ..hardware.env import HardwareEnv  # lazy: the serial link and the camera stream
 
-        period_s = args.period or 0.4
+        period_s = config.period_s or 0.4
         # Each command runs one period, then the motors stop: a page that gives no command
         # leaves the robot standing (as the paper's remote did).
         env = HardwareEnv(
-            camera_url=args.camera,
-            serial_url=args.serial,
+            camera_url=config.camera,
+            serial_url=config.serial,
             control_period_s=period_s,
             between_steps="stop",
         )
-        metadata.update(kind="hardware", camera=args.camera, control_period_s=period_s)
+        metadata.update(kind="hardware", camera=config.camera, control_period_s=period_s)
 
         def stop_robot(reason: str) -> None:
             env.link.estop()  # latched: a drive already on its way is refused by the board
@@ -447,40 +473,27 @@ def open_session(args: argparse.Namespace) -> LoopSession:
         topdown = None
         rearm = {"clear_estop": True}
         live_frame = getattr(env.camera, "latest", None)
-    settings = OnlineSettings(
-        generations_per_case=args.generations_per_case or OnlineSettings.generations_per_case,
-        window=args.takeover_window,
-        threshold=args.takeover_threshold,
-        population_size=args.population,
-    )
-    if args.online:
+    takeover = config.takeover
+    if config.online:
         metadata["online_settings"] = {
-            "generations_per_case": settings.generations_per_case,
-            "window": settings.window,
-            "threshold": settings.threshold,
-            "population_size": settings.population_size,
+            "generations_per_case": takeover.generations_per_case,
+            "window": takeover.window,
+            "threshold": takeover.threshold,
+            "population_size": config.population_size,
         }
-    from ..demo.demonstrator import recording_writer
-    from ..outputs import in_progress_name
-    from ..policy.memory import MemoryConfig
-
     # As ``lfd-track demo --force``: an existing file is kept until the new recording is closed
     # (then replaced, if it holds a case); until then the recording has a name of its own.
-    replacing = args.force and out.exists()
+    target = RecordingTarget(out, replace=config.force and out.exists())
     writer: Any
     try:
-        perception = Perception(RoadLibrary(), "careful", MemoryConfig(kind=args.memory))
-        # The library is logged as it learns, so a recording cut short still carries it.
-        target = in_progress_name(out) if replacing else out
-        writer = recording_writer(
-            target, metadata, perception, fsync=True, overwrite=args.force and not replacing
-        )
+        perception = Perception(RoadLibrary(), "careful", MemoryConfig(kind=config.memory))
+        writer = target.writer(metadata, perception, fsync=True, overwrite=config.force)
     except BaseException:
         env.close()
         raise
-    if replacing:
-        writer = _ReplacingWriter(writer, out)
-    commander = BrowserCommander(library_only=args.library_only)
+    if target.replacing:
+        writer = ReplacingWriter(writer, target, "teach")
+    commander = BrowserCommander(library_only=config.library_only)
     tally = CaseTally()
     observers: list[Any] = [
         Recorder(
@@ -495,16 +508,16 @@ def open_session(args: argparse.Namespace) -> LoopSession:
         tally,
     ]
     policy = learner = None
-    if args.online:
-        policy, learner = _online_parts(settings, args.seed, perception.n_inputs)
+    if config.online:
+        policy, learner = _online_parts(config, perception.n_inputs)
         observers.append(learner)
     loop = TeachingLoop(
         env,
         perception,
         Arbiter(
-            "takeover" if args.online else "human",
-            window=settings.window,
-            threshold=settings.threshold,
+            "takeover" if config.online else "human",
+            window=takeover.window,
+            threshold=takeover.threshold,
             auto_accept=False,  # offered on the page; the person lets it drive
         ),
         human=commander,
@@ -517,88 +530,38 @@ def open_session(args: argparse.Namespace) -> LoopSession:
         commander,
         writer,
         tally,
-        backend=args.backend,
+        backend=config.backend,
         period_s=period_s,
         learner=learner,
         policy=policy,
-        seed=args.seed if args.backend == "sim" else None,
+        seed=config.seed if config.backend == "sim" else None,
         stop_robot=stop_robot,
         rearm_options=rearm,
         topdown=topdown,
         live_frame=live_frame,
-        preview_fps=args.fps,
+        preview_fps=config.fps,
     )
     try:
         return session.start()
     except BaseException:
-        if replacing:
+        if target.replacing:
             writer.quiet = True  # the error is the message
         session.close()
-        if not replacing:
+        if not target.replacing:
             out.unlink(missing_ok=True)  # nothing was taught: leave no empty recording behind
         raise
 
 
-class _ReplacingWriter:
-    """The recording of ``teach --force`` over an existing ``out`` (a DemonstrationWriter's
-    methods): once closed with at least one case it replaces ``out``; closed without a case it
-    is deleted and ``out`` is left as it was, with a note on stderr (unless ``quiet``)."""
-
-    def __init__(self, writer: DemonstrationWriter, out: Path) -> None:
-        self._writer = writer
-        self.out = out
-        self.quiet = False
-        self._done = False
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._writer, name)
-
-    def close(self, final_metadata: dict[str, Any] | None = None) -> None:
-        if self._done:
-            return
-        self._done = True
-        from ..outputs import keep_partial, shown_path
-
-        recording = self._writer.path
-        try:
-            self._writer.close(final_metadata)
-        except BaseException:
-            if self._writer.n_cases:  # the cases are kept, under a partial name beside ``out``
-                keep_partial(recording, self.out)
-            else:
-                recording.unlink(missing_ok=True)
-            raise
-        if self._writer.n_cases:
-            from ..atomic import replace_file
-            from ..errors import LfdTrackError
-
-            try:
-                replace_file(recording, self.out)
-            except LfdTrackError as exc:  # ``out`` became a link, device, ... meanwhile
-                kept = keep_partial(recording, self.out)
-                raise LfdTrackError(f"{exc}; the recording is kept at {shown_path(kept)}") from None
-            return
-        recording.unlink(missing_ok=True)
-        if not self.quiet:
-            print(
-                f"lfd-track teach: nothing was recorded; {shown_path(self.out)} is unchanged",
-                file=sys.stderr,
-                flush=True,
-            )
-
-
-def _online_parts(
-    settings: OnlineSettings, seed: int, n_inputs: int
-) -> tuple[PolicyCommander, Any]:
+def _online_parts(config: TeachConfig, n_inputs: int) -> tuple[PolicyCommander, Any]:
     """The policy commander and the loop's GA learner feed, which updates its weights."""
     from ..learning.ga import GAConfig
     from ..teaching.learner_feed import GALearnerFeed
 
     policy = PolicyCommander(None)  # no policy until the first case was learned
     learner = GALearnerFeed(
-        GAConfig(population_size=settings.population_size),
-        np.random.default_rng(seed),
-        settings.generations_per_case,
+        GAConfig(population_size=config.population_size),
+        np.random.default_rng(config.seed),
+        config.takeover.generations_per_case,
         policy,
         n_inputs,
     )

@@ -23,7 +23,7 @@ from lfd_track.benchmark.runner import (
     run_benchmark,
     run_repetition,
 )
-from lfd_track.demo.dataset import load_demonstration
+from lfd_track.dataset import load_demonstration
 from lfd_track.demo.demonstrator import HumanConfig
 from lfd_track.learning.bc import BCConfig
 from lfd_track.learning.cmaes import CMAESConfig
@@ -382,7 +382,7 @@ def test_extra_test_tracks_are_lapped_both_ways_and_reported_per_track(tmp_path)
     assert results["test_tracks"][str(loop)]["laps"] == 2
     assert results["testing_track"]["laps"] == 2  # the paper's tables keep the testing track
     assert results["method"] == "paper" and results["human_effort"]["total"]["commands"] > 0
-    # what computed the numbers: versions and BLAS kernel (lfd_track.provenance)
+    # what computed the numbers: versions and BLAS kernel (lfd_track.utils.provenance)
     assert results["environment"]["numpy"] == np.__version__ and "blas" in results["environment"]
     assert "Extra test loops" in (tmp_path / "out" / "report.md").read_text()
     with pytest.raises(ValueError, match="twice"):

@@ -1,4 +1,4 @@
-"""A benchmark's output folder changes only when a run has succeeded (benchmark/output.py)."""
+"""A benchmark's output folder changes only when a run has succeeded (utils/staging.py)."""
 
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 from lfd_test_support import snapshot
 
-from lfd_track.benchmark import output
-from lfd_track.benchmark.output import staged_output
+from lfd_track.utils import staging as output
+from lfd_track.utils.staging import staged_output
 
 
 def write_run(folder: Path, tag: str, reps: int = 2) -> None:

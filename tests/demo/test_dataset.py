@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lfd_track.demo.dataset import (
+from lfd_track.dataset import (
     SCHEMA_VERSION,
     Demonstration,
     DemonstrationWriter,
@@ -162,7 +162,7 @@ _RECORDER = textwrap.dedent(
     """
     import sys
     import numpy as np
-    from lfd_track.demo.dataset import DemonstrationWriter
+    from lfd_track.dataset import DemonstrationWriter
 
     rng = np.random.default_rng(5)
     with DemonstrationWriter(sys.argv[1], {"track": "training"}, bins=32) as writer:
@@ -722,8 +722,8 @@ def test_schema_2_and_3_files_load_as_before(tmp_path, schema, closed):
 
 @pytest.mark.parametrize("sparse", [True, False])
 def test_a_header_followed_by_a_huge_zero_tail_is_refused(tmp_path, monkeypatch, sparse):
-    from lfd_track import files
-    from lfd_track.demo.dataset import MAX_ZERO_TAIL_BYTES
+    from lfd_track.dataset import MAX_ZERO_TAIL_BYTES
+    from lfd_track.utils import files
 
     path = tmp_path / "demo.lfdemo"
     _record(path, 2, close=False)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from lfd_track.demo.dataset import load_demonstration
+from lfd_track.dataset import load_demonstration
 from lfd_track.demo.demonstrator import HumanConfig, run_demonstration
 
 

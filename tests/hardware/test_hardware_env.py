@@ -200,7 +200,7 @@ def controller_file(tmp_path_factory: pytest.TempPathFactory) -> Path:
     Only 30 generations (a few seconds in all): enough for a real evolved network with a road
     library learned from rendered frames; how well it drives is not what these tests check.
     """
-    from lfd_track.demo.dataset import load_demonstration
+    from lfd_track.dataset import load_demonstration
     from lfd_track.demo.demonstrator import run_demonstration
     from lfd_track.learning.ga import GAConfig, evolve
     from lfd_track.policy.controller import Controller
@@ -269,7 +269,7 @@ def test_end_to_end_on_the_simulated_firmware(simulated_board, controller_file: 
 
 # ------------------------------------------------------------------------------------ CLI
 def _run_cli(*argv: str) -> int:
-    from lfd_track.hardware.cli import main
+    from lfd_track.cli.hardware import main
 
     return main(["hardware", *argv])
 
@@ -351,7 +351,7 @@ def test_cli_demo_without_a_terminal_creates_no_recording(
 
 def test_teleop_records_a_demonstration(tmp_path: Path) -> None:
     from lfd_track.core.commands import Command
-    from lfd_track.demo.dataset import load_demonstration
+    from lfd_track.dataset import load_demonstration
     from lfd_track.hardware.teleop import DemonstrationRecorder, run_teleop
 
     class ScriptedKeys:
@@ -444,7 +444,7 @@ def _processes_mentioning(text: str) -> list[int]:
 @pytest.mark.parametrize("keep_log", [False, True])
 def test_cli_sim_stops_cleanly_on_sigterm(simulated_board, keep_log: bool) -> None:
     """``kill PID`` stops the harness and removes its files, as Ctrl-C does."""
-    argv = [sys.executable, "-m", "lfd_track.hardware.cli", "hardware", "sim"]
+    argv = [sys.executable, "-m", "lfd_track.cli.hardware", "hardware", "sim"]
     proc = subprocess.Popen(
         argv + (["--keep-log"] if keep_log else []),
         stdout=subprocess.PIPE,
@@ -482,3 +482,49 @@ def test_cli_sim_stops_cleanly_on_sigterm(simulated_board, keep_log: bool) -> No
             for pid in _processes_mentioning(str(log_path)):
                 os.kill(pid, signal.SIGKILL)
             shutil.rmtree(log_path.parent, ignore_errors=True)
+
+
+@pytest.mark.simavr
+def test_cli_demo_records_memory_inputs_on_the_simulated_firmware(
+    simulated_board, tmp_path: Path, capsys, monkeypatch
+) -> None:
+    """``hardware demo --memory last_bend`` records the memory inputs with every case, as
+    ``demo`` and ``teach`` do, and says so in the file (so ``evolve`` trains a policy reading
+    them)."""
+    from lfd_track.core.commands import Command
+    from lfd_track.dataset import load_demonstration
+    from lfd_track.hardware import teleop
+    from lfd_track.policy.memory import MemoryConfig
+
+    class Keys:
+        """Forward, left, right, forward, then quit."""
+
+        def __init__(self, *args: object) -> None:
+            self.keys = ["w", "a", "d", "w", "q"]
+
+        def __enter__(self) -> Keys:
+            return self
+
+        def __exit__(self, *exc: object) -> None:
+            pass
+
+        def poll(self, timeout_s: float) -> str | None:
+            return self.keys.pop(0) if self.keys else "q"
+
+    monkeypatch.setattr(teleop, "TerminalKeys", Keys)
+    simulated_board.reset(cause="power-on")
+    out = tmp_path / "memory.lfdemo"
+    with MjpegServer() as server:
+        code = _run_cli(
+            "demo", "--out", str(out), "--camera", server.url,
+            "--serial", simulated_board.serial_url, "--period", "0.1",
+            "--library-only", "0", "--memory", "last_bend",
+        )  # fmt: skip
+    assert code == 0, capsys.readouterr().err
+    demo = load_demonstration(out)
+    memory = MemoryConfig(kind="last_bend")
+    assert demo.metadata["complete"]
+    assert demo.commands.tolist() == [Command.FORWARD, Command.LEFT, Command.RIGHT, Command.FORWARD]
+    assert demo.memory_settings() == memory
+    assert demo.memory is not None and demo.memory.shape == (4, memory.n_inputs)
+    assert demo.inputs.shape == (4, 40 + memory.n_inputs)

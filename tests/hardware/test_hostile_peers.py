@@ -196,7 +196,7 @@ def test_snapshot_reader_survives_a_trickling_peer_and_closes() -> None:
 # ----------------------------------------------------------------------------- CLI signals
 def _cli(*argv: str, **kwargs) -> subprocess.Popen:
     return subprocess.Popen(
-        [sys.executable, "-m", "lfd_track.hardware.cli", "hardware", *argv],
+        [sys.executable, "-m", "lfd_track.cli.hardware", "hardware", *argv],
         cwd=REPO,
         **kwargs,
     )
@@ -240,7 +240,7 @@ def _pump(fd: int, seconds: float, until: bytes | None = None) -> bytes:
 
 
 def test_demo_on_sigterm_restores_the_terminal_and_closes_the_recording(tmp_path: Path) -> None:
-    from lfd_track.demo.dataset import load_demonstration
+    from lfd_track.dataset import load_demonstration
 
     out = tmp_path / "demo.lfdemo"
     with FakeBoard() as board, MjpegServer() as server:
@@ -250,7 +250,7 @@ def test_demo_on_sigterm_restores_the_terminal_and_closes_the_recording(tmp_path
             os.execv(
                 sys.executable,
                 [
-                    sys.executable, "-m", "lfd_track.hardware.cli", "hardware", "demo",
+                    sys.executable, "-m", "lfd_track.cli.hardware", "hardware", "demo",
                     "--camera", server.url, "--serial", board.url, "--out", str(out),
                     "--period", "0.1", "--boot-wait", "0.3", "--library-only", "1",
                 ],
@@ -282,9 +282,9 @@ def test_demo_on_sigterm_restores_the_terminal_and_closes_the_recording(tmp_path
 def test_demo_that_loses_its_camera_exits_non_zero_and_keeps_the_cases(
     tmp_path: Path, capsys, monkeypatch
 ) -> None:
-    from lfd_track.demo.dataset import load_demonstration
+    from lfd_track.cli.hardware import main
+    from lfd_track.dataset import load_demonstration
     from lfd_track.hardware import teleop
-    from lfd_track.hardware.cli import main
 
     class Keys:
         """Two commands, then the camera stalls during the third; never quits by itself."""

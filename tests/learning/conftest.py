@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lfd_track.demo.dataset import load_demonstration
+from lfd_track.dataset import load_demonstration
 from lfd_track.demo.demonstrator import run_demonstration
 
 

@@ -146,7 +146,7 @@ def test_rates_also_carry_an_interval_that_resamples_learned_controllers(study):
 
 
 def test_the_summary_names_its_environment_and_each_distinct_one_of_its_jobs(study):
-    from lfd_track.provenance import environment
+    from lfd_track.utils.provenance import environment
 
     seed0, seed1 = study.jobs()
     old = job_results([outcome("testing", True, ["1", "2", "3", "4"])])  # written before: none

@@ -7,7 +7,7 @@ import pytest
 from lfd_test_support import library_with_road, training_track_frame
 
 from lfd_track.core.commands import Command
-from lfd_track.demo.dataset import DemonstrationWriter, load_demonstration, save_demonstration
+from lfd_track.dataset import DemonstrationWriter, load_demonstration, save_demonstration
 from lfd_track.envs.track_env import LfDTrackEnv
 from lfd_track.errors import FileFormatError
 from lfd_track.learning.bc import BCConfig, fit_bc
@@ -308,7 +308,7 @@ def test_a_reset_in_place_keeps_the_memory():
 def test_a_header_must_declare_memory_inputs_exactly_when_schema_3(
     tmp_path, schema, extra, problem
 ):
-    from lfd_track.demo import dataset
+    from lfd_track.dataset import records as dataset
 
     header = {
         "format": dataset.FORMAT_NAME,

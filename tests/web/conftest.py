@@ -69,6 +69,7 @@ def open_station(tmp_path: Path) -> Iterator[Callable[..., Station]]:
     ``app_options`` go to ``create_app``, ``server_options`` to ``StationServer``.
     """
     from lfd_track.cli import build_parser
+    from lfd_track.cli.teach import teach_config
     from lfd_track.web.app import create_app
     from lfd_track.web.server import StationServer, bind_socket, station_url
     from lfd_track.web.session import open_session
@@ -87,7 +88,7 @@ def open_station(tmp_path: Path) -> Iterator[Callable[..., Station]]:
         if "--out" not in teach_args:
             argv += ["--out", str(tmp_path / f"taught{len(opened)}.lfdemo")]
         args = build_parser().parse_args(argv)
-        session = open_session(args)
+        session = open_session(teach_config(args))
         server = StationServer(
             create_app(session, token=token, **(app_options or {})),
             bind_socket("127.0.0.1", 0),

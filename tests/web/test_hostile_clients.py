@@ -680,8 +680,8 @@ def test_out_of_range_rates_are_one_line_errors(tmp_path: Path, capsys, option, 
 
 
 def test_the_default_limits_are_sane() -> None:
+    from lfd_track.cli.teach import PERIOD_RANGE
     from lfd_track.envs.presets import BOUNDS
-    from lfd_track.web.cli import PERIOD_RANGE
 
     assert PERIOD_RANGE == BOUNDS["rover.control_period_s"]
     assert 1.0 <= station_server.HEADER_TIMEOUT_S <= 10.0

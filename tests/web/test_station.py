@@ -18,7 +18,7 @@ from websockets.exceptions import InvalidStatus
 from websockets.sync.client import connect
 
 from lfd_track.core.commands import Command
-from lfd_track.demo.dataset import load_demonstration
+from lfd_track.dataset import load_demonstration
 from lfd_track.web.contract import STATUS_FIELDS
 
 pytestmark = pytest.mark.browser

@@ -17,7 +17,7 @@ import pytest
 from websockets.sync.client import connect
 
 from lfd_track.cli import main
-from lfd_track.demo.dataset import load_demonstration
+from lfd_track.dataset import load_demonstration
 
 REPO = Path(__file__).resolve().parents[2]
 WAIT_S = 30.0  # failure guard only

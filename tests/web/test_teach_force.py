@@ -7,7 +7,7 @@ from pathlib import Path
 
 from test_teach_cli import teach_and_stop
 
-from lfd_track.demo.dataset import load_demonstration
+from lfd_track.dataset import load_demonstration
 
 OLD = b"an earlier recording, not to be lost"
 

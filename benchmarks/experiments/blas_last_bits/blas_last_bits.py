@@ -39,11 +39,11 @@ sys.path.insert(0, str(REPO / "tests"))
 from lfd_test_support import PerturbedBLAS  # noqa: E402
 
 from lfd_track.benchmark.runner import repetition_seeds, repetition_streams  # noqa: E402
-from lfd_track.demo.dataset import load_demonstration  # noqa: E402
+from lfd_track.dataset import load_demonstration  # noqa: E402
 from lfd_track.demo.demonstrator import HumanConfig, run_demonstration  # noqa: E402
 from lfd_track.learning.ga import GAConfig, evolve  # noqa: E402
 from lfd_track.policy.mlp import mlp_forward  # noqa: E402
-from lfd_track.provenance import environment  # noqa: E402
+from lfd_track.utils.provenance import environment  # noqa: E402
 
 RESULTS = Path(__file__).resolve().parent / "results" / "blas_last_bits.json"
 ULPS = 4

@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from lfd_track.benchmark.runner import learn_repetition, repetition_seeds, repetition_streams
-from lfd_track.demo.dataset import load_demonstration
+from lfd_track.dataset import load_demonstration
 from lfd_track.policy.mlp import mlp_forward
 from lfd_track.study.spec import load_study
 from lfd_track.world.track import load_track

@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from lfd_track.core.commands import Command
-from lfd_track.demo.dataset import load_demonstration
+from lfd_track.dataset import load_demonstration
 from lfd_track.demo.demonstrator import run_demonstration
 from lfd_track.learning.fitness import imitation_fitness
 from lfd_track.learning.ga import GAConfig, evolve

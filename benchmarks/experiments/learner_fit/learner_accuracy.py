@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from lfd_track.demo.dataset import load_demonstration
+from lfd_track.dataset import load_demonstration
 from lfd_track.demo.demonstrator import run_demonstration
 from lfd_track.learning.bc import BCConfig, fit_bc
 from lfd_track.learning.cmaes import CMAESConfig, fit_cmaes

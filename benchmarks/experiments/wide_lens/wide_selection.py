@@ -39,7 +39,7 @@ from typing import Any
 import numpy as np
 
 from lfd_track.benchmark.runner import repetition_seeds, run_trial
-from lfd_track.demo.dataset import load_demonstration
+from lfd_track.dataset import load_demonstration
 from lfd_track.demo.demonstrator import HumanConfig, run_demonstration
 from lfd_track.envs.presets import Preset, load_preset
 from lfd_track.envs.track_env import LfDTrackEnv

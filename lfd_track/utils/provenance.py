@@ -49,7 +49,7 @@ def environment() -> dict[str, Any]:
     import numpy
     import pymunk
 
-    from . import __version__
+    from .. import __version__
 
     return {
         "lfd_track": __version__,

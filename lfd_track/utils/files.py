@@ -12,8 +12,9 @@ import os
 import stat
 from collections.abc import Callable
 from pathlib import Path
+from typing import NoReturn
 
-from .errors import FileFormatError
+from ..errors import FileFormatError
 
 
 def read_regular_file(
@@ -142,3 +143,13 @@ def read_regular_text(path: str | Path, max_bytes: int, what: str) -> str:
         raise FileFormatError(
             path, f"{what} file is not UTF-8 text (bad byte at offset {exc.start})"
         ) from None
+
+
+class NonFiniteNumber(ValueError):
+    """A JSON text spells NaN or Infinity (``str()`` is the spelling): no file of ours holds one."""
+
+
+def reject_constant(name: str) -> NoReturn:
+    """``parse_constant`` for ``json.loads``: Python's json accepts NaN, Infinity and -Infinity,
+    which no file lfd-track reads may hold; raises :class:`NonFiniteNumber`."""
+    raise NonFiniteNumber(name)

@@ -13,9 +13,9 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .outputs import shown_path
-from .render.topdown import RGB, TopDownView
-from .world.track import Track
+from ..render.topdown import RGB, TopDownView
+from ..utils.outputs import shown_path
+from ..world.track import Track
 
 SUCCESS_RGB: RGB = (40, 170, 60)
 FAILURE_RGB: RGB = (215, 40, 40)
@@ -385,7 +385,7 @@ def laps_plot(
 
 def write_png(path: str, rgb: np.ndarray) -> None:
     """Write an RGB image as PNG atomically."""
-    from .atomic import atomic_write_bytes
+    from ..utils.atomic import atomic_write_bytes
 
     ok, buf = cv2.imencode(".png", cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
     if not ok:

@@ -1,7 +1,7 @@
 """Atomic file writes: a reader sees the old file or the complete new one, never a partial one.
 
 Only a regular file is ever replaced: a target that is a device, a FIFO, a socket or a symbolic
-link is refused (:func:`lfd_track.outputs.refuse_unsafe_output`), before writing and again at the
+link is refused (:func:`lfd_track.utils.outputs.refuse_unsafe_output`), before writing and again at the
 rename (:func:`replace_file`).
 """
 
@@ -15,7 +15,8 @@ from pathlib import Path
 from .outputs import refuse_unsafe_output
 
 
-def _umask() -> int:
+def current_umask() -> int:
+    """The process's umask (read by setting it and setting it back)."""
     mask = os.umask(0)
     os.umask(mask)
     return mask
@@ -25,6 +26,16 @@ def temporary_prefix(path: Path) -> str:
     """A hidden name's start for a temporary file beside ``path``: the start of its name, short
     enough that with tempfile's 8 characters and ".tmp" it fits in 255 bytes."""
     return f".{path.name[:50]}."
+
+
+def temporary_beside(out: Path) -> Path:
+    """A new empty hidden file beside ``out`` (its folder made if missing): an output is written
+    there first and moved over ``out`` (:func:`replace_file`) once the command's other output is
+    written too."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fd, name = tempfile.mkstemp(prefix=temporary_prefix(out), suffix=".tmp", dir=out.parent)
+    os.close(fd)
+    return Path(name)
 
 
 def replace_file(src: str | Path, dst: str | Path) -> None:
@@ -48,7 +59,7 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
     fd, tmp = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=".tmp", dir=path.parent)
     try:
         # mkstemp makes the file private (0600); give it the permissions a plain open() would.
-        os.fchmod(fd, 0o666 & ~_umask())
+        os.fchmod(fd, 0o666 & ~current_umask())
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
             fh.flush()

@@ -1,10 +1,13 @@
 """``lfd-track hardware …``: simulated board, link check, autonomous drive, tele-operated demo.
 
-``add_hardware_parser(subparsers)`` adds the ``hardware`` command to the main CLI. Each
-subcommand's handler is stored as ``func`` on the parsed namespace, takes the namespace and
-returns the exit code; user errors (bad URL, lost link, bad controller file) print one line to
-stderr and return 1; Ctrl-C, SIGTERM and SIGHUP stop the motors and return 130.
-``python -m lfd_track.hardware.cli`` runs the same commands stand-alone.
+``add_parser(subparsers)`` adds the ``hardware`` command to the main CLI. Each subcommand's
+handler is stored as ``func`` on the parsed namespace, takes the namespace and returns the exit
+code; user errors (bad URL, lost link, bad controller file) print one line to stderr and return
+1; Ctrl-C, SIGTERM and SIGHUP stop the motors and return 130.
+``python -m lfd_track.cli.hardware`` runs the same commands stand-alone.
+
+The host side of the robot (the serial link, the camera stream, simavr) is imported inside each
+handler: it is an optional part, and loading it is what ``lfd-track --help`` must not wait for.
 """
 
 from __future__ import annotations
@@ -17,10 +20,12 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from ..errors import LfdTrackError
+from ..policy.controller import Controller
+from ..policy.memory import MEMORY_KINDS, MemoryConfig
+from ..teaching import Arbiter, TeachingLoop
+from ..utils.outputs import refuse_undecodable, refuse_unsafe_output
 from ..utils.signals import EXIT_INTERRUPTED, stop_signals_interrupt
-
-EXIT_OK = 0
-EXIT_ERROR = 1
+from .types import EXIT_ERROR, EXIT_OK
 
 
 def _fail(message: str) -> int:
@@ -48,7 +53,7 @@ def _guarded(handler: Callable[[argparse.Namespace], int]) -> Callable[[argparse
 
 # ---------------------------------------------------------------------------------------- sim
 def _cmd_sim(args: argparse.Namespace) -> int:
-    from .simavr import FIRMWARE_BAUD, SimavrError, SimulatedBoard
+    from ..hardware.simavr import FIRMWARE_BAUD, SimavrError, SimulatedBoard
 
     board = SimulatedBoard(build_dir=args.build_dir, keep_files=args.keep_log)
     log_path = None
@@ -81,8 +86,8 @@ def _cmd_sim(args: argparse.Namespace) -> int:
 
 # -------------------------------------------------------------------------------------- check
 def _cmd_check(args: argparse.Namespace) -> int:
-    from . import wire
-    from .link import RobotLink
+    from ..hardware import wire
+    from ..hardware.link import RobotLink
 
     link = RobotLink(args.serial, baudrate=args.baud, boot_wait_s=args.boot_wait)
     if args.boot_wait > 0:
@@ -176,7 +181,7 @@ def _lease_test(link: Any, watchdog_ms: int) -> list[str]:
 
 # -------------------------------------------------------------------------------------- drive
 def _make_env(args: argparse.Namespace, **kwargs: Any) -> Any:
-    from .env import HardwareEnv
+    from ..hardware.env import HardwareEnv
 
     return HardwareEnv(
         camera_url=args.camera,
@@ -189,9 +194,6 @@ def _make_env(args: argparse.Namespace, **kwargs: Any) -> Any:
 
 
 def _cmd_drive(args: argparse.Namespace) -> int:
-    from ..policy.controller import Controller
-    from ..teaching import Arbiter, TeachingLoop
-
     controller = Controller.load(args.controller)
     env = _make_env(args)
     try:
@@ -222,8 +224,7 @@ def _cmd_drive(args: argparse.Namespace) -> int:
 
 # --------------------------------------------------------------------------------------- demo
 def _cmd_demo(args: argparse.Namespace) -> int:
-    from ..outputs import refuse_undecodable, refuse_unsafe_output
-    from .teleop import DemonstrationRecorder, TerminalKeys, run_teleop
+    from ..hardware import teleop
 
     refuse_unsafe_output(args.out)  # before the camera and the link are opened
     refuse_undecodable(args.camera, "camera")  # recorded in the file's metadata
@@ -234,16 +235,20 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         # The keyboard first: without a terminal nothing is created (a stub recording would
         # otherwise block the next run with "file exists").
         with (
-            TerminalKeys() as keys,
-            DemonstrationRecorder(
-                args.out, bins=args.bins, library_only=args.library_only, metadata=meta
+            teleop.TerminalKeys() as keys,
+            teleop.DemonstrationRecorder(
+                args.out,
+                bins=args.bins,
+                library_only=args.library_only,
+                metadata=meta,
+                memory=MemoryConfig(kind=args.memory),
             ) as recorder,
         ):
             print(
                 "w/up forward, a/left left, d/right right, space stop, p pause learning, q quit",
                 flush=True,
             )
-            sent = run_teleop(env, obs, keys, recorder)
+            sent = teleop.run_teleop(env, obs, keys, recorder)
         print(f"{sent} commands, {recorder.n_cases} cases recorded to {args.out}")
         if env.last_error is not None:  # the link or the camera failed: not a clean end
             return _fail(f"stopped after {sent} commands: {env.last_error}")
@@ -254,7 +259,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
 # ------------------------------------------------------------------------------------- parser
 def _add_link_options(parser: argparse.ArgumentParser) -> None:
-    from .wire import DEFAULT_BAUD  # not .link: the parser works without pyserial
+    from ..hardware.wire import DEFAULT_BAUD  # not .link: the parser works without pyserial
 
     parser.add_argument(
         "--serial",
@@ -291,7 +296,7 @@ def _add_camera_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def add_hardware_parser(subparsers: Any) -> argparse.ArgumentParser:
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     """Add ``hardware`` with subcommands ``sim``, ``check``, ``drive``, ``demo``.
 
     Each leaf parser sets ``func`` (namespace → exit code).
@@ -375,14 +380,21 @@ def add_hardware_parser(subparsers: Any) -> argparse.ArgumentParser:
         metavar="N",
         help="first N commands only build the road library (default 10)",
     )
+    demo.add_argument(
+        "--memory",
+        choices=MEMORY_KINDS,
+        default="none",
+        help="memory inputs recorded with every case for the policy to read (see the README's"
+        " 'Memory inputs'; default none, the paper's 40 road values)",
+    )
     demo.set_defaults(func=_guarded(_cmd_demo))
     return hardware
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Stand-alone entry point: ``python -m lfd_track.hardware.cli hardware …``."""
+    """Stand-alone entry point: ``python -m lfd_track.cli.hardware hardware …``."""
     parser = argparse.ArgumentParser(prog="lfd-track")
-    add_hardware_parser(parser.add_subparsers(dest="command", required=True))
+    add_parser(parser.add_subparsers(dest="command", required=True))
     args = parser.parse_args(argv)
     return args.func(args)
 

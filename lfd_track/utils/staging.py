@@ -36,7 +36,8 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from ..errors import LfdTrackError
-from ..outputs import refuse_unsafe_output
+from .atomic import current_umask
+from .outputs import refuse_unsafe_output
 
 try:
     import fcntl
@@ -52,12 +53,6 @@ FILES = ("trajectories.png", "fitness.png", "report.md", LAST)
 STALE_S = 600.0
 """A staging folder nobody holds is left over from a killed run once it is this old (a running
 run locks its folder at once; the wait only covers the moment between making and locking it)."""
-
-
-def _umask() -> int:
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
 
 
 def _missing_parents(folder: Path) -> list[Path]:
@@ -201,7 +196,9 @@ def _staging_folder(out: Path) -> Path:
         if not out.is_dir():
             raise
         stage = Path(tempfile.mkdtemp(prefix=_INSIDE_PREFIX, dir=out))
-    os.chmod(stage, 0o777 & ~_umask())  # as a plain mkdir would make it (it may become ``out``)
+    os.chmod(
+        stage, 0o777 & ~current_umask()
+    )  # as a plain mkdir would make it (it may become ``out``)
     return stage
 
 

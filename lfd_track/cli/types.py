@@ -1,9 +1,17 @@
-"""Argument types shared by every ``lfd-track`` subcommand (one-line usage errors)."""
+"""Argument types shared by every ``lfd-track`` command (one-line usage errors), and exit codes."""
 
 from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Callable
+
+from ..learning.result import shown_int
+from ..utils.signals import EXIT_INTERRUPTED, EXIT_TERMINATED
+
+EXIT_OK, EXIT_ERROR, EXIT_USAGE = 0, 1, 2
+EXIT_CODES = (EXIT_OK, EXIT_ERROR, EXIT_USAGE, EXIT_INTERRUPTED, EXIT_TERMINATED)
+"""Every exit code of the commands (130, 143: stopped by Ctrl-C, SIGTERM; see signals.py)."""
 
 
 def _whole_number(text: str) -> int:
@@ -58,3 +66,34 @@ def port(text: str) -> int:
     if not 0 <= value <= 65535:
         raise argparse.ArgumentTypeError(f"port must be in 0..65535, got {value}")
     return value
+
+
+def whole_number_in(low: int, high: int) -> Callable[[str], int]:
+    """An argparse type: a whole number in ``low..high``; the error never prints a huge number
+    whole."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            shown = text if len(text) <= 30 else f"{text[:30]}... ({len(text)} characters)"
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {shown!r}") from None
+        if value < low:
+            raise argparse.ArgumentTypeError(f"must be at least {low}, got {shown_int(value)}")
+        if value > high:
+            raise argparse.ArgumentTypeError(f"must be at most {high}, got {shown_int(value)}")
+        return value
+
+    return parse
+
+
+def float_in(low: float, high: float) -> Callable[[str], float]:
+    """An argparse type: a number in [low, high] (one-line usage error otherwise)."""
+
+    def parse(text: str) -> float:
+        value = positive_float(text)
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"must be in {low:g}..{high:g}, got {text}")
+        return value
+
+    return parse

@@ -1,7 +1,7 @@
 """``lfd-track teach``: open a teaching session and serve its page until Ctrl-C.
 
-``add_teach_parser(subparsers)`` registers the command (light: the web stack is imported only
-when the command runs).
+The arguments become a :class:`~lfd_track.web.session.TeachConfig`; the web stack (and, for the
+real robot, the serial link and the camera stream) is imported only when the command runs.
 """
 
 from __future__ import annotations
@@ -10,13 +10,15 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from ..cli_types import non_negative_int as _count
-from ..cli_types import port, share
-from ..cli_types import positive_float as _positive_float
-from ..cli_types import positive_int as _positive_int
+from ..benchmark.methods import OnlineConfig
 from ..errors import LfdTrackError
 from ..policy.memory import MEMORY_KINDS
-from .defaults import DEFAULT_FPS, DEFAULT_HOST, DEFAULT_PORT
+from ..utils.outputs import refuse_undecodable, refuse_unsafe_output
+from ..utils.signals import stop_signals_interrupt
+from ..web.defaults import DEFAULT_FPS, DEFAULT_HOST, DEFAULT_PORT
+from .types import EXIT_OK, float_in, port, share
+from .types import non_negative_int as _count
+from .types import positive_int as _positive_int
 
 FPS_RANGE = (1.0, 30.0)
 """[frames/s] ``--fps`` allowed: the page's status comes with the view (slower, and it lags);
@@ -26,31 +28,44 @@ PERIOD_RANGE = (0.02, 5.0)
 in :data:`lfd_track.envs.presets.BOUNDS`; not imported here, to keep the command line quick)."""
 
 
-def _float_in(low: float, high: float) -> Any:
-    """An argparse type: a number in [low, high] (one-line usage error otherwise)."""
+def teach_config(args: argparse.Namespace) -> Any:
+    """The :class:`~lfd_track.web.session.TeachConfig` the arguments ask for."""
+    from ..web.session import TeachConfig  # lazy: the web stack
 
-    def parse(text: str) -> float:
-        value = _positive_float(text)
-        if not low <= value <= high:
-            raise argparse.ArgumentTypeError(f"must be in {low:g}..{high:g}, got {text}")
-        return value
+    return TeachConfig(
+        out=Path(args.out),
+        backend=args.backend,
+        track=args.track,
+        preset=args.preset,
+        seed=args.seed,
+        camera=args.camera,
+        serial=args.serial,
+        period_s=args.period,
+        online=args.online,
+        takeover=OnlineConfig(
+            generations_per_case=args.generations_per_case or OnlineConfig.generations_per_case,
+            window=args.takeover_window,
+            threshold=args.takeover_threshold,
+        ),
+        population_size=args.population,
+        memory=args.memory,
+        library_only=args.library_only,
+        force=args.force,
+        fps=args.fps,
+    )
 
-    return parse
 
-
-def run_teach(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace) -> int:
     """The ``teach`` command: open the session, serve the page, close everything on exit."""
-    from ..utils.signals import stop_signals_interrupt
-    from .app import create_app, is_loopback, new_token
-    from .server import StationServer, bind_socket, station_url
-    from .session import open_session
+    # Lazy: the web stack (and the robot's link and camera) load only when teach runs.
+    from ..web import session as station_session
+    from ..web.app import create_app, is_loopback, new_token
+    from ..web.server import StationServer, bind_socket, station_url
 
     if args.backend == "hardware" and not (args.camera and args.serial):
         raise LfdTrackError("--backend hardware needs --camera URL and --serial URL")
     if args.backend == "sim" and (args.camera or args.serial):
         raise LfdTrackError("--camera and --serial are for --backend hardware")
-    from ..outputs import refuse_undecodable, refuse_unsafe_output
-
     out = Path(args.out)
     refuse_unsafe_output(out)
     for what, name in (("track", args.track), ("preset", args.preset)):
@@ -58,13 +73,14 @@ def run_teach(args: argparse.Namespace) -> int:
     if out.exists() and not args.force:
         raise LfdTrackError(f"{out}: already exists (use --force to replace it)")
     replacing = out.exists()  # kept until the new recording holds a case
+    config = teach_config(args)
     token = None if is_loopback(args.host) else new_token()
     sock = bind_socket(args.host, args.port)
     try:
         # Opening a camera or a serial link can take seconds: SIGTERM or SIGHUP meanwhile ends
         # it like Ctrl-C, so the session's clean-up runs (no empty recording is left behind).
         with stop_signals_interrupt():
-            session = open_session(args)
+            session = station_session.open_session(config)
     except BaseException:
         sock.close()
         raise
@@ -83,7 +99,7 @@ def run_teach(args: argparse.Namespace) -> int:
         sock.close()
     status = session.status()
     if replacing and not status["cases"]:
-        return 0  # the recording has said that nothing was recorded and the file is unchanged
+        return EXIT_OK  # the recording has said that nothing was recorded and the file is unchanged
     counts = status.get("counts", {})
     print(
         f"{out}: {status['cases']} cases ({counts.get('forward', 0)} forward, "
@@ -91,11 +107,11 @@ def run_teach(args: argparse.Namespace) -> int:
         + (f", {status['corrections']} corrections" if args.online else "")
         + f"), library {status['library_models']} models"
     )
-    return 0
+    return EXIT_OK
 
 
-def add_teach_parser(subparsers: Any) -> argparse.ArgumentParser:
-    """Add ``teach`` to the main CLI (handler stored as ``func``)."""
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Add ``teach`` to the ``lfd-track`` commands."""
     teach = subparsers.add_parser(
         "teach",
         help="teach from a browser (laptop or phone): live view, buttons, recording",
@@ -118,7 +134,7 @@ def add_teach_parser(subparsers: Any) -> argparse.ArgumentParser:
     teach.add_argument("--serial", metavar="URL", help="serial port or pyserial URL (hardware)")
     teach.add_argument(
         "--period",
-        type=_float_in(*PERIOD_RANGE),
+        type=float_in(*PERIOD_RANGE),
         default=None,
         metavar="S",
         help="control period [s], {:g}..{:g}: the real robot's command length; in the simulator the "
@@ -184,9 +200,9 @@ def add_teach_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     teach.add_argument(
         "--fps",
-        type=_float_in(*FPS_RANGE),
+        type=float_in(*FPS_RANGE),
         default=DEFAULT_FPS,
         help=f"live view frames/s, {FPS_RANGE[0]:g}..{FPS_RANGE[1]:g} (default 10)",
     )
-    teach.set_defaults(func=run_teach)
+    teach.set_defaults(func=run)
     return teach

@@ -9,7 +9,6 @@ for it, and the top-down trajectory starts afresh with each lap.
 
 from __future__ import annotations
 
-import errno
 import os
 from pathlib import Path
 from typing import Any
@@ -17,12 +16,12 @@ from typing import Any
 import cv2
 import numpy as np
 
-from .atomic import replace_file
-from .core.commands import Command
-from .outputs import refuse_unsafe_output, shown_path
-from .render.topdown import draw_topdown
-from .utils.extras import needs_extra
-from .vision.overlay import draw_road_values
+from ..core.commands import Command
+from ..render.topdown import draw_topdown
+from ..utils.atomic import replace_file
+from ..utils.extras import needs_extra
+from ..utils.outputs import refuse_unsafe_output, shown_path, unwritable_name
+from ..vision.overlay import draw_road_values
 
 #: File suffix → (FFmpeg encoder, its options). Fast presets: a drive's video should cost about
 #: as much time as the drive.
@@ -41,24 +40,6 @@ def _label(canvas: np.ndarray, text: str, org: tuple[int, int], scale: float = 0
         )
 
 
-def _check_writable_name(path: Path) -> None:
-    """Raise OSError (one line, naming the path) if no file can be created at ``path``: it is a
-    folder, or a folder it needs is an existing file."""
-    if path.is_dir():
-        raise IsADirectoryError(errno.EISDIR, "is a folder, expected a video file name", str(path))
-    for parent in path.parents:
-        if parent.exists():
-            if not parent.is_dir():
-                raise NotADirectoryError(
-                    errno.ENOTDIR, f"{_shown(parent)} is not a folder", str(path)
-                )
-            return
-
-
-def _shown(path: Path) -> str:
-    return os.fsencode(path).decode("utf-8", "backslashreplace")
-
-
 class DriveVideo:
     """Writes the frames of a drive as a video; the file appears (atomically) on ``close``.
 
@@ -75,7 +56,9 @@ class DriveVideo:
         if suffix not in VIDEO_FORMATS:
             raise ValueError(f"{self.path}: a video name must end in .mp4 (H.264) or .webm (VP9)")
         refuse_unsafe_output(self.path)
-        _check_writable_name(self.path)
+        problem = unwritable_name(self.path, "video file")
+        if problem is not None:
+            raise OSError(*problem, str(self.path))  # IsADirectoryError, NotADirectoryError
         self.codec, self._options = VIDEO_FORMATS[suffix]
         self.env = env
         self.fps = fps

@@ -15,13 +15,14 @@ overwrites an earlier partial recording.
 
 from __future__ import annotations
 
+import errno
 import itertools
 import os
 import stat
 from collections.abc import Iterator
 from pathlib import Path
 
-from .errors import LfdTrackError
+from ..errors import LfdTrackError
 
 
 def shown_path(path: str | Path) -> str:
@@ -31,6 +32,29 @@ def shown_path(path: str | Path) -> str:
         return os.fsencode(path).decode("utf-8", "backslashreplace")
     except UnicodeEncodeError:  # a surrogate that no undecodable byte stands for
         return os.fspath(path).encode("utf-8", "backslashreplace").decode("utf-8")
+
+
+def same_file(a: str | Path, b: str | Path) -> bool:
+    """Whether ``a`` and ``b`` name the same file (through links, ``..``, symbolic links)."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one of them does not exist
+        return os.path.realpath(a) == os.path.realpath(b)
+
+
+def unwritable_name(path: str | Path, what: str = "file") -> tuple[int, str] | None:
+    """Why no file can be created at ``path``, as ``(errno, problem)``: it is a folder ("is a
+    folder, expected a ``what`` name"), or a folder it needs is something else ("PARENT is not a
+    folder"); None when nothing stands in the way."""
+    path = Path(path)
+    if path.is_dir():
+        return errno.EISDIR, f"is a folder, expected a {what} name"
+    for parent in path.parents:
+        if parent.exists():
+            if not parent.is_dir():
+                return errno.ENOTDIR, f"{shown_path(parent)} is not a folder"
+            break
+    return None
 
 
 def refuse_undecodable(name: str | Path, what: str) -> None:

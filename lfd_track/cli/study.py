@@ -1,4 +1,5 @@
-"""The ``lfd-track study`` subcommand."""
+"""``lfd-track study``: conditions x seeds of the paper protocol, resumable; writes DIR/study.json,
+study.md and study.png."""
 
 from __future__ import annotations
 
@@ -8,12 +9,17 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from ..cli_types import positive_int as _workers
 from ..errors import LfdTrackError
+from ..study.run import load_finished, locked_out, run_study
+from ..study.spec import load_study
+from ..utils.outputs import refuse_unsafe_output, shown_path
+from ..utils.signals import Terminated, interrupted_exit_code, raise_terminated
+from .types import EXIT_OK
+from .types import positive_int as _workers
 
 
-def add_study_parser(subparsers: Any) -> argparse.ArgumentParser:
-    """Add ``study`` to the ``lfd-track`` subcommands; its ``func`` returns the exit code."""
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Add ``study`` to the ``lfd-track`` commands."""
     study = subparsers.add_parser(
         "study",
         help="run a study: conditions x seeds of the paper protocol, with 95 %% intervals",
@@ -42,22 +48,18 @@ def add_study_parser(subparsers: Any) -> argparse.ArgumentParser:
         default=1,
         help="jobs run at once: local processes, or the CPUs of a local Ray (default 1)",
     )
-    study.set_defaults(func=_cmd_study)
+    study.set_defaults(func=run)
     return study
 
 
-def _cmd_study(args: argparse.Namespace) -> int:
-    from ..outputs import shown_path
-    from ..utils.signals import Terminated, interrupted_exit_code, raise_terminated
-    from .run import load_finished, locked_out, run_study
-    from .spec import load_study
-    from .summary import write_study_outputs
+def run(args: argparse.Namespace) -> int:
+    """The ``study`` command."""
+    # Lazy: the summary draws study.png (the drawing stack, OpenCV) only when a study runs.
+    from ..study.summary import write_study_outputs
 
     if args.address is not None and args.executor != "ray":
         raise LfdTrackError("--address needs --executor ray")
     study = load_study(args.study_file)  # a bad study file fails here, before DIR is touched
-    from ..outputs import refuse_unsafe_output
-
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise LfdTrackError(f"{out}: exists and is not a folder")
@@ -71,7 +73,7 @@ def _cmd_study(args: argparse.Namespace) -> int:
         # processes too), the finished ones are kept.
         previous = signal.signal(signal.SIGTERM, raise_terminated)
         try:
-            run = run_study(
+            done = run_study(
                 study,
                 out,
                 executor=args.executor,
@@ -99,11 +101,11 @@ def _cmd_study(args: argparse.Namespace) -> int:
             f"{c['training']['successes']}/{c['training']['trials']}"
         )
     again = ""
-    if run.again:
-        whose = "its worker process" if run.again == 1 else "their worker processes"
-        again = f" ({run.again} again after {whose} died)"
+    if done.again:
+        whose = "its worker process" if done.again == 1 else "their worker processes"
+        again = f" ({done.again} again after {whose} died)"
     print(
-        f"{run.ran} jobs run{again}, {run.skipped} already finished, {run.wall_s:.0f} s; "
+        f"{done.ran} jobs run{again}, {done.skipped} already finished, {done.wall_s:.0f} s; "
         f"tables {out / 'study.md'}, results {out / 'study.json'}, plot {out / 'study.png'}"
     )
-    return 0
+    return EXIT_OK

@@ -1,0 +1,202 @@
+"""``lfd-track benchmark``: the paper protocol (Tables 2 and 3), repeated; its output folder
+changes only when the whole run has succeeded (:mod:`lfd_track.utils.staging`)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from ..benchmark import runner
+from ..benchmark.methods import METHODS
+from ..demo.demonstrator import HumanConfig
+from ..policy.memory import MEMORY_KINDS, MemoryConfig
+from ..teaching.scripted import TURNAROUND_RULES
+from ..utils.outputs import refuse_undecodable, refuse_unsafe_output, shown_path
+from ..utils.signals import Terminated, interrupted_exit_code, raise_terminated
+from ..utils.staging import staged_output
+from .types import EXIT_OK, whole_number_in
+
+
+def _cores() -> int:
+    """CPU cores this process may use (the default number of benchmark workers)."""
+    try:
+        return max(len(os.sched_getaffinity(0)), 1)
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Add ``benchmark`` to the ``lfd-track`` commands."""
+    bench = subparsers.add_parser(
+        "benchmark",
+        help="reproduce the paper's Tables 2 and 3",
+        description="The paper protocol: per repetition a fresh demonstration, evolution, then 3 runs each way on the training track and 3 laps each way on the testing track.",
+    )
+    bench.add_argument(
+        "--repetitions",
+        type=whole_number_in(1, runner.MAX_REPETITIONS),
+        default=None,
+        help=f"repetitions, at most {runner.MAX_REPETITIONS} (default: 10; 1 with --quick)",
+    )
+    bench.add_argument(
+        "--trials",
+        type=whole_number_in(1, runner.MAX_TRIALS_PER_DIRECTION),
+        default=None,
+        help=f"runs per direction per repetition, at most {runner.MAX_TRIALS_PER_DIRECTION}"
+        " (default: 3; 1 with --quick)",
+    )
+    bench.add_argument(
+        "--seed",
+        type=whole_number_in(0, runner.MAX_SEED),
+        default=0,
+        help=f"benchmark seed, 0..{runner.MAX_SEED} (default: 0)",
+    )
+    bench.add_argument(
+        "--workers",
+        type=whole_number_in(1, runner.MAX_WORKERS),
+        default=None,
+        help=f"parallel processes, at most {runner.MAX_WORKERS}; results do not depend on it"
+        f" (default: the number of cores, here {_cores()})",
+    )
+    bench.add_argument(
+        "--preset", default="paper", help="environment preset name or TOML path (default: paper)"
+    )
+    bench.add_argument(
+        "--test-track",
+        action="append",
+        default=[],
+        metavar="TRACK",
+        help="also lap this loop (name or .toml path) both ways, as many laps as on the testing"
+        " track; repeatable; results per track in results.json",
+    )
+    bench.add_argument(
+        "--demo-track",
+        default="training",
+        metavar="TRACK",
+        help="open track (name or .toml path) the human demonstrates on, and HG-DAgger's rounds"
+        " drive (default: the paper's training track, which is also scored either way)",
+    )
+    bench.add_argument(
+        "--method",
+        choices=METHODS,
+        default="paper",
+        help="how each repetition learns: paper (demonstrate, then evolve), online (evolve while"
+        " demonstrating, policy takes over, human corrects), hg-dagger (rounds of runs with"
+        " interventions), bc, cma-es (default: paper)",
+    )
+    bench.add_argument(
+        "--turnarounds",
+        choices=TURNAROUND_RULES,
+        default="alternate",
+        help="the human's turn-arounds at the training track's ends: alternate (the paper's),"
+        " one_sided, unrecorded, toward_last_bend (default: alternate)",
+    )
+    bench.add_argument(
+        "--memory",
+        choices=MEMORY_KINDS,
+        default="none",
+        help="memory inputs of the policy after the 40 road values: none (the paper's) or"
+        " last_bend (the side of the last bend; pair it with --turnarounds toward_last_bend)",
+    )
+    bench.add_argument(
+        "--mirror",
+        action="store_true",
+        help="learn from the cases and their mirror images (left and right swapped)",
+    )
+    bench.add_argument(
+        "--careless",
+        action="store_true",
+        help="demonstrator keeps learning while the safe box is off the felt",
+    )
+    bench.add_argument(
+        "--keep-learning",
+        action="store_true",
+        help="road library keeps learning during autonomous runs (default: frozen, as in the paper)",
+    )
+    bench.add_argument(
+        "--quick", action="store_true", help="one repetition, one run per direction (a smoke test)"
+    )
+    bench.add_argument(
+        "--out", required=True, help="output folder (results.json, report.md, plots)"
+    )
+    bench.set_defaults(func=run)
+    return bench
+
+
+def run(args: argparse.Namespace) -> int:
+    """The ``benchmark`` command."""
+    # Lazy: the drawing and progress-bar stack (OpenCV, tqdm) loads only when the command runs.
+    from ..benchmark import report
+    from ..utils.progress import progress_bar
+
+    repetitions = 1 if args.quick and args.repetitions is None else (args.repetitions or 10)
+    trials = args.trials or (1 if args.quick else 3)
+    config = runner.BenchmarkConfig(
+        repetitions=repetitions,
+        seed=args.seed,
+        trials_per_direction=trials,
+        preset=args.preset,
+        human=HumanConfig(careful=not args.careless, turnarounds=args.turnarounds),
+        keep_learning=args.keep_learning,
+        method=args.method,
+        test_tracks=("testing", *args.test_track),
+        memory=MemoryConfig(kind=args.memory),
+        mirror=args.mirror,
+        demo_track=args.demo_track,
+    )
+    # Track and preset names are recorded in results.json and report.md, which hold text only.
+    for what, name in (
+        ("preset", args.preset),
+        ("demonstration track", args.demo_track),
+        *(("test track", track) for track in args.test_track),
+    ):
+        refuse_undecodable(name, what)
+    refuse_unsafe_output(args.out, folder=True)
+    workers = args.workers or min(_cores(), runner.MAX_WORKERS)
+    runner.check_workers(workers)
+    # A bad preset, a track that is not a loop with corners or whose ground texture would be too
+    # big with this preset fails here, before anything is created.
+    runner.check_tracks(config)
+    out = Path(args.out)
+    # The run goes to a staging folder and replaces the previous output only once it has
+    # succeeded: a failure at any point leaves the previous output as it was. SIGTERM stops it
+    # like Ctrl-C, so the staging folder is removed too.
+    previous = signal.signal(signal.SIGTERM, raise_terminated)
+    try:
+        with staged_output(out) as stage:
+            start = time.perf_counter()
+            with progress_bar(
+                config.repetitions, "benchmark", unit=" repetitions", enabled=not args.quiet
+            ) as bar:
+
+                def tick(result: Any) -> None:
+                    wins = sum(o.success for o in result.outcomes)
+                    bar.set_postfix_str(
+                        f"repetition {result.index}: {wins}/{len(result.outcomes)} trials"
+                        " succeeded",
+                        refresh=False,
+                    )
+                    bar.update(1)
+
+                reps = runner.run_benchmark(
+                    config, stage / "repetitions", workers=workers, progress=tick
+                )
+            wall = time.perf_counter() - start
+            text = report.write_benchmark_outputs(stage, config, reps, wall_s=wall, workers=workers)
+    except (KeyboardInterrupt, Terminated) as exc:
+        code = interrupted_exit_code(exc)
+        print(f"lfd-track benchmark: interrupted; {shown_path(out)} is as it was", file=sys.stderr)
+        return code
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    print(text)
+    print(
+        f"\nreport: {shown_path(out / 'report.md')}\nresults: {shown_path(out / 'results.json')}"
+        f"\nplots: {shown_path(out / 'trajectories.png')}, {shown_path(out / 'fitness.png')}"
+    )
+    return EXIT_OK

@@ -1,0 +1,121 @@
+"""``lfd-track evolve``: the paper's GA on a demonstration; writes the controller and its fitness
+curve, both or neither."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..dataset import load_demonstration
+from ..errors import LfdTrackError
+from ..learning.fitness import training_accuracy
+from ..learning.ga import GAConfig, evolve
+from ..policy.controller import Controller
+from ..utils.atomic import replace_file, temporary_beside
+from ..utils.outputs import shown_path
+from ..vision.road_library import RoadLibrary
+from .outputs import advance, check_output
+from .types import EXIT_OK
+from .types import non_negative_int as _seed
+from .types import positive_int as _positive_int
+
+
+def add_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Add ``evolve`` to the ``lfd-track`` commands."""
+    evo = subparsers.add_parser(
+        "evolve",
+        help="evolve a controller from a demonstration",
+        description="Run the paper's GA (Table 1) on a demonstration; writes the controller JSON and a fitness-curve PNG beside it.",
+    )
+    evo.add_argument("demo", help="demonstration file (.lfdemo)")
+    evo.add_argument("--seed", type=_seed, default=0, help="GA seed (default: 0)")
+    evo.add_argument(
+        "--generations",
+        type=_positive_int,
+        default=200,
+        help="generations (default: 200, as in the paper)",
+    )
+    evo.add_argument(
+        "--elitism",
+        type=int,
+        default=0,
+        help="copies of the best kept each generation (default: 0, as in the paper)",
+    )
+    evo.add_argument("--out", required=True, help="controller file to write (.json)")
+    evo.set_defaults(func=run)
+    return evo
+
+
+def run(args: argparse.Namespace) -> int:
+    """The ``evolve`` command."""
+    # Lazy: the drawing and progress-bar stack (OpenCV, tqdm) loads only when the command runs.
+    from ..utils.progress import progress_bar
+    from ..viz import plots
+
+    png = Path(args.out).with_suffix(".fitness.png")
+    for out in (args.out, png):
+        check_output(out, [("demonstration", args.demo)])
+    demo = load_demonstration(args.demo)
+    if demo.n_cases == 0:
+        raise LfdTrackError(f"{shown_path(args.demo)}: the demonstration holds no cases")
+    library_dict = demo.metadata.get("road_library")
+    if not isinstance(library_dict, dict):
+        raise LfdTrackError(
+            f"{shown_path(args.demo)}: no road library stored (an interrupted recording without a"
+            " library log, written by an older lfd-track: record it again)"
+        )
+    try:
+        library = RoadLibrary.from_dict(library_dict)
+    except (ValueError, KeyError, TypeError) as exc:
+        raise LfdTrackError(f"{shown_path(args.demo)}: bad road library ({exc})") from None
+    if library.n_models == 0:
+        raise LfdTrackError(
+            f"{shown_path(args.demo)}: its road library is empty (no frame was learned while"
+            " recording), so a controller could not see the road"
+        )
+    try:
+        memory = demo.memory_settings()
+    except ValueError as exc:
+        raise LfdTrackError(f"{shown_path(args.demo)}: {exc}") from None
+    config = GAConfig(generations=args.generations, elitism=args.elitism)
+    with progress_bar(
+        config.generations, "evolving", unit=" generations", enabled=not args.quiet
+    ) as bar:
+        result = evolve(
+            demo.inputs,
+            demo.commands,
+            config,
+            np.random.default_rng(args.seed),
+            progress=lambda g, best, mean: advance(bar, g, f"best fitness {best:.4f}"),
+        )
+    controller = Controller.from_evolution(library, result, seed=args.seed, memory=memory)
+    accuracy = training_accuracy(result.best_weights, demo.inputs, demo.commands)
+    picture = plots.fitness_plot(
+        [
+            ("best", result.best_history, (200, 30, 30)),
+            ("mean", result.mean_history, (30, 80, 200)),
+        ],
+        title=f"Fitness of each generation: {shown_path(Path(args.demo).name)},"
+        f" GA seed {args.seed}",
+        notes=plots.fitness_notes(config.elitism),
+    )
+    # Both files or neither: the controller waits under a hidden name beside --out until the
+    # fitness curve is written, so a failure leaves an earlier pair as it was.
+    staged = temporary_beside(Path(args.out))
+    try:
+        controller.save(staged)
+        plots.write_png(str(png), picture)
+        replace_file(staged, args.out)
+    except BaseException:
+        staged.unlink(missing_ok=True)
+        raise
+    partial = "" if demo.metadata["complete"] else " (an interrupted recording)"
+    print(
+        f"{shown_path(args.out)}: best fitness {result.best_fitness:.4f} (generation "
+        f"{result.best_generation}), training accuracy {accuracy:.1%} on {demo.n_cases} cases"
+        f"{partial}; fitness curve {shown_path(png)}"
+    )
+    return EXIT_OK

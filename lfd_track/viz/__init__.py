@@ -1,0 +1,1 @@
+"""What a person sees: plots of runs and fitness, and videos of drives (never imported by the physics)."""
