@@ -227,6 +227,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("part", choices=("library", "teacher", "tune", "handwritten"))
     parser.add_argument("--laps", type=int, default=30, help="laps per track and direction")
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument(
+        "--fixed", action="store_true", help="handwritten: the default rule settings, untuned"
+    )
     args = parser.parse_args(argv)
     t0 = time.perf_counter()
     if args.part == "library":
@@ -269,7 +272,13 @@ def main(argv: list[str] | None = None) -> int:
         )
         _write("tune", results, note, {"score": score, "chosen": chosen})
     else:
-        chosen = json.loads((RESULTS / "tune.json").read_text())["chosen"]
+        if args.fixed:  # the rule's settings as written before any run, not tuned
+            chosen = {
+                kind: {"name": "fixed", "config": {"latch": kind == "latch"}}
+                for kind in ("reactive", "latch")
+            }
+        else:
+            chosen = json.loads((RESULTS / "tune.json").read_text())["chosen"]
         jobs = [
             (f"{kind} ({c['name']})", c["config"], *d, args.laps)
             for kind, c in chosen.items()
@@ -277,7 +286,7 @@ def main(argv: list[str] | None = None) -> int:
         ]
         results = _run(run_rule, jobs, args.workers)
         note = (
-            f"The hand-written road-value rules chosen by `tune`, {args.laps} laps per track "
+            f"The hand-written road-value rules ({'fixed before running' if args.fixed else 'chosen by `tune`'}), {args.laps} laps per track "
             "and direction; no learning (human commands, corrections, robot seconds while "
             "learning: none beyond the standard demonstration that built the library)."
         )
