@@ -31,7 +31,13 @@ PHASE_LIBRARY_ONLY = "library_only"
 PHASE_DRIVE = "drive"
 PHASE_TURNAROUND = "turnaround"
 #: Turn-around rules of the protocol (``HumanConfig.turnarounds``).
-TURNAROUND_RULES = ("alternate", "one_sided", "unrecorded", "toward_last_bend")
+TURNAROUND_RULES = (
+    "alternate",
+    "one_sided",
+    "unrecorded",
+    "toward_last_bend",
+    "toward_next_bend",
+)
 
 
 @dataclass(frozen=True)
@@ -49,7 +55,11 @@ class HumanConfig:
     # Turn-around rule: "alternate" (left, right, left, ...), "one_sided" (always the first
     # direction), "unrecorded" (alternate, but the turn-around commands are not recorded) or
     # "toward_last_bend" (turn the way the leg's last bend turned: where the felt came from; on
-    # the training track that is right, left, right, ..., i.e. alternating from the right).
+    # the training track that is right, left, right, ..., i.e. alternating from the right) or
+    # "toward_next_bend" (turn the way the next leg's first bend turns: where the felt goes; on
+    # the training track that is left, right, left, ...).
+    # The other human-model options of a study are the traits above: dead_band_deg,
+    # lookahead_m, reaction_delay_prob and lapse_prob (0 and 0: a noise-free human).
     turnarounds: str = "alternate"
     careful: bool = True  # pause library learning while the safe box is off the felt
     max_commands: int = 1000  # give up (error) after this many commands
@@ -324,11 +334,13 @@ class ProtocolHuman:
         back_tracker.update(pose[:2])
         self._back = (CentrelineDriver(back, self.config.driver), back_tracker.progress_m)
         self._direction = self._next_turn
-        if self.config.turnarounds == "toward_last_bend":
-            turns = self.legs[self.leg % 2].vertex_turns_rad
+        if self.config.turnarounds in ("toward_last_bend", "toward_next_bend"):
+            last = self.config.turnarounds == "toward_last_bend"
+            turns = self.legs[(self.leg + (0 if last else 1)) % 2].vertex_turns_rad
             bends = turns[np.abs(turns) > 1e-9]
             if len(bends):
-                self._direction = Command.LEFT if bends[-1] > 0 else Command.RIGHT
+                bend = bends[-1] if last else bends[0]
+                self._direction = Command.LEFT if bend > 0 else Command.RIGHT
         self.turnarounds.append(self._direction.name.lower())
         if self.config.turnarounds != "one_sided":
             self._next_turn = Command.RIGHT if self._direction == Command.LEFT else Command.LEFT

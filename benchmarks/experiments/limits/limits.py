@@ -1,0 +1,299 @@
+"""What limits generalization: the teacher's ceiling and the road values' ceiling.
+
+Parts (see README.md beside this file for the protocol):
+
+* ``teacher`` — the scripted human itself (privileged: pure pursuit on the known track) laps
+  every shipped loop both ways and the training track both ways, with its default traits and
+  with its reaction delay and lapses switched off.
+* ``tune`` — the hand-written road-value rule (``lfd_track.teaching.handwritten``), reactive
+  and latched, over a fixed grid, scored on the training track and the validation loop only.
+* ``handwritten`` — the two rules the tuning chose, on every loop and the training track.
+
+Every part drives the paper preset; the road library is the one a standard demonstration built
+(the paper pipeline's seed 0, repetition 0), frozen. Results go to ``results/<part>.json`` and
+``results/<part>.md``.
+
+    .venv/bin/python benchmarks/experiments/limits/limits.py teacher --laps 30 --workers 2
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import itertools
+import json
+import math
+import sys
+import tempfile
+import time
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from lfd_track.benchmark.runner import repetition_seeds, repetition_streams, trial_worlds
+from lfd_track.dataset import load_demonstration
+from lfd_track.demo.demonstrator import run_demonstration
+from lfd_track.envs.track_env import LfDTrackEnv
+from lfd_track.teaching.arbiter import Arbiter
+from lfd_track.teaching.handwritten import RoadRule, RoadRuleConfig
+from lfd_track.teaching.loop import TeachingLoop
+from lfd_track.teaching.perception import Perception
+from lfd_track.teaching.scripted import HumanConfig, ScriptedHuman
+from lfd_track.vision.road_library import RoadLibrary
+from lfd_track.world.driver import CentrelineDriver
+
+HERE = Path(__file__).resolve().parent
+RESULTS = HERE / "results"
+LOOPS = ("testing", "kite", "sbend", "notch", "bolt", "step")
+VALIDATION = "kite"
+TRIAL_SEED = 20240601  # the worlds (floors, lighting) of every direction are drawn from this
+TEACHERS = {
+    "human": HumanConfig(),
+    "noise-free": HumanConfig(reaction_delay_prob=0.0, lapse_prob=0.0),
+}
+
+
+def directions(loops: tuple[str, ...]) -> list[tuple[str, bool, str, int]]:
+    """(track, reverse, direction, world seed) of the training track and each loop, both ways."""
+    return trial_worlds(TRIAL_SEED, loops)
+
+
+def standard_library() -> RoadLibrary:
+    """The road library of the paper pipeline's seed 0, repetition 0 demonstration."""
+    demo_seed, _, _ = repetition_streams(repetition_seeds(0, 10)[0])
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "demonstration.lfdemo"
+        run_demonstration(path, seed=demo_seed, fsync=False)
+        library = load_demonstration(path).metadata["road_library"]
+    return RoadLibrary.from_dict(library)
+
+
+def _outcome(info: dict[str, Any], steps: int) -> dict[str, Any]:
+    failure = info["failure"]
+    if not info["success"] and failure is None:
+        failure = "timeout"
+    return {
+        "success": bool(info["success"]),
+        "failure": failure,
+        "failed_corner": info.get("failed_corner"),
+        "corners_negotiated": list(info["corners_negotiated"]),
+        "steps": steps,
+    }
+
+
+# ---------------------------------------------------------------------------------- teacher
+def run_teacher(job: tuple[str, str, bool, str, int, int, int]) -> dict[str, Any]:
+    """Laps of the scripted human (privileged) in one direction."""
+    teacher, track, reverse, direction, world_seed, laps, human_seed = job
+    env = LfDTrackEnv(track=track, reverse=reverse)
+    driver = CentrelineDriver(env.track, TEACHERS[teacher].driver)
+    rng = np.random.default_rng(human_seed)
+    outcomes = []
+    for lap in range(laps):
+        frame, info = env.reset(seed=world_seed if lap == 0 else None)
+        # The human steers by the privileged pose, not the picture: the camera frames are not
+        # drawn (physics, sensor-independent streams and scoring are unchanged).
+        env._renderer.render = lambda *args, **kwargs: frame  # noqa: B023, SLF001
+        person = ScriptedHuman(TEACHERS[teacher], rng)
+        steps = 0
+        while True:
+            command = person.decide(driver, np.asarray(info["pose"]), info["progress_m"])
+            _, _, terminated, truncated, info = env.step(int(command))
+            steps += 1
+            if terminated or truncated:
+                break
+        outcomes.append(_outcome(info, steps))
+    env.close()
+    return {"policy": teacher, "track": track, "direction": direction, "outcomes": outcomes}
+
+
+# ---------------------------------------------------------------------------------- road rule
+_LIBRARY: RoadLibrary | None = None
+
+
+def _library() -> RoadLibrary:
+    global _LIBRARY
+    if _LIBRARY is None:
+        _LIBRARY = RoadLibrary.from_dict(json.loads((RESULTS / "library.json").read_text()))
+    return _LIBRARY
+
+
+def run_rule(job: tuple[str, dict, str, bool, str, int, int]) -> dict[str, Any]:
+    """Laps of the hand-written rule ``config`` in one direction (frozen standard library)."""
+    name, config, track, reverse, direction, world_seed, laps = job
+    cfg = RoadRuleConfig(**config)
+    env = LfDTrackEnv(track=track, reverse=reverse)
+    outcomes = []
+    for lap in range(laps):
+        rule = RoadRule(cfg)
+        loop = TeachingLoop(
+            env,
+            Perception(_library(), "frozen", cfg.memory),
+            Arbiter("policy"),
+            policy=rule,
+        )
+        loop.reset(seed=world_seed if lap == 0 else None)
+        loop.run()
+        record = _outcome(loop.info, loop.counts.steps)
+        record["blank_frames"] = rule.blank_frames
+        outcomes.append(record)
+    env.close()
+    return {"policy": name, "track": track, "direction": direction, "outcomes": outcomes}
+
+
+# ---------------------------------------------------------------------------------- tables
+def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """95 % Wilson interval of k successes in n."""
+    if n == 0:
+        return (0.0, 0.0)
+    p = k / n
+    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return (max(0.0, centre - half), min(1.0, centre + half))
+
+
+def table(results: list[dict[str, Any]], note: str) -> str:
+    """Markdown: laps per policy and direction, with failures by kind and corner."""
+    policies = list(dict.fromkeys(r["policy"] for r in results))
+    lines = [note, ""]
+    for policy in policies:
+        rows = [r for r in results if r["policy"] == policy]
+        lines += [
+            f"### {policy}",
+            "",
+            "| track | direction | laps | failures (kind: corner) |",
+            "|---|---|---|---|",
+        ]
+        unseen_k = unseen_n = 0
+        for r in rows:
+            k = sum(o["success"] for o in r["outcomes"])
+            n = len(r["outcomes"])
+            if r["track"] in ("notch", "bolt", "step"):
+                unseen_k, unseen_n = unseen_k + k, unseen_n + n
+            fails: dict[str, int] = {}
+            for o in r["outcomes"]:
+                if not o["success"]:
+                    key = f"{o['failure']}: {o['failed_corner']}"
+                    fails[key] = fails.get(key, 0) + 1
+            text = ", ".join(f"{key} ×{v}" for key, v in sorted(fails.items())) or "–"
+            lines.append(f"| {r['track']} | {r['direction']} | {k}/{n} | {text} |")
+        lo, hi = wilson(unseen_k, unseen_n)
+        lines += [
+            "",
+            f"Unseen loops notch/bolt/step: {unseen_k}/{unseen_n} = "
+            f"{100 * unseen_k / max(unseen_n, 1):.0f} % [{100 * lo:.0f}–{100 * hi:.0f}].",
+            "",
+        ]
+    return "\n".join(lines)
+
+
+def _run(fn, jobs: list, workers: int) -> list[dict[str, Any]]:
+    if workers == 1:
+        return [fn(j) for j in jobs]
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        return list(pool.map(fn, jobs))
+
+
+def _write(name: str, results: list[dict[str, Any]], note: str, extra: dict | None = None) -> None:
+    RESULTS.mkdir(exist_ok=True)
+    payload = {"part": name, **(extra or {}), "results": results}
+    (RESULTS / f"{name}.json").write_text(json.dumps(payload, indent=1) + "\n")
+    (RESULTS / f"{name}.md").write_text(table(results, note) + "\n")
+
+
+# ---------------------------------------------------------------------------------- tuning
+#: The tuning grid, fixed before running (README): every combination, reactive and latched.
+GRID = {
+    "turn_at": (0.5, 1.0, 1.5),
+    "row_weights": ((1.0, 1.0, 1.0, 1.0, 1.0), (3.0, 2.0, 1.0, 1.0, 1.0)),
+}
+
+
+def candidates() -> list[tuple[str, dict]]:
+    out = []
+    for latch in (False, True):
+        for turn_at, rows in itertools.product(*GRID.values()):
+            cfg = {"turn_at": turn_at, "row_weights": rows, "latch": latch}
+            far = "far" if rows[0] > 1 else "flat"
+            name = f"{'latch' if latch else 'reactive'}.t{turn_at}.{far}"
+            out.append((name, cfg))
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("part", choices=("library", "teacher", "tune", "handwritten"))
+    parser.add_argument("--laps", type=int, default=30, help="laps per track and direction")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument(
+        "--fixed", action="store_true", help="handwritten: the default rule settings, untuned"
+    )
+    args = parser.parse_args(argv)
+    t0 = time.perf_counter()
+    if args.part == "library":
+        RESULTS.mkdir(exist_ok=True)
+        (RESULTS / "library.json").write_text(json.dumps(standard_library().to_dict()) + "\n")
+    elif args.part == "teacher":
+        jobs = [
+            (teacher, track, rev, d, seed, args.laps, 1000 + i)
+            for teacher in TEACHERS
+            for i, (track, rev, d, seed) in enumerate(directions(LOOPS))
+        ]
+        results = _run(run_teacher, jobs, args.workers)
+        note = (
+            f"The scripted human (privileged), {args.laps} laps per track and direction; no "
+            "learning (human commands, corrections, robot seconds while learning: none)."
+        )
+        _write(
+            "teacher",
+            results,
+            note,
+            {"teachers": {k: dataclasses.asdict(v) for k, v in TEACHERS.items()}},
+        )
+    elif args.part == "tune":
+        dirs = directions((VALIDATION,))
+        jobs = [(name, cfg, *d, args.laps) for name, cfg in candidates() for d in dirs]
+        results = _run(run_rule, jobs, args.workers)
+        score: dict[str, int] = {}
+        for r in results:
+            score[r["policy"]] = score.get(r["policy"], 0) + sum(
+                o["success"] for o in r["outcomes"]
+            )
+        chosen = {}
+        for kind in ("reactive", "latch"):
+            names = [n for n, _ in candidates() if n.startswith(kind + ".")]
+            best = max(names, key=lambda n: score[n])  # ties: the first in grid order
+            chosen[kind] = {"name": best, "config": dict(candidates())[best], "laps": score[best]}
+        note = (
+            f"Tuning on the training track and `{VALIDATION}` only, {args.laps} laps per "
+            f"direction; chosen: {json.dumps(chosen)}"
+        )
+        _write("tune", results, note, {"score": score, "chosen": chosen})
+    else:
+        if args.fixed:  # the rule's settings as written before any run, not tuned
+            chosen = {
+                kind: {"name": "fixed", "config": {"latch": kind == "latch"}}
+                for kind in ("reactive", "latch")
+            }
+        else:
+            chosen = json.loads((RESULTS / "tune.json").read_text())["chosen"]
+        jobs = [
+            (f"{kind} ({c['name']})", c["config"], *d, args.laps)
+            for kind, c in chosen.items()
+            for d in directions(LOOPS)
+        ]
+        results = _run(run_rule, jobs, args.workers)
+        note = (
+            f"The hand-written road-value rules ({'fixed before running' if args.fixed else 'chosen by `tune`'}), {args.laps} laps per track "
+            "and direction; no learning (human commands, corrections, robot seconds while "
+            "learning: none beyond the standard demonstration that built the library)."
+        )
+        _write("handwritten", results, note, {"chosen": chosen})
+    print(f"{args.part}: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,112 @@
+"""Hand-written policies on the road values: what the 40 inputs allow without any learning.
+
+:class:`RoadRule` reads the same 40 road values (8 columns x 5 rows, row-major from the
+top-left) a learned 40-5-3 network reads, through a frozen road library, and steers by a fixed
+rule:
+
+* a region counts as felt by how far its road value lies between ``carpet`` and ``felt``
+  (0 at or below ``carpet``, 1 at or above ``felt``);
+* the *aim* is the felt's mean column position (columns at -3.5 .. +3.5, left negative), each
+  row weighted by ``row_weights`` (top row first: weighting the far rows looks further ahead);
+* if the weighted felt in view is below ``blank``, the view says nothing about where the felt
+  went (past a sharp corner the next strip is out of view): the rule pivots toward the side of
+  the last bend when it has the one-bit latch (``latch=True``; the ``last_bend`` memory of
+  :mod:`lfd_track.policy.memory`, computed from the executed commands), else toward the side
+  with more faint felt (ties: ``default_turn``);
+* otherwise it pivots toward the aim when it lies more than ``turn_at`` columns off the centre,
+  and drives forward when not.
+
+The rule has no random part: the same road values (and latch) give the same command.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core.commands import Command
+from ..core.frame import GRID_COLUMNS, GRID_ROWS, N_REGIONS
+from ..policy.memory import UNKNOWN_SIDE, MemoryConfig
+
+_COLUMN_X = np.arange(GRID_COLUMNS, dtype=np.float64) - (GRID_COLUMNS - 1) / 2.0
+
+
+@dataclass(frozen=True)
+class RoadRuleConfig:
+    """Settings of the hand-written road-value rule (see the module docstring)."""
+
+    carpet: float = 0.3
+    """Road value at or below which a region counts as carpet."""
+    felt: float = 0.5
+    """Road value at or above which a region counts as felt."""
+    row_weights: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0, 1.0)
+    """Weight of each grid row in the aim, top (far) row first."""
+    turn_at: float = 1.0
+    """[columns] aim offset beyond which the rule pivots toward it."""
+    blank: float = 1.5
+    """Weighted felt in view below which the view is blank (nothing to aim at)."""
+    latch: bool = False
+    """Pivot toward the last bend's side when the view is blank (the one-bit latch)."""
+    default_turn: str = "left"
+    """Pivot direction on a blank view with no evidence either way (and, latched, before any
+    bend)."""
+    bend_pivots: int = 2
+    """Net pivots one way that make a bend (the latch; as ``MemoryConfig.bend_pivots``)."""
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.carpet < self.felt <= 1.0:
+            raise ValueError("road rule needs 0 <= carpet < felt <= 1")
+        if len(self.row_weights) != GRID_ROWS or min(self.row_weights) < 0:
+            raise ValueError(f"row_weights must be {GRID_ROWS} numbers >= 0")
+        object.__setattr__(self, "row_weights", tuple(float(w) for w in self.row_weights))
+        if self.turn_at < 0 or self.blank < 0:
+            raise ValueError("turn_at and blank must be >= 0")
+        if self.default_turn not in ("left", "right"):
+            raise ValueError("default_turn must be 'left' or 'right'")
+
+    @property
+    def memory(self) -> MemoryConfig | None:
+        """The memory the perception must supply (the latch), or None."""
+        return MemoryConfig(kind="last_bend", bend_pivots=self.bend_pivots) if self.latch else None
+
+
+@dataclass
+class RoadRule:
+    """A commander driving by :class:`RoadRuleConfig` from the moment's road values."""
+
+    config: RoadRuleConfig = field(default_factory=RoadRuleConfig)
+    blank_frames: int = 0
+    """Frames so far on which the view was blank."""
+
+    def reset(self) -> None:
+        pass  # the rule keeps no state of its own (the latch lives in the perception)
+
+    def propose(self, moment) -> Command:  # noqa: ANN001 - a teaching-loop Moment
+        inputs = np.asarray(moment.policy_inputs, dtype=np.float64)
+        side = float(inputs[N_REGIONS]) if len(inputs) > N_REGIONS else UNKNOWN_SIDE
+        return self.act(inputs[:N_REGIONS], side)
+
+    def act(self, values: np.ndarray, side: float = UNKNOWN_SIDE) -> Command:
+        """The command for road values (40,) and the latch ``side`` (1 left, 0 right, 0.5
+        unknown; ignored without ``latch``)."""
+        cfg = self.config
+        grid = np.asarray(values, dtype=np.float64).reshape(GRID_ROWS, GRID_COLUMNS)
+        felt = np.clip((grid - cfg.carpet) / (cfg.felt - cfg.carpet), 0.0, 1.0)
+        weights = np.asarray(cfg.row_weights)[:, None] * felt
+        mass = float(weights.sum())
+        default = Command.LEFT if cfg.default_turn == "left" else Command.RIGHT
+        if mass < cfg.blank:
+            self.blank_frames += 1
+            if cfg.latch and side != UNKNOWN_SIDE:
+                return Command.LEFT if side > UNKNOWN_SIDE else Command.RIGHT
+            lean = float((grid.sum(axis=0) * _COLUMN_X).sum())  # faint felt: which side
+            if abs(lean) < 1e-9:
+                return default
+            return Command.LEFT if lean < 0 else Command.RIGHT
+        aim = float((weights.sum(axis=0) * _COLUMN_X).sum() / mass)
+        if aim < -cfg.turn_at:
+            return Command.LEFT
+        if aim > cfg.turn_at:
+            return Command.RIGHT
+        return Command.FORWARD
