@@ -96,7 +96,7 @@ def _disk_full(*args, **kwargs):
 def test_a_drive_stopped_at_its_plot_leaves_the_earlier_video_and_plot(
     controller, tmp_path, monkeypatch, capsys, stop, code
 ):
-    from lfd_track import plots
+    from lfd_track.viz import plots
 
     video, plot = tmp_path / "v.mp4", tmp_path / "laps.png"
     assert _drive(controller, "--video", str(video), "--plot", str(plot)) == 0
@@ -214,7 +214,7 @@ def test_a_failed_evolve_leaves_the_earlier_controller_and_plot(
     if failure.startswith("full disk"):
         monkeypatch.setattr(os, "replace", _no_space_for(png))
     else:
-        from lfd_track import plots
+        from lfd_track.viz import plots
 
         monkeypatch.setattr(plots, "fitness_plot", _ctrl_c_while_plotting)
     code = main(["--quiet", "evolve", str(small_demo), "--generations", "2", "--out", str(out)])

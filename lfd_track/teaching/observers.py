@@ -9,7 +9,7 @@ import numpy as np
 
 if TYPE_CHECKING:
     from ..dataset import DemonstrationWriter
-    from .loop import Step
+    from .types import Step
 
 
 class Observer(Protocol):

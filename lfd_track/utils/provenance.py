@@ -30,8 +30,9 @@ def blas_libraries() -> list[dict[str, Any]] | None:
         from threadpoolctl import threadpool_info
     except ImportError:
         return None
-    # OpenCV's wheel bundles an OpenBLAS of its own; the file name tells the two apart.
-    return [
+    # OpenCV's wheel bundles an OpenBLAS of its own; the file name tells the two apart. Sorted by
+    # it, since the order threadpoolctl finds them in follows the order they were loaded.
+    found = [
         {
             "library": os.path.basename(info.get("filepath") or ""),
             **{k: info.get(k) for k in _BLAS_FIELDS},
@@ -39,6 +40,7 @@ def blas_libraries() -> list[dict[str, Any]] | None:
         for info in threadpool_info()
         if info.get("user_api") == "blas"
     ]
+    return sorted(found, key=lambda entry: entry["library"])
 
 
 def environment() -> dict[str, Any]:

@@ -145,3 +145,10 @@ def rover(board_link: BoardLink) -> BoardLink:
     """The board freshly powered up (motors off, default lease, no e-stop) for one test."""
     board_link.reset(cause="power-on")
     return board_link
+
+
+@pytest.fixture(scope="session")
+def board_link_type() -> type[BoardLink]:
+    """:class:`BoardLink` itself, for a module that opens a link to a board of its own (importing
+    ``conftest`` by name is ambiguous when several test folders have one)."""
+    return BoardLink

@@ -82,12 +82,12 @@ def optiboot_board(simulated_board: SimulatedBoard) -> Iterator[SimulatedBoard]:
 
 
 @pytest.fixture(scope="module")
-def optiboot_link(optiboot_board: SimulatedBoard) -> Iterator[BoardLink]:
-    from conftest import BoardLink
-
+def optiboot_link(
+    optiboot_board: SimulatedBoard, board_link_type: type[BoardLink]
+) -> Iterator[BoardLink]:
     port = serial.serial_for_url(optiboot_board.serial_url, baudrate=FIRMWARE_BAUD, timeout=0.05)
     try:
-        yield BoardLink(optiboot_board, port)
+        yield board_link_type(optiboot_board, port)
     finally:
         port.close()
 

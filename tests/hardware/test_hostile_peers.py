@@ -353,7 +353,10 @@ def test_teach_stopped_while_opening_the_robot_leaves_no_recording(
     (seconds, with silent peers) ends it like Ctrl-C: exit 130 and no empty recording left at
     ``--out`` for the next run to be refused over."""
 
+    reached = threading.Event()  # the command is past its imports and opening a peer
+
     def silent(conn: socket.socket, closed: threading.Event) -> None:
+        reached.set()
         closed.wait()
 
     out = tmp_path / "taught.lfdemo"
@@ -367,7 +370,8 @@ def test_teach_stopped_while_opening_the_robot_leaves_no_recording(
             cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
         )  # fmt: skip
         try:
-            time.sleep(1.0)  # importing, then waiting on the silent camera or link
+            # Failure guard only: returns once the command connects to the silent camera or link.
+            assert reached.wait(60), "teach never connected to its camera or link"
             assert proc.poll() is None, proc.communicate()
             proc.send_signal(signum)
             _, err = proc.communicate(timeout=10)

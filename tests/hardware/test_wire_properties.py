@@ -55,14 +55,18 @@ def test_every_valid_frame_round_trips(frame_type: str, seq: int, args: list[str
         return
     event("encoded")
     frame = Frame(frame_type, seq, tuple(args))
-    wire = encode_frame(frame_type, seq, *args)
-    assert wire.endswith(b"\n") and wire.count(b"\n") == 1 and len(wire) <= MAX_LINE_BYTES + 1
-    assert decode_line(wire[:-1]) == frame
-    assert decode_line(wire[:-1] + b"\r") == frame
-    assert FrameParser().feed(wire) == [frame]
+    line_bytes = encode_frame(frame_type, seq, *args)
+    assert (
+        line_bytes.endswith(b"\n")
+        and line_bytes.count(b"\n") == 1
+        and len(line_bytes) <= MAX_LINE_BYTES + 1
+    )
+    assert decode_line(line_bytes[:-1]) == frame
+    assert decode_line(line_bytes[:-1] + b"\r") == frame
+    assert FrameParser().feed(line_bytes) == [frame]
     # Any split into chunks gives the same frame.
     parser = FrameParser()
-    assert [item for byte in wire for item in parser.feed(bytes([byte]))] == [frame]
+    assert [item for byte in line_bytes for item in parser.feed(bytes([byte]))] == [frame]
 
 
 anything = st.one_of(
@@ -81,12 +85,12 @@ def test_encode_returns_a_decodable_frame_or_raises_value_error(
     frame_type: object, seq: object, args: list[object]
 ) -> None:
     try:
-        wire = encode_frame(frame_type, seq, *args)  # type: ignore[arg-type]
+        line_bytes = encode_frame(frame_type, seq, *args)  # type: ignore[arg-type]
     except ValueError:
         event("rejected with ValueError")
         return
     event("encoded")
-    decoded = decode_line(wire[:-1])
+    decoded = decode_line(line_bytes[:-1])
     assert decoded == Frame(str(frame_type), int(seq), tuple(str(a) for a in args))  # type: ignore[call-overload]
 
 
@@ -175,8 +179,8 @@ def test_every_single_byte_change_is_caught(
 @given(st.sampled_from("DHECTV"), seqs, st.sampled_from([b" ", b"+", b"_"]), st.integers(1, 3))
 def test_only_hex_digits_spell_the_crc(frame_type: str, seq: int, pad: bytes, at: int) -> None:
     """Python's int(x, 16) also reads " ABC", "+ABC" and "A_BC"; the firmware does not."""
-    wire = encode_frame(frame_type, seq)[:-1]
-    head, crc = wire[:-4], wire[-4:]
+    line_bytes = encode_frame(frame_type, seq)[:-1]
+    head, crc = line_bytes[:-4], line_bytes[-4:]
     if pad == b"_":
         spelled = crc[1:at] + pad + crc[at:] if crc[:1] == b"0" else crc[:at] + pad + crc[at + 1 :]
     else:

@@ -14,14 +14,22 @@ from lfd_track.study.spec import load_study
 REPO = Path(__file__).resolve().parents[2]
 EXPERIMENTS = REPO / "benchmarks" / "experiments"
 # A study file X.toml keeps its results in results/X/ beside it; tracks/ beside a study holds
-# track files it names, not studies.
-STUDIES = sorted(
-    str(p.relative_to(REPO)) for p in EXPERIMENTS.rglob("*.toml") if p.parent.name != "tracks"
-)
+# track files it names, not studies; planned/ holds study files written but not yet run.
+_TOML = sorted(p for p in EXPERIMENTS.rglob("*.toml") if p.parent.name != "tracks")
+STUDIES = [str(p.relative_to(REPO)) for p in _TOML if p.parent.name != "planned"]
+PLANNED = [str(p.relative_to(REPO)) for p in _TOML if p.parent.name == "planned"]
 
 
 def test_every_committed_study_is_found():
     assert len(STUDIES) == 12
+
+
+@pytest.mark.parametrize("study_file", PLANNED)
+def test_a_planned_study_loads_and_has_no_results_yet(study_file, monkeypatch):
+    monkeypatch.chdir(REPO)
+    path = Path(study_file)
+    load_study(path)
+    assert not (path.parent.parent / "results" / path.stem / "study.json").exists()
 
 
 @pytest.mark.parametrize("study_file", STUDIES)
