@@ -172,3 +172,44 @@ class PerturbedBLAS:
         for module, name, original in reversed(self._saved):
             setattr(module, name, original)
         self._saved.clear()
+
+
+def offline_env(**extra: str) -> dict[str, str]:
+    """This process's environment for a pip or a fresh venv's Python that must not reach an index
+    nor see this venv's Python settings (``extra`` added on top)."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "VIRTUAL_ENV"))}
+    env.update(PIP_NO_INDEX="1", PIP_DISABLE_PIP_VERSION_CHECK="1", PYTHONNOUSERSITE="1")
+    env.update(extra)
+    return env
+
+
+def wheel_in_fresh_venv(root: Path, timeout_s: float) -> tuple[Path, Path, Path]:
+    """Build the checkout's wheel into ``root/wheel`` (no build isolation, no index) and install
+    it alone (``--no-deps``) into a new venv at ``root/venv``.
+
+    Returns ``(wheel, venv folder, the venv's site-packages)``; the caller supplies the
+    dependencies. ``timeout_s`` guards each pip call against a hang only.
+    """
+    import subprocess
+    import venv
+
+    repo = Path(__file__).resolve().parents[1]
+    subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "--no-index",
+         "--quiet", "-w", str(root / "wheel"), str(repo)],
+        check=True, env=offline_env(), timeout=timeout_s,
+    )  # fmt: skip
+    (wheel,) = (root / "wheel").glob("lfd_track-*.whl")
+    env_dir = root / "venv"
+    venv.create(env_dir, with_pip=False, clear=True)
+    python = env_dir / "bin" / "python"
+    subprocess.run(
+        [sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps",
+         "--no-index", "--quiet", str(wheel)],
+        check=True, env=offline_env(), timeout=timeout_s,
+    )  # fmt: skip
+    site = subprocess.run(
+        [str(python), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
+        check=True, capture_output=True, text=True, env=offline_env(), timeout=timeout_s,
+    ).stdout.strip()  # fmt: skip
+    return wheel, env_dir, Path(site)

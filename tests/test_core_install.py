@@ -14,17 +14,15 @@ from __future__ import annotations
 import importlib.metadata
 import importlib.util
 import json
-import os
 import re
 import shutil
 import subprocess
 import sys
-import venv
 import zipfile
 from pathlib import Path
 
 import pytest
-from lfd_test_support import unavailable
+from lfd_test_support import offline_env, unavailable, wheel_in_fresh_venv
 
 from lfd_track.utils.extras import EXTRAS
 
@@ -34,10 +32,7 @@ REPO = Path(__file__).resolve().parents[1]
 TIMEOUT_S = 300  # failure guard only
 
 
-def _offline_env() -> dict[str, str]:
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "VIRTUAL_ENV"))}
-    env.update(PIP_NO_INDEX="1", PIP_DISABLE_PIP_VERSION_CHECK="1", PYTHONNOUSERSITE="1")
-    return env
+_offline_env = offline_env
 
 
 def _name(text: str) -> str:
@@ -86,26 +81,7 @@ def core_venv(tmp_path_factory) -> Path:
     if importlib.util.find_spec("hatchling") is None:
         unavailable("the build backend hatchling is not installed (pip install hatchling)")
     root = tmp_path_factory.mktemp("core")
-    subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "--no-index",
-         "--quiet", "-w", str(root / "wheel"), str(REPO)],
-        check=True, env=_offline_env(), timeout=TIMEOUT_S,
-    )  # fmt: skip
-    (wheel,) = (root / "wheel").glob("lfd_track-*.whl")
-    env_dir = root / "venv"
-    venv.create(env_dir, with_pip=False, clear=True)
-    python = env_dir / "bin" / "python"
-    subprocess.run(
-        [sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps",
-         "--no-index", "--quiet", str(wheel)],
-        check=True, env=_offline_env(), timeout=TIMEOUT_S,
-    )  # fmt: skip
-    site = Path(
-        subprocess.run(
-            [str(python), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
-            check=True, capture_output=True, text=True, env=_offline_env(),
-        ).stdout.strip()
-    )  # fmt: skip
+    wheel, env_dir, site = wheel_in_fresh_venv(root, TIMEOUT_S)
     for dist in core_distributions(wheel):
         _copy_distribution(dist, site)
     print(f"\ncore venv: {_size(env_dir) / 2**20:.0f} MiB ({env_dir})")

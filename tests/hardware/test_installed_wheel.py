@@ -12,16 +12,13 @@ the wheel.
 from __future__ import annotations
 
 import importlib.util
-import os
 import signal
 import subprocess
-import sys
 import sysconfig
-import venv
 from pathlib import Path
 
 import pytest
-from lfd_test_support import unavailable
+from lfd_test_support import offline_env, unavailable, wheel_in_fresh_venv
 
 from lfd_track.hardware.simavr import HARDWARE_SOURCES, missing_tools
 
@@ -33,11 +30,7 @@ BUILD_TIMEOUT_S = 120
 RUN_TIMEOUT_S = 60
 
 
-def _offline_env(**extra: str) -> dict[str, str]:
-    env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "VIRTUAL_ENV"))}
-    env.update(PIP_NO_INDEX="1", PIP_DISABLE_PIP_VERSION_CHECK="1", PYTHONNOUSERSITE="1")
-    env.update(extra)
-    return env
+_offline_env = offline_env
 
 
 @pytest.fixture(scope="module")
@@ -49,26 +42,9 @@ def installed(tmp_path_factory) -> Path:
     if importlib.util.find_spec("hatchling") is None:
         unavailable("the build backend hatchling is not installed (pip install hatchling)")
     root = tmp_path_factory.mktemp("installed")
-    subprocess.run(
-        [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "--no-index",
-         "--quiet", "-w", str(root / "wheel"), str(REPO)],
-        check=True, env=_offline_env(), timeout=BUILD_TIMEOUT_S,
-    )  # fmt: skip
-    (wheel,) = (root / "wheel").glob("lfd_track-*.whl")
-    env_dir = root / "venv"
-    venv.create(env_dir, with_pip=False, clear=True)
-    python = env_dir / "bin" / "python"
-    subprocess.run(
-        [sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps",
-         "--no-index", "--quiet", str(wheel)],
-        check=True, env=_offline_env(), timeout=BUILD_TIMEOUT_S,
-    )  # fmt: skip
-    site = subprocess.run(
-        [str(python), "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
-        check=True, capture_output=True, text=True, env=_offline_env(),
-    ).stdout.strip()  # fmt: skip
+    _, env_dir, site = wheel_in_fresh_venv(root, BUILD_TIMEOUT_S)
     deps = dict.fromkeys([sysconfig.get_path("purelib"), sysconfig.get_path("platlib")])
-    (Path(site) / "_test_dependencies.pth").write_text("\n".join(deps) + "\n")
+    (site / "_test_dependencies.pth").write_text("\n".join(deps) + "\n")
     return env_dir / "bin"
 
 
