@@ -39,6 +39,7 @@ import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
 import cv2
 import gymnasium as gym
@@ -480,15 +481,16 @@ def instrument(env: gym.Env) -> dict[str, list[float]]:
     return inner
 
 
-def vector_scaling(seconds: float, rounds: int, seed: int) -> dict:
+def vector_scaling(seconds: float, rounds: int, seed: int, **env_kwargs: Any) -> dict:
     """Steps/s of ``make_vec(num_envs=2, async)`` against one env, interleaved, random actions.
 
     Steps of the vector env count both sub-envs. Its workers are forked from this process, so
-    they inherit the one-thread settings.
+    they inherit the one-thread settings. ``env_kwargs`` go to both ``gym.make`` calls (e.g.
+    ``preset=``).
     """
-    single = gym.make("LfDTrack-v0")
+    single = gym.make("LfDTrack-v0", **env_kwargs)
     single.reset(seed=seed)
-    vec = gym.make_vec("LfDTrack-v0", num_envs=2, vectorization_mode="async")
+    vec = gym.make_vec("LfDTrack-v0", num_envs=2, vectorization_mode="async", **env_kwargs)
     vec.reset(seed=seed)
     rng = np.random.default_rng(seed)
 
@@ -518,7 +520,13 @@ def vector_scaling(seconds: float, rounds: int, seed: int) -> dict:
             two = run_vec()
             one = run_single()
         if r > 0:  # round 0 warms up
-            rows.append({"one_env_steps_per_s": one, "two_async_envs_steps_per_s": two})
+            rows.append(
+                {
+                    "one_env_steps_per_s": one,
+                    "two_async_envs_steps_per_s": two,
+                    "load_average": load_average(),
+                }
+            )
     single.close()
     vec.close()
     return {

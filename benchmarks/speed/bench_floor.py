@@ -62,6 +62,7 @@ from bench_env import (
     run_for,
     time_camera_stages,
 )
+from bench_env import vector_scaling as env_vector_scaling
 from single_thread import load_average, machine, pin_one_thread, source_state
 
 import lfd_track  # noqa: F401  (registers LfDTrack-v0)
@@ -104,46 +105,11 @@ class FilteredClosedLoop(ClosedLoop):
 
 
 def vector_scaling(texture_filter: str, seconds: float, rounds: int, seed: int) -> dict:
-    """Steps/s of ``make_vec(num_envs=2, async)`` against one env (random actions), interleaved
-    in rounds, with the given texture filter; the vector env's steps count both sub-envs."""
+    """``bench_env.vector_scaling`` (two async envs against one) with the given texture filter."""
     preset = preset_with(texture_filter)
-    single = gym.make("LfDTrack-v0", preset=preset)
-    single.reset(seed=seed)
-    vec = gym.make_vec("LfDTrack-v0", num_envs=2, vectorization_mode="async", preset=preset)
-    vec.reset(seed=seed)
-    rng = np.random.default_rng(seed)
-
-    def run_single() -> float:
-        steps, t0 = 0, time.perf_counter()
-        while time.perf_counter() - t0 < seconds:
-            _, _, terminated, truncated, _ = single.step(int(rng.integers(3)))
-            steps += 1
-            if terminated or truncated:
-                single.reset()
-        return steps / (time.perf_counter() - t0)
-
-    def run_vec() -> float:
-        steps, t0 = 0, time.perf_counter()
-        while time.perf_counter() - t0 < seconds:
-            vec.step(rng.integers(3, size=2))
-            steps += 2
-        return steps / (time.perf_counter() - t0)
-
-    rows = []
-    for r in range(rounds + 1):
-        pair = (
-            (run_single(), run_vec()) if r % 2 == 0 else tuple(reversed((run_vec(), run_single())))
-        )
-        if r > 0:
-            rows.append({"one": pair[0], "two_async": pair[1], "load_average": load_average()})
-    single.close()
-    vec.close()
     return {
         "texture_filter": texture_filter,
-        "rounds": rows,
-        "one_env_steps_per_s": statistics.median(r["one"] for r in rows),
-        "two_async_envs_steps_per_s": statistics.median(r["two_async"] for r in rows),
-        "scaling": statistics.median(r["two_async"] / r["one"] for r in rows),
+        **env_vector_scaling(seconds, rounds, seed, preset=preset),
     }
 
 
