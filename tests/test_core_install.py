@@ -32,9 +32,6 @@ REPO = Path(__file__).resolve().parents[1]
 TIMEOUT_S = 300  # failure guard only
 
 
-_offline_env = offline_env
-
-
 def _name(text: str) -> str:
     return re.sub(r"[-_.]+", "-", text).lower()
 
@@ -91,14 +88,14 @@ def core_venv(tmp_path_factory) -> Path:
 def test_the_core_venv_satisfies_the_wheel_and_holds_no_extra(core_venv):
     check = subprocess.run(
         [sys.executable, "-m", "pip", "--python", str(core_venv / "python"), "check"],
-        capture_output=True, text=True, env=_offline_env(), timeout=TIMEOUT_S,
+        capture_output=True, text=True, env=offline_env(), timeout=TIMEOUT_S,
     )  # fmt: skip
     assert check.returncode == 0, check.stdout + check.stderr
     modules = sorted({m for _, names in EXTRAS.values() for m in names})
     probe = f"import importlib.util; print([m for m in {modules!r} if importlib.util.find_spec(m)])"
     found = subprocess.run(
         [str(core_venv / "python"), "-c", probe],
-        check=True, capture_output=True, text=True, env=_offline_env(), timeout=TIMEOUT_S,
+        check=True, capture_output=True, text=True, env=offline_env(), timeout=TIMEOUT_S,
     ).stdout.strip()  # fmt: skip
     assert found == "[]"
 
@@ -114,14 +111,14 @@ def test_the_env_and_the_quick_benchmark_run_in_the_core_venv(core_venv, tmp_pat
     )
     made = subprocess.run(
         [str(core_venv / "python"), "-c", code],
-        capture_output=True, text=True, cwd=tmp_path, env=_offline_env(), timeout=TIMEOUT_S,
+        capture_output=True, text=True, cwd=tmp_path, env=offline_env(), timeout=TIMEOUT_S,
     )  # fmt: skip
     assert made.returncode == 0, made.stderr
     assert made.stdout.strip() == "(480, 640, 3)"
     out = tmp_path / "quick"
     bench = subprocess.run(
         [str(core_venv / "lfd-track"), "benchmark", "--quick", "--out", str(out)],
-        capture_output=True, text=True, cwd=tmp_path, env=_offline_env(), timeout=TIMEOUT_S,
+        capture_output=True, text=True, cwd=tmp_path, env=offline_env(), timeout=TIMEOUT_S,
     )  # fmt: skip
     assert bench.returncode == 0, bench.stderr
     assert json.loads((out / "results.json").read_text())
@@ -131,7 +128,7 @@ def test_the_env_and_the_quick_benchmark_run_in_the_core_venv(core_venv, tmp_pat
 def test_a_feature_of_an_extra_names_it_in_the_core_venv(core_venv, tmp_path):
     teach = subprocess.run(
         [str(core_venv / "lfd-track"), "teach", "--out", str(tmp_path / "x.lfdemo")],
-        capture_output=True, text=True, cwd=tmp_path, env=_offline_env(), timeout=TIMEOUT_S,
+        capture_output=True, text=True, cwd=tmp_path, env=offline_env(), timeout=TIMEOUT_S,
     )  # fmt: skip
     assert teach.returncode != 0
     assert teach.stderr.strip().splitlines() == [

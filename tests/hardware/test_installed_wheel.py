@@ -30,9 +30,6 @@ BUILD_TIMEOUT_S = 120
 RUN_TIMEOUT_S = 60
 
 
-_offline_env = offline_env
-
-
 @pytest.fixture(scope="module")
 def installed(tmp_path_factory) -> Path:
     """A fresh venv with the checkout's wheel installed; returns its ``bin`` folder."""
@@ -52,7 +49,7 @@ def test_hardware_sim_and_check_run_from_the_installed_wheel(installed: Path, tm
     workdir = tmp_path / "elsewhere"
     workdir.mkdir()
     cache = tmp_path / "cache"
-    env = _offline_env(XDG_CACHE_HOME=str(cache))
+    env = offline_env(XDG_CACHE_HOME=str(cache))
     where = subprocess.run(
         [str(installed / "python"), "-c",
          "import lfd_track.hardware.simavr as s; print(s.__file__); print(s.HARDWARE_DIR)"],
