@@ -11,8 +11,10 @@ rule:
 * if the weighted felt in view is below ``blank``, the view says nothing about where the felt
   went (past a sharp corner the next strip is out of view): the rule pivots toward the side of
   the last bend when it has the one-bit latch (``latch=True``; the ``last_bend`` memory of
-  :mod:`lfd_track.policy.memory`, computed from the executed commands), else toward the side
-  with more faint felt (ties: ``default_turn``);
+  :mod:`lfd_track.policy.memory`, computed from the executed commands), or toward the side the
+  felt was last seen on (``seen_latch=True``: the sign of the aim on the last frame that was not
+  blank, a bit the rule keeps itself), else toward the side with more faint felt (ties:
+  ``default_turn``);
 * otherwise it pivots toward the aim when it lies more than ``turn_at`` columns off the centre,
   and drives forward when not.
 
@@ -53,6 +55,9 @@ class RoadRuleConfig:
     bend)."""
     bend_pivots: int = 2
     """Net pivots one way that make a bend (the latch; as ``MemoryConfig.bend_pivots``)."""
+    seen_latch: bool = False
+    """Pivot toward the side the felt was last seen on when the view is blank (a one-bit
+    memory the rule keeps: the sign of the last non-blank frame's aim). Not with ``latch``."""
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.carpet < self.felt <= 1.0:
@@ -64,6 +69,8 @@ class RoadRuleConfig:
             raise ValueError("turn_at and blank must be >= 0")
         if self.default_turn not in ("left", "right"):
             raise ValueError("default_turn must be 'left' or 'right'")
+        if self.latch and self.seen_latch:
+            raise ValueError("a road rule has one latch: latch or seen_latch, not both")
 
     @property
     def memory(self) -> MemoryConfig | None:
@@ -78,9 +85,12 @@ class RoadRule:
     config: RoadRuleConfig = field(default_factory=RoadRuleConfig)
     blank_frames: int = 0
     """Frames so far on which the view was blank."""
+    last_seen: Command | None = None
+    """``seen_latch``: the side (LEFT/RIGHT) of the last non-blank frame's aim, None before."""
 
     def reset(self) -> None:
-        pass  # the rule keeps no state of its own (the latch lives in the perception)
+        # The last-bend latch lives in the perception; the last-seen side is the rule's own.
+        self.last_seen = None
 
     def propose(self, moment) -> Command:  # noqa: ANN001 - a teaching-loop Moment
         inputs = np.asarray(moment.policy_inputs, dtype=np.float64)
@@ -100,11 +110,15 @@ class RoadRule:
             self.blank_frames += 1
             if cfg.latch and side != UNKNOWN_SIDE:
                 return Command.LEFT if side > UNKNOWN_SIDE else Command.RIGHT
+            if cfg.seen_latch and self.last_seen is not None:
+                return self.last_seen
             lean = float((grid.sum(axis=0) * _COLUMN_X).sum())  # faint felt: which side
             if abs(lean) < 1e-9:
                 return default
             return Command.LEFT if lean < 0 else Command.RIGHT
         aim = float((weights.sum(axis=0) * _COLUMN_X).sum() / mass)
+        if aim != 0.0:
+            self.last_seen = Command.LEFT if aim < 0 else Command.RIGHT
         if aim < -cfg.turn_at:
             return Command.LEFT
         if aim > cfg.turn_at:

@@ -64,6 +64,27 @@ def test_latch_flips_on_a_bend_and_decides_blank_views():
     assert RoadRule(RoadRuleConfig()).act(BLANK, 0.0) == Command.LEFT
 
 
+def test_seen_latch_turns_toward_where_the_felt_was_last_seen():
+    rule = RoadRule(RoadRuleConfig(seen_latch=True))
+    faint_left = BLANK.copy().reshape(5, 8)
+    faint_left[:, 0] = 0.28
+    faint_left = faint_left.ravel()
+    assert rule.act(BLANK) == Command.LEFT  # nothing seen yet: the default turn
+    assert rule.act(view([5, 6])) == Command.RIGHT  # felt right of centre
+    assert rule.act(faint_left) == Command.RIGHT  # the last-seen side wins over the hint
+    assert rule.act(BLANK) == Command.RIGHT
+    assert rule.act(view([3, 4])) == Command.FORWARD  # centred: no side is noted
+    assert rule.act(BLANK) == Command.RIGHT
+    assert rule.act(view([2, 3])) == Command.FORWARD  # slightly left: noted, not steered
+    assert rule.act(BLANK) == Command.LEFT
+    rule.reset()
+    assert rule.last_seen is None
+    # The same views without the option: the blank views go the fainter-felt or default way.
+    plain = RoadRule(RoadRuleConfig())
+    assert plain.act(view([5, 6])) == Command.RIGHT
+    assert plain.act(faint_left) == Command.LEFT
+
+
 def test_rule_reads_the_latch_from_the_policy_inputs():
     class Moment:
         policy_inputs = np.concatenate([BLANK, [0.0]])
@@ -80,6 +101,7 @@ def test_rule_reads_the_latch_from_the_policy_inputs():
         {"row_weights": (1.0, 1.0, 1.0, 1.0, -1.0)},
         {"turn_at": -1.0},
         {"default_turn": "up"},
+        {"latch": True, "seen_latch": True},
     ],
 )
 def test_bad_rule_settings_are_refused(kwargs):

@@ -8,6 +8,8 @@ Parts (see README.md beside this file for the protocol):
 * ``tune`` — the hand-written road-value rule (``lfd_track.teaching.handwritten``), reactive
   and latched, over a fixed grid, scored on the training track and the validation loop only.
 * ``handwritten`` — the two rules the tuning chose, on every loop and the training track.
+* ``tune-seen`` / ``seen`` — the same for the rule with the other one-bit latch (toward the side
+  the felt was last seen on), over its own grid (``SEEN_GRID``), fixed before it ran.
 
 Every part drives the paper preset; the road library is the one a standard demonstration built
 (the paper pipeline's seed 0, repetition 0), frozen. Results go to ``results/<part>.json`` and
@@ -222,9 +224,71 @@ def candidates() -> list[tuple[str, dict]]:
     return out
 
 
+#: The grid of the last-seen latch (README, part 2b), fixed before it ran: the first grid's best
+#: turn_at (1.5) was its edge, so this one is centred on it.
+SEEN_GRID = {
+    "turn_at": (1.0, 1.5, 2.0),
+    "row_weights": ((1.0, 1.0, 1.0, 1.0, 1.0), (3.0, 2.0, 1.0, 1.0, 1.0)),
+}
+
+
+def seen_candidates() -> list[tuple[str, dict]]:
+    out = []
+    for turn_at, rows in itertools.product(*SEEN_GRID.values()):
+        far = "far" if rows[0] > 1 else "flat"
+        out.append(
+            (
+                f"seen.t{turn_at}.{far}",
+                {"turn_at": turn_at, "row_weights": rows, "seen_latch": True},
+            )
+        )
+    return out
+
+
+def tune(
+    part: str, grid: list[tuple[str, dict]], kinds: tuple[str, ...], laps: int, workers: int
+) -> None:
+    """Score every candidate on the training track and the validation loop; the most laps wins
+    (ties: the first in grid order), for each kind (the name's first dotted part)."""
+    dirs = directions((VALIDATION,))
+    jobs = [(name, cfg, *d, laps) for name, cfg in grid for d in dirs]
+    results = _run(run_rule, jobs, workers)
+    score: dict[str, int] = {}
+    for r in results:
+        score[r["policy"]] = score.get(r["policy"], 0) + sum(o["success"] for o in r["outcomes"])
+    chosen = {}
+    for kind in kinds:
+        names = [n for n, _ in grid if n.startswith(kind + ".")]
+        best = max(names, key=lambda n: score[n])  # ties: the first in grid order
+        chosen[kind] = {"name": best, "config": dict(grid)[best], "laps": score[best]}
+    note = (
+        f"Tuning on the training track and `{VALIDATION}` only, {laps} laps per "
+        f"direction; chosen: {json.dumps(chosen)}"
+    )
+    _write(part, results, note, {"score": score, "chosen": chosen})
+
+
+def score_rules(part: str, chosen: dict[str, dict], laps: int, workers: int, how: str) -> None:
+    """The chosen rules on every loop and the training track."""
+    jobs = [
+        (f"{kind} ({c['name']})", c["config"], *d, laps)
+        for kind, c in chosen.items()
+        for d in directions(LOOPS)
+    ]
+    results = _run(run_rule, jobs, workers)
+    note = (
+        f"The hand-written road-value rules ({how}), {laps} laps per track "
+        "and direction; no learning (human commands, corrections, robot seconds while "
+        "learning: none beyond the standard demonstration that built the library)."
+    )
+    _write(part, results, note, {"chosen": chosen})
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("part", choices=("library", "teacher", "tune", "handwritten"))
+    parser.add_argument(
+        "part", choices=("library", "teacher", "tune", "handwritten", "tune-seen", "seen")
+    )
     parser.add_argument("--laps", type=int, default=30, help="laps per track and direction")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument(
@@ -253,24 +317,12 @@ def main(argv: list[str] | None = None) -> int:
             {"teachers": {k: dataclasses.asdict(v) for k, v in TEACHERS.items()}},
         )
     elif args.part == "tune":
-        dirs = directions((VALIDATION,))
-        jobs = [(name, cfg, *d, args.laps) for name, cfg in candidates() for d in dirs]
-        results = _run(run_rule, jobs, args.workers)
-        score: dict[str, int] = {}
-        for r in results:
-            score[r["policy"]] = score.get(r["policy"], 0) + sum(
-                o["success"] for o in r["outcomes"]
-            )
-        chosen = {}
-        for kind in ("reactive", "latch"):
-            names = [n for n, _ in candidates() if n.startswith(kind + ".")]
-            best = max(names, key=lambda n: score[n])  # ties: the first in grid order
-            chosen[kind] = {"name": best, "config": dict(candidates())[best], "laps": score[best]}
-        note = (
-            f"Tuning on the training track and `{VALIDATION}` only, {args.laps} laps per "
-            f"direction; chosen: {json.dumps(chosen)}"
-        )
-        _write("tune", results, note, {"score": score, "chosen": chosen})
+        tune("tune", candidates(), ("reactive", "latch"), args.laps, args.workers)
+    elif args.part == "tune-seen":
+        tune("tune_seen", seen_candidates(), ("seen",), args.laps, args.workers)
+    elif args.part == "seen":
+        chosen = json.loads((RESULTS / "tune_seen.json").read_text())["chosen"]
+        score_rules("seen", chosen, args.laps, args.workers, "chosen by `tune-seen`")
     else:
         if args.fixed:  # the rule's settings as written before any run, not tuned
             chosen = {
@@ -279,18 +331,8 @@ def main(argv: list[str] | None = None) -> int:
             }
         else:
             chosen = json.loads((RESULTS / "tune.json").read_text())["chosen"]
-        jobs = [
-            (f"{kind} ({c['name']})", c["config"], *d, args.laps)
-            for kind, c in chosen.items()
-            for d in directions(LOOPS)
-        ]
-        results = _run(run_rule, jobs, args.workers)
-        note = (
-            f"The hand-written road-value rules ({'fixed before running' if args.fixed else 'chosen by `tune`'}), {args.laps} laps per track "
-            "and direction; no learning (human commands, corrections, robot seconds while "
-            "learning: none beyond the standard demonstration that built the library)."
-        )
-        _write("handwritten", results, note, {"chosen": chosen})
+        how = "fixed before running" if args.fixed else "chosen by `tune`"
+        score_rules("handwritten", chosen, args.laps, args.workers, how)
     print(f"{args.part}: {time.perf_counter() - t0:.0f} s", file=sys.stderr)
     return 0
 
