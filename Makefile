@@ -45,5 +45,5 @@ test: setup-test
 	$(BIN)/python -m pytest -n 2 -q
 
 lint: setup-test
-	$(BIN)/ruff check lfd_track tests benchmarks scripts
-	$(BIN)/ruff format --check lfd_track tests benchmarks scripts
+	$(BIN)/ruff check lfd_track tests benchmarks scripts examples
+	$(BIN)/ruff format --check lfd_track tests benchmarks scripts examples

@@ -100,13 +100,14 @@ def test_a_drive_stopped_at_its_plot_leaves_the_earlier_video_and_plot(
 
     video, plot = tmp_path / "v.mp4", tmp_path / "laps.png"
     assert _drive(controller, "--video", str(video), "--plot", str(plot)) == 0
-    before = video.read_bytes(), plot.read_bytes()
+    numbers = tmp_path / "laps.csv"
+    before = video.read_bytes(), plot.read_bytes(), numbers.read_bytes()
     capsys.readouterr()
     monkeypatch.setattr(plots, stop[0], stop[1])
     assert _drive(controller, "--seed", "1", "--video", str(video), "--plot", str(plot)) == code
     _one_line(capsys.readouterr().err)
-    assert (video.read_bytes(), plot.read_bytes()) == before
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.json", "laps.png", "v.mp4"]
+    assert (video.read_bytes(), plot.read_bytes(), numbers.read_bytes()) == before
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["c.json", "laps.csv", "laps.png", "v.mp4"]
 
 
 def test_an_interrupted_first_drive_leaves_no_video(controller, tmp_path, monkeypatch, capsys):

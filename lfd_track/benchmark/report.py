@@ -1,4 +1,5 @@
-"""Write the benchmark's outputs: results.json, report.md, trajectories.png and fitness.png."""
+"""Write the benchmark's outputs: results.json, report.md, trajectories.png and fitness.png (each
+picture with its numbers beside it: trajectories.csv, fitness.csv)."""
 
 from __future__ import annotations
 
@@ -11,13 +12,13 @@ import numpy as np
 
 from ..envs.presets import load_preset
 from ..utils.provenance import environment
+from ..viz.plot_data import fitness_table, trajectories_table, write_picture
 from ..viz.plots import (
     DirectionRuns,
     TrackRun,
     fitness_notes,
     fitness_plot,
     trajectory_grid,
-    write_png,
 )
 from ..world.episode import EpisodeTracker
 from ..world.track import load_track
@@ -117,6 +118,19 @@ def test_tracks_section(tracks: dict[str, Any]) -> str:
     return "\n".join([*lines, ""])
 
 
+def plotted_outcomes(
+    outcomes: list[TrialOutcome], track: str, direction: str
+) -> list[TrialOutcome]:
+    """The runs drawn in trajectories.png's panel of ``track`` and ``direction``: those with a
+    trajectory (an extra test loop's runs, whose directions are named like the testing track's,
+    are not in the picture)."""
+    return [
+        o
+        for o in outcomes
+        if o.track == track and o.direction == direction and o.trajectory is not None
+    ]
+
+
 def trajectories_picture(config: BenchmarkConfig, outcomes: list[TrialOutcome]) -> np.ndarray:
     """trajectories.png: per direction (the report's order), successes beside the other runs."""
     rules = load_preset(config.preset).episode
@@ -125,7 +139,7 @@ def trajectories_picture(config: BenchmarkConfig, outcomes: list[TrialOutcome]) 
     for track_name, directions in TABLE_DIRECTIONS.items():
         for direction in directions:
             track = load_track(track_name, reverse=reverse_of[direction])
-            chosen = [o for o in outcomes if o.direction == direction and o.trajectory is not None]
+            chosen = plotted_outcomes(outcomes, track_name, direction)
             where = " (laps start at corner 4)" if track_name == "testing" else ""
             panels.append(
                 DirectionRuns(
@@ -145,12 +159,22 @@ def trajectories_picture(config: BenchmarkConfig, outcomes: list[TrialOutcome]) 
     return trajectory_grid(panels, title=title)
 
 
-def fitness_picture(config: BenchmarkConfig, reps: list[RepetitionResult]) -> np.ndarray:
-    """fitness.png: the Algorithm 3 fitness over training, one curve per repetition."""
-    curves = [
+def fitness_curves(reps: list[RepetitionResult]) -> list[tuple[str, np.ndarray, tuple]]:
+    """The curves of fitness.png: (label, fitness per generation or epoch, colour) per repetition."""
+    return [
         (f"rep {r.index}", np.asarray(r.fitness_best), PALETTE[r.index % len(PALETTE)])
         for r in reps
     ]
+
+
+def fitness_x_label(config: BenchmarkConfig) -> str:
+    """What fitness.png's x axis counts: epochs of behaviour cloning, else generations."""
+    return "epoch" if config.method == "bc" else "generation"
+
+
+def fitness_picture(config: BenchmarkConfig, reps: list[RepetitionResult]) -> np.ndarray:
+    """fitness.png: the Algorithm 3 fitness over training, one curve per repetition."""
+    curves = fitness_curves(reps)
     if config.method == "bc":
         return fitness_plot(
             curves,
@@ -203,8 +227,22 @@ def write_benchmark_outputs(
         },
     }
 
-    write_png(str(out / "trajectories.png"), trajectories_picture(config, outcomes))
-    write_png(str(out / "fitness.png"), fitness_picture(config, reps))
+    plotted = [
+        o
+        for track, directions in TABLE_DIRECTIONS.items()
+        for direction in directions
+        for o in plotted_outcomes(outcomes, track, direction)
+    ]
+    write_picture(
+        out / "trajectories.png",
+        trajectories_picture(config, outcomes),
+        trajectories_table(plotted),
+    )
+    write_picture(
+        out / "fitness.png",
+        fitness_picture(config, reps),
+        fitness_table(fitness_curves(reps), fitness_x_label(config)),
+    )
 
     path = write_results_json(out / "results.json", results)
     # The report is drawn from the file as written, so re-rendering it later gives the same text.

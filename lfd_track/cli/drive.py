@@ -1,5 +1,5 @@
 """``lfd-track drive``: run a saved controller for laps in the simulator, report each lap's
-corners, and write a video and a plot of the laps (both or neither)."""
+corners, and write a video and a plot of the laps with its numbers (all or none)."""
 
 from __future__ import annotations
 
@@ -16,7 +16,6 @@ from ..benchmark import runner
 from ..envs.track_env import LfDTrackEnv
 from ..errors import LfdTrackError
 from ..policy.controller import Controller
-from ..utils.atomic import replace_file, temporary_beside
 from ..utils.outputs import same_file, shown_path, taken
 from ..utils.signals import Terminated, interrupted_exit_code, raise_terminated
 from .outputs import advance, check_output
@@ -51,7 +50,10 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         " top-down view, lap number and command",
     )
     drive.add_argument(
-        "--plot", metavar="FILE", help="write a PNG of each lap's path, coloured by outcome"
+        "--plot",
+        metavar="FILE",
+        help="write a PNG of each lap's path, coloured by outcome, and the paths as CSV beside it"
+        " (FILE with the suffix .csv)",
     )
     drive.add_argument(
         "--keep-learning",
@@ -78,17 +80,27 @@ def run(args: argparse.Namespace) -> int:
     """The ``drive`` command."""
     # Lazy: the drawing, progress-bar and video stack (OpenCV, tqdm) loads only when it runs.
     from ..utils.progress import progress_bar
-    from ..viz import plots
+    from ..viz import plot_data, plots
     from ..viz.video import DriveVideo
 
     controller = Controller.load(args.controller)
     controller.learn = controller.learn or args.keep_learning
     inputs = [("controller", args.controller), ("track", args.track), ("preset", args.preset)]
-    for out in (args.video, args.plot):
+    plot_numbers = plot_data.data_path(args.plot) if args.plot else None
+    for out in (args.video, args.plot, plot_numbers):
         if out:
             check_output(out, inputs)
     if args.video and args.plot and same_file(args.video, args.plot):
         raise LfdTrackError(f"{shown_path(args.plot)}: given as both --video and --plot")
+    if plot_numbers is not None and same_file(args.plot, plot_numbers):
+        raise LfdTrackError(
+            f"{shown_path(args.plot)}: the plot's numbers are written beside it with the suffix"
+            " .csv; give the plot another suffix (e.g. .png)"
+        )
+    if args.video and plot_numbers is not None and same_file(args.video, plot_numbers):
+        raise LfdTrackError(
+            f"{shown_path(args.video)}: given as --video and is where --plot's numbers go"
+        )
     env = LfDTrackEnv(track=args.track, reverse=args.reverse, preset=args.preset)
     laps: list[dict[str, Any]] = []
     trajectories = []
@@ -97,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
         order = " ".join(c.label for c in env.track.corners)
         direction = "reversed" if args.reverse else "file order"
         print(f"{shown_path(args.track)} ({direction}), corners met in order {order}:", flush=True)
-    plot_staged: Path | None = None
+    plot_staged = plot_data.StagedFiles()
     previous = signal.signal(signal.SIGTERM, raise_terminated)
     try:
         for lap in range(args.laps):
@@ -135,8 +147,9 @@ def run(args: argparse.Namespace) -> int:
             )
             if not args.json:
                 print(_lap_line(laps[-1]), flush=True)
-        # Both outputs or neither: the plot is drawn and written under a hidden name first, so
-        # a failure or an interrupt until the video is complete leaves an earlier pair as it was.
+        # All outputs or none: the plot and its numbers are drawn and written under hidden names
+        # first, so a failure or an interrupt until the video is complete leaves the earlier
+        # files as they were.
         if args.plot:
             direction = "reversed" if args.reverse else "file order"
             if env.track.closed:
@@ -152,13 +165,12 @@ def run(args: argparse.Namespace) -> int:
                 finish_m=env.episode.goal_progress_m,
                 start_pose=env.episode.start_pose(),
             )
-            plot_staged = temporary_beside(Path(args.plot))
-            plots.write_png(str(plot_staged), picture)
+            plot_data.stage_picture(
+                args.plot, picture, plot_data.laps_table(trajectories), plot_staged
+            )
         if video is not None:
             video.close()
-        if plot_staged is not None:
-            replace_file(plot_staged, args.plot)
-            plot_staged = None
+        plot_staged.publish()
     except (KeyboardInterrupt, Terminated) as exc:
         code = interrupted_exit_code(exc)
         note = f"lfd-track drive: interrupted after {len(laps)} of {args.laps} laps"
@@ -175,8 +187,7 @@ def run(args: argparse.Namespace) -> int:
         raise
     finally:
         signal.signal(signal.SIGTERM, previous)
-        if plot_staged is not None:
-            plot_staged.unlink(missing_ok=True)
+        plot_staged.discard()
     if args.json:
         track = shown_path(args.track)  # JSON holds text only: undecodable bytes as \\x escapes
         print(json.dumps({"track": track, "reverse": args.reverse, "laps": laps}, indent=2))

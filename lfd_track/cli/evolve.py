@@ -1,5 +1,5 @@
-"""``lfd-track evolve``: the paper's GA on a demonstration; writes the controller and its fitness
-curve, both or neither."""
+"""``lfd-track evolve``: the paper's GA on a demonstration; writes the controller, its fitness
+curve and the curve's numbers, all or none."""
 
 from __future__ import annotations
 
@@ -14,7 +14,6 @@ from ..errors import LfdTrackError
 from ..learning.fitness import training_accuracy
 from ..learning.ga import GAConfig, evolve
 from ..policy.controller import Controller
-from ..utils.atomic import replace_file, temporary_beside
 from ..utils.outputs import shown_path
 from ..vision.road_library import RoadLibrary
 from .outputs import advance, check_output
@@ -28,7 +27,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     evo = subparsers.add_parser(
         "evolve",
         help="evolve a controller from a demonstration",
-        description="Run the paper's GA (Table 1) on a demonstration; writes the controller JSON and a fitness-curve PNG beside it.",
+        description="Run the paper's GA (Table 1) on a demonstration; writes the controller JSON and a fitness-curve PNG beside it (with its numbers as CSV).",
     )
     evo.add_argument("demo", help="demonstration file (.lfdemo)")
     evo.add_argument("--seed", type=_seed, default=0, help="GA seed (default: 0)")
@@ -53,10 +52,10 @@ def run(args: argparse.Namespace) -> int:
     """The ``evolve`` command."""
     # Lazy: the drawing and progress-bar stack (OpenCV, tqdm) loads only when the command runs.
     from ..utils.progress import progress_bar
-    from ..viz import plots
+    from ..viz import plot_data, plots
 
     png = Path(args.out).with_suffix(".fitness.png")
-    for out in (args.out, png):
+    for out in (args.out, png, plot_data.data_path(png)):
         check_output(out, [("demonstration", args.demo)])
     demo = load_demonstration(args.demo)
     if demo.n_cases == 0:
@@ -93,29 +92,30 @@ def run(args: argparse.Namespace) -> int:
         )
     controller = Controller.from_evolution(library, result, seed=args.seed, memory=memory)
     accuracy = training_accuracy(result.best_weights, demo.inputs, demo.commands)
+    curves = [
+        ("best", result.best_history, (200, 30, 30)),
+        ("mean", result.mean_history, (30, 80, 200)),
+    ]
     picture = plots.fitness_plot(
-        [
-            ("best", result.best_history, (200, 30, 30)),
-            ("mean", result.mean_history, (30, 80, 200)),
-        ],
+        curves,
         title=f"Fitness of each generation: {shown_path(Path(args.demo).name)},"
         f" GA seed {args.seed}",
         notes=plots.fitness_notes(config.elitism),
     )
-    # Both files or neither: the controller waits under a hidden name beside --out until the
-    # fitness curve is written, so a failure leaves an earlier pair as it was.
-    staged = temporary_beside(Path(args.out))
+    # All three files or none: each is written under a hidden name beside its own first, and
+    # they are moved into place together (the controller last), so a failure leaves the
+    # earlier ones as they were.
+    staged = plot_data.StagedFiles()
     try:
-        controller.save(staged)
-        plots.write_png(str(png), picture)
-        replace_file(staged, args.out)
-    except BaseException:
-        staged.unlink(missing_ok=True)
-        raise
+        plot_data.stage_picture(png, picture, plot_data.fitness_table(curves), staged)
+        controller.save(staged.add(args.out))
+        staged.publish()
+    finally:
+        staged.discard()
     partial = "" if demo.metadata["complete"] else " (an interrupted recording)"
     print(
         f"{shown_path(args.out)}: best fitness {result.best_fitness:.4f} (generation "
         f"{result.best_generation}), training accuracy {accuracy:.1%} on {demo.n_cases} cases"
-        f"{partial}; fitness curve {shown_path(png)}"
+        f"{partial}; fitness curve {shown_path(png)} (numbers {shown_path(plot_data.data_path(png))})"
     )
     return EXIT_OK

@@ -64,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     if out.exists() and not out.is_dir():
         raise LfdTrackError(f"{out}: exists and is not a folder")
     refuse_unsafe_output(out, folder=True)  # a symbolic link to a folder too
-    for name in ("study.json", "study.md", "study.png"):
+    for name in ("study.json", "study.md", "study.png", "study.csv"):
         refuse_unsafe_output(out / name)
     out.mkdir(parents=True, exist_ok=True)
     show = not args.quiet and sys.stderr.isatty()

@@ -19,6 +19,7 @@ from ..world.episode import EpisodeTracker, reference_step_count
 from ..world.rover import Rover
 from ..world.track import Track, load_track
 from .presets import Preset, load_preset
+from .window import TopDownWindow, keys_to_action
 
 #: Step budget per episode as a multiple of the commands an ideal driver needs (see
 #: ``world/episode.py``: ``reference_step_count``).
@@ -94,9 +95,15 @@ class LfDTrackEnv(gym.Env):
     * ``start_corner``: label of the corner to start on (loops only), ``"1"`` or ``1``.
     * ``preset``: ``paper`` (default), ``randomized`` or a path to a preset TOML file.
     * ``render_mode``: ``"rgb_array"`` returns a top-down picture (track, rover, camera footprint,
-      trajectory).
+      trajectory); ``"human"`` shows that picture in a window after every ``reset`` and ``step``,
+      at most ``render_fps`` (10) a second, and ``render()`` returns None. The window needs
+      pygame (``pip install 'lfd-track[play]'``; without it the env is refused in one line naming
+      that command); ``close()`` closes it.
     * ``max_steps``: override the step budget (a positive integer).
     * ``continue_after_end``: allow ``step`` after the episode ended.
+
+    ``get_keys_to_action()`` is the key map of ``gymnasium.utils.play.play``: up arrow or W
+    forward, left arrow or A left, right arrow or D right (``docs/environment.md`` gives the call).
 
     ``reset(options=...)`` accepts ``{"pose": (x [m], y [m], theta [rad])}`` to start elsewhere:
     three finite numbers, with (x, y) on the painted floor (the felt plus the preset's margin).
@@ -106,7 +113,7 @@ class LfDTrackEnv(gym.Env):
     * v0: initial release.
     """
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
     _spec: EnvSpec | None = None
 
     def __init__(
@@ -142,6 +149,10 @@ class LfDTrackEnv(gym.Env):
                 )
             start_corner = str(start_corner)  # labels are strings; 1 means "1"
         self.render_mode = render_mode
+        # The window's pygame is loaded here, so a missing play extra refuses the env at once.
+        self._window = (
+            TopDownWindow(self.metadata["render_fps"]) if render_mode == "human" else None
+        )
         self.track: Track = load_track(track, reverse=reverse, start_corner=start_corner)
         self.base_preset: Preset = preset if isinstance(preset, Preset) else load_preset(preset)
         self.preset = self.base_preset
@@ -244,6 +255,8 @@ class LfDTrackEnv(gym.Env):
         self._trajectory = [self._last_pose[:2].copy()]
         self._frame = self._renderer.render(self._ground, self._last_pose, sensor_rng)
         self._ended = False
+        if self.render_mode == "human":
+            self.render()
         return self._frame, self._info()
 
     def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
@@ -275,7 +288,10 @@ class LfDTrackEnv(gym.Env):
         terminated = st.failure is not None or st.success
         truncated = not terminated and self._steps >= self.max_steps
         self._ended = terminated or truncated
-        return self._frame, float(reward), terminated, truncated, self._info()
+        info = self._info()
+        if self.render_mode == "human":
+            self.render()
+        return self._frame, float(reward), terminated, truncated, info
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:
@@ -286,13 +302,35 @@ class LfDTrackEnv(gym.Env):
             )
             return None
         if self._rover is None:
-            return draw_topdown(self.track)
-        return draw_topdown(
-            self.track,
-            pose=self._last_pose,
-            trajectory=np.asarray(self._trajectory),
-            footprint=self.camera_footprint(self._last_pose),
-        )
+            picture = draw_topdown(self.track)
+        else:
+            picture = draw_topdown(
+                self.track,
+                pose=self._last_pose,
+                trajectory=np.asarray(self._trajectory),
+                footprint=self.camera_footprint(self._last_pose),
+            )
+        if self._window is not None:
+            self._window.show(picture)
+            return None
+        return picture
+
+    def close(self) -> None:
+        """Close the window of ``render_mode="human"`` (if it is open)."""
+        window = getattr(self, "_window", None)  # None too if __init__ refused its arguments
+        if window is not None:
+            window.close()
+        super().close()
+
+    def get_keys_to_action(self) -> dict[tuple[int, ...], int]:
+        """Key map of ``gymnasium.utils.play.play``: pygame key codes -> action.
+
+        Up arrow or W: 0 (forward); left arrow or A: 1 (left); right arrow or D: 2 (right).
+        Needs pygame (the ``play`` extra). The paper's commands have no "stand still", so pass
+        ``wait_on_player=True`` (the rover moves only while a key is held) and ``noop=0``: the
+        action ``play`` sends for a combination the map lacks (two keys at once) is forward.
+        """
+        return keys_to_action()
 
     @property
     def spec(self) -> EnvSpec | None:

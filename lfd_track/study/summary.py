@@ -617,11 +617,12 @@ def study_plot(results: Mapping[str, Any]) -> np.ndarray:
 def write_study_outputs(
     out: Path, study: Study, finished: Sequence[tuple[Job, Mapping[str, Any]]]
 ) -> dict[str, Any]:
-    """Write study.json, study.md and study.png into ``out``; returns the study.json dict."""
-    from ..viz.plots import write_png
+    """Write study.json, study.md and study.png (with its numbers, study.csv) into ``out``;
+    returns the study.json dict."""
+    from ..viz.plot_data import study_table, write_picture
 
     results = build_study_results(study, finished)
     atomic_write_text(out / "study.json", results_json_text(results))
     atomic_write_text(out / "study.md", study_markdown(results))
-    write_png(str(out / "study.png"), study_plot(results))
+    write_picture(out / "study.png", study_plot(results), study_table(results))
     return results

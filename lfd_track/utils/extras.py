@@ -1,11 +1,12 @@
 """Optional features and the extra that installs each: one line to run when one is missing.
 
 ``pip install lfd-track`` installs the simulator, the paper pipeline and the benchmark; the
-teaching station, the serial link, video files, the CMA-ES learner and Ray studies each need an
-extra (``pyproject.toml``, ``[project.optional-dependencies]``). A module of such a feature
-imports its third-party modules inside :func:`needs_extra`; if one is not installed, the import
-raises :class:`MissingExtraError`, whose one line names the ``pip install`` to run (the command
-line prints it and exits non-zero, like any error a user can cause).
+teaching station, the serial link, video files, the CMA-ES learner, Ray studies and the
+simulator's window each need an extra (``pyproject.toml``, ``[project.optional-dependencies]``).
+A module of such a feature imports its third-party modules inside :func:`needs_extra`; if one is
+not installed, the import raises :class:`MissingExtraError`, whose one line names the
+``pip install`` to run (the command line prints it and exits non-zero, like any error a user can
+cause).
 """
 
 from __future__ import annotations
@@ -21,6 +22,10 @@ EXTRAS: dict[str, tuple[str, tuple[str, ...]]] = {
     "video": ("writing videos", ("imageio_ffmpeg",)),
     "cmaes": ("the CMA-ES learner", ("cma",)),
     "cluster": ("studies on Ray (--executor ray)", ("ray",)),
+    "play": (
+        'the window of render_mode="human" and gymnasium.utils.play.play',
+        ("pygame",),
+    ),
 }
 """Extra name -> (what needs it, the top-level modules it provides)."""
 

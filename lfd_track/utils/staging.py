@@ -48,7 +48,14 @@ REPETITIONS = "repetitions"
 """Sub-folder of the output holding one folder per repetition."""
 LAST = "results.json"
 """Moved into place last: once it is new, so is everything else."""
-FILES = ("trajectories.png", "fitness.png", "report.md", LAST)
+FILES = (
+    "trajectories.png",
+    "trajectories.csv",
+    "fitness.png",
+    "fitness.csv",
+    "report.md",
+    LAST,
+)
 """The files a run writes at the top of the output folder (checked before the run starts)."""
 STALE_S = 600.0
 """A staging folder nobody holds is left over from a killed run once it is this old (a running
