@@ -1,5 +1,6 @@
-"""``lfd-track evolve``: the paper's GA on a demonstration; writes the controller and its fitness
-curve, both or neither."""
+"""``lfd-track evolve``: the paper's GA on a demonstration (a ``.lfdemo`` file, or a Minari dataset
+written by ``lfd-track export minari``); writes the controller and its fitness curve, both or
+neither."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from ..errors import LfdTrackError
 from ..learning.fitness import training_accuracy
 from ..learning.ga import GAConfig, evolve
 from ..policy.controller import Controller
+from ..policy.memory import MemoryConfig
 from ..utils.atomic import replace_file, temporary_beside
 from ..utils.outputs import shown_path
 from ..vision.road_library import RoadLibrary
@@ -30,7 +32,20 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="evolve a controller from a demonstration",
         description="Run the paper's GA (Table 1) on a demonstration; writes the controller JSON and a fitness-curve PNG beside it.",
     )
-    evo.add_argument("demo", help="demonstration file (.lfdemo)")
+    evo.add_argument(
+        "demo", nargs="?", default=None, help="demonstration file (.lfdemo); or use --minari"
+    )
+    evo.add_argument(
+        "--minari",
+        metavar="DATASET_ID",
+        default=None,
+        help="learn from a Minari dataset written by lfd-track export minari instead",
+    )
+    evo.add_argument(
+        "--datasets-path",
+        default=None,
+        help="Minari datasets folder for --minari (default: Minari's own)",
+    )
     evo.add_argument("--seed", type=_seed, default=0, help="GA seed (default: 0)")
     evo.add_argument(
         "--generations",
@@ -51,13 +66,25 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """The ``evolve`` command."""
-    # Lazy: the drawing and progress-bar stack (OpenCV, tqdm) loads only when the command runs.
-    from ..utils.progress import progress_bar
-    from ..viz import plots
-
+    if (args.demo is None) == (args.minari is None):
+        raise LfdTrackError("give a demonstration file or --minari DATASET_ID (one of them)")
     png = Path(args.out).with_suffix(".fitness.png")
     for out in (args.out, png):
         check_output(out, [("demonstration", args.demo)])
+    if args.minari is not None:
+        from ..dataset.minari import cases_from_minari
+
+        cases = cases_from_minari(args.minari, datasets_path=args.datasets_path)
+        return _learn(
+            args,
+            png,
+            inputs=cases.inputs,
+            commands=cases.actions,
+            library=cases.library,
+            memory=cases.memory,
+            title=f"Minari dataset {args.minari}",
+            note="",
+        )
     demo = load_demonstration(args.demo)
     if demo.n_cases == 0:
         raise LfdTrackError(f"{shown_path(args.demo)}: the demonstration holds no cases")
@@ -80,26 +107,53 @@ def run(args: argparse.Namespace) -> int:
         memory = demo.memory_settings()
     except ValueError as exc:
         raise LfdTrackError(f"{shown_path(args.demo)}: {exc}") from None
+    return _learn(
+        args,
+        png,
+        inputs=demo.inputs,
+        commands=demo.commands,
+        library=library,
+        memory=memory,
+        title=shown_path(Path(args.demo).name),
+        note="" if demo.metadata["complete"] else " (an interrupted recording)",
+    )
+
+
+def _learn(
+    args: argparse.Namespace,
+    png: Path,
+    *,
+    inputs: np.ndarray,
+    commands: np.ndarray,
+    library: RoadLibrary,
+    memory: MemoryConfig | None,
+    title: str,
+    note: str,
+) -> int:
+    """Evolve on the cases, then write the controller and its fitness curve."""
+    # Lazy: the drawing and progress-bar stack (OpenCV, tqdm) loads only when the command runs.
+    from ..utils.progress import progress_bar
+    from ..viz import plots
+
     config = GAConfig(generations=args.generations, elitism=args.elitism)
     with progress_bar(
         config.generations, "evolving", unit=" generations", enabled=not args.quiet
     ) as bar:
         result = evolve(
-            demo.inputs,
-            demo.commands,
+            inputs,
+            commands,
             config,
             np.random.default_rng(args.seed),
             progress=lambda g, best, mean: advance(bar, g, f"best fitness {best:.4f}"),
         )
     controller = Controller.from_evolution(library, result, seed=args.seed, memory=memory)
-    accuracy = training_accuracy(result.best_weights, demo.inputs, demo.commands)
+    accuracy = training_accuracy(result.best_weights, inputs, commands)
     picture = plots.fitness_plot(
         [
             ("best", result.best_history, (200, 30, 30)),
             ("mean", result.mean_history, (30, 80, 200)),
         ],
-        title=f"Fitness of each generation: {shown_path(Path(args.demo).name)},"
-        f" GA seed {args.seed}",
+        title=f"Fitness of each generation: {title}, GA seed {args.seed}",
         notes=plots.fitness_notes(config.elitism),
     )
     # Both files or neither: the controller waits under a hidden name beside --out until the
@@ -112,10 +166,9 @@ def run(args: argparse.Namespace) -> int:
     except BaseException:
         staged.unlink(missing_ok=True)
         raise
-    partial = "" if demo.metadata["complete"] else " (an interrupted recording)"
     print(
         f"{shown_path(args.out)}: best fitness {result.best_fitness:.4f} (generation "
-        f"{result.best_generation}), training accuracy {accuracy:.1%} on {demo.n_cases} cases"
-        f"{partial}; fitness curve {shown_path(png)}"
+        f"{result.best_generation}), training accuracy {accuracy:.1%} on {len(commands)} cases"
+        f"{note}; fitness curve {shown_path(png)}"
     )
     return EXIT_OK
