@@ -63,8 +63,14 @@ def run_minari(args: argparse.Namespace) -> int:
         force=args.force,
     )
     cases = cases_from_minari(args.dataset_id, datasets_path=args.datasets_path)
+    episodes = _plural(cases.n_episodes, "episode")
+    files = _plural(len(args.demos), "demonstration")
     print(
-        f"Minari dataset {args.dataset_id}: {cases.n_cases} cases in {cases.n_episodes}"
-        f" episodes of {len(args.demos)} demonstration(s), in {shown_path(folder)}"
+        f"Minari dataset {args.dataset_id}: {cases.n_cases} cases in {episodes} of {files},"
+        f" in {shown_path(folder)}"
     )
     return EXIT_OK
+
+
+def _plural(n: int, noun: str) -> str:
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"

@@ -45,6 +45,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import re
 import shutil
 import tempfile
 import warnings
@@ -135,7 +136,7 @@ def _minari_root(root: Path) -> Iterator[Any]:
         import h5py  # noqa: F401  (the HDF5 storage; checked here for a clear line)
         import minari
     before = os.environ.get("MINARI_DATASETS_PATH")
-    os.environ["MINARI_DATASETS_PATH"] = str(root)
+    os.environ["MINARI_DATASETS_PATH"] = str(root.absolute())  # minari mis-joins relative paths
     try:
         yield minari
     finally:
@@ -145,19 +146,22 @@ def _minari_root(root: Path) -> Iterator[Any]:
             os.environ["MINARI_DATASETS_PATH"] = before
 
 
-def _check_dataset_id(dataset_id: str) -> tuple[str | None, str, int]:
+def _check_dataset_id(dataset_id: str) -> str | None:
+    """The namespace of a valid ``[NAMESPACE/]NAME-vVERSION`` id (LfdTrackError otherwise)."""
     with needs_extra("minari"):
         from minari.dataset.minari_dataset import parse_dataset_id
+    if not re.search(r"-v\d+$", dataset_id):
+        raise LfdTrackError(
+            f"dataset id '{dataset_id}' has no version (e.g. lfd-track/training-v0)"
+        )
     try:
-        parsed = parse_dataset_id(dataset_id)
-    except ValueError:
+        namespace, _, _ = parse_dataset_id(dataset_id)
+    except (ValueError, TypeError):
         raise LfdTrackError(
             f"dataset id '{dataset_id}' is not of the form [NAMESPACE/]NAME-vVERSION"
             " (e.g. lfd-track/training-v0)"
         ) from None
-    if parsed[2] is None:
-        raise LfdTrackError(f"dataset id '{dataset_id}' has no version (e.g. {dataset_id}-v0)")
-    return parsed
+    return namespace
 
 
 # ------------------------------------------------------------------------------------- export
@@ -245,7 +249,6 @@ def _episode_buffer(demo: Demonstration, start: int, end: int, episode_id: int) 
 def _env(recording: _Recording) -> Any:
     import gymnasium as gym
 
-    from .. import envs  # noqa: F401  (registers LfDTrack-v0)
     from ..envs.library_observation import LibraryRoadValueObservation
     from ..envs.registration import register_envs
 
@@ -277,7 +280,7 @@ def export_minari(
         raise LfdTrackError(
             f"observations must be one of {', '.join(OBSERVATIONS)}, got {observations!r}"
         )
-    namespace, _, _ = _check_dataset_id(dataset_id)
+    namespace = _check_dataset_id(dataset_id)
     root = datasets_root(datasets_path)
     target = root / dataset_id
     if target.exists() and not force:
