@@ -61,6 +61,7 @@ from ..policy.memory import MemoryConfig
 from ..utils.extras import needs_extra
 from ..utils.outputs import shown_path
 from ..vision.road_library import RoadLibrary
+from .checks import _memory_problem, _road_value_problem
 from .model import Demonstration
 from .reader import load_demonstration
 from .records import N_CHANNELS, N_VALUES, SOURCES
@@ -73,6 +74,7 @@ __all__ = [
     "cases_from_minari",
     "datasets_root",
     "export_minari",
+    "open_minari",
 ]
 
 ENV_ID = "LfDTrack-v0"
@@ -411,12 +413,11 @@ def _carried(dataset: Any, dataset_id: str) -> dict[str, Any]:
     return carried
 
 
-def cases_from_minari(dataset_id: str, *, datasets_path: str | Path | None = None) -> MinariCases:
-    """The cases of the lfd-track Minari dataset ``dataset_id`` and the library to drive with.
+def open_minari(dataset_id: str, *, datasets_path: str | Path | None = None) -> Any:
+    """The ``minari.MinariDataset`` ``dataset_id`` in ``datasets_path`` (None: Minari's own
+    folder), e.g. to ``recover_environment()`` or iterate its episodes.
 
-    Every episode's observations but its final one are cases, in episode order. See the module
-    documentation for the road library. Raises LfdTrackError (one line) on a missing dataset, one
-    not written by lfd-track, or one whose content does not fit its metadata.
+    Raises LfdTrackError (one line) when there is no such dataset or it cannot be read.
     """
     _check_dataset_id(dataset_id)
     root = datasets_root(datasets_path)
@@ -424,61 +425,74 @@ def cases_from_minari(dataset_id: str, *, datasets_path: str | Path | None = Non
         raise LfdTrackError(f"no Minari dataset {dataset_id} in {shown_path(root)}")
     with _minari_root(root) as minari:
         try:
-            dataset = minari.load_dataset(dataset_id)
+            return minari.load_dataset(dataset_id)
         except (ValueError, OSError, KeyError) as exc:
             first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise LfdTrackError(f"Minari dataset {dataset_id}: cannot be read ({first})") from None
-        carried = _carried(dataset, dataset_id)
-        where = f"Minari dataset {dataset_id}"
+
+
+def cases_from_minari(dataset_id: str, *, datasets_path: str | Path | None = None) -> MinariCases:
+    """The cases of the lfd-track Minari dataset ``dataset_id`` and the library to drive with.
+
+    Every episode's observations but its final one are cases, in episode order. See the module
+    documentation for the road library. Raises LfdTrackError (one line) on a missing dataset, one
+    not written by lfd-track, or one whose content does not fit its metadata.
+    """
+    dataset = open_minari(dataset_id, datasets_path=datasets_path)
+    carried = _carried(dataset, dataset_id)
+    where = f"Minari dataset {dataset_id}"
+    try:
+        files = carried["files"]
+        libraries = [RoadLibrary.from_dict(f["road_library"]) for f in files]
+        library_dicts = [f["road_library"] for f in files]
+        origins = carried["episodes"]
+        n_memory = int(carried["n_memory"])
+        memory = None if carried["memory"] is None else MemoryConfig.from_dict(carried["memory"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise LfdTrackError(f"{where}: bad '{METADATA_KEY}' metadata ({exc})") from None
+    if (memory.n_inputs if memory else 0) != n_memory:
+        raise LfdTrackError(f"{where}: memory settings do not fit {n_memory} memory inputs")
+    library = libraries[0]
+    bins = library.bins
+    inputs: list[np.ndarray] = []
+    actions: list[np.ndarray] = []
+    recomputed = 0
+    n_episodes = 0
+    for episode in dataset.iterate_episodes():
+        index = int(episode.id)
+        if not 0 <= index < len(origins):
+            raise LfdTrackError(f"{where}: episode {index} is not in its metadata")
+        file_index = int(origins[index]["file"])
+        obs = np.asarray(episode.observations, dtype=np.float64)
+        acts = np.asarray(episode.actions)
+        n = acts.shape[0]
         try:
-            files = carried["files"]
-            libraries = [RoadLibrary.from_dict(f["road_library"]) for f in files]
-            library_dicts = [f["road_library"] for f in files]
-            origins = carried["episodes"]
-            n_memory = int(carried["n_memory"])
-            memory = (
-                None if carried["memory"] is None else MemoryConfig.from_dict(carried["memory"])
-            )
-        except (KeyError, TypeError, ValueError) as exc:
-            raise LfdTrackError(f"{where}: bad '{METADATA_KEY}' metadata ({exc})") from None
-        if (memory.n_inputs if memory else 0) != n_memory:
-            raise LfdTrackError(f"{where}: memory settings do not fit {n_memory} memory inputs")
-        library = libraries[0]
-        bins = library.bins
-        inputs: list[np.ndarray] = []
-        actions: list[np.ndarray] = []
-        recomputed = 0
-        n_episodes = 0
-        for episode in dataset.iterate_episodes():
-            index = int(episode.id)
-            if not 0 <= index < len(origins):
-                raise LfdTrackError(f"{where}: episode {index} is not in its metadata")
-            file_index = int(origins[index]["file"])
-            obs = np.asarray(episode.observations, dtype=np.float64)
-            acts = np.asarray(episode.actions)
-            n = acts.shape[0]
             hists = np.asarray(episode.infos["histograms"])
             mem = np.asarray(episode.infos["memory"], dtype=np.float64).reshape(n + 1, -1)
-            if (
-                obs.shape != (n + 1, N_VALUES)
-                or hists.shape != (n + 1, N_VALUES, N_CHANNELS, bins)
-                or mem.shape[1] != n_memory
-                or n != int(origins[index]["n_cases"])
-                or not np.isin(acts, (0, 1, 2)).all()
-            ):
-                raise LfdTrackError(f"{where}: episode {index} does not fit its metadata")
-            values = obs[:n]
-            if library_dicts[file_index] != library_dicts[0]:
-                values = np.array(
-                    [
-                        library.road_values_from_histograms(h, update_statistics=False)
-                        for h in hists[:n]
-                    ]
-                )
-                recomputed += n
-            inputs.append(np.hstack([values, mem[:n]]) if n_memory else values)
-            actions.append(acts.astype(np.int8))
-            n_episodes += 1
+        except (KeyError, ValueError):
+            raise LfdTrackError(
+                f"{where}: episode {index} lacks its histograms or memory"
+            ) from None
+        if (
+            obs.shape != (n + 1, N_VALUES)
+            or hists.shape != (n + 1, N_VALUES, N_CHANNELS, bins)
+            or mem.shape[1] != n_memory
+            or n != int(origins[index]["n_cases"])
+            or not np.isin(acts, (0, 1, 2)).all()
+        ):
+            raise LfdTrackError(f"{where}: episode {index} does not fit its metadata")
+        values = obs[:n]
+        problem = _road_value_problem(values) or _memory_problem(mem[:n])
+        if problem:
+            raise LfdTrackError(f"{where}: episode {index}: {problem}")
+        if library_dicts[file_index] != library_dicts[0]:
+            values = np.array(
+                [library.road_values_from_histograms(h, update_statistics=False) for h in hists[:n]]
+            )
+            recomputed += n
+        inputs.append(np.hstack([values, mem[:n]]) if n_memory else values)
+        actions.append(acts.astype(np.int8))
+        n_episodes += 1
     if not actions:
         raise LfdTrackError(f"{where}: holds no episodes")
     return MinariCases(
