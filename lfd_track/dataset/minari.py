@@ -127,6 +127,16 @@ def datasets_root(datasets_path: str | Path | None = None) -> Path:
     return Path.home() / ".minari" / "datasets"
 
 
+def _import_minari() -> Any:
+    """The ``minari`` module; a missing part of the extra is one line naming it."""
+    with needs_extra("minari"):
+        # Minari's HDF5 storage needs h5py and Pillow; imported here for a clear line.
+        import h5py  # noqa: F401
+        import minari
+        import PIL  # noqa: F401
+    return minari
+
+
 @contextlib.contextmanager
 def _minari_root(root: Path) -> Iterator[Any]:
     """The ``minari`` module with its datasets folder set to ``root`` for the block.
@@ -134,9 +144,7 @@ def _minari_root(root: Path) -> Iterator[Any]:
     Minari finds its datasets through ``MINARI_DATASETS_PATH`` only; it is set for the block and
     restored after it.
     """
-    with needs_extra("minari"):
-        import h5py  # noqa: F401  (the HDF5 storage; checked here for a clear line)
-        import minari
+    minari = _import_minari()
     before = os.environ.get("MINARI_DATASETS_PATH")
     os.environ["MINARI_DATASETS_PATH"] = str(root.absolute())  # minari mis-joins relative paths
     try:
@@ -150,8 +158,9 @@ def _minari_root(root: Path) -> Iterator[Any]:
 
 def _check_dataset_id(dataset_id: str) -> str | None:
     """The namespace of a valid ``[NAMESPACE/]NAME-vVERSION`` id (LfdTrackError otherwise)."""
-    with needs_extra("minari"):
-        from minari.dataset.minari_dataset import parse_dataset_id
+    _import_minari()
+    from minari.dataset.minari_dataset import parse_dataset_id
+
     if not re.search(r"-v\d+$", dataset_id):
         raise LfdTrackError(
             f"dataset id '{dataset_id}' has no version (e.g. lfd-track/training-v0)"
@@ -373,7 +382,11 @@ def export_minari(
         if target.exists():
             old = staging / ".replaced"
             os.replace(target, old)  # kept until the new dataset is in place
-            os.replace(built, target)
+            try:
+                os.replace(built, target)
+            except BaseException:
+                os.replace(old, target)
+                raise
         else:
             os.replace(built, target)
     finally:

@@ -21,7 +21,7 @@ EXTRAS: dict[str, tuple[str, tuple[str, ...]]] = {
     "video": ("writing videos", ("imageio_ffmpeg",)),
     "cmaes": ("the CMA-ES learner", ("cma",)),
     "cluster": ("studies on Ray (--executor ray)", ("ray",)),
-    "minari": ("Minari datasets (export minari, evolve --minari)", ("minari", "h5py")),
+    "minari": ("Minari datasets (export minari, evolve --minari)", ("minari", "h5py", "PIL")),
 }
 """Extra name -> (what needs it, the top-level modules it provides)."""
 

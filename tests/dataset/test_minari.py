@@ -299,3 +299,33 @@ def test_minari_brings_no_jax_or_torch():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+CHILD = r"""
+import sys
+for name in sys.argv[1].split(","):
+    sys.modules[name] = None
+sys.path.insert(0, sys.argv[2])
+from lfd_track.cli import main
+sys.exit(main(sys.argv[3:]))
+"""
+
+
+@pytest.mark.parametrize("blocked", ["minari", "h5py", "PIL"])
+@pytest.mark.parametrize("command", ["export", "evolve"])
+def test_without_the_minari_extra_the_commands_name_it_in_one_line(tmp_path, blocked, command):
+    repo = Path(__file__).resolve().parents[2]
+    args = {
+        "export": ["export", "minari", "d.lfdemo", "--dataset-id", "a-v0"],
+        "evolve": ["evolve", "--minari", "a-v0", "--out", "c.json"],
+    }[command]
+    proc = subprocess.run(
+        [sys.executable, "-c", CHILD, blocked, str(repo), *args, "--datasets-path", "ds"],
+        capture_output=True, text=True, cwd=tmp_path, timeout=300,
+    )  # fmt: skip
+    assert proc.returncode == 1
+    assert proc.stderr.strip().splitlines() == [
+        f"lfd-track {command}: Minari datasets (export minari, evolve --minari) needs the"
+        " minari extra: pip install 'lfd-track[minari]'"
+    ]
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
