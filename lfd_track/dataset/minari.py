@@ -199,10 +199,12 @@ def _read_recording(path: Path) -> _Recording:
             f"{name}: its road library is empty (no frame was learned while recording)"
         )
     meta = demo.metadata
-    if meta.get("kind") != "simulated" or not isinstance(meta.get("track"), str):
-        kind = meta.get("kind")
-        what = f"a {kind} recording" if isinstance(kind, str) else "it records no simulated track"
+    kind = meta.get("kind")
+    if kind != "simulated":
+        what = f"a {kind} recording" if isinstance(kind, str) else "not a simulated recording"
         raise LfdTrackError(f"{name}: {what}, not a drive in {ENV_ID} (no env to recover)")
+    if not isinstance(meta.get("track"), str):
+        raise LfdTrackError(f"{name}: records no track, so its {ENV_ID} cannot be recovered")
     if not isinstance(meta.get("preset", "paper"), str):
         raise LfdTrackError(f"{name}: its preset is not a name or a path")
     return _Recording(path, demo, library)

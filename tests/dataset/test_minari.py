@@ -311,8 +311,9 @@ sys.exit(main(sys.argv[3:]))
 """
 
 
-@pytest.mark.parametrize("blocked", ["minari", "h5py", "PIL"])
-@pytest.mark.parametrize("command", ["export", "evolve"])
+@pytest.mark.parametrize(
+    ("blocked", "command"), [("minari", "export"), ("h5py", "export"), ("PIL", "evolve")]
+)
 def test_without_the_minari_extra_the_commands_name_it_in_one_line(tmp_path, blocked, command):
     repo = Path(__file__).resolve().parents[2]
     args = {
@@ -329,3 +330,42 @@ def test_without_the_minari_extra_the_commands_name_it_in_one_line(tmp_path, blo
         " minari extra: pip install 'lfd-track[minari]'"
     ]
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+def test_memory_inputs_travel_with_the_cases(sample, tmp_path):
+    from lfd_track.policy.memory import MemoryConfig
+
+    demo = load_demonstration(sample[0])
+    settings = MemoryConfig(kind="last_bend")
+    memory = np.random.default_rng(0).choice([0.0, 0.5, 1.0], size=(demo.n_cases, 1))
+    with_memory = dataclasses.replace(
+        demo, memory=memory, metadata=dict(demo.metadata, memory=settings.to_dict())
+    )
+    path = tmp_path / "memory.lfdemo"
+    save_demonstration(path, with_memory)
+    root = tmp_path / "datasets"
+    export_minari([path], "memory-v0", datasets_path=root)
+    cases = cases_from_minari("memory-v0", datasets_path=root)
+    assert np.array_equal(cases.inputs, load_demonstration(path).inputs)
+    assert cases.inputs.shape == (demo.n_cases, 41) and cases.memory == settings
+    with pytest.raises(LfdTrackError, match="memory settings"):
+        export_minari([path, sample[1]], "mixed-v0", datasets_path=root)
+
+
+@pytest.mark.parametrize(
+    ("changes", "problem"),
+    [
+        ({"kind": "hardware"}, "a hardware recording, not a drive in LfDTrack-v0"),
+        ({"track": None}, "records no track"),
+        ({"road_library": None}, "no road library stored"),
+    ],
+)
+def test_recordings_without_an_env_or_a_library_are_one_line(sample, tmp_path, changes, problem):
+    demo = load_demonstration(sample[0])
+    metadata = {k: v for k, v in dict(demo.metadata, **changes).items() if v is not None}
+    path = tmp_path / "odd.lfdemo"
+    save_demonstration(path, dataclasses.replace(demo, metadata=metadata))
+    with pytest.raises(LfdTrackError, match=problem) as caught:
+        export_minari([path], "odd-v0", datasets_path=tmp_path / "ds")
+    assert str(caught.value).startswith(str(path)) and "\n" not in str(caught.value)
+    assert not (tmp_path / "ds" / "odd-v0").exists()
