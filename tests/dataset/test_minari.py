@@ -248,6 +248,9 @@ def test_a_bad_dataset_id_and_a_missing_dataset_are_one_line(sample, tmp_path, c
     assert code == 1 and err.count("\n") == 1 and "NAME-vVERSION" in err
     code, err = _run([*args, "--dataset-id", "unversioned"], capsys)
     assert code == 1 and err.count("\n") == 1
+    code, err = _run([*args, "--dataset-id", "../outside-v0"], capsys)
+    assert code == 1 and err.count("\n") == 1 and "NAME-vVERSION" in err
+    assert not (tmp_path.parent / "outside-v0").exists()
     out = str(tmp_path / "c.json")
     code, err = _run(
         ["evolve", "--minari", "gone-v0", "--datasets-path", str(tmp_path), "--out", out], capsys
