@@ -56,7 +56,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import LfdTrackError
+from ..errors import LfdTrackError, first_line
 from ..policy.memory import MemoryConfig
 from ..utils.extras import needs_extra
 from ..utils.outputs import shown_path
@@ -441,9 +441,23 @@ def open_minari(dataset_id: str, *, datasets_path: str | Path | None = None) -> 
     with _minari_root(root) as minari:
         try:
             return minari.load_dataset(dataset_id)
-        except (ValueError, OSError, KeyError) as exc:
-            first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            raise LfdTrackError(f"Minari dataset {dataset_id}: cannot be read ({first})") from None
+        except (ValueError, OSError, KeyError, TypeError) as exc:
+            raise LfdTrackError(
+                f"Minari dataset {dataset_id}: cannot be read ({first_line(exc)})"
+            ) from None
+
+
+def _read_episodes(dataset: Any, where: str) -> Iterator[Any]:
+    """The dataset's episodes one by one; a storage that cannot be read is one line."""
+    episodes = iter(dataset.iterate_episodes())
+    while True:
+        try:
+            episode = next(episodes)
+        except StopIteration:
+            return
+        except (OSError, KeyError, ValueError, TypeError) as exc:
+            raise LfdTrackError(f"{where}: cannot be read ({first_line(exc)})") from None
+        yield episode
 
 
 def cases_from_minari(dataset_id: str, *, datasets_path: str | Path | None = None) -> MinariCases:
@@ -458,12 +472,16 @@ def cases_from_minari(dataset_id: str, *, datasets_path: str | Path | None = Non
     where = f"Minari dataset {dataset_id}"
     try:
         files = carried["files"]
+        if not isinstance(files, list) or not files:
+            raise ValueError("no files")
         libraries = [RoadLibrary.from_dict(f["road_library"]) for f in files]
         library_dicts = [f["road_library"] for f in files]
-        origins = carried["episodes"]
+        origins = [(int(e["file"]), int(e["n_cases"])) for e in carried["episodes"]]
+        if any(not 0 <= file < len(files) for file, _ in origins):
+            raise ValueError("an episode of no file")
         n_memory = int(carried["n_memory"])
         memory = None if carried["memory"] is None else MemoryConfig.from_dict(carried["memory"])
-    except (KeyError, TypeError, ValueError) as exc:
+    except (KeyError, TypeError, ValueError, AttributeError, OverflowError) as exc:
         raise LfdTrackError(f"{where}: bad '{METADATA_KEY}' metadata ({exc})") from None
     if (memory.n_inputs if memory else 0) != n_memory:
         raise LfdTrackError(f"{where}: memory settings do not fit {n_memory} memory inputs")
@@ -473,11 +491,11 @@ def cases_from_minari(dataset_id: str, *, datasets_path: str | Path | None = Non
     actions: list[np.ndarray] = []
     recomputed = 0
     n_episodes = 0
-    for episode in dataset.iterate_episodes():
+    for episode in _read_episodes(dataset, where):
         index = int(episode.id)
         if not 0 <= index < len(origins):
             raise LfdTrackError(f"{where}: episode {index} is not in its metadata")
-        file_index = int(origins[index]["file"])
+        file_index, n_cases = origins[index]
         obs = np.asarray(episode.observations, dtype=np.float64)
         acts = np.asarray(episode.actions)
         n = acts.shape[0]
@@ -492,7 +510,7 @@ def cases_from_minari(dataset_id: str, *, datasets_path: str | Path | None = Non
             obs.shape != (n + 1, N_VALUES)
             or hists.shape != (n + 1, N_VALUES, N_CHANNELS, bins)
             or mem.shape[1] != n_memory
-            or n != int(origins[index]["n_cases"])
+            or n != n_cases
             or not np.isin(acts, (0, 1, 2)).all()
         ):
             raise LfdTrackError(f"{where}: episode {index} does not fit its metadata")

@@ -6,6 +6,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -372,3 +373,69 @@ def test_recordings_without_an_env_or_a_library_are_one_line(sample, tmp_path, c
         export_minari([path], "odd-v0", datasets_path=tmp_path / "ds")
     assert str(caught.value).startswith(str(path)) and "\n" not in str(caught.value)
     assert not (tmp_path / "ds" / "odd-v0").exists()
+
+
+@pytest.fixture(scope="module")
+def one_file_dataset(sample, tmp_path_factory) -> Path:
+    root = tmp_path_factory.mktemp("one-file")
+    export_minari(sample[:1], "t-v0", datasets_path=root)
+    return root
+
+
+def _tamper_metadata(root: Path, change) -> None:
+    path = root / "t-v0/data/metadata.json"
+    metadata = json.loads(path.read_text())
+    carried = json.loads(metadata[METADATA_KEY])
+    change(carried)
+    metadata[METADATA_KEY] = json.dumps(carried)
+    path.write_text(json.dumps(metadata))
+
+
+@pytest.mark.parametrize(
+    ("change", "problem"),
+    [
+        (lambda c: c.update(files=[]), "bad 'lfd_track' metadata (no files)"),
+        (lambda c: c.update(episodes=[{"file": 5, "n_cases": 38}]), "an episode of no file"),
+        (lambda c: c.update(episodes=5), "bad 'lfd_track' metadata"),
+        (lambda c: c.update(episodes=[]), "episode 0 is not in its metadata"),
+        (lambda c: c["files"][0].update(road_library={"x": 1}), "bad 'lfd_track' metadata"),
+        (lambda c: c.update(n_memory=2), "memory settings do not fit 2 memory inputs"),
+        (lambda c: c.update(version=9), "format version 9"),
+        (lambda c: c["episodes"][0].update(n_cases=3), "episode 0 does not fit its metadata"),
+    ],
+)
+def test_a_tampered_dataset_is_one_line(one_file_dataset, tmp_path, capsys, change, problem):
+    root = tmp_path / "ds"
+    shutil.copytree(one_file_dataset, root)
+    _tamper_metadata(root, change)
+    out = tmp_path / "c.json"
+    code, err = _run(
+        ["evolve", "--minari", "t-v0", "--datasets-path", str(root), "--out", str(out)], capsys
+    )
+    assert code == 1 and err.count("\n") == 1, err
+    assert err.startswith("lfd-track evolve: Minari dataset t-v0: ") and problem in err
+    assert not out.exists()
+
+
+def test_a_truncated_storage_is_one_line(one_file_dataset, tmp_path, capsys):
+    root = tmp_path / "ds"
+    shutil.copytree(one_file_dataset, root)
+    storage = root / "t-v0/data/main_data.hdf5"
+    storage.write_bytes(storage.read_bytes()[:5000])
+    out = tmp_path / "c.json"
+    code, err = _run(
+        ["evolve", "--minari", "t-v0", "--datasets-path", str(root), "--out", str(out)], capsys
+    )
+    assert code == 1 and err.count("\n") == 1 and "t-v0: cannot be read" in err
+    assert not out.exists()
+
+
+def test_an_impossible_road_value_in_the_storage_is_one_line(one_file_dataset, tmp_path, capsys):
+    import h5py
+
+    root = tmp_path / "ds"
+    shutil.copytree(one_file_dataset, root)
+    with h5py.File(root / "t-v0/data/main_data.hdf5", "a") as storage:
+        storage["episode_0/observations"][3, 0] = 7.0
+    with pytest.raises(LfdTrackError, match=r"episode 0: road value 7 outside \[-1, 1\]"):
+        cases_from_minari("t-v0", datasets_path=root)
