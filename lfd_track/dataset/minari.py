@@ -20,13 +20,14 @@ What a dataset holds:
   is *truncated*; nothing is terminated. Rewards are not recorded: they are 0.
 - **Infos** (one per observation, the same keys in every dataset): ``case`` (the case's index
   in its file, -1 for the final observation), ``step``, ``pose`` (3,), ``progress_m``,
-  ``learned``, ``source`` (index into :data:`~lfd_track.dataset.records.SOURCES`), ``round``,
+  ``learned``, ``phase`` (index into the metadata's ``phases``; -1 for the final observation),
+  ``source`` (index into :data:`~lfd_track.dataset.records.SOURCES`), ``round``,
   ``histograms`` (40, 5, bins) float32 (the region histograms the values came from) and
   ``memory`` (m,) float64 (the policy's memory inputs; m = 0 without memory). The final
   observation has NaN pose and progress and zero histograms and memory.
 - **Metadata** under the key :data:`METADATA_KEY` (a JSON string): every file's name,
   metadata and road library, which file and first case each episode comes from, the memory
-  settings and the bins.
+  settings, the bins, and the names of the phases and sources the infos index.
 - **Environment**: the spec of ``LfDTrack-v0`` on the recordings' track and preset, wrapped in
   :class:`~lfd_track.envs.library_observation.LibraryRoadValueObservation` with the first
   file's road library, so ``recover_environment()`` gives an env whose observations are road
@@ -219,7 +220,9 @@ def _episode_bounds(demo: Demonstration) -> list[tuple[int, int]]:
     return list(zip(edges[:-1], edges[1:], strict=True))
 
 
-def _episode_buffer(demo: Demonstration, start: int, end: int, episode_id: int) -> Any:
+def _episode_buffer(
+    demo: Demonstration, start: int, end: int, episode_id: int, phases: list[str]
+) -> Any:
     from minari.data_collector import EpisodeBuffer
 
     n = end - start
@@ -235,12 +238,14 @@ def _episode_buffer(demo: Demonstration, start: int, end: int, episode_id: int) 
     progress = np.array(demo.progress_m[with_final], dtype=np.float64)
     progress[final] = np.nan
     sources = np.array([SOURCES.index(s) for s in demo.sources[with_final]], dtype=np.int64)
+    phase = np.array([phases.index(p) for p in demo.phases[start:end]] + [-1], dtype=np.int64)
     infos = {
         "case": np.r_[np.arange(start, end), -1].astype(np.int64),
         "step": np.r_[demo.steps[start:end], demo.steps[end - 1] + 1].astype(np.int64),
         "pose": pose,
         "progress_m": progress,
         "learned": np.r_[demo.learned[start:end], False].astype(np.bool_),
+        "phase": phase,
         "source": sources,
         "round": demo.rounds[with_final].astype(np.int64),
         "histograms": histograms,
@@ -320,12 +325,13 @@ def export_minari(
                     f" {shown_path(first.path)}'s ({theirs!r}); one dataset is one env"
                 )
 
+    phases = sorted({str(p) for rec in recordings for p in rec.demo.phases})
     buffers = []
     files = []
     episodes = []
     for index, rec in enumerate(recordings):
         for start, end in _episode_bounds(rec.demo):
-            buffers.append(_episode_buffer(rec.demo, start, end, len(buffers)))
+            buffers.append(_episode_buffer(rec.demo, start, end, len(buffers), phases))
             episodes.append({"file": index, "first_case": start, "n_cases": end - start})
         files.append(
             {
@@ -344,6 +350,7 @@ def export_minari(
         "n_memory": int(first.demo.memory.shape[1]),
         "memory": first.demo.metadata.get("memory"),
         "sources": list(SOURCES),
+        "phases": phases,
         "files": files,
         "episodes": episodes,
     }

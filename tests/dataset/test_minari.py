@@ -56,6 +56,7 @@ def test_minari_loads_the_episodes_as_recorded(sample, minari_root):
     assert dataset.total_steps == sum(d.n_cases for d in demos)
     assert str(dataset.action_space) == "Discrete(3)"
     assert dataset.observation_space.shape == (40,)
+    carried = json.loads(dataset.storage.metadata[METADATA_KEY])
     for episode, demo in zip(dataset.iterate_episodes(), demos, strict=True):
         n = demo.n_cases
         assert len(episode) == n
@@ -74,7 +75,9 @@ def test_minari_loads_the_episodes_as_recorded(sample, minari_root):
         assert np.array_equal(infos["pose"][:n], demo.poses)
         assert np.array_equal(infos["learned"][:n], demo.learned)
         assert infos["memory"].shape == (n + 1, 0)
-    carried = json.loads(dataset.storage.metadata[METADATA_KEY])
+        phases = carried["phases"]
+        assert [phases[i] for i in infos["phase"][:n]] == demo.phases.tolist()
+        assert infos["phase"][n] == -1
     assert [f["name"] for f in carried["files"]] == [p.name for p in sample[:2]]
     assert (
         carried["files"][1]["road_library"]
