@@ -300,6 +300,8 @@ def export_minari(
         )
     namespace = _check_dataset_id(dataset_id)
     root = datasets_root(datasets_path)
+    if root.exists() and not root.is_dir():
+        raise LfdTrackError(f"{shown_path(root)}: the Minari datasets folder is not a folder")
     target = root / dataset_id
     if target.exists() and not force:
         raise LfdTrackError(

@@ -442,3 +442,10 @@ def test_an_impossible_road_value_in_the_storage_is_one_line(one_file_dataset, t
         storage["episode_0/observations"][3, 0] = 7.0
     with pytest.raises(LfdTrackError, match=r"episode 0: road value 7 outside \[-1, 1\]"):
         cases_from_minari("t-v0", datasets_path=root)
+
+
+def test_a_datasets_folder_that_is_a_file_is_one_line(sample, tmp_path):
+    (tmp_path / "file").write_text("mine")
+    with pytest.raises(LfdTrackError, match="file: the Minari datasets folder is not a folder"):
+        export_minari(sample[:1], "x-v0", datasets_path=tmp_path / "file")
+    assert (tmp_path / "file").read_text() == "mine"
