@@ -323,8 +323,8 @@ def export_minari(
         ):
             if mine != theirs:
                 raise LfdTrackError(
-                    f"{shown_path(rec.path)}: {what} {mine!r} differ from"
-                    f" {shown_path(first.path)}'s ({theirs!r}); one dataset is one env"
+                    f"{shown_path(rec.path)}: {what} {mine!r}, but {shown_path(first.path)}"
+                    f" has {theirs!r} (a dataset is of one env)"
                 )
 
     phases = sorted({str(p) for rec in recordings for p in rec.demo.phases})

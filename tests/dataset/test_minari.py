@@ -269,7 +269,10 @@ def test_recordings_of_different_tracks_are_one_line(sample, tmp_path):
     demo = load_demonstration(sample[0])
     other = tmp_path / "other.lfdemo"
     save_demonstration(other, _subset(demo, np.arange(demo.n_cases), track="sbend"))
-    with pytest.raises(LfdTrackError, match="track 'sbend' differ"):
+    with pytest.raises(
+        LfdTrackError,
+        match=r"track 'sbend', but .*training-0.lfdemo has 'training'",
+    ):
         export_minari([sample[0], other], "two-v0", datasets_path=tmp_path)
 
 
