@@ -33,6 +33,7 @@ DATA_FILES = (
     "lfd_track/_data/envs/paper.toml",
     "lfd_track/_data/envs/randomized.toml",
     "lfd_track/_data/envs/wide.toml",
+    "lfd_track/_data/samples/demonstrations.zip",  # lfd-track sample-data
     "lfd_track/web/static/index.html",  # the teaching station's page ships in the package
     "lfd_track/web/static/app.js",
     "lfd_track/web/static/style.css",

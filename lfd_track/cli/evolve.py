@@ -1,5 +1,6 @@
-"""``lfd-track evolve``: the paper's GA on a demonstration; writes the controller, its fitness
-curve and the curve's numbers, all or none."""
+"""``lfd-track evolve``: the paper's GA on a demonstration (a ``.lfdemo`` file, or a Minari dataset
+written by ``lfd-track export minari``); writes the controller, its fitness curve and the
+curve's numbers, all or none."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from ..errors import LfdTrackError
 from ..learning.fitness import training_accuracy
 from ..learning.ga import GAConfig, evolve
 from ..policy.controller import Controller
+from ..policy.memory import MemoryConfig
 from ..utils.outputs import shown_path
 from ..vision.road_library import RoadLibrary
 from .outputs import advance, check_output
@@ -29,7 +31,20 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="evolve a controller from a demonstration",
         description="Run the paper's GA (Table 1) on a demonstration; writes the controller JSON and a fitness-curve PNG beside it (with its numbers as CSV).",
     )
-    evo.add_argument("demo", help="demonstration file (.lfdemo)")
+    evo.add_argument(
+        "demo", nargs="?", default=None, help="demonstration file (.lfdemo); or use --minari"
+    )
+    evo.add_argument(
+        "--minari",
+        metavar="DATASET_ID",
+        default=None,
+        help="learn from a Minari dataset written by lfd-track export minari instead",
+    )
+    evo.add_argument(
+        "--datasets-path",
+        default=None,
+        help="Minari datasets folder for --minari (default: Minari's own)",
+    )
     evo.add_argument("--seed", type=_seed, default=0, help="GA seed (default: 0)")
     evo.add_argument(
         "--generations",
@@ -50,13 +65,27 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
 
 def run(args: argparse.Namespace) -> int:
     """The ``evolve`` command."""
-    # Lazy: the drawing and progress-bar stack (OpenCV, tqdm) loads only when the command runs.
-    from ..utils.progress import progress_bar
-    from ..viz import plot_data, plots
+    from ..viz import plot_data
 
+    if (args.demo is None) == (args.minari is None):
+        raise LfdTrackError("give a demonstration file or --minari DATASET_ID (one of them)")
     png = Path(args.out).with_suffix(".fitness.png")
     for out in (args.out, png, plot_data.data_path(png)):
         check_output(out, [("demonstration", args.demo)])
+    if args.minari is not None:
+        from ..dataset.minari import cases_from_minari
+
+        cases = cases_from_minari(args.minari, datasets_path=args.datasets_path)
+        return _learn(
+            args,
+            png,
+            inputs=cases.inputs,
+            commands=cases.actions,
+            library=cases.library,
+            memory=cases.memory,
+            title=f"Minari dataset {args.minari}",
+            note="",
+        )
     demo = load_demonstration(args.demo)
     if demo.n_cases == 0:
         raise LfdTrackError(f"{shown_path(args.demo)}: the demonstration holds no cases")
@@ -79,27 +108,54 @@ def run(args: argparse.Namespace) -> int:
         memory = demo.memory_settings()
     except ValueError as exc:
         raise LfdTrackError(f"{shown_path(args.demo)}: {exc}") from None
+    return _learn(
+        args,
+        png,
+        inputs=demo.inputs,
+        commands=demo.commands,
+        library=library,
+        memory=memory,
+        title=shown_path(Path(args.demo).name),
+        note="" if demo.metadata["complete"] else " (an interrupted recording)",
+    )
+
+
+def _learn(
+    args: argparse.Namespace,
+    png: Path,
+    *,
+    inputs: np.ndarray,
+    commands: np.ndarray,
+    library: RoadLibrary,
+    memory: MemoryConfig | None,
+    title: str,
+    note: str,
+) -> int:
+    """Evolve on the cases, then write the controller and its fitness curve."""
+    # Lazy: the drawing and progress-bar stack (OpenCV, tqdm) loads only when the command runs.
+    from ..utils.progress import progress_bar
+    from ..viz import plot_data, plots
+
     config = GAConfig(generations=args.generations, elitism=args.elitism)
     with progress_bar(
         config.generations, "evolving", unit=" generations", enabled=not args.quiet
     ) as bar:
         result = evolve(
-            demo.inputs,
-            demo.commands,
+            inputs,
+            commands,
             config,
             np.random.default_rng(args.seed),
             progress=lambda g, best, mean: advance(bar, g, f"best fitness {best:.4f}"),
         )
     controller = Controller.from_evolution(library, result, seed=args.seed, memory=memory)
-    accuracy = training_accuracy(result.best_weights, demo.inputs, demo.commands)
+    accuracy = training_accuracy(result.best_weights, inputs, commands)
     curves = [
         ("best", result.best_history, (200, 30, 30)),
         ("mean", result.mean_history, (30, 80, 200)),
     ]
     picture = plots.fitness_plot(
         curves,
-        title=f"Fitness of each generation: {shown_path(Path(args.demo).name)},"
-        f" GA seed {args.seed}",
+        title=f"Fitness of each generation: {title}, GA seed {args.seed}",
         notes=plots.fitness_notes(config.elitism),
     )
     # All three files or none: each is written under a hidden name beside its own first, and
@@ -112,10 +168,9 @@ def run(args: argparse.Namespace) -> int:
         staged.publish()
     finally:
         staged.discard()
-    partial = "" if demo.metadata["complete"] else " (an interrupted recording)"
     print(
         f"{shown_path(args.out)}: best fitness {result.best_fitness:.4f} (generation "
-        f"{result.best_generation}), training accuracy {accuracy:.1%} on {demo.n_cases} cases"
-        f"{partial}; fitness curve {shown_path(png)} (numbers {shown_path(plot_data.data_path(png))})"
+        f"{result.best_generation}), training accuracy {accuracy:.1%} on {len(commands)} cases"
+        f"{note}; fitness curve {shown_path(png)} (numbers {shown_path(plot_data.data_path(png))})"
     )
     return EXIT_OK

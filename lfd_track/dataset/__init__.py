@@ -5,7 +5,10 @@
 - :mod:`.checks`: the value checks a case passes when written and again when read;
 - :mod:`.writer`: :class:`DemonstrationWriter` (case by case) and :func:`save_demonstration`;
 - :mod:`.reader`: :func:`load_demonstration` (schemas 1-4, the road library replayed);
-- :mod:`.recording`: recording a session safely under an output name (the commands' rules).
+- :mod:`.recording`: recording a session safely under an output name (the commands' rules);
+- :mod:`.sample`: the shipped sample demonstrations (``lfd-track sample-data``);
+- :mod:`.minari`: demonstrations as Minari datasets and back (the ``minari`` extra; not imported
+  here).
 """
 
 from __future__ import annotations

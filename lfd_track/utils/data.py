@@ -2,7 +2,7 @@
 
 One lookup for all of them. In a wheel they live inside the package, in
 ``lfd_track/_data/<kind>`` (``pyproject.toml`` force-includes the checkout's ``tracks/``,
-``envs/`` and the firmware and harness sources under ``hardware/``), found with
+``envs/``, ``samples/`` and the firmware and harness sources under ``hardware/``), found with
 :mod:`importlib.resources`; in a source checkout (editable install, or running from the
 repository) they are the repository's top-level folders of the same name.
 """
@@ -15,8 +15,9 @@ from pathlib import Path
 
 from ..errors import LfdTrackError
 
-KINDS = ("tracks", "envs", "hardware")
-"""The kinds of shipped data: track files, presets, firmware and harness sources."""
+KINDS = ("tracks", "envs", "hardware", "samples")
+"""The kinds of shipped data: track files, presets, firmware and harness sources, sample
+demonstrations."""
 
 _CHECKOUT = Path(__file__).resolve().parents[2]
 """The repository root when running from a checkout (the folder holding ``lfd_track/``)."""

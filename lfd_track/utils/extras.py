@@ -26,6 +26,7 @@ EXTRAS: dict[str, tuple[str, tuple[str, ...]]] = {
         'the window of render_mode="human" and gymnasium.utils.play.play',
         ("pygame",),
     ),
+    "minari": ("Minari datasets (export minari, evolve --minari)", ("minari", "h5py", "PIL")),
 }
 """Extra name -> (what needs it, the top-level modules it provides)."""
 
