@@ -272,12 +272,14 @@ class _PolicyDriver:
         self.steps = 0
         self.where = ""
         self.unpack = False
+        if isinstance(policy, type):
+            raise PolicyError(f"policy {name}: is a class; name an instance of it (or a function)")
         if callable(getattr(policy, "predict", None)):
             self.call = self._predict_call(policy.predict)
             self.unpack = True
         elif callable(getattr(policy, "act", None)):
             self.call = policy.act
-        elif callable(policy) and not isinstance(policy, type):
+        elif callable(policy):
             self.call = policy
         else:
             raise PolicyError(
