@@ -221,6 +221,8 @@ def _shown(value: Any) -> str:
         if value.size == 1:
             text += f" ({value.reshape(()).item()!r})"
         return text
+    if isinstance(value, np.generic):
+        return f"{value.item()!r} ({value.dtype})"
     text = repr(value)
     return text if len(text) <= 60 else text[:57] + "..."
 
