@@ -540,7 +540,10 @@ def evaluate(
         policy = load_policy(policy)
     name = name or _describe(policy)
     shown = f"'{name}'"
-    loops = tuple(t for t in tracks if t != "training")
+    # The benchmark's trial directions with these loops (the testing track always among them, as
+    # `lfd-track benchmark --test-track` has it): every direction's world seed is drawn, those of
+    # the tracks not driven too, so a direction's runs never depend on which others are driven.
+    loops = ("testing", *(t for t in tracks if t not in ("training", "testing")))
     # Loops with corners, and every track buildable with the preset, before anything runs.
     check_tracks(BenchmarkConfig(trials_per_direction=laps, preset=preset, test_tracks=loops))
     library_name: str | None = None
