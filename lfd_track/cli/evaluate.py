@@ -25,7 +25,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="score a policy with the paper's corner-success protocol",
         description="Drive a policy both ways on the training track and the testing track (laps"
         " from corner 4), as lfd-track benchmark drives the controllers it learns, and count its"
-        " failures corner by corner as in the paper's Tables 2 and 3, with Wilson 95 %% intervals.",
+        " failures corner by corner as in the paper's Tables 2 and 3, with Wilson 95 % intervals.",
     )
     evaluate.add_argument(
         "--policy",

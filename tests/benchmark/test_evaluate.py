@@ -276,3 +276,12 @@ def test_evaluate_is_exported_lazily():
         [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=Path.cwd()
     )
     assert shown.stdout.strip() == "False"
+
+
+def test_the_command_has_help(capsys):
+    with pytest.raises(SystemExit) as stopped:
+        main(["evaluate", "--help"])
+    assert stopped.value.code == 0
+    shown = " ".join(capsys.readouterr().out.split())
+    assert "--policy POLICY" in shown and "Wilson 95 % intervals" in shown
+    assert "(default: training testing)" in shown
