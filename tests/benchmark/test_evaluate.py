@@ -285,3 +285,14 @@ def test_the_command_has_help(capsys):
     shown = " ".join(capsys.readouterr().out.split())
     assert "--policy POLICY" in shown and "Wilson 95 % intervals" in shown
     assert "(default: training testing)" in shown
+
+
+def test_a_loops_runs_do_not_depend_on_the_other_tracks_driven():
+    def forward(obs):
+        return 0
+
+    alone = evaluation.evaluate(forward, tracks=("sbend",), laps=1, seed=3)
+    both = evaluation.evaluate(forward, tracks=("testing", "sbend"), laps=1, seed=3)
+    assert [o.track for o in alone.outcomes] == ["sbend", "sbend"]
+    assert alone.outcomes == [o for o in both.outcomes if o.track == "sbend"]
+    assert set(alone.results["test_tracks"]) == {"sbend"}
