@@ -1,8 +1,9 @@
 """lfd-track: learning from demonstration with encapsulated evolution on a felt-track rover.
 
 Importing the package registers the Gymnasium environments ``LfDTrack-v0`` and
-``LfDTrack-Hardware-v0``. The learning API (``RoadLibrary``, ``evolve``, ``Controller`` …) is
-importable from here and loaded on first use.
+``LfDTrack-Hardware-v0``. The learning API (``RoadLibrary``, ``evolve``, ``Controller`` …) and
+``evaluate`` (any policy scored with the corner-success protocol) are importable from here and
+loaded on first use.
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ _LAZY = {
     "Preset": "lfd_track.envs.presets",
     "load_preset": "lfd_track.envs.presets",
     "training_accuracy": "lfd_track.learning.fitness",
+    "evaluate": "lfd_track.benchmark.evaluation",
 }
 
 __all__ = sorted([*_LAZY, "register_envs", "__version__"])

@@ -131,8 +131,14 @@ def plotted_outcomes(
     ]
 
 
-def trajectories_picture(config: BenchmarkConfig, outcomes: list[TrialOutcome]) -> np.ndarray:
-    """trajectories.png: per direction (the report's order), successes beside the other runs."""
+def trajectories_picture(
+    config: BenchmarkConfig, outcomes: list[TrialOutcome], *, title: str | None = None
+) -> np.ndarray:
+    """trajectories.png: per direction (the report's order), successes beside the other runs.
+
+    ``title`` heads the picture (default: the repetitions, runs per direction and seed of
+    ``config``).
+    """
     rules = load_preset(config.preset).episode
     reverse_of = {direction: reverse for _, reverse, direction in DIRECTIONS}
     panels = []
@@ -152,10 +158,11 @@ def trajectories_picture(config: BenchmarkConfig, outcomes: list[TrialOutcome]) 
                 )
             )
     reps = config.repetitions
-    title = (
-        f"Paths of every autonomous run: {reps} repetition{'s' if reps != 1 else ''} x "
-        f"{config.trials_per_direction} per direction, seed {config.seed}"
-    )
+    if title is None:
+        title = (
+            f"Paths of every autonomous run: {reps} repetition{'s' if reps != 1 else ''} x "
+            f"{config.trials_per_direction} per direction, seed {config.seed}"
+        )
     return trajectory_grid(panels, title=title)
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 import dataclasses
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -62,9 +62,12 @@ __all__ = [
     "config_dict",
     "learn_repetition",
     "repetition_seeds",
+    "repetition_streams",
     "run_benchmark",
     "run_repetition",
     "run_trial",
+    "run_trials",
+    "trial_worlds",
     "trial_directions",
 ]
 
@@ -276,6 +279,63 @@ def run_trial(
     return loop.info, trajectory.array(), loop.counts.steps
 
 
+def run_trials(
+    controller: Any,
+    *,
+    trial_seed: int,
+    test_tracks: tuple[str, ...],
+    trials_per_direction: int,
+    preset: str,
+    repetition: int = 0,
+    tracks: Collection[str] | None = None,
+    progress: Callable[[TrialOutcome], None] | None = None,
+) -> list[TrialOutcome]:
+    """The autonomous trials of one repetition: every direction of :func:`trial_worlds`, each
+    ``trials_per_direction`` times, in order; returns their outcomes (trajectories included).
+
+    ``controller`` is anything with ``perception()`` and ``commander()`` (a :class:`Controller`,
+    or an evaluated policy, :mod:`lfd_track.benchmark.evaluate`); its state carries over from one
+    trial to the next, as a controller's library does when it keeps learning. ``tracks``, when
+    given, runs only the directions of those tracks; the others' world seeds are still drawn, so
+    a direction's trials do not depend on which other tracks run. ``progress(outcome)`` sees each
+    trial as it ends.
+    """
+    outcomes: list[TrialOutcome] = []
+    for track, reverse, direction, env_seed in trial_worlds(trial_seed, test_tracks):
+        if tracks is not None and track not in tracks:
+            continue
+        env = LfDTrackEnv(track=track, reverse=reverse, preset=preset)
+        corner_order = tuple(c.label for c in env.track.corners)
+        for trial in range(trials_per_direction):
+            # The floor is built once per direction (seeded); later trials redraw the rover,
+            # exposure and noise from the env's own stream.
+            info, trajectory, steps = run_trial(
+                env, controller, seed=env_seed if trial == 0 else None
+            )
+            failure = info["failure"]
+            if not info["success"] and failure is None:
+                failure = "timeout"
+            outcomes.append(
+                TrialOutcome(
+                    track=track,
+                    direction=direction,
+                    corner_order=corner_order,
+                    corners_reached=tuple(info["corners_reached"]),
+                    corners_negotiated=tuple(info["corners_negotiated"]),
+                    failure=failure,
+                    success=bool(info["success"]),
+                    repetition=repetition,
+                    trial=trial,
+                    steps=steps,
+                    trajectory=trajectory,
+                )
+            )
+            if progress is not None:
+                progress(outcomes[-1])
+        env.close()
+    return outcomes
+
+
 def learn_repetition(
     config: BenchmarkConfig, rep_dir: Path, *, demo_seed: int, ga_seed: int
 ) -> Learned:
@@ -320,35 +380,14 @@ def run_repetition(
     timing["learning"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
-    outcomes: list[TrialOutcome] = []
-    for track, reverse, direction, env_seed in trial_worlds(trial_seed, config.test_tracks):
-        env = LfDTrackEnv(track=track, reverse=reverse, preset=config.preset)
-        corner_order = tuple(c.label for c in env.track.corners)
-        for trial in range(config.trials_per_direction):
-            # The floor is built once per direction (seeded); later trials redraw the rover,
-            # exposure and noise from the env's own stream.
-            info, trajectory, steps = run_trial(
-                env, controller, seed=env_seed if trial == 0 else None
-            )
-            failure = info["failure"]
-            if not info["success"] and failure is None:
-                failure = "timeout"
-            outcomes.append(
-                TrialOutcome(
-                    track=track,
-                    direction=direction,
-                    corner_order=corner_order,
-                    corners_reached=tuple(info["corners_reached"]),
-                    corners_negotiated=tuple(info["corners_negotiated"]),
-                    failure=failure,
-                    success=bool(info["success"]),
-                    repetition=index,
-                    trial=trial,
-                    steps=steps,
-                    trajectory=trajectory,
-                )
-            )
-        env.close()
+    outcomes = run_trials(
+        controller,
+        trial_seed=trial_seed,
+        test_tracks=config.test_tracks,
+        trials_per_direction=config.trials_per_direction,
+        preset=config.preset,
+        repetition=index,
+    )
     timing["trials"] = time.perf_counter() - t0
     return RepetitionResult(
         index=index,

@@ -356,15 +356,19 @@ def _failure_summary(results: Mapping[str, Any]) -> list[str]:
     return lines
 
 
-def format_tables(results: Mapping[str, Any]) -> str:
-    """Tables 2 and 3 and the success rates as markdown, each cell ``ours (paper)``."""
+def format_tables(results: Mapping[str, Any], *, ours: str | None = None) -> str:
+    """Tables 2 and 3 and the success rates as markdown, each cell ``ours (paper)``.
+
+    ``ours`` says what was run (default: the repetitions and the seed of ``results``).
+    """
     paper = results.get("paper") or paper_results()
     reps = results.get("repetitions", "?")
     paper_reps = paper.get("repetitions", "?")
     plural = "" if reps == 1 else "s"
+    if ours is None:
+        ours = f"{reps} repetition{plural}, seed {results.get('seed', '?')}"
     lines = [
-        f"Cells read `ours (paper)`. Ours: {reps} repetition{plural}, "
-        f"seed {results.get('seed', '?')}; "
+        f"Cells read `ours (paper)`. Ours: {ours}; "
         f"paper: {paper_reps} repetitions (30 trials per direction).",
         "",
         "**Table 2** — training track: times each corner was reached and failures there. ²",
@@ -430,19 +434,35 @@ def _timing_lines(timing: Mapping[str, Any]) -> list[str]:
     return lines
 
 
+BENCHMARK_TITLE = "Corner-success benchmark"
+BENCHMARK_INTRO = (
+    "The paper's protocol (§4.2.5): each repetition records a fresh demonstration, evolves a "
+    "controller and runs it 3 times in each direction on the training track and 3 laps each "
+    "way on the testing track."
+)
+
+
 def write_report(
-    out_dir: str | Path, results: Mapping[str, Any], *, extra_sections: Sequence[str] = ()
+    out_dir: str | Path,
+    results: Mapping[str, Any],
+    *,
+    extra_sections: Sequence[str] = (),
+    title: str = BENCHMARK_TITLE,
+    intro: str = BENCHMARK_INTRO,
+    ours: str | None = None,
 ) -> Path:
-    """Write ``out_dir/report.md`` atomically (tables, success rates, timing, extra sections)."""
+    """Write ``out_dir/report.md`` atomically (tables, success rates, timing, extra sections).
+
+    ``title`` and ``intro`` open the report (the benchmark's by default); ``ours`` is passed to
+    :func:`format_tables`.
+    """
     path = Path(out_dir) / "report.md"
     body = [
-        "# Corner-success benchmark",
+        f"# {title}",
         "",
-        "The paper's protocol (§4.2.5): each repetition records a fresh demonstration, evolves a "
-        "controller and runs it 3 times in each direction on the training track and 3 laps each "
-        "way on the testing track.",
+        intro,
         "",
-        format_tables(results).rstrip("\n"),
+        format_tables(results, ours=ours).rstrip("\n"),
         "",
         *_timing_lines(results.get("timing_s") or {}),
     ]

@@ -1,7 +1,8 @@
 """The ``lfd-track`` command line: one module per command, each turning its arguments into a
 config and calling the library (``demo``, ``sample-data``, ``evolve``, ``export``, ``drive``,
-``benchmark``, ``study``, ``teach``, ``hardware``); :mod:`.parser` holds the parser and :func:`main`, :mod:`.types` the
-argument types and exit codes, :mod:`.outputs` the checks of output names.
+``benchmark``, ``evaluate``, ``study``, ``teach``, ``hardware``); :mod:`.parser` holds the parser
+and :func:`main`, :mod:`.types` the argument types and exit codes, :mod:`.outputs` the checks of
+output names.
 
 Loaded on first use, so that ``python -m lfd_track.cli.hardware`` runs one command module alone.
 """

@@ -18,7 +18,7 @@ from typing import NoReturn
 
 from ..errors import LfdTrackError
 from ..utils.signals import EXIT_INTERRUPTED
-from . import benchmark, demo, drive, evolve, export, hardware, sample, study, teach
+from . import benchmark, demo, drive, evaluate, evolve, export, hardware, sample, study, teach
 from .types import EXIT_CODES, EXIT_ERROR, EXIT_USAGE
 
 __all__ = ["EXIT_CODES", "build_parser", "main"]
@@ -48,7 +48,18 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
-    for command in (demo, sample, evolve, export, drive, benchmark, study, teach, hardware):
+    for command in (
+        demo,
+        sample,
+        evolve,
+        export,
+        drive,
+        benchmark,
+        evaluate,
+        study,
+        teach,
+        hardware,
+    ):
         command.add_parser(sub)
     return parser
 
