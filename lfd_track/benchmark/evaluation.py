@@ -360,8 +360,8 @@ class Evaluation:
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
         from ..viz.plot_data import trajectories_table, write_picture
-        from .report import plotted_outcomes, trajectories_picture
         from .paper import DIRECTIONS as TABLE_DIRECTIONS
+        from .report import plotted_outcomes, trajectories_picture
 
         info = self.results["evaluation"]
         config = BenchmarkConfig(
