@@ -16,6 +16,12 @@ A controller whose network also reads memory inputs (:mod:`lfd_track.policy.memo
 as schema 3: the schema 2 keys plus ``memory`` (the memory settings), with ``layer_sizes``
 ``[40 + m, 5, 3]``. A controller without memory is still written as schema 2.
 
+A controller whose network reads more per-region features than the road values
+(:mod:`lfd_track.policy.features`, e.g. ``"road_values+colour"``: 160 inputs) is saved as
+schema 4: the schema 2 keys plus ``features`` (the feature set's name) and ``memory`` (the memory
+settings, or null), with ``layer_sizes`` ``[160 + m, 5, 3]``. Every controller that reads only
+road values is written as before (schema 2 or 3), byte for byte.
+
 A policy does not import its trainer: the GA appears here only as a type for ``from_evolution``.
 """
 
@@ -38,6 +44,7 @@ from ..utils.files import NonFiniteNumber as _NonFiniteError
 from ..utils.files import read_regular_text
 from ..utils.files import reject_constant as _reject_constant
 from ..vision.road_library import RoadLibrary
+from .features import DEFAULT_FEATURES, FEATURE_SETS, check_features
 from .memory import MemoryConfig, policy_inputs
 from .mlp import check_numbers, layer_sizes, mlp_forward, n_weights, select_action
 
@@ -47,6 +54,7 @@ if TYPE_CHECKING:
 CONTROLLER_FORMAT = "lfd-track-controller"
 CONTROLLER_SCHEMA_VERSION = 2
 CONTROLLER_SCHEMA_WITH_MEMORY = 3
+CONTROLLER_SCHEMA_WITH_FEATURES = 4
 POLICY_KINDS = ("mlp-sigmoid",)
 """Policy kinds this version of lfd-track can run."""
 MAX_ABS_WEIGHT = 1e6
@@ -70,6 +78,7 @@ _KEYS = (
     "checksum",
 )
 _KEYS_V3 = (*_KEYS[:-1], "memory", "checksum")
+_KEYS_V4 = (*_KEYS[:-1], "features", "memory", "checksum")
 _KEYS_V1 = (
     "format",
     "schema_version",
@@ -104,7 +113,9 @@ class Controller:
         seed: seed of the run that produced the weights (stored for the record).
         fitness_history: best fitness per generation (stored for the record).
         learn: also run Algorithm 1 on each frame before computing its road values.
-        memory: the memory inputs the network reads after the road values (None: none).
+        memory: the memory inputs the network reads after the per-region features (None: none).
+        features: the per-region features the network reads
+            (:data:`~lfd_track.policy.features.FEATURE_SETS`; default the 40 road values).
     """
 
     policy_kind = "mlp-sigmoid"
@@ -121,12 +132,14 @@ class Controller:
         fitness_history: Sequence[float] | None = None,
         learn: bool = False,
         memory: MemoryConfig | None = None,
+        features: str = DEFAULT_FEATURES,
     ) -> None:
         _check_library(library)
+        features = check_features(features)
         if memory is not None and not isinstance(memory, MemoryConfig):
             raise TypeError(f"memory must be a MemoryConfig or None, got {type(memory).__name__}")
         memory = None if memory is None or memory.kind == "none" else memory
-        n_inputs = policy_inputs(memory)
+        n_inputs = policy_inputs(memory, features)
         w = np.array(weights, dtype=np.float64, copy=True)
         if w.shape != (n_weights(bias, n_inputs),):
             raise ValueError(
@@ -157,6 +170,7 @@ class Controller:
         )
         self.learn = bool(learn)
         self.memory = memory
+        self.features = features
         self._act_perception: Perception | None = None
         self._previous: int | None = None
         self.last_outputs: np.ndarray | None = None
@@ -170,6 +184,7 @@ class Controller:
         *,
         seed: int | None = None,
         memory: MemoryConfig | None = None,
+        features: str = DEFAULT_FEATURES,
     ) -> Controller:
         """Controller from an :func:`~lfd_track.learning.ga.evolve` result.
 
@@ -192,19 +207,21 @@ class Controller:
             seed=seed,
             fitness_history=result.best_history.tolist(),
             memory=memory,
+            features=features,
         )
 
     @property
     def n_inputs(self) -> int:
-        """Inputs of the network: 40 road values plus the memory inputs."""
-        return policy_inputs(self.memory)
+        """Inputs of the network: the per-region features (40 road values, or 160 with colour)
+        plus the memory inputs."""
+        return policy_inputs(self.memory, self.features)
 
     def perception(self, rule: str | None = None) -> Perception:
         """A perception for driving with this controller: its library, ``rule`` (default:
-        ``always`` if it learns, else ``frozen``) and its memory inputs."""
+        ``always`` if it learns, else ``frozen``), its features and its memory inputs."""
         if rule is None:
             rule = "always" if self.learn else "frozen"
-        return Perception(self.library, rule, self.memory)
+        return Perception(self.library, rule, self.memory, self.features)
 
     def reset(self) -> None:
         """Forget the previous command and the memory (start of an episode)."""
@@ -232,14 +249,16 @@ class Controller:
         return PolicyCommander(self.weights)
 
     def act_on_values(self, road_values: np.ndarray) -> int:
-        """Command for precomputed road values, (40,) float (then the memory inputs, if any).
+        """Command for precomputed road values, (40,) float (then the colour features and the
+        memory inputs, if the network reads them: :attr:`Perception.inputs`).
 
         Raises ``ValueError`` for another shape or NaN / infinite values (a NaN would otherwise
         silently become command 0).
         """
         values = np.asarray(road_values)
         if values.shape != (self.n_inputs,):
-            extra = "" if self.memory is None else ", then the memory inputs"
+            extra = "" if self.features == DEFAULT_FEATURES else ", then the colour features"
+            extra += "" if self.memory is None else ", then the memory inputs"
             raise ValueError(
                 f"road_values must have shape ({self.n_inputs},) (the road values{extra}),"
                 f" got {values.shape}"
@@ -255,11 +274,13 @@ class Controller:
 
     # ------------------------------------------------------------------------------- files
     def to_dict(self) -> dict[str, Any]:
-        """JSON-friendly contents of the controller file (schema 2, or 3 with memory inputs;
-        checksum included)."""
+        """JSON-friendly contents of the controller file (schema 2, 3 with memory inputs, 4
+        with more features than the road values; checksum included)."""
         version = (
             CONTROLLER_SCHEMA_VERSION if self.memory is None else CONTROLLER_SCHEMA_WITH_MEMORY
         )
+        if self.features != DEFAULT_FEATURES:
+            version = CONTROLLER_SCHEMA_WITH_FEATURES
         contents: dict[str, Any] = {
             "format": CONTROLLER_FORMAT,
             "schema_version": version,
@@ -274,7 +295,10 @@ class Controller:
             "fitness_history": self.fitness_history,
             "learn": self.learn,
         }
-        if self.memory is not None:
+        if version == CONTROLLER_SCHEMA_WITH_FEATURES:
+            contents["features"] = self.features
+            contents["memory"] = None if self.memory is None else self.memory.to_dict()
+        elif self.memory is not None:
             contents["memory"] = self.memory.to_dict()
         contents["checksum"] = checksum(contents)
         return contents
@@ -313,13 +337,22 @@ class Controller:
         if data.get("format") != CONTROLLER_FORMAT:
             raise ValueError(f"not a controller file ('format' must be '{CONTROLLER_FORMAT}')")
         version = data.get("schema_version")
-        readable = (1, CONTROLLER_SCHEMA_VERSION, CONTROLLER_SCHEMA_WITH_MEMORY)
+        readable = (
+            1,
+            CONTROLLER_SCHEMA_VERSION,
+            CONTROLLER_SCHEMA_WITH_MEMORY,
+            CONTROLLER_SCHEMA_WITH_FEATURES,
+        )
         if isinstance(version, bool) or version not in readable:
             raise ValueError(
                 f"schema version {version!r} is not supported"
                 f" (this version of lfd-track reads {', '.join(map(str, readable))})"
             )
-        keys = {1: _KEYS_V1, CONTROLLER_SCHEMA_VERSION: _KEYS}.get(version, _KEYS_V3)
+        keys = {
+            1: _KEYS_V1,
+            CONTROLLER_SCHEMA_VERSION: _KEYS,
+            CONTROLLER_SCHEMA_WITH_MEMORY: _KEYS_V3,
+        }.get(version, _KEYS_V4)
         for key in keys:
             if key not in data:
                 raise ValueError(f"missing key '{key}'")
@@ -346,7 +379,21 @@ class Controller:
             memory = MemoryConfig.from_dict(data["memory"])
             if memory.kind == "none":
                 raise ValueError("a schema 3 controller must name its memory kind")
-        expected = list(layer_sizes(policy_inputs(memory)))
+        features = DEFAULT_FEATURES
+        if version == CONTROLLER_SCHEMA_WITH_FEATURES:
+            features = data["features"]
+            if not isinstance(features, str) or features not in FEATURE_SETS:
+                raise ValueError(
+                    f"features {features!r} are not supported (this lfd-track reads"
+                    f" {', '.join(FEATURE_SETS)})"
+                )
+            if features == DEFAULT_FEATURES:
+                raise ValueError("a schema 4 controller must name features beyond the road values")
+            if data["memory"] is not None:
+                memory = MemoryConfig.from_dict(data["memory"])
+                if memory.kind == "none":
+                    raise ValueError("a controller without memory stores null as its memory")
+        expected = list(layer_sizes(policy_inputs(memory, features)))
         if data["layer_sizes"] != expected:
             raise ValueError(
                 f"layer_sizes {data['layer_sizes']!r} not supported (expected {expected})"
@@ -398,6 +445,7 @@ class Controller:
             fitness_history=history,
             learn=learn,
             memory=memory,
+            features=features,
         )
 
 
