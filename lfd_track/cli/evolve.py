@@ -14,6 +14,7 @@ from ..errors import LfdTrackError
 from ..learning.fitness import training_accuracy
 from ..learning.ga import GAConfig, evolve
 from ..policy.controller import Controller
+from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
 from ..utils.atomic import replace_file, temporary_beside
 from ..utils.outputs import shown_path
 from ..vision.road_library import RoadLibrary
@@ -43,6 +44,14 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         type=int,
         default=0,
         help="copies of the best kept each generation (default: 0, as in the paper)",
+    )
+    evo.add_argument(
+        "--features",
+        choices=FEATURE_SETS,
+        default=DEFAULT_FEATURES,
+        help="per-region inputs of the network: road_values (the paper's 40) or"
+        " road_values+colour (also each region's mean hue and saturation, from the recorded"
+        " histograms: 160)",
     )
     evo.add_argument("--out", required=True, help="controller file to write (.json)")
     evo.set_defaults(func=run)
@@ -81,18 +90,21 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise LfdTrackError(f"{shown_path(args.demo)}: {exc}") from None
     config = GAConfig(generations=args.generations, elitism=args.elitism)
+    inputs = demo.policy_inputs(args.features)
     with progress_bar(
         config.generations, "evolving", unit=" generations", enabled=not args.quiet
     ) as bar:
         result = evolve(
-            demo.inputs,
+            inputs,
             demo.commands,
             config,
             np.random.default_rng(args.seed),
             progress=lambda g, best, mean: advance(bar, g, f"best fitness {best:.4f}"),
         )
-    controller = Controller.from_evolution(library, result, seed=args.seed, memory=memory)
-    accuracy = training_accuracy(result.best_weights, demo.inputs, demo.commands)
+    controller = Controller.from_evolution(
+        library, result, seed=args.seed, memory=memory, features=args.features
+    )
+    accuracy = training_accuracy(result.best_weights, inputs, demo.commands)
     picture = plots.fitness_plot(
         [
             ("best", result.best_history, (200, 30, 30)),

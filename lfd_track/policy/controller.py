@@ -22,6 +22,11 @@ schema 4: the schema 2 keys plus ``features`` (the feature set's name) and ``mem
 settings, or null), with ``layer_sizes`` ``[160 + m, 5, 3]``. Every controller that reads only
 road values is written as before (schema 2 or 3), byte for byte.
 
+Policy kind ``"elman-sigmoid"`` (:mod:`lfd_track.policy.elman`) is an Elman network: its 5
+previous hidden activations are 5 more inputs after all the others, so its ``layer_sizes`` are
+``[n + 5, 5, 3]`` and its weights the MLP layout of ``n + 5`` inputs; it is written in whichever
+schema its inputs need (2, 3 or 4), the kind saying how to run it.
+
 A policy does not import its trainer: the GA appears here only as a type for ``from_evolution``.
 """
 
@@ -44,6 +49,7 @@ from ..utils.files import NonFiniteNumber as _NonFiniteError
 from ..utils.files import read_regular_text
 from ..utils.files import reject_constant as _reject_constant
 from ..vision.road_library import RoadLibrary
+from .elman import N_CONTEXT, ElmanCommander, ElmanState
 from .features import DEFAULT_FEATURES, FEATURE_SETS, check_features
 from .memory import MemoryConfig, policy_inputs
 from .mlp import check_numbers, layer_sizes, mlp_forward, n_weights, select_action
@@ -55,7 +61,7 @@ CONTROLLER_FORMAT = "lfd-track-controller"
 CONTROLLER_SCHEMA_VERSION = 2
 CONTROLLER_SCHEMA_WITH_MEMORY = 3
 CONTROLLER_SCHEMA_WITH_FEATURES = 4
-POLICY_KINDS = ("mlp-sigmoid",)
+POLICY_KINDS = ("mlp-sigmoid", "elman-sigmoid")
 """Policy kinds this version of lfd-track can run."""
 MAX_ABS_WEIGHT = 1e6
 """Largest weight magnitude accepted: beyond it every sigmoid is saturated (a road value is at
@@ -116,6 +122,8 @@ class Controller:
         memory: the memory inputs the network reads after the per-region features (None: none).
         features: the per-region features the network reads
             (:data:`~lfd_track.policy.features.FEATURE_SETS`; default the 40 road values).
+        policy_kind: ``"mlp-sigmoid"`` (the paper's network) or ``"elman-sigmoid"`` (its hidden
+            activations fed back: 5 more weights per hidden node, :mod:`lfd_track.policy.elman`).
     """
 
     policy_kind = "mlp-sigmoid"
@@ -133,13 +141,20 @@ class Controller:
         learn: bool = False,
         memory: MemoryConfig | None = None,
         features: str = DEFAULT_FEATURES,
+        policy_kind: str = "mlp-sigmoid",
     ) -> None:
         _check_library(library)
         features = check_features(features)
+        if policy_kind not in POLICY_KINDS:
+            raise ValueError(
+                f"policy kind {policy_kind!r} is not supported (this lfd-track runs"
+                f" {', '.join(POLICY_KINDS)})"
+            )
+        context = N_CONTEXT if policy_kind == "elman-sigmoid" else 0
         if memory is not None and not isinstance(memory, MemoryConfig):
             raise TypeError(f"memory must be a MemoryConfig or None, got {type(memory).__name__}")
         memory = None if memory is None or memory.kind == "none" else memory
-        n_inputs = policy_inputs(memory, features)
+        n_inputs = policy_inputs(memory, features) + context
         w = np.array(weights, dtype=np.float64, copy=True)
         if w.shape != (n_weights(bias, n_inputs),):
             raise ValueError(
@@ -171,6 +186,10 @@ class Controller:
         self.learn = bool(learn)
         self.memory = memory
         self.features = features
+        self.policy_kind = policy_kind
+        self._elman = (
+            ElmanState(w, self.bias, n_inputs - context) if policy_kind == "elman-sigmoid" else None
+        )
         self._act_perception: Perception | None = None
         self._previous: int | None = None
         self.last_outputs: np.ndarray | None = None
@@ -185,6 +204,7 @@ class Controller:
         seed: int | None = None,
         memory: MemoryConfig | None = None,
         features: str = DEFAULT_FEATURES,
+        policy_kind: str = "mlp-sigmoid",
     ) -> Controller:
         """Controller from an :func:`~lfd_track.learning.ga.evolve` result.
 
@@ -208,7 +228,12 @@ class Controller:
             fitness_history=result.best_history.tolist(),
             memory=memory,
             features=features,
+            policy_kind=policy_kind,
         )
+
+    @property
+    def _context(self) -> int:
+        return N_CONTEXT if self.policy_kind == "elman-sigmoid" else 0
 
     @property
     def n_inputs(self) -> int:
@@ -227,6 +252,8 @@ class Controller:
         """Forget the previous command and the memory (start of an episode)."""
         self._previous = None
         self.last_outputs = None
+        if self._elman is not None:
+            self._elman.reset()
         if self._act_perception is not None:
             self._act_perception.start_episode()
 
@@ -244,8 +271,10 @@ class Controller:
         self._act_perception.note(command)
         return command
 
-    def commander(self) -> PolicyCommander:
+    def commander(self) -> PolicyCommander | ElmanCommander:
         """This controller's network as a commander for the teaching loop."""
+        if self.policy_kind == "elman-sigmoid":
+            return ElmanCommander(self.weights, self.bias, self.n_inputs)
         return PolicyCommander(self.weights)
 
     def act_on_values(self, road_values: np.ndarray) -> int:
@@ -267,6 +296,10 @@ class Controller:
         values = values.astype(np.float64)
         if not np.isfinite(values).all():
             raise ValueError("road_values contain NaN or infinite values")
+        if self._elman is not None:  # an Elman network: its context runs with it
+            self._previous = self._elman.step(values)
+            self.last_outputs = self._elman.last_outputs
+            return self._previous
         outputs = mlp_forward(self.weights, values[None])[0]
         self.last_outputs = outputs
         self._previous = select_action(outputs, self._previous)
@@ -285,7 +318,7 @@ class Controller:
             "format": CONTROLLER_FORMAT,
             "schema_version": version,
             "policy_kind": self.policy_kind,
-            "layer_sizes": list(layer_sizes(self.n_inputs)),
+            "layer_sizes": list(layer_sizes(self.n_inputs + self._context)),
             "bias": self.bias,
             "weights": self.weights.tolist(),
             "road_library": self.library.to_dict(),
@@ -373,6 +406,7 @@ class Controller:
                 )
             learner, learner_config = data["learner"], data["learner_config"]
         else:
+            kind = "mlp-sigmoid"
             learner, learner_config = "ga", data["ga_config"]
         memory = None
         if version == CONTROLLER_SCHEMA_WITH_MEMORY:
@@ -393,7 +427,8 @@ class Controller:
                 memory = MemoryConfig.from_dict(data["memory"])
                 if memory.kind == "none":
                     raise ValueError("a controller without memory stores null as its memory")
-        expected = list(layer_sizes(policy_inputs(memory, features)))
+        context = N_CONTEXT if kind == "elman-sigmoid" else 0
+        expected = list(layer_sizes(policy_inputs(memory, features) + context))
         if data["layer_sizes"] != expected:
             raise ValueError(
                 f"layer_sizes {data['layer_sizes']!r} not supported (expected {expected})"
@@ -446,6 +481,7 @@ class Controller:
             learn=learn,
             memory=memory,
             features=features,
+            policy_kind=kind,
         )
 
 

@@ -266,3 +266,35 @@ def _save(tmp_path, controller: Controller):
     path = tmp_path / "drive.json"
     controller.save(path)
     return path
+
+
+# ----------------------------------------------------------------- study and benchmark
+def test_a_study_condition_selects_the_features_and_the_learned_memory(tmp_path):
+    from lfd_track.benchmark.runner import config_dict
+    from lfd_track.errors import FileFormatError
+    from lfd_track.study.spec import load_study
+
+    base = """[study]
+seeds = [0]
+repetitions = 1
+
+[[conditions]]
+name = "colour"
+method = "bc"
+features = "road_values+colour"
+[conditions.memory]
+kind = "previous_command"
+
+[[conditions]]
+name = "paper"
+"""
+    path = tmp_path / "s.toml"
+    path.write_text(base)
+    colour, paper = load_study(path, check_names=False).conditions
+    assert colour.config.features == "road_values+colour"
+    assert colour.config.memory == PREVIOUS
+    assert config_dict(colour.config)["features"] == "road_values+colour"
+    assert "features" not in config_dict(paper.config)  # results of older runs stay as they were
+    path.write_text(base.replace('"road_values+colour"', '"colours"'))
+    with pytest.raises(FileFormatError, match="features must be one of"):
+        load_study(path, check_names=False)
