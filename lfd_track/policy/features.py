@@ -38,6 +38,8 @@ mirrored column, as for the road values; colours do not change in a mirror.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..core.frame import GRID_COLUMNS, GRID_ROWS, N_REGIONS
@@ -70,22 +72,39 @@ def colour_features(histograms: np.ndarray) -> np.ndarray:
     regions (one frame, or N cases). Returns (..., 120) float64 in [0, 1]: hue cos of the 40
     regions, then hue sin, then saturation.
     """
-    h = np.asarray(histograms, dtype=np.float64)
+    h = np.asarray(histograms)
     if h.ndim < 3 or h.shape[-3:-1] != (N_REGIONS, 5):
         raise ValueError(f"histograms must have shape (..., {N_REGIONS}, 5, bins), got {h.shape}")
-    bins = h.shape[-1]
-    centres = (np.arange(bins, dtype=np.float64) + 0.5) / bins  # bin centres as range fractions
+    hue_moments, sat_moments = _bin_moments(h.shape[-1])
+    # Weighted sums over the bins: (..., 40, 3) = (total, sum cos, sum sin) of the hue, and
+    # (..., 40, 2) = (total, sum of centres) of the saturation.
+    hue = np.matmul(h[..., _HUE, :], hue_moments)
+    sat = np.matmul(h[..., _SATURATION, :], sat_moments)
+    out = np.empty((*h.shape[:-3], COLOUR_PER_REGION, N_REGIONS))
+    hue_total, sat_total = hue[..., 0], sat[..., 0]
+    empty_hue, empty_sat = hue_total <= 0, sat_total <= 0
+    np.divide(hue[..., 1], np.where(empty_hue, 1.0, hue_total), out=out[..., 0, :])
+    np.divide(hue[..., 2], np.where(empty_hue, 1.0, hue_total), out=out[..., 1, :])
+    np.divide(sat[..., 1], np.where(empty_sat, 1.0, sat_total), out=out[..., 2, :])
+    out[..., :2, :] += 1.0
+    out[..., :2, :] *= 0.5
+    out[..., 0, :][empty_hue] = 0.5
+    out[..., 1, :][empty_hue] = 0.5
+    out[..., 2, :][empty_sat] = 0.5
+    np.clip(out, 0.0, 1.0, out=out)
+    return out.reshape(*h.shape[:-3], COLOUR_PER_REGION * N_REGIONS)
+
+
+@functools.lru_cache(maxsize=16)
+def _bin_moments(bins: int) -> tuple[np.ndarray, np.ndarray]:
+    """Per bin: (1, cos, sin) of the hue bin's centre angle, (bins, 3), and (1, centre as a
+    fraction of the range) of a saturation bin, (bins, 2); float64, read-only."""
+    centres = (np.arange(bins, dtype=np.float64) + 0.5) / bins
     angle = 2.0 * np.pi * centres
-    hue, sat = h[..., _HUE, :], h[..., _SATURATION, :]  # (..., 40, bins)
-    hue_total = hue.sum(axis=-1)
-    sat_total = sat.sum(axis=-1)
-    hue_weight = np.where(hue_total > 0, hue_total, 1.0)
-    sat_weight = np.where(sat_total > 0, sat_total, 1.0)
-    cos = np.where(hue_total > 0, (hue @ np.cos(angle)) / hue_weight, 0.0)
-    sin = np.where(hue_total > 0, (hue @ np.sin(angle)) / hue_weight, 0.0)
-    mean_sat = np.where(sat_total > 0, (sat @ centres) / sat_weight, 0.5)
-    out = np.concatenate([(1.0 + cos) * 0.5, (1.0 + sin) * 0.5, mean_sat], axis=-1)
-    return np.clip(out, 0.0, 1.0)
+    hue = np.stack([np.ones(bins), np.cos(angle), np.sin(angle)], axis=1)
+    sat = np.stack([np.ones(bins), centres], axis=1)
+    hue.flags.writeable = sat.flags.writeable = False
+    return hue, sat
 
 
 def frame_features(
