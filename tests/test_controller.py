@@ -100,7 +100,7 @@ def test_truncated_file_fails_clearly(trained, tmp_path):
     "edit, match",
     [
         (lambda d: d["weights"].pop(), "expected 215 weights.*got 214"),
-        (lambda d: d.update(schema_version=4), "schema version 4 is not supported"),
+        (lambda d: d.update(schema_version=5), "schema version 5 is not supported"),
         (lambda d: d.pop("road_library"), "missing key 'road_library'"),
         (lambda d: d.update(extra=1), "unknown key 'extra'"),
         (lambda d: d.update(layer_sizes=[40, 6, 3]), "layer_sizes"),

@@ -58,6 +58,7 @@ from ..learning.learners import learner_for
 from ..learning.mirror import with_mirrored
 from ..learning.result import check_int
 from ..policy.controller import Controller
+from ..policy.features import DEFAULT_FEATURES
 from ..policy.memory import MemoryConfig
 from ..teaching.arbiter import Arbiter
 from ..teaching.commanders import PolicyCommander
@@ -204,7 +205,9 @@ def _learned_offline(
         },
         fitness_best=fitness_best,
         fitness_mean=fitness_mean,
-        training_accuracy=training_accuracy(controller.weights, demo.inputs, demo.commands),
+        training_accuracy=training_accuracy(
+            controller.weights, demo.policy_inputs(controller.features), demo.commands
+        ),
         effort={
             "commands": summary.commands,
             "corrections": 0,
@@ -226,20 +229,23 @@ def learn_paper(
     memory: MemoryConfig | None = None,
     mirror: bool = False,
     track: str = "training",
+    features: str = DEFAULT_FEATURES,
 ) -> Learned:
     """The paper: record a demonstration, then evolve offline (200 generations by default).
 
     ``mirror``: learn from the cases and their mirror images (:mod:`lfd_track.learning.mirror`).
+    ``features``: the per-region inputs (:mod:`lfd_track.policy.features`), computed from the
+    recorded histograms.
     """
     summary, demo, library = _demonstrate(
         rep_dir, demo_seed=demo_seed, preset=preset, human=human, memory=memory, track=track
     )
-    x, a = _training_set(demo.inputs, demo.commands, memory, mirror)
+    x, a = _training_set(demo.policy_inputs(features), demo.commands, memory, mirror, features)
     result = evolve(x, a, ga, np.random.default_rng(ga_seed))
     return _learned_offline(
         summary,
         demo,
-        Controller.from_evolution(library, result, seed=ga_seed, memory=memory),
+        Controller.from_evolution(library, result, seed=ga_seed, memory=memory, features=features),
         preset,
         fitness_best=result.best_history.tolist(),
         fitness_mean=result.mean_history.tolist(),
@@ -257,13 +263,14 @@ def learn_baseline(
     memory: MemoryConfig | None = None,
     mirror: bool = False,
     track: str = "training",
+    features: str = DEFAULT_FEATURES,
 ) -> Learned:
     """The paper's demonstration, then BC or CMA-ES instead of the GA (same cases, same seed)."""
     summary, demo, library = _demonstrate(
         rep_dir, demo_seed=demo_seed, preset=preset, human=human, memory=memory, track=track
     )
     trainer = learner_for(learner)
-    x, a = _training_set(demo.inputs, demo.commands, memory, mirror)
+    x, a = _training_set(demo.policy_inputs(features), demo.commands, memory, mirror, features)
     result = trainer.fit(x, a, np.random.default_rng(ga_seed))
     controller = Controller(
         library,
@@ -274,6 +281,7 @@ def learn_baseline(
         seed=ga_seed,
         fitness_history=result.history.tolist(),
         memory=memory,
+        features=features,
     )
     return _learned_offline(
         summary,
@@ -287,12 +295,16 @@ def learn_baseline(
 
 
 def _training_set(
-    inputs: np.ndarray, actions: np.ndarray, memory: MemoryConfig | None, mirror: bool
+    inputs: np.ndarray,
+    actions: np.ndarray,
+    memory: MemoryConfig | None,
+    mirror: bool,
+    features: str = DEFAULT_FEATURES,
 ) -> tuple[np.ndarray, np.ndarray]:
     """What a learner fits: the cases, followed by their mirror images when ``mirror``."""
     if not mirror:
         return inputs, actions
-    return with_mirrored(inputs, actions, memory)
+    return with_mirrored(inputs, actions, memory, features)
 
 
 def _relabel(controller: Controller, learner: str, config: dict[str, Any]) -> Controller:
@@ -306,6 +318,7 @@ def _relabel(controller: Controller, learner: str, config: dict[str, Any]) -> Co
         seed=controller.seed,
         fitness_history=controller.fitness_history,
         memory=controller.memory,
+        features=controller.features,
     )
 
 
@@ -329,6 +342,7 @@ def learn_online(
     memory: MemoryConfig | None = None,
     mirror: bool = False,
     track: str = "training",
+    features: str = DEFAULT_FEATURES,
 ) -> Learned:
     """Demonstrate on ``track`` while the GA learns; the policy takes over when it agrees.
 
@@ -343,7 +357,7 @@ def learn_online(
         track, human, rng, intervention=online.intervention, rover=env.preset.rover
     )
     library = RoadLibrary()
-    perception = Perception(library, "careful" if human.careful else "always", memory)
+    perception = Perception(library, "careful" if human.careful else "always", memory, features)
     policy = PolicyCommander(None)
     feed = GALearnerFeed(
         ga,
@@ -351,7 +365,7 @@ def learn_online(
         online.generations_per_case,
         policy,
         perception.n_inputs,
-        training_set=lambda x, a: _training_set(x, a, memory, mirror),
+        training_set=lambda x, a: _training_set(x, a, memory, mirror, features),
     )
     metadata = {
         "kind": "simulated",
@@ -404,7 +418,7 @@ def learn_online(
     env.close()
     result = ga_result(state, ga, feed.rng_state)
     controller = _relabel(
-        Controller.from_evolution(library, result, seed=ga_seed, memory=memory),
+        Controller.from_evolution(library, result, seed=ga_seed, memory=memory, features=features),
         "online",
         {**online.to_dict(), "ga": ga.to_dict()},
     )
@@ -443,6 +457,7 @@ def learn_hg_dagger(
     memory: MemoryConfig | None = None,
     mirror: bool = False,
     track: str = "training",
+    features: str = DEFAULT_FEATURES,
 ) -> Learned:
     """The paper's demonstration and GA, then rounds of runs with interventions and re-evolving.
 
@@ -461,9 +476,10 @@ def learn_hg_dagger(
         memory=memory,
         mirror=mirror,
         track=track,
+        features=features,
     )
     demo = load_demonstration(rep_dir / "demonstration.lfdemo")
-    inputs = [np.asarray(demo.inputs, dtype=np.float64)]
+    inputs = [np.asarray(demo.policy_inputs(features), dtype=np.float64)]
     actions = [np.asarray(demo.commands, dtype=np.intp)]
     controller = paper.controller
     library = controller.library
@@ -536,9 +552,11 @@ def learn_hg_dagger(
         inputs.append(x)
         actions.append(a)
         all_x, all_a = np.concatenate(inputs), np.concatenate(actions)
-        result = evolve(*_training_set(all_x, all_a, memory, mirror), ga, ga_rng)
+        result = evolve(*_training_set(all_x, all_a, memory, mirror, features), ga, ga_rng)
         controller = _relabel(
-            Controller.from_evolution(library, result, seed=ga_seed, memory=memory),
+            Controller.from_evolution(
+                library, result, seed=ga_seed, memory=memory, features=features
+            ),
             "hg-dagger",
             {**hg.to_dict(), "ga": ga.to_dict()},
         )

@@ -272,7 +272,11 @@ def write_report_from_results(out: str | Path, results: dict[str, Any]) -> Path:
             "**Careless demonstrator**: the road library kept learning while the safe box was off the felt.\n",
         )
     notes = []
-    if config.get("memory"):
+    if config.get("features"):
+        notes.append(f"the network reads the per-region features `{config['features']}`")
+    if config.get("memory", {}).get("kind") == "previous_command":
+        notes.append("the network also reads the command it executed the step before")
+    elif config.get("memory"):
         notes.append(
             f"the network also reads memory inputs ({config['memory']['kind']},"
             f" {config['memory']['bend_pivots']} pivots make a bend)"

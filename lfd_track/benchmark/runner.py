@@ -29,6 +29,7 @@ from ..learning.cmaes import CMAESConfig
 from ..learning.ga import GAConfig
 from ..learning.result import check_int
 from ..policy.controller import Controller
+from ..policy.features import DEFAULT_FEATURES, check_features
 from ..policy.memory import MemoryConfig
 from ..teaching.arbiter import Arbiter
 from ..teaching.loop import Step, TeachingLoop
@@ -116,6 +117,9 @@ class BenchmarkConfig:
     test_tracks: tuple[str, ...] = ("testing",)  # loops (names or paths) lapped both ways
     memory: MemoryConfig = MemoryConfig()  # memory inputs of the policy (none: the paper's 40)
     mirror: bool = False  # learn from the cases and their mirror images (learning/mirror.py)
+    # Per-region inputs of the policy (policy/features.py): the paper's road values, or
+    # "road_values+colour" (also each region's mean hue and saturation).
+    features: str = DEFAULT_FEATURES
     # The open track the human demonstrates on (and HG-DAgger's rounds drive); the paper's
     # training track by default. Trials still run the paper's training track both ways.
     demo_track: str = "training"
@@ -135,6 +139,7 @@ class BenchmarkConfig:
         check_int("repetitions", self.repetitions, 1, MAX_REPETITIONS)
         check_int("trials_per_direction", self.trials_per_direction, 1, MAX_TRIALS_PER_DIRECTION)
         check_int("seed", self.seed, 0, MAX_SEED)
+        check_features(self.features)
 
 
 @dataclass
@@ -349,6 +354,8 @@ def learn_repetition(
         mirror=config.mirror,
         track=config.demo_track,
     )
+    if config.features != DEFAULT_FEATURES:  # passed only when used: every method takes it
+        common["features"] = config.features
     if config.method == "online":
         return learn_online(rep_dir, **common, ga=config.ga, online=config.online)
     if config.method == "hg-dagger":
@@ -456,4 +463,6 @@ def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
         del data["mirror"]
     if config.demo_track == "training":
         del data["demo_track"]
+    if config.features == DEFAULT_FEATURES:
+        del data["features"]
     return data

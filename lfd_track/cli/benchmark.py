@@ -14,6 +14,7 @@ from typing import Any
 from ..benchmark import runner
 from ..benchmark.methods import METHODS
 from ..demo.demonstrator import HumanConfig
+from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
 from ..policy.memory import MEMORY_KINDS, MemoryConfig
 from ..teaching.scripted import TURNAROUND_RULES
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output, shown_path
@@ -100,8 +101,16 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "--memory",
         choices=MEMORY_KINDS,
         default="none",
-        help="memory inputs of the policy after the 40 road values: none (the paper's) or"
-        " last_bend (the side of the last bend; pair it with --turnarounds toward_last_bend)",
+        help="memory inputs of the policy after the 40 road values: none (the paper's),"
+        " last_bend (the side of the last bend; pair it with --turnarounds toward_last_bend)"
+        " or previous_command (the command executed the step before)",
+    )
+    bench.add_argument(
+        "--features",
+        choices=FEATURE_SETS,
+        default=DEFAULT_FEATURES,
+        help="per-region inputs of the policy: road_values (the paper's 40) or"
+        " road_values+colour (also each region's mean hue and saturation: 160)",
     )
     bench.add_argument(
         "--mirror",
@@ -148,6 +157,7 @@ def run(args: argparse.Namespace) -> int:
         memory=MemoryConfig(kind=args.memory),
         mirror=args.mirror,
         demo_track=args.demo_track,
+        features=args.features,
     )
     # Track and preset names are recorded in results.json and report.md, which hold text only.
     for what, name in (

@@ -15,6 +15,7 @@ from ..errors import LfdTrackError
 from ..learning.fitness import training_accuracy
 from ..learning.ga import GAConfig, evolve
 from ..policy.controller import Controller
+from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
 from ..policy.memory import MemoryConfig
 from ..utils.outputs import shown_path
 from ..vision.road_library import RoadLibrary
@@ -58,6 +59,14 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         default=0,
         help="copies of the best kept each generation (default: 0, as in the paper)",
     )
+    evo.add_argument(
+        "--features",
+        choices=FEATURE_SETS,
+        default=DEFAULT_FEATURES,
+        help="per-region inputs of the network: road_values (the paper's 40) or"
+        " road_values+colour (also each region's mean hue and saturation, from the recorded"
+        " histograms: 160)",
+    )
     evo.add_argument("--out", required=True, help="controller file to write (.json)")
     evo.set_defaults(func=run)
     return evo
@@ -74,6 +83,12 @@ def run(args: argparse.Namespace) -> int:
         check_output(out, [("demonstration", args.demo)])
     if args.minari is not None:
         from ..dataset.minari import cases_from_minari
+
+        if args.features != DEFAULT_FEATURES:
+            raise LfdTrackError(
+                f"--features {args.features} needs a .lfdemo file (a Minari dataset holds the"
+                " road values only)"
+            )
 
         cases = cases_from_minari(args.minari, datasets_path=args.datasets_path)
         return _learn(
@@ -111,7 +126,7 @@ def run(args: argparse.Namespace) -> int:
     return _learn(
         args,
         png,
-        inputs=demo.inputs,
+        inputs=demo.policy_inputs(args.features),
         commands=demo.commands,
         library=library,
         memory=memory,
@@ -147,7 +162,9 @@ def _learn(
             np.random.default_rng(args.seed),
             progress=lambda g, best, mean: advance(bar, g, f"best fitness {best:.4f}"),
         )
-    controller = Controller.from_evolution(library, result, seed=args.seed, memory=memory)
+    controller = Controller.from_evolution(
+        library, result, seed=args.seed, memory=memory, features=args.features
+    )
     accuracy = training_accuracy(result.best_weights, inputs, commands)
     curves = [
         ("best", result.best_history, (200, 30, 30)),

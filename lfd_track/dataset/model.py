@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from ..core.commands import Command
+from ..policy.features import DEFAULT_FEATURES, check_features, frame_features
 from ..policy.memory import MemoryConfig
 from ..vision.road_library import RoadLibrary
 from .records import SOURCES
@@ -68,6 +69,16 @@ class Demonstration:
         if not self.memory.shape[1]:
             return self.road_values
         return np.hstack([self.road_values, self.memory])
+
+    def policy_inputs(self, features: str = DEFAULT_FEATURES) -> np.ndarray:
+        """(N, f + m) float64 — what a policy reading the per-region ``features``
+        (:mod:`lfd_track.policy.features`) reads: the road values, then the colour features
+        computed from the stored histograms (``"road_values+colour"``, exactly as when driving),
+        then the memory inputs. With the default features this is :attr:`inputs`."""
+        if check_features(features) == DEFAULT_FEATURES:
+            return self.inputs
+        assert self.memory is not None
+        return np.hstack([frame_features(self.road_values, self.histograms, features), self.memory])
 
     @property
     def n_cases(self) -> int:

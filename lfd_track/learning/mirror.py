@@ -4,7 +4,9 @@ A road value is the best match of one image region's colour histograms, and a hi
 depend on where in the region a pixel lies, so flipping a frame left to right only moves each
 region's value to the mirrored column of the 8 x 5 grid (the grid and the safe box are symmetric
 about the image's centre line): the mirrored frame's road values are the original's with each
-row reversed, exactly. The command swaps left and right, and a memory input swaps its sides
+row reversed, exactly. The same holds for the regions' colour features
+(:mod:`lfd_track.policy.features`, also from the region histograms): each block of 40 has its
+rows reversed. The command swaps left and right, and a memory input swaps its sides
 (:meth:`lfd_track.policy.memory.MemoryConfig.mirror`).
 
 Learning from the cases plus their mirror images makes the network treat left and right alike.
@@ -17,38 +19,47 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.frame import GRID_COLUMNS, GRID_ROWS, N_REGIONS
-from ..policy.memory import MemoryConfig
+from ..policy.features import DEFAULT_FEATURES, frame_inputs, mirror_frame_inputs
+from ..policy.memory import MemoryConfig, policy_inputs
 
 #: Command each command becomes in a mirror: forward stays, left and right swap.
 MIRRORED_COMMAND = np.array([0, 2, 1], dtype=np.intp)
 
 
 def mirror_cases(
-    inputs: np.ndarray, actions: np.ndarray, memory: MemoryConfig | None = None
+    inputs: np.ndarray,
+    actions: np.ndarray,
+    memory: MemoryConfig | None = None,
+    features: str = DEFAULT_FEATURES,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """The mirror images of cases: ``inputs`` (N, 40 + m) float, ``actions`` (N,) 0/1/2.
+    """The mirror images of cases: ``inputs`` (N, f + m) float, ``actions`` (N,) 0/1/2.
 
-    ``memory`` says what the m inputs after the road values are (None: no memory inputs).
+    ``features`` says what the f per-region inputs are (the 40 road values by default, or 160
+    with the colour features), ``memory`` what the m inputs after them are (None: none).
     """
     x = np.asarray(inputs, dtype=np.float64)
     a = np.asarray(actions, dtype=np.intp)
     memory = memory or MemoryConfig()
-    if x.ndim != 2 or x.shape[1] != memory.policy_inputs:
+    n_inputs = policy_inputs(memory, features)
+    if x.ndim != 2 or x.shape[1] != n_inputs:
+        extra = "" if features == DEFAULT_FEATURES else f" and features {features!r}"
         raise ValueError(
-            f"inputs must have shape (N, {memory.policy_inputs}) for memory"
-            f" {memory.kind!r}, got {x.shape}"
+            f"inputs must have shape (N, {n_inputs}) for memory {memory.kind!r}{extra},"
+            f" got {x.shape}"
         )
-    road = x[:, :N_REGIONS].reshape(-1, GRID_ROWS, GRID_COLUMNS)[:, :, ::-1]
-    mirrored = np.hstack([road.reshape(-1, N_REGIONS), memory.mirror(x[:, N_REGIONS:])])
+    f = frame_inputs(features)
+    mirrored = np.hstack([mirror_frame_inputs(x[:, :f], features), memory.mirror(x[:, f:])])
     return mirrored, MIRRORED_COMMAND[a]
 
 
 def with_mirrored(
-    inputs: np.ndarray, actions: np.ndarray, memory: MemoryConfig | None = None
+    inputs: np.ndarray,
+    actions: np.ndarray,
+    memory: MemoryConfig | None = None,
+    features: str = DEFAULT_FEATURES,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The cases followed by their mirror images (2N rows)."""
-    x, a = mirror_cases(inputs, actions, memory)
+    x, a = mirror_cases(inputs, actions, memory, features)
     return (
         np.concatenate([np.asarray(inputs, dtype=np.float64), x]),
         np.concatenate([np.asarray(actions, dtype=np.intp), a]),

@@ -16,6 +16,17 @@ A controller whose network also reads memory inputs (:mod:`lfd_track.policy.memo
 as schema 3: the schema 2 keys plus ``memory`` (the memory settings), with ``layer_sizes``
 ``[40 + m, 5, 3]``. A controller without memory is still written as schema 2.
 
+A controller whose network reads more per-region features than the road values
+(:mod:`lfd_track.policy.features`, e.g. ``"road_values+colour"``: 160 inputs) is saved as
+schema 4: the schema 2 keys plus ``features`` (the feature set's name) and ``memory`` (the memory
+settings, or null), with ``layer_sizes`` ``[160 + m, 5, 3]``. Every controller that reads only
+road values is written as before (schema 2 or 3), byte for byte.
+
+Policy kind ``"elman-sigmoid"`` (:mod:`lfd_track.policy.elman`) is an Elman network: its 5
+previous hidden activations are 5 more inputs after all the others, so its ``layer_sizes`` are
+``[n + 5, 5, 3]`` and its weights the MLP layout of ``n + 5`` inputs; it is written in whichever
+schema its inputs need (2, 3 or 4), the kind saying how to run it.
+
 A policy does not import its trainer: the GA appears here only as a type for ``from_evolution``.
 """
 
@@ -38,6 +49,8 @@ from ..utils.files import NonFiniteNumber as _NonFiniteError
 from ..utils.files import read_regular_text
 from ..utils.files import reject_constant as _reject_constant
 from ..vision.road_library import RoadLibrary
+from .elman import N_CONTEXT, ElmanCommander, ElmanState
+from .features import DEFAULT_FEATURES, FEATURE_SETS, check_features
 from .memory import MemoryConfig, policy_inputs
 from .mlp import check_numbers, layer_sizes, mlp_forward, n_weights, select_action
 
@@ -47,7 +60,8 @@ if TYPE_CHECKING:
 CONTROLLER_FORMAT = "lfd-track-controller"
 CONTROLLER_SCHEMA_VERSION = 2
 CONTROLLER_SCHEMA_WITH_MEMORY = 3
-POLICY_KINDS = ("mlp-sigmoid",)
+CONTROLLER_SCHEMA_WITH_FEATURES = 4
+POLICY_KINDS = ("mlp-sigmoid", "elman-sigmoid")
 """Policy kinds this version of lfd-track can run."""
 MAX_ABS_WEIGHT = 1e6
 """Largest weight magnitude accepted: beyond it every sigmoid is saturated (a road value is at
@@ -70,6 +84,7 @@ _KEYS = (
     "checksum",
 )
 _KEYS_V3 = (*_KEYS[:-1], "memory", "checksum")
+_KEYS_V4 = (*_KEYS[:-1], "features", "memory", "checksum")
 _KEYS_V1 = (
     "format",
     "schema_version",
@@ -104,7 +119,11 @@ class Controller:
         seed: seed of the run that produced the weights (stored for the record).
         fitness_history: best fitness per generation (stored for the record).
         learn: also run Algorithm 1 on each frame before computing its road values.
-        memory: the memory inputs the network reads after the road values (None: none).
+        memory: the memory inputs the network reads after the per-region features (None: none).
+        features: the per-region features the network reads
+            (:data:`~lfd_track.policy.features.FEATURE_SETS`; default the 40 road values).
+        policy_kind: ``"mlp-sigmoid"`` (the paper's network) or ``"elman-sigmoid"`` (its hidden
+            activations fed back: 5 more weights per hidden node, :mod:`lfd_track.policy.elman`).
     """
 
     policy_kind = "mlp-sigmoid"
@@ -121,12 +140,21 @@ class Controller:
         fitness_history: Sequence[float] | None = None,
         learn: bool = False,
         memory: MemoryConfig | None = None,
+        features: str = DEFAULT_FEATURES,
+        policy_kind: str = "mlp-sigmoid",
     ) -> None:
         _check_library(library)
+        features = check_features(features)
+        if policy_kind not in POLICY_KINDS:
+            raise ValueError(
+                f"policy kind {policy_kind!r} is not supported (this lfd-track runs"
+                f" {', '.join(POLICY_KINDS)})"
+            )
+        context = N_CONTEXT if policy_kind == "elman-sigmoid" else 0
         if memory is not None and not isinstance(memory, MemoryConfig):
             raise TypeError(f"memory must be a MemoryConfig or None, got {type(memory).__name__}")
         memory = None if memory is None or memory.kind == "none" else memory
-        n_inputs = policy_inputs(memory)
+        n_inputs = policy_inputs(memory, features) + context
         w = np.array(weights, dtype=np.float64, copy=True)
         if w.shape != (n_weights(bias, n_inputs),):
             raise ValueError(
@@ -157,6 +185,11 @@ class Controller:
         )
         self.learn = bool(learn)
         self.memory = memory
+        self.features = features
+        self.policy_kind = policy_kind
+        self._elman = (
+            ElmanState(w, self.bias, n_inputs - context) if policy_kind == "elman-sigmoid" else None
+        )
         self._act_perception: Perception | None = None
         self._previous: int | None = None
         self.last_outputs: np.ndarray | None = None
@@ -170,6 +203,8 @@ class Controller:
         *,
         seed: int | None = None,
         memory: MemoryConfig | None = None,
+        features: str = DEFAULT_FEATURES,
+        policy_kind: str = "mlp-sigmoid",
     ) -> Controller:
         """Controller from an :func:`~lfd_track.learning.ga.evolve` result.
 
@@ -192,24 +227,33 @@ class Controller:
             seed=seed,
             fitness_history=result.best_history.tolist(),
             memory=memory,
+            features=features,
+            policy_kind=policy_kind,
         )
 
     @property
+    def _context(self) -> int:
+        return N_CONTEXT if self.policy_kind == "elman-sigmoid" else 0
+
+    @property
     def n_inputs(self) -> int:
-        """Inputs of the network: 40 road values plus the memory inputs."""
-        return policy_inputs(self.memory)
+        """Inputs of the network: the per-region features (40 road values, or 160 with colour)
+        plus the memory inputs."""
+        return policy_inputs(self.memory, self.features)
 
     def perception(self, rule: str | None = None) -> Perception:
         """A perception for driving with this controller: its library, ``rule`` (default:
-        ``always`` if it learns, else ``frozen``) and its memory inputs."""
+        ``always`` if it learns, else ``frozen``), its features and its memory inputs."""
         if rule is None:
             rule = "always" if self.learn else "frozen"
-        return Perception(self.library, rule, self.memory)
+        return Perception(self.library, rule, self.memory, self.features)
 
     def reset(self) -> None:
         """Forget the previous command and the memory (start of an episode)."""
         self._previous = None
         self.last_outputs = None
+        if self._elman is not None:
+            self._elman.reset()
         if self._act_perception is not None:
             self._act_perception.start_episode()
 
@@ -227,19 +271,23 @@ class Controller:
         self._act_perception.note(command)
         return command
 
-    def commander(self) -> PolicyCommander:
+    def commander(self) -> PolicyCommander | ElmanCommander:
         """This controller's network as a commander for the teaching loop."""
+        if self.policy_kind == "elman-sigmoid":
+            return ElmanCommander(self.weights, self.bias, self.n_inputs)
         return PolicyCommander(self.weights)
 
     def act_on_values(self, road_values: np.ndarray) -> int:
-        """Command for precomputed road values, (40,) float (then the memory inputs, if any).
+        """Command for precomputed road values, (40,) float (then the colour features and the
+        memory inputs, if the network reads them: :attr:`Perception.inputs`).
 
         Raises ``ValueError`` for another shape or NaN / infinite values (a NaN would otherwise
         silently become command 0).
         """
         values = np.asarray(road_values)
         if values.shape != (self.n_inputs,):
-            extra = "" if self.memory is None else ", then the memory inputs"
+            extra = "" if self.features == DEFAULT_FEATURES else ", then the colour features"
+            extra += "" if self.memory is None else ", then the memory inputs"
             raise ValueError(
                 f"road_values must have shape ({self.n_inputs},) (the road values{extra}),"
                 f" got {values.shape}"
@@ -248,6 +296,10 @@ class Controller:
         values = values.astype(np.float64)
         if not np.isfinite(values).all():
             raise ValueError("road_values contain NaN or infinite values")
+        if self._elman is not None:  # an Elman network: its context runs with it
+            self._previous = self._elman.step(values)
+            self.last_outputs = self._elman.last_outputs
+            return self._previous
         outputs = mlp_forward(self.weights, values[None])[0]
         self.last_outputs = outputs
         self._previous = select_action(outputs, self._previous)
@@ -255,16 +307,18 @@ class Controller:
 
     # ------------------------------------------------------------------------------- files
     def to_dict(self) -> dict[str, Any]:
-        """JSON-friendly contents of the controller file (schema 2, or 3 with memory inputs;
-        checksum included)."""
+        """JSON-friendly contents of the controller file (schema 2, 3 with memory inputs, 4
+        with more features than the road values; checksum included)."""
         version = (
             CONTROLLER_SCHEMA_VERSION if self.memory is None else CONTROLLER_SCHEMA_WITH_MEMORY
         )
+        if self.features != DEFAULT_FEATURES:
+            version = CONTROLLER_SCHEMA_WITH_FEATURES
         contents: dict[str, Any] = {
             "format": CONTROLLER_FORMAT,
             "schema_version": version,
             "policy_kind": self.policy_kind,
-            "layer_sizes": list(layer_sizes(self.n_inputs)),
+            "layer_sizes": list(layer_sizes(self.n_inputs + self._context)),
             "bias": self.bias,
             "weights": self.weights.tolist(),
             "road_library": self.library.to_dict(),
@@ -274,7 +328,10 @@ class Controller:
             "fitness_history": self.fitness_history,
             "learn": self.learn,
         }
-        if self.memory is not None:
+        if version == CONTROLLER_SCHEMA_WITH_FEATURES:
+            contents["features"] = self.features
+            contents["memory"] = None if self.memory is None else self.memory.to_dict()
+        elif self.memory is not None:
             contents["memory"] = self.memory.to_dict()
         contents["checksum"] = checksum(contents)
         return contents
@@ -313,13 +370,22 @@ class Controller:
         if data.get("format") != CONTROLLER_FORMAT:
             raise ValueError(f"not a controller file ('format' must be '{CONTROLLER_FORMAT}')")
         version = data.get("schema_version")
-        readable = (1, CONTROLLER_SCHEMA_VERSION, CONTROLLER_SCHEMA_WITH_MEMORY)
+        readable = (
+            1,
+            CONTROLLER_SCHEMA_VERSION,
+            CONTROLLER_SCHEMA_WITH_MEMORY,
+            CONTROLLER_SCHEMA_WITH_FEATURES,
+        )
         if isinstance(version, bool) or version not in readable:
             raise ValueError(
                 f"schema version {version!r} is not supported"
                 f" (this version of lfd-track reads {', '.join(map(str, readable))})"
             )
-        keys = {1: _KEYS_V1, CONTROLLER_SCHEMA_VERSION: _KEYS}.get(version, _KEYS_V3)
+        keys = {
+            1: _KEYS_V1,
+            CONTROLLER_SCHEMA_VERSION: _KEYS,
+            CONTROLLER_SCHEMA_WITH_MEMORY: _KEYS_V3,
+        }.get(version, _KEYS_V4)
         for key in keys:
             if key not in data:
                 raise ValueError(f"missing key '{key}'")
@@ -340,13 +406,29 @@ class Controller:
                 )
             learner, learner_config = data["learner"], data["learner_config"]
         else:
+            kind = "mlp-sigmoid"
             learner, learner_config = "ga", data["ga_config"]
         memory = None
         if version == CONTROLLER_SCHEMA_WITH_MEMORY:
             memory = MemoryConfig.from_dict(data["memory"])
             if memory.kind == "none":
                 raise ValueError("a schema 3 controller must name its memory kind")
-        expected = list(layer_sizes(policy_inputs(memory)))
+        features = DEFAULT_FEATURES
+        if version == CONTROLLER_SCHEMA_WITH_FEATURES:
+            features = data["features"]
+            if not isinstance(features, str) or features not in FEATURE_SETS:
+                raise ValueError(
+                    f"features {features!r} are not supported (this lfd-track reads"
+                    f" {', '.join(FEATURE_SETS)})"
+                )
+            if features == DEFAULT_FEATURES:
+                raise ValueError("a schema 4 controller must name features beyond the road values")
+            if data["memory"] is not None:
+                memory = MemoryConfig.from_dict(data["memory"])
+                if memory.kind == "none":
+                    raise ValueError("a controller without memory stores null as its memory")
+        context = N_CONTEXT if kind == "elman-sigmoid" else 0
+        expected = list(layer_sizes(policy_inputs(memory, features) + context))
         if data["layer_sizes"] != expected:
             raise ValueError(
                 f"layer_sizes {data['layer_sizes']!r} not supported (expected {expected})"
@@ -398,6 +480,8 @@ class Controller:
             fitness_history=history,
             learn=learn,
             memory=memory,
+            features=features,
+            policy_kind=kind,
         )
 
 

@@ -11,7 +11,20 @@ memory input carries that one fact forward from the commands the robot executed:
   than the other since the last extreme of the running count (left +1, right -1; forward
   commands count nothing), so a wobble of one pivot left and one right changes nothing while
   two pivots the same way (45° with the paper's 23° pivots, the training track's gentlest bend)
-  flip it.
+  flip it;
+* ``"previous_command"`` — a Jordan network's feedback: three inputs, the one-hot of the command
+  executed at the previous step (forward, left, right), all 0 at an episode's first step. The
+  network learns what to do with it, where ``last_bend`` fixes a latch by hand.
+
+``previous_command`` feeds back the *executed* command, not the network's three output
+activations: on recorded cases the previous executed command is known (teacher forcing: the
+human's, or the policy's where it drove), so GA fitness and backprop over the static cases stay
+valid, whereas the outputs a network would have produced depend on its own weights and are not
+in any recording. The risk is the one of every such input: consecutive commands of a
+demonstration mostly agree, so "repeat the previous command" alone already scores high and a
+learner may lean on it (copying the last command) instead of on the road; when driving, one
+wrong command is then fed back and repeated. Learning from a recording where corrections break
+such runs, and reading the training accuracy with that baseline in mind, are the guards.
 
 The input is computed from *executed* commands, whoever gave them (the human demonstrating or
 correcting, the policy driving), so a recorded case and an autonomous run see the same thing.
@@ -29,8 +42,9 @@ import numpy as np
 from ..core.commands import Command
 from ..core.config import DictConfig
 from ..core.frame import N_REGIONS
+from .features import frame_inputs
 
-MEMORY_KINDS = ("none", "last_bend")
+MEMORY_KINDS = ("none", "last_bend", "previous_command")
 #: Value of the ``last_bend`` input before the first bend of an episode.
 UNKNOWN_SIDE = 0.5
 
@@ -58,8 +72,8 @@ class MemoryConfig(DictConfig):
 
     @property
     def n_inputs(self) -> int:
-        """Inputs the memory adds after the 40 road values."""
-        return 0 if self.kind == "none" else 1
+        """Inputs the memory adds after the per-region inputs (the 40 road values)."""
+        return {"none": 0, "last_bend": 1, "previous_command": 3}[self.kind]
 
     @property
     def policy_inputs(self) -> int:
@@ -69,6 +83,8 @@ class MemoryConfig(DictConfig):
     def mirror(self, inputs: np.ndarray) -> np.ndarray:
         """Memory inputs (N, m) as they would be in a world flipped left to right."""
         x = np.asarray(inputs, dtype=np.float64)
+        if self.kind == "previous_command":  # the previous left becomes a right and back
+            return x[:, [0, 2, 1]]
         return x.copy() if self.kind == "none" else 1.0 - x
 
 
@@ -113,13 +129,44 @@ class TurnMemory:
         return np.array([self.side])
 
 
-def policy_inputs(config: MemoryConfig | None) -> int:
-    """Inputs of a network with memory ``config`` (None: no memory, the paper's 40)."""
-    return (config or MemoryConfig()).policy_inputs
+class PreviousCommandMemory:
+    """The ``previous_command`` feedback: the one-hot of the last executed command."""
+
+    def __init__(self, config: MemoryConfig) -> None:
+        if config.kind != "previous_command":
+            raise ValueError(
+                f"PreviousCommandMemory implements 'previous_command', not {config.kind!r}"
+            )
+        self.config = config
+        self.reset()
+
+    def reset(self) -> None:
+        """Start of an episode: no command executed yet (all three inputs 0)."""
+        self._inputs = np.zeros(3)
+
+    def note(self, command: Command | int) -> None:
+        """The command just executed becomes the next step's input."""
+        cmd = int(command)
+        if cmd not in (0, 1, 2):
+            raise ValueError(f"command must be 0, 1 or 2, got {command!r}")
+        self._inputs = np.zeros(3)
+        self._inputs[cmd] = 1.0
+
+    def inputs(self) -> np.ndarray:
+        """The memory inputs now, (3,) float64."""
+        return self._inputs.copy()
 
 
-def memory_for(config: MemoryConfig | None) -> TurnMemory | None:
+def policy_inputs(config: MemoryConfig | None, features: str = "road_values") -> int:
+    """Inputs of a network with memory ``config`` (None: no memory) reading the per-region
+    ``features`` (:mod:`lfd_track.policy.features`; default the paper's 40 road values)."""
+    return frame_inputs(features) + (config or MemoryConfig()).n_inputs
+
+
+def memory_for(config: MemoryConfig | None) -> TurnMemory | PreviousCommandMemory | None:
     """The memory part for ``config`` (None for no memory)."""
     if config is None or config.kind == "none":
         return None
+    if config.kind == "previous_command":
+        return PreviousCommandMemory(config)
     return TurnMemory(config)

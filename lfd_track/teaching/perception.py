@@ -1,5 +1,6 @@
-"""Perception: the road library, the rule that says when it may learn (paper §4.2.1, §6), and the
-policy's memory inputs (:mod:`lfd_track.policy.memory`), if any.
+"""Perception: the road library, the rule that says when it may learn (paper §4.2.1, §6), the
+per-region features the policy reads (:mod:`lfd_track.policy.features`: the road values, or
+also the regions' colours) and its memory inputs (:mod:`lfd_track.policy.memory`), if any.
 
 Learning rules:
 
@@ -23,7 +24,8 @@ from functools import cached_property
 import numpy as np
 
 from ..core.commands import Command
-from ..policy.memory import MemoryConfig, memory_for
+from ..policy.features import DEFAULT_FEATURES, check_features, colour_features
+from ..policy.memory import MemoryConfig, memory_for, policy_inputs
 from ..vision.road_library import RoadLibrary
 
 LEARNING_RULES = ("careful", "paused", "frozen", "always")
@@ -43,32 +45,41 @@ class Percept:
     """Whether the safe box lay on the felt (None when the loop cannot know)."""
     memory: np.ndarray = field(default_factory=lambda: np.zeros(0))
     """Memory inputs at this frame, (m,) float64 (m = 0 without memory)."""
+    colour: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """The regions' colour features, (120,) float64 with the ``road_values+colour`` features,
+    else (0,) (computed from :attr:`histograms`, as for a recorded case)."""
 
     @cached_property
     def inputs(self) -> np.ndarray:
-        """The policy's inputs: the road values, then the memory inputs, (40 + m,) float64
-        (joined once, on first use)."""
-        if not len(self.memory):
+        """The policy's inputs: the road values, then any colour features, then the memory
+        inputs, (40 + c + m,) float64 (joined once, on first use)."""
+        if not len(self.memory) and not len(self.colour):
             return self.values
-        return np.concatenate([self.values, self.memory])
+        return np.concatenate([self.values, self.colour, self.memory])
 
 
 class Perception:
-    """A road library plus its learning rule (one of :data:`LEARNING_RULES`), and the memory
-    inputs ``memory`` asks for (none by default)."""
+    """A road library plus its learning rule (one of :data:`LEARNING_RULES`), the memory
+    inputs ``memory`` asks for (none by default) and the per-region ``features``
+    (:data:`~lfd_track.policy.features.FEATURE_SETS`; the road values by default)."""
 
     def __init__(
-        self, library: RoadLibrary, rule: str = "careful", memory: MemoryConfig | None = None
+        self,
+        library: RoadLibrary,
+        rule: str = "careful",
+        memory: MemoryConfig | None = None,
+        features: str = DEFAULT_FEATURES,
     ) -> None:
         self.library = library
         self.rule = rule
         self.memory_config = memory or MemoryConfig()
+        self.features = check_features(features)
         self._memory = memory_for(memory)
 
     @property
     def n_inputs(self) -> int:
-        """Length of :attr:`Percept.inputs`: 40 road values plus the memory inputs."""
-        return self.memory_config.policy_inputs
+        """Length of :attr:`Percept.inputs`: the per-region features plus the memory inputs."""
+        return policy_inputs(self.memory_config, self.features)
 
     def start_episode(self) -> None:
         """A new episode: the memory forgets (the library does not)."""
@@ -112,12 +123,14 @@ class Perception:
             histograms, update_statistics=self._rule != "frozen"
         )
         memory = np.zeros(0) if self._memory is None else self._memory.inputs()
+        colour = np.zeros(0) if self.features == DEFAULT_FEATURES else colour_features(histograms)
         return Percept(
             values=values,
             histograms=histograms,
             learned=learn,
             box_on_felt=box_on_felt,
             memory=memory,
+            colour=colour,
         )
 
     def look(self, frame: np.ndarray) -> np.ndarray:
