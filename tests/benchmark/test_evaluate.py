@@ -80,6 +80,7 @@ def test_the_command_writes_the_report_the_plot_and_the_results(benchmarked, tmp
     assert sorted(p.name for p in out.iterdir()) == [
         "report.md",
         "results.json",
+        "trajectories.csv",
         "trajectories.png",
     ]
     results = json.loads((out / "results.json").read_text(encoding="utf-8"))
