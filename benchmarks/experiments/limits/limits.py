@@ -175,8 +175,8 @@ def run_network(job: tuple[str, list[float], str, bool, str, int, int]) -> dict[
 
 # ---------------------------------------------------------------------------------- evolution
 #: Robot-time budget of each evolution run [s] and the settings fixed before running (README).
-EVOLUTION_BUDGET_S = 12_000.0
-DIRECT = DirectConfig(population_size=20, generations=25, robot_budget_s=EVOLUTION_BUDGET_S)
+EVOLUTION_BUDGET_S = 4_000.0
+DIRECT = DirectConfig(population_size=10, generations=25, robot_budget_s=EVOLUTION_BUDGET_S)
 ONLINE = OnlineConfig(
     mu=10, tau=50, recovery=10, evaluations=100_000, robot_budget_s=EVOLUTION_BUDGET_S
 )
