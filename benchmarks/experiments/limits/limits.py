@@ -201,8 +201,8 @@ def _curve_table(curve: list[dict[str, Any]], x: str, rows: int = 12) -> str:
     return "\n".join(lines)
 
 
-def run_evolution(part: str, seed: int, laps: int, workers: int) -> None:
-    """Evolve (``direct`` or ``online-evolution``), then score the controller by the protocol."""
+def learn_evolution(part: str, seed: int) -> dict[str, Any]:
+    """Evolve (``direct`` or ``online-evolution``); saves ``results/<name>.learning.json``."""
     t0 = time.perf_counter()
 
     def show(point: dict[str, Any]) -> None:
@@ -211,7 +211,6 @@ def run_evolution(part: str, seed: int, laps: int, workers: int) -> None:
     if part == "direct":
         name, config = "direct", DIRECT
         result = direct_evolution(_library(), config, seed, progress=show)
-        x = "generation"
         extra = {
             "generations": result.generations,
             "evaluations": result.evaluations,
@@ -221,7 +220,6 @@ def run_evolution(part: str, seed: int, laps: int, workers: int) -> None:
     else:
         name, config = "mu_plus_one", ONLINE
         result = mu_plus_one_online(_library(), config, seed, progress=show)
-        x = "evaluation"
         extra = {
             "evaluations": result.evaluations,
             "children": result.children,
@@ -231,48 +229,53 @@ def run_evolution(part: str, seed: int, laps: int, workers: int) -> None:
             "put_backs": result.put_backs,
             "final_fitness": result.final_fitness,
         }
-    learn_wall = time.perf_counter() - t0
-    weights = [float(w) for w in result.best_weights]
-    policy = f"{name} (seed {seed})"
-    jobs = [(policy, weights, *d, laps) for d in directions(LOOPS)]
-    results = _run(run_network, jobs, workers)
     paper_s = paper_learning_drive_s()
-    effort = {
-        "paper_pipeline_learning_drive_s": {
-            "per_repetition": paper_s,
-            "mean": round(sum(paper_s) / len(paper_s), 2),
+    learning = {
+        "part": name,
+        "seed": seed,
+        "config": dataclasses.asdict(config),
+        "effort": {
+            "paper_pipeline_learning_drive_s": {
+                "per_repetition": paper_s,
+                "mean": round(sum(paper_s) / len(paper_s), 2),
+            },
+            "human_commands": 0,
+            "corrections": 0,
+            "put_backs": extra["put_backs"],
+            "learning_drive_s": result.robot_s,
+            "learning_steps": result.steps,
         },
-        "human_commands": 0,
-        "corrections": 0,
-        "put_backs": extra["put_backs"],
-        "learning_drive_s": result.robot_s,
-        "learning_steps": result.steps,
+        "best_fitness": result.best_fitness,
+        "weights": [float(w) for w in result.best_weights],
+        "curve": result.curve,
+        "learn_wall_s": round(time.perf_counter() - t0, 1),
+        **extra,
     }
+    RESULTS.mkdir(exist_ok=True)
+    (RESULTS / f"{name}.learning.json").write_text(json.dumps(learning, indent=1) + "\n")
+    return learning
+
+
+def score_evolution(part: str, laps: int, workers: int) -> None:
+    """Score the controller ``learn_evolution`` saved, by the protocol (``laps`` per direction)."""
+    name = "direct" if part == "direct" else "mu_plus_one"
+    learning = json.loads((RESULTS / f"{name}.learning.json").read_text())
+    x = "generation" if name == "direct" else "evaluation"
+    policy = f"{name} (seed {learning['seed']})"
+    jobs = [(policy, learning["weights"], *d, laps) for d in directions(LOOPS)]
+    results = _run(run_network, jobs, workers)
+    effort = learning["effort"]
     note = (
-        f"{name}, seed {seed}: {result.robot_s:.0f} s of robot time while learning "
-        f"({result.steps} commands; the paper pipeline: "
+        f"{name}, seed {learning['seed']}: {effort['learning_drive_s']:.0f} s of robot time while "
+        f"learning ({effort['learning_steps']} commands; the paper pipeline: "
         f"{effort['paper_pipeline_learning_drive_s']['mean']:.0f} s per repetition), 0 human "
-        f"commands, "
-        f"0 corrections, {extra['put_backs']} put-backs by hand; best fitness "
-        f"{result.best_fitness:.2f} m. Scored {laps} laps per track and direction.\n\n"
+        f"commands, 0 corrections, {effort['put_backs']} put-backs by hand; best fitness "
+        f"{learning['best_fitness']:.2f} m. Scored {laps} laps per track and direction.\n\n"
         f"Learning curve (fitness: progress along the centreline, see the README):\n\n"
-        + _curve_table(result.curve, x)
+        + _curve_table(learning["curve"], x)
     )
-    _write(
-        name,
-        results,
-        note,
-        {
-            "seed": seed,
-            "config": dataclasses.asdict(config),
-            "effort": effort,
-            "best_fitness": result.best_fitness,
-            "weights": weights,
-            "curve": result.curve,
-            "learn_wall_s": round(learn_wall, 1),
-            **extra,
-        },
-    )
+    body = {k: v for k, v in learning.items() if k != "part"}
+    _write(name, results, note, {**body, "laps": laps})
 
 
 # ---------------------------------------------------------------------------------- tables
@@ -361,6 +364,14 @@ def main(argv: list[str] | None = None) -> int:
         choices=("library", "teacher", "tune", "handwritten", "direct", "online-evolution"),
     )
     parser.add_argument("--seed", type=int, default=0, help="direct, online-evolution: run seed")
+    parser.add_argument(
+        "--learn-only", action="store_true", help="direct, online-evolution: evolve, do not score"
+    )
+    parser.add_argument(
+        "--score-only",
+        action="store_true",
+        help="direct, online-evolution: score the controller an earlier run evolved",
+    )
     parser.add_argument("--laps", type=int, default=30, help="laps per track and direction")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument(
@@ -389,7 +400,10 @@ def main(argv: list[str] | None = None) -> int:
             {"teachers": {k: dataclasses.asdict(v) for k, v in TEACHERS.items()}},
         )
     elif args.part in ("direct", "online-evolution"):
-        run_evolution(args.part, args.seed, args.laps, args.workers)
+        if not args.score_only:
+            learn_evolution(args.part, args.seed)
+        if not args.learn_only:
+            score_evolution(args.part, args.laps, args.workers)
     elif args.part == "tune":
         dirs = directions((VALIDATION,))
         jobs = [(name, cfg, *d, args.laps) for name, cfg in candidates() for d in dirs]
