@@ -10,6 +10,10 @@ Parts (see README.md beside this file for the protocol):
 * ``handwritten`` — the two rules the tuning chose, on every loop and the training track.
 * ``tune-seen`` / ``seen`` — the same for the rule with the other one-bit latch (toward the side
   the felt was last seen on), over its own grid (``SEEN_GRID``), fixed before it ran.
+* ``direct`` — the 40-5-3 network evolved by the paper's GA directly on progress along the
+  training track (no human), then scored like the rules; robot time counted.
+* ``online-evolution`` — (μ+1)-ONLINE: the same network evolved on board one robot that is never
+  reset to the start (``lfd_track.learning.direct``), then scored the same way.
 
 Every part drives the paper preset; the road library is the one a standard demonstration built
 (the paper pipeline's seed 0, repetition 0), frozen. Results go to ``results/<part>.json`` and
@@ -38,7 +42,14 @@ from lfd_track.benchmark.runner import repetition_seeds, repetition_streams, tri
 from lfd_track.dataset import load_demonstration
 from lfd_track.demo.demonstrator import run_demonstration
 from lfd_track.envs.track_env import LfDTrackEnv
+from lfd_track.learning.direct import (
+    DirectConfig,
+    OnlineConfig,
+    direct_evolution,
+    mu_plus_one_online,
+)
 from lfd_track.teaching.arbiter import Arbiter
+from lfd_track.teaching.commanders import PolicyCommander
 from lfd_track.teaching.handwritten import RoadRule, RoadRuleConfig
 from lfd_track.teaching.loop import TeachingLoop
 from lfd_track.teaching.perception import Perception
@@ -143,6 +154,130 @@ def run_rule(job: tuple[str, dict, str, bool, str, int, int]) -> dict[str, Any]:
         outcomes.append(record)
     env.close()
     return {"policy": name, "track": track, "direction": direction, "outcomes": outcomes}
+
+
+def run_network(job: tuple[str, list[float], str, bool, str, int, int]) -> dict[str, Any]:
+    """Laps of a 40-5-3 network ``weights`` in one direction (frozen standard library)."""
+    name, weights, track, reverse, direction, world_seed, laps = job
+    env = LfDTrackEnv(track=track, reverse=reverse)
+    outcomes = []
+    for lap in range(laps):
+        loop = TeachingLoop(
+            env,
+            Perception(_library(), "frozen"),
+            Arbiter("policy"),
+            policy=PolicyCommander(np.asarray(weights, dtype=np.float64)),
+        )
+        loop.reset(seed=world_seed if lap == 0 else None)
+        loop.run()
+        outcomes.append(_outcome(loop.info, loop.counts.steps))
+    env.close()
+    return {"policy": name, "track": track, "direction": direction, "outcomes": outcomes}
+
+
+# ---------------------------------------------------------------------------------- evolution
+#: Robot-time budget of each evolution run [s] and the settings fixed before running (README).
+EVOLUTION_BUDGET_S = 4_000.0
+DIRECT = DirectConfig(population_size=10, generations=25, robot_budget_s=EVOLUTION_BUDGET_S)
+ONLINE = OnlineConfig(
+    mu=10, tau=50, recovery=10, evaluations=100_000, robot_budget_s=EVOLUTION_BUDGET_S
+)
+#: The paper pipeline's human effort (seed 0, 10 repetitions), for the robot-time comparison.
+PAPER_RESULTS = HERE.parent / "beyond_the_paper/results/beyond_the_paper/paper/seed0/results.json"
+
+
+def paper_learning_drive_s() -> list[float]:
+    """``learning_drive_s`` of each repetition of the paper pipeline (seed 0)."""
+    effort = json.loads(PAPER_RESULTS.read_text())["human_effort"]["repetitions"]
+    return [float(r["learning_drive_s"]) for r in effort]
+
+
+def _curve_table(curve: list[dict[str, Any]], x: str, rows: int = 12) -> str:
+    """Markdown: the learning curve at about ``rows`` evenly spaced points (and the last)."""
+    picks = sorted({round(i * (len(curve) - 1) / (rows - 1)) for i in range(rows)})
+    lines = [f"| {x} | robot s | best fitness [m] | mean fitness [m] |", "|---|---|---|---|"]
+    for i in picks:
+        p = curve[i]
+        best = p.get("best_ever", p["best"])
+        lines.append(f"| {p[x]} | {p['robot_s']:.0f} | {best:.2f} | {p['mean']:.2f} |")
+    return "\n".join(lines)
+
+
+def learn_evolution(part: str, seed: int) -> dict[str, Any]:
+    """Evolve (``direct`` or ``online-evolution``); saves ``results/<name>.learning.json``."""
+    t0 = time.perf_counter()
+
+    def show(point: dict[str, Any]) -> None:
+        print(json.dumps(point), file=sys.stderr, flush=True)
+
+    if part == "direct":
+        name, config = "direct", DIRECT
+        result = direct_evolution(_library(), config, seed, progress=show)
+        extra = {
+            "generations": result.generations,
+            "evaluations": result.evaluations,
+            "world_seeds": result.world_seeds,
+            "put_backs": 0,
+        }
+    else:
+        name, config = "mu_plus_one", ONLINE
+        result = mu_plus_one_online(_library(), config, seed, progress=show)
+        extra = {
+            "evaluations": result.evaluations,
+            "children": result.children,
+            "accepted": result.accepted,
+            "reevaluations": result.reevaluations,
+            "world_seed": result.world_seed,
+            "put_backs": result.put_backs,
+            "final_fitness": result.final_fitness,
+        }
+    paper_s = paper_learning_drive_s()
+    learning = {
+        "part": name,
+        "seed": seed,
+        "config": dataclasses.asdict(config),
+        "effort": {
+            "paper_pipeline_learning_drive_s": {
+                "per_repetition": paper_s,
+                "mean": round(sum(paper_s) / len(paper_s), 2),
+            },
+            "human_commands": 0,
+            "corrections": 0,
+            "put_backs": extra["put_backs"],
+            "learning_drive_s": result.robot_s,
+            "learning_steps": result.steps,
+        },
+        "best_fitness": result.best_fitness,
+        "weights": [float(w) for w in result.best_weights],
+        "curve": result.curve,
+        "learn_wall_s": round(time.perf_counter() - t0, 1),
+        **extra,
+    }
+    RESULTS.mkdir(exist_ok=True)
+    (RESULTS / f"{name}.learning.json").write_text(json.dumps(learning, indent=1) + "\n")
+    return learning
+
+
+def score_evolution(part: str, laps: int, workers: int) -> None:
+    """Score the controller ``learn_evolution`` saved, by the protocol (``laps`` per direction)."""
+    name = "direct" if part == "direct" else "mu_plus_one"
+    learning = json.loads((RESULTS / f"{name}.learning.json").read_text())
+    x = "generation" if name == "direct" else "evaluation"
+    policy = f"{name} (seed {learning['seed']})"
+    jobs = [(policy, learning["weights"], *d, laps) for d in directions(LOOPS)]
+    results = _run(run_network, jobs, workers)
+    effort = learning["effort"]
+    note = (
+        f"{name}, seed {learning['seed']}: {effort['learning_drive_s']:.0f} s of robot time while "
+        f"learning ({effort['learning_steps']} commands; the paper pipeline: "
+        f"{effort['paper_pipeline_learning_drive_s']['mean']:.0f} s per repetition), 0 human "
+        f"commands, 0 corrections, {effort['put_backs']} put-backs by hand; best fitness "
+        f"{learning['best_fitness']:.2f} m. Scored {laps} laps per track and direction.\n\n"
+        f"Learning curve (fitness: progress along the centreline, see the README):\n\n"
+        + _curve_table(learning["curve"], x)
+    )
+    body = {k: v for k, v in learning.items() if k != "part"}
+    _write(name, results, note, {**body, "laps": laps})
 
 
 # ---------------------------------------------------------------------------------- tables
@@ -287,7 +422,26 @@ def score_rules(part: str, chosen: dict[str, dict], laps: int, workers: int, how
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
-        "part", choices=("library", "teacher", "tune", "handwritten", "tune-seen", "seen")
+        "part",
+        choices=(
+            "library",
+            "teacher",
+            "tune",
+            "handwritten",
+            "tune-seen",
+            "seen",
+            "direct",
+            "online-evolution",
+        ),
+    )
+    parser.add_argument("--seed", type=int, default=0, help="direct, online-evolution: run seed")
+    parser.add_argument(
+        "--learn-only", action="store_true", help="direct, online-evolution: evolve, do not score"
+    )
+    parser.add_argument(
+        "--score-only",
+        action="store_true",
+        help="direct, online-evolution: score the controller an earlier run evolved",
     )
     parser.add_argument("--laps", type=int, default=30, help="laps per track and direction")
     parser.add_argument("--workers", type=int, default=2)
@@ -316,6 +470,11 @@ def main(argv: list[str] | None = None) -> int:
             note,
             {"teachers": {k: dataclasses.asdict(v) for k, v in TEACHERS.items()}},
         )
+    elif args.part in ("direct", "online-evolution"):
+        if not args.score_only:
+            learn_evolution(args.part, args.seed)
+        if not args.learn_only:
+            score_evolution(args.part, args.laps, args.workers)
     elif args.part == "tune":
         tune("tune", candidates(), ("reactive", "latch"), args.laps, args.workers)
     elif args.part == "tune-seen":
