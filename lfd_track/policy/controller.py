@@ -16,6 +16,10 @@ A controller whose network also reads memory inputs (:mod:`lfd_track.policy.memo
 as schema 3: the schema 2 keys plus ``memory`` (the memory settings), with ``layer_sizes``
 ``[40 + m, 5, 3]``. A controller without memory is still written as schema 2.
 
+A network with another hidden width than the paper's 5 (``hidden``, e.g. 40-20-3 fitted by
+backprop) says so in ``layer_sizes`` (``[40, 20, 3]``); every file with 5 hidden nodes is the same
+as before the width could change, and older files load and drive as they did.
+
 A policy does not import its trainer: the GA appears here only as a type for ``from_evolution``.
 """
 
@@ -39,7 +43,16 @@ from ..utils.files import read_regular_text
 from ..utils.files import reject_constant as _reject_constant
 from ..vision.road_library import RoadLibrary
 from .memory import MemoryConfig, policy_inputs
-from .mlp import check_numbers, layer_sizes, mlp_forward, n_weights, select_action
+from .mlp import (
+    MAX_HIDDEN,
+    N_HIDDEN,
+    check_hidden,
+    check_numbers,
+    layer_sizes,
+    mlp_forward,
+    n_weights,
+    select_action,
+)
 
 if TYPE_CHECKING:
     from ..learning.ga import EvolutionResult
@@ -105,6 +118,7 @@ class Controller:
         fitness_history: best fitness per generation (stored for the record).
         learn: also run Algorithm 1 on each frame before computing its road values.
         memory: the memory inputs the network reads after the road values (None: none).
+        hidden: nodes of the hidden layer (the paper's 5; 1..1000), recorded in ``layer_sizes``.
     """
 
     policy_kind = "mlp-sigmoid"
@@ -121,17 +135,20 @@ class Controller:
         fitness_history: Sequence[float] | None = None,
         learn: bool = False,
         memory: MemoryConfig | None = None,
+        hidden: int = N_HIDDEN,
     ) -> None:
         _check_library(library)
+        hidden = check_hidden(hidden)
         if memory is not None and not isinstance(memory, MemoryConfig):
             raise TypeError(f"memory must be a MemoryConfig or None, got {type(memory).__name__}")
         memory = None if memory is None or memory.kind == "none" else memory
         n_inputs = policy_inputs(memory)
         w = np.array(weights, dtype=np.float64, copy=True)
-        if w.shape != (n_weights(bias, n_inputs),):
+        if w.shape != (n_weights(bias, n_inputs, hidden),):
             raise ValueError(
-                f"expected {n_weights(bias, n_inputs)} weights for {n_inputs} inputs"
-                f" ({'with' if bias else 'without'} biases), got shape {w.shape}"
+                f"expected {n_weights(bias, n_inputs, hidden)} weights for {n_inputs} inputs"
+                + ("" if hidden == N_HIDDEN else f" and {hidden} hidden nodes")
+                + f" ({'with' if bias else 'without'} biases), got shape {w.shape}"
             )
         if not np.all(np.isfinite(w)):
             raise ValueError("weights contain NaN or infinite values")
@@ -157,6 +174,7 @@ class Controller:
         )
         self.learn = bool(learn)
         self.memory = memory
+        self.hidden = hidden
         self._act_perception: Perception | None = None
         self._previous: int | None = None
         self.last_outputs: np.ndarray | None = None
@@ -229,7 +247,7 @@ class Controller:
 
     def commander(self) -> PolicyCommander:
         """This controller's network as a commander for the teaching loop."""
-        return PolicyCommander(self.weights)
+        return PolicyCommander(self.weights, hidden=self.hidden)
 
     def act_on_values(self, road_values: np.ndarray) -> int:
         """Command for precomputed road values, (40,) float (then the memory inputs, if any).
@@ -248,7 +266,7 @@ class Controller:
         values = values.astype(np.float64)
         if not np.isfinite(values).all():
             raise ValueError("road_values contain NaN or infinite values")
-        outputs = mlp_forward(self.weights, values[None])[0]
+        outputs = mlp_forward(self.weights, values[None], hidden=self.hidden)[0]
         self.last_outputs = outputs
         self._previous = select_action(outputs, self._previous)
         return self._previous
@@ -264,7 +282,7 @@ class Controller:
             "format": CONTROLLER_FORMAT,
             "schema_version": version,
             "policy_kind": self.policy_kind,
-            "layer_sizes": list(layer_sizes(self.n_inputs)),
+            "layer_sizes": list(layer_sizes(self.n_inputs, self.hidden)),
             "bias": self.bias,
             "weights": self.weights.tolist(),
             "road_library": self.library.to_dict(),
@@ -347,10 +365,20 @@ class Controller:
             if memory.kind == "none":
                 raise ValueError("a schema 3 controller must name its memory kind")
         expected = list(layer_sizes(policy_inputs(memory)))
-        if data["layer_sizes"] != expected:
-            raise ValueError(
-                f"layer_sizes {data['layer_sizes']!r} not supported (expected {expected})"
-            )
+        sizes = data["layer_sizes"]
+        hidden = N_HIDDEN
+        if (
+            version >= CONTROLLER_SCHEMA_VERSION
+            and isinstance(sizes, list)
+            and len(sizes) == 3
+            and isinstance(sizes[1], int)
+            and not isinstance(sizes[1], bool)
+            and 1 <= sizes[1] <= MAX_HIDDEN
+        ):
+            hidden = sizes[1]  # a wider (or narrower) hidden layer is recorded here
+            expected[1] = hidden
+        if sizes != expected:
+            raise ValueError(f"layer_sizes {sizes!r} not supported (expected {expected})")
         n_inputs = expected[0]
         bias = data["bias"]
         if not isinstance(bias, bool):
@@ -358,9 +386,9 @@ class Controller:
         weights = data["weights"]
         if not isinstance(weights, list) or not all(_is_finite_number(w) for w in weights):
             raise ValueError("'weights' must be a list of finite numbers")
-        if len(weights) != n_weights(bias, n_inputs):
+        if len(weights) != n_weights(bias, n_inputs, hidden):
             raise ValueError(
-                f"expected {n_weights(bias, n_inputs)} weights for layers {expected}"
+                f"expected {n_weights(bias, n_inputs, hidden)} weights for layer_sizes {expected}"
                 f" {'with' if bias else 'without'} biases, got {len(weights)}"
             )
         if any(abs(w) > MAX_ABS_WEIGHT for w in weights):
@@ -398,6 +426,7 @@ class Controller:
             fitness_history=history,
             learn=learn,
             memory=memory,
+            hidden=hidden,
         )
 
 
