@@ -43,7 +43,7 @@ from ..envs.track_env import LfDTrackEnv
 from ..learning.bc import BCConfig, fit_bc
 from ..learning.fitness import training_accuracy
 from ..learning.ga import GAConfig, evolve
-from ..learning.result import check_bool
+from ..learning.result import check_bool, shown_int
 from ..policy.controller import Controller
 from ..policy.memory import MemoryConfig
 from ..policy.mlp import MAX_HIDDEN, N_HIDDEN, check_hidden
@@ -86,7 +86,7 @@ class DaggerConfig(TakeoverConfig):
             check_hidden(self.hidden)
         except ValueError:
             raise ValueError(
-                f"dagger hidden must be an integer in 1..{MAX_HIDDEN}, got {self.hidden!r}"
+                f"dagger hidden must be an integer in 1..{MAX_HIDDEN}, got {_shown(self.hidden)}"
             ) from None
         if self.learner == "ga" and self.hidden != N_HIDDEN:
             raise ValueError(
@@ -94,6 +94,13 @@ class DaggerConfig(TakeoverConfig):
                 f" {N_HIDDEN} hidden nodes)"
             )
         check_bool("dagger label_noise", self.label_noise)
+
+
+def _shown(value: Any) -> str:
+    """A setting's value in one short line (a 400-digit integer is not printed whole)."""
+    if isinstance(value, int) and not isinstance(value, bool):
+        return shown_int(value)
+    return repr(value)[:40]
 
 
 def labelling_human(human: HumanConfig, label_noise: bool) -> HumanConfig:

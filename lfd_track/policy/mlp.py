@@ -30,9 +30,12 @@ MAX_HIDDEN = 1_000
 def check_hidden(hidden: int) -> int:
     """``hidden`` if it is an integer in 1..MAX_HIDDEN, else ``ValueError`` (one line)."""
     if isinstance(hidden, bool) or not isinstance(hidden, int | np.integer):
-        raise ValueError(f"hidden must be an integer number of hidden nodes, got {hidden!r}")
+        raise ValueError(
+            f"hidden must be an integer number of hidden nodes, got {type(hidden).__name__}"
+        )
     if not 1 <= hidden <= MAX_HIDDEN:
-        raise ValueError(f"hidden must be in 1..{MAX_HIDDEN}, got {hidden}")
+        shown = hidden if abs(hidden) < 10**18 else "a number of more than 18 digits"
+        raise ValueError(f"hidden must be in 1..{MAX_HIDDEN}, got {shown}")
     return int(hidden)
 
 
