@@ -4,7 +4,7 @@ Every method is an arrangement of the teaching loop (:mod:`lfd_track.teaching`) 
 controller plus a record of the human's effort, counted the same way for every method:
 
 * ``commands`` — commands the human gave (demonstration, library-only ones included, and
-  corrections / interventions);
+  corrections / interventions; for ``dagger`` every label, executed or not);
 * ``corrections`` — times the human took control back from a driving policy;
 * ``takeovers`` — times the policy took control;
 * ``learning_drive_s`` — simulated seconds the robot drove while learning (whoever drove);
