@@ -4,7 +4,7 @@ Every method is an arrangement of the teaching loop (:mod:`lfd_track.teaching`) 
 controller plus a record of the human's effort, counted the same way for every method:
 
 * ``commands`` — commands the human gave (demonstration, library-only ones included, and
-  corrections / interventions);
+  corrections / interventions; for ``dagger`` every label, executed or not);
 * ``corrections`` — times the human took control back from a driving policy;
 * ``takeovers`` — times the policy took control;
 * ``learning_drive_s`` — simulated seconds the robot drove while learning (whoever drove);
@@ -24,6 +24,10 @@ Methods:
 * ``hg-dagger`` — the paper's demonstration and GA, then ``rounds`` rounds of autonomous runs on
   the training track (one each way) with the human intervening by the same rule; the
   interventions of every round are aggregated and the GA re-run on all cases after each round.
+* ``dagger`` — classic DAgger (:mod:`lfd_track.benchmark.dagger`): the paper's demonstration and
+  a first fit (GA or backprop, optionally a wider hidden layer), then ``rounds`` rounds of runs
+  like HG-DAgger's where the human labels *every* visited state (noise-free by default) and the
+  learner is re-fitted on all cases after each round.
 
 "The training track" above is the paper's unless a method is given another open ``track``
 (``BenchmarkConfig.demo_track``): the human then demonstrates, and HG-DAgger's rounds drive,
@@ -70,7 +74,7 @@ from ..teaching.scripted import InterventionConfig, ProtocolHuman
 from ..vision.road_library import RoadLibrary
 from ..world.track import load_track
 
-METHODS = ("paper", "online", "hg-dagger", "bc", "cma-es")
+METHODS = ("paper", "online", "hg-dagger", "bc", "cma-es", "dagger")
 
 
 @dataclass(frozen=True)

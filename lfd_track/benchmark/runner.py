@@ -35,6 +35,7 @@ from ..teaching.arbiter import Arbiter
 from ..teaching.loop import Step, TeachingLoop
 from ..teaching.observers import CallbackObserver, TrajectoryObserver
 from ..world.track import load_track
+from .dagger import DaggerConfig, learn_dagger
 from .methods import (
     METHODS,
     HGDaggerConfig,
@@ -114,6 +115,8 @@ class BenchmarkConfig:
     hg_dagger: HGDaggerConfig = HGDaggerConfig()  # settings of method "hg-dagger"
     bc: BCConfig = BCConfig()  # settings of method "bc" (backprop on the same network)
     cmaes: CMAESConfig = CMAESConfig()  # settings of method "cma-es"
+    # Settings of method "dagger" (its learner's own settings are ``ga`` or ``bc`` above).
+    dagger: DaggerConfig = DaggerConfig()
     test_tracks: tuple[str, ...] = ("testing",)  # loops (names or paths) lapped both ways
     memory: MemoryConfig = MemoryConfig()  # memory inputs of the policy (none: the paper's 40)
     mirror: bool = False  # learn from the cases and their mirror images (learning/mirror.py)
@@ -140,6 +143,8 @@ class BenchmarkConfig:
         check_int("trials_per_direction", self.trials_per_direction, 1, MAX_TRIALS_PER_DIRECTION)
         check_int("seed", self.seed, 0, MAX_SEED)
         check_features(self.features)
+        if self.method == "dagger" and self.features != DEFAULT_FEATURES:
+            raise ValueError(f"method dagger reads the road values only, not {self.features}")
 
 
 @dataclass
@@ -360,6 +365,8 @@ def learn_repetition(
         return learn_online(rep_dir, **common, ga=config.ga, online=config.online)
     if config.method == "hg-dagger":
         return learn_hg_dagger(rep_dir, **common, ga=config.ga, hg=config.hg_dagger)
+    if config.method == "dagger":
+        return learn_dagger(rep_dir, **common, ga=config.ga, bc=config.bc, dagger=config.dagger)
     if config.method == "bc":
         return learn_baseline(rep_dir, **common, learner=config.bc)
     if config.method == "cma-es":
@@ -454,6 +461,11 @@ def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
     data["hg_dagger"] = config.hg_dagger.to_dict()
     data["bc"] = config.bc.to_dict()
     data["cmaes"] = config.cmaes.to_dict()
+    # Only a dagger run stores its settings: the other methods' records are as before it existed.
+    if config.method == "dagger":
+        data["dagger"] = config.dagger.to_dict()
+    else:
+        del data["dagger"]
     # Runs without memory or mirroring store exactly what they stored before those existed.
     if config.memory.kind == "none":
         del data["memory"]

@@ -12,15 +12,17 @@ from pathlib import Path
 from typing import Any
 
 from ..benchmark import runner
+from ..benchmark.dagger import DAGGER_LEARNERS, DaggerConfig
 from ..benchmark.methods import METHODS
 from ..demo.demonstrator import HumanConfig
 from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
 from ..policy.memory import MEMORY_KINDS, MemoryConfig
+from ..policy.mlp import MAX_HIDDEN, N_HIDDEN
 from ..teaching.scripted import TURNAROUND_RULES
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output, shown_path
 from ..utils.signals import Terminated, interrupted_exit_code, raise_terminated
 from ..utils.staging import staged_output
-from .types import EXIT_OK, whole_number_in
+from .types import EXIT_OK, EXIT_USAGE, whole_number_in
 
 
 def _cores() -> int:
@@ -88,7 +90,28 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         default="paper",
         help="how each repetition learns: paper (demonstrate, then evolve), online (evolve while"
         " demonstrating, policy takes over, human corrects), hg-dagger (rounds of runs with"
-        " interventions), bc, cma-es (default: paper)",
+        " interventions), bc, cma-es, dagger (rounds of runs where the human labels every"
+        " visited state, noise-free; the learner re-fitted on all cases; see --dagger-learner,"
+        " --hidden, --label-noise) (default: paper)",
+    )
+    bench.add_argument(
+        "--dagger-learner",
+        choices=DAGGER_LEARNERS,
+        default=None,
+        help="with --method dagger: what fits the network, the GA or backprop (default: ga)",
+    )
+    bench.add_argument(
+        "--hidden",
+        type=whole_number_in(1, MAX_HIDDEN),
+        default=None,
+        help=f"with --method dagger --dagger-learner bc: hidden nodes of the network, 1..{MAX_HIDDEN}"
+        " (default: the paper's 5)",
+    )
+    bench.add_argument(
+        "--label-noise",
+        action="store_true",
+        help="with --method dagger: the human keeps its reaction delays and lapses while"
+        " labelling (default: noise-free labels)",
     )
     bench.add_argument(
         "--turnarounds",
@@ -143,6 +166,27 @@ def run(args: argparse.Namespace) -> int:
     from ..benchmark import report
     from ..utils.progress import progress_bar
 
+    dagger_flags = [
+        flag
+        for flag, given in (
+            ("--dagger-learner", args.dagger_learner is not None),
+            ("--hidden", args.hidden is not None),
+            ("--label-noise", args.label_noise),
+        )
+        if given
+    ]
+    if dagger_flags and args.method != "dagger":
+        print(f"lfd-track benchmark: {dagger_flags[0]} needs --method dagger", file=sys.stderr)
+        return EXIT_USAGE
+    try:
+        dagger = DaggerConfig(
+            learner=args.dagger_learner or "ga",
+            hidden=args.hidden or N_HIDDEN,
+            label_noise=args.label_noise,
+        )
+    except ValueError as exc:
+        print(f"lfd-track benchmark: {exc}", file=sys.stderr)
+        return EXIT_USAGE
     repetitions = 1 if args.quick and args.repetitions is None else (args.repetitions or 10)
     trials = args.trials or (1 if args.quick else 3)
     config = runner.BenchmarkConfig(
@@ -158,6 +202,7 @@ def run(args: argparse.Namespace) -> int:
         mirror=args.mirror,
         demo_track=args.demo_track,
         features=args.features,
+        dagger=dagger,
     )
     # Track and preset names are recorded in results.json and report.md, which hold text only.
     for what, name in (

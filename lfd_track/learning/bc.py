@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.config import DictConfig
-from ..policy.mlp import N_HIDDEN, N_OUTPUTS, n_weights, sigmoid
+from ..policy.mlp import N_HIDDEN, N_OUTPUTS, check_hidden, n_weights, sigmoid
 from .fitness import checked_cases, population_fitness
 from .result import (
     LearnerFit,
@@ -32,8 +32,6 @@ from .result import (
     check_positive,
     initial_weights,
 )
-
-_W2 = N_OUTPUTS * N_HIDDEN
 
 
 @dataclass(frozen=True)
@@ -90,25 +88,28 @@ def bc_loss_and_gradient(
     case_weights: np.ndarray,
     temperature: float,
     weight_decay: float = 0.0,
+    hidden: int = N_HIDDEN,
 ) -> tuple[float, np.ndarray]:
     """The BC loss (see the module docstring) and its exact gradient by backpropagation.
 
     ``weights`` (W,) float64 with W = 215 or 223 (biases); ``inputs`` (N, 40); ``actions`` (N,)
     intp commands; ``case_weights`` (N,) non-negative importance of each case (normalised here).
-    Returns ``(loss, gradient (W,) float64)``.
+    ``hidden``: nodes of the hidden layer (the paper's 5). Returns ``(loss, gradient (W,)
+    float64)``.
     """
     n_in = inputs.shape[1]
-    n1 = N_HIDDEN * n_in  # weights into the hidden layer
-    bias = weights.shape[0] == n_weights(True, n_in)
-    w1 = weights[:n1].reshape(N_HIDDEN, n_in)
-    w2 = weights[n1 : n1 + _W2].reshape(N_OUTPUTS, N_HIDDEN)
+    n1 = hidden * n_in  # weights into the hidden layer
+    n2 = N_OUTPUTS * hidden
+    bias = weights.shape[0] == n_weights(True, n_in, hidden)
+    w1 = weights[:n1].reshape(hidden, n_in)
+    w2 = weights[n1 : n1 + n2].reshape(N_OUTPUTS, hidden)
     pre_hidden = inputs @ w1.T
     if bias:
-        pre_hidden += weights[n1 + _W2 : n1 + _W2 + N_HIDDEN]
-    hidden = sigmoid(pre_hidden)  # (N, 5)
-    pre_out = hidden @ w2.T
+        pre_hidden += weights[n1 + n2 : n1 + n2 + hidden]
+    h = sigmoid(pre_hidden)  # (N, hidden)
+    pre_out = h @ w2.T
     if bias:
-        pre_out += weights[n1 + _W2 + N_HIDDEN :]
+        pre_out += weights[n1 + n2 + hidden :]
     out = sigmoid(pre_out)  # (N, 3)
     logits = out / temperature
     logits -= logits.max(axis=1, keepdims=True)
@@ -124,13 +125,13 @@ def bc_loss_and_gradient(
     d_logits *= c[:, None]
     d_pre_out = d_logits / temperature * out * (1.0 - out)  # (N, 3)
     d_hidden = d_pre_out @ w2
-    d_pre_hidden = d_hidden * hidden * (1.0 - hidden)  # (N, 5)
+    d_pre_hidden = d_hidden * h * (1.0 - h)  # (N, hidden)
     grad = np.empty_like(weights)
     grad[:n1] = (d_pre_hidden.T @ inputs).ravel()
-    grad[n1 : n1 + _W2] = (d_pre_out.T @ hidden).ravel()
+    grad[n1 : n1 + n2] = (d_pre_out.T @ h).ravel()
     if bias:
-        grad[n1 + _W2 : n1 + _W2 + N_HIDDEN] = d_pre_hidden.sum(axis=0)
-        grad[n1 + _W2 + N_HIDDEN :] = d_pre_out.sum(axis=0)
+        grad[n1 + n2 : n1 + n2 + hidden] = d_pre_hidden.sum(axis=0)
+        grad[n1 + n2 + hidden :] = d_pre_out.sum(axis=0)
     grad += weight_decay * weights
     return loss, grad
 
@@ -140,6 +141,8 @@ def fit_bc(
     actions: np.ndarray,
     config: BCConfig | None,
     rng: np.random.Generator,
+    *,
+    hidden: int = N_HIDDEN,
 ) -> LearnerFit:
     """Train the 40-5-3 network on demonstration cases by Adam on the BC loss.
 
@@ -148,14 +151,18 @@ def fit_bc(
     the same bytes; ``config`` None means ``BCConfig()``. Returns the weights after the last epoch; ``history[e]`` is the Algorithm 3
     fitness of the weights after epoch ``e + 1`` (one network per epoch, so it is also that
     epoch's best).
+
+    ``hidden``: nodes of the hidden layer, the paper's 5 unless a wider network is asked for
+    (40-``hidden``-3; the fit is otherwise the same).
     """
     if not isinstance(rng, np.random.Generator):
         raise ValueError("fit_bc needs a numpy Generator (rng) so that runs are reproducible")
     config = check_config(config, BCConfig, "fit_bc")
+    hidden = check_hidden(hidden)
     cases = checked_cases(inputs, actions)  # checked once; the epochs use the checked arrays
     x, a, case_weights = cases.inputs, cases.actions, cases.category_weights
     n = x.shape[0]
-    weights = initial_weights(config.bias, config.init_range, rng, x.shape[1])
+    weights = initial_weights(config.bias, config.init_range, rng, x.shape[1], hidden)
     m = np.zeros_like(weights)
     v = np.zeros_like(weights)
     history = np.empty(config.epochs)
@@ -166,7 +173,13 @@ def fit_bc(
         for start in range(0, n, batch):
             idx = order[start : start + batch]
             _, grad = bc_loss_and_gradient(
-                weights, x[idx], a[idx], case_weights[idx], config.temperature, config.weight_decay
+                weights,
+                x[idx],
+                a[idx],
+                case_weights[idx],
+                config.temperature,
+                config.weight_decay,
+                hidden,
             )
             step += 1
             m = config.beta1 * m + (1.0 - config.beta1) * grad
@@ -174,7 +187,9 @@ def fit_bc(
             m_hat = m / (1.0 - config.beta1**step)
             v_hat = v / (1.0 - config.beta2**step)
             weights = weights - config.learning_rate * m_hat / (np.sqrt(v_hat) + config.epsilon)
-        fitness = population_fitness(weights[None], cases, config.threshold, bias=config.bias)
+        fitness = population_fitness(
+            weights[None], cases, config.threshold, bias=config.bias, hidden=hidden
+        )
         history[epoch] = fitness[0]
     return LearnerFit(
         weights=weights,

@@ -105,13 +105,17 @@ def _check_threshold(threshold: float) -> None:
 
 
 def population_fitness(
-    weights: np.ndarray, cases: Cases, threshold: float, *, bias: bool
+    weights: np.ndarray, cases: Cases, threshold: float, *, bias: bool, hidden: int = N_HIDDEN
 ) -> np.ndarray:
     """:func:`imitation_fitness` without any check: for learners' inner loops, after the cases
     were checked once (:func:`checked_cases`) and with weights they made themselves (finite,
-    (P, W) float64 of the width for ``cases.n_inputs`` inputs and ``bias``)."""
+    (P, W) float64 of the width for ``cases.n_inputs`` inputs, ``bias`` and ``hidden`` hidden
+    nodes; a network of another width than the paper's 5 is evaluated by ``mlp_forward``)."""
     actions = cases.actions
-    outputs = population_outputs(weights, cases.inputs, bias=bias)  # (P, N, 3)
+    if hidden == N_HIDDEN:
+        outputs = population_outputs(weights, cases.inputs, bias=bias)  # (P, N, 3)
+    else:
+        outputs = mlp_forward(weights, cases.inputs, bias=bias, hidden=hidden)
     p, n = outputs.shape[:2]
     flat = outputs.reshape(p, n * N_OUTPUTS)
     row = np.arange(n) * N_OUTPUTS
@@ -227,15 +231,18 @@ def _sigmoid_inplace(a: np.ndarray) -> np.ndarray:
     return np.reciprocal(a, out=a)
 
 
-def training_accuracy(weights: np.ndarray, inputs: np.ndarray, actions: np.ndarray) -> float:
+def training_accuracy(
+    weights: np.ndarray, inputs: np.ndarray, actions: np.ndarray, *, hidden: int = N_HIDDEN
+) -> float:
     """Share of cases where the network's largest output is the demonstrated command.
 
     ``weights`` (W,), ``inputs`` (N, 40) road values (plus memory inputs), ``actions`` (N,)
-    commands 0/1/2; checked as :func:`imitation_fitness` checks them.
+    commands 0/1/2; checked as :func:`imitation_fitness` checks them. ``hidden``: hidden nodes
+    of the network (the paper's 5).
     """
     x, a = check_cases(inputs, actions)
     if np.ndim(weights) != 1:
         raise ValueError(f"weights must be one network, (W,), got shape {np.shape(weights)}")
-    w, _ = check_weights(np.asarray(weights)[None], x.shape[1], None)
-    predicted = mlp_forward(w[0], x).argmax(axis=1)
+    w, bias = check_weights(np.asarray(weights)[None], x.shape[1], None, hidden)
+    predicted = mlp_forward(w[0], x, bias=bias, hidden=hidden).argmax(axis=1)
     return float((predicted == a).mean())

@@ -14,7 +14,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from ..policy.mlp import N_INPUTS, N_OUTPUTS, check_numbers, n_weights
+from ..policy.mlp import N_HIDDEN, N_INPUTS, N_OUTPUTS, check_numbers, n_weights
 
 T = TypeVar("T")
 
@@ -75,9 +75,11 @@ def check_actions(actions: np.ndarray) -> np.ndarray:
     return a.astype(np.intp)
 
 
-def check_weights(weights: np.ndarray, n_inputs: int, bias: bool | None) -> tuple[np.ndarray, bool]:
-    """Validate a population of networks, (P, W), for ``n_inputs`` inputs; ``bias`` None infers
-    it from W. Returns ``(weights (P, W) float64, bias)``; raises ``ValueError`` on a wrong shape
+def check_weights(
+    weights: np.ndarray, n_inputs: int, bias: bool | None, hidden: int = N_HIDDEN
+) -> tuple[np.ndarray, bool]:
+    """Validate a population of networks, (P, W), for ``n_inputs`` inputs (and ``hidden``
+    hidden nodes); ``bias`` None infers it from W. Returns ``(weights (P, W) float64, bias)``; raises ``ValueError`` on a wrong shape
     or NaN / infinite weights."""
     w = np.asarray(weights)
     if w.ndim != 2:
@@ -85,8 +87,8 @@ def check_weights(weights: np.ndarray, n_inputs: int, bias: bool | None) -> tupl
     check_numbers("weights", w)
     w = w.astype(np.float64, copy=False)
     if bias is None:
-        bias = w.shape[1] == n_weights(True, n_inputs)
-    size = n_weights(bias, n_inputs)
+        bias = w.shape[1] == n_weights(True, n_inputs, hidden)
+    size = n_weights(bias, n_inputs, hidden)
     if w.shape[1] != size:
         raise ValueError(
             f"weights must have shape ({size},) or (P, {size}) for {n_inputs} inputs, got {w.shape}"
@@ -117,10 +119,14 @@ def check_bool(name: str, value: Any) -> None:
 
 
 def initial_weights(
-    bias: bool, init_range: float, rng: np.random.Generator, n_inputs: int = N_INPUTS
+    bias: bool,
+    init_range: float,
+    rng: np.random.Generator,
+    n_inputs: int = N_INPUTS,
+    hidden: int = N_HIDDEN,
 ) -> np.ndarray:
     """One network drawn like a GA individual: uniform in [-init_range, init_range], (W,)."""
-    return rng.uniform(-init_range, init_range, size=n_weights(bias, n_inputs))
+    return rng.uniform(-init_range, init_range, size=n_weights(bias, n_inputs, hidden))
 
 
 def shown_int(value: int) -> str:

@@ -27,6 +27,11 @@ previous hidden activations are 5 more inputs after all the others, so its ``lay
 ``[n + 5, 5, 3]`` and its weights the MLP layout of ``n + 5`` inputs; it is written in whichever
 schema its inputs need (2, 3 or 4), the kind saying how to run it.
 
+A network with another hidden width than the paper's 5 (``hidden``, e.g. 40-20-3 fitted by
+backprop) says so in ``layer_sizes`` (``[40, 20, 3]``); every file with 5 hidden nodes is the same
+as before the width could change, and older files load and drive as they did. An Elman network
+has the paper's 5 hidden nodes.
+
 A policy does not import its trainer: the GA appears here only as a type for ``from_evolution``.
 """
 
@@ -52,7 +57,16 @@ from ..vision.road_library import RoadLibrary
 from .elman import N_CONTEXT, ElmanCommander, ElmanState
 from .features import DEFAULT_FEATURES, FEATURE_SETS, check_features
 from .memory import MemoryConfig, policy_inputs
-from .mlp import check_numbers, layer_sizes, mlp_forward, n_weights, select_action
+from .mlp import (
+    MAX_HIDDEN,
+    N_HIDDEN,
+    check_hidden,
+    check_numbers,
+    layer_sizes,
+    mlp_forward,
+    n_weights,
+    select_action,
+)
 
 if TYPE_CHECKING:
     from ..learning.ga import EvolutionResult
@@ -124,6 +138,8 @@ class Controller:
             (:data:`~lfd_track.policy.features.FEATURE_SETS`; default the 40 road values).
         policy_kind: ``"mlp-sigmoid"`` (the paper's network) or ``"elman-sigmoid"`` (its hidden
             activations fed back: 5 more weights per hidden node, :mod:`lfd_track.policy.elman`).
+        hidden: nodes of the hidden layer (the paper's 5; 1..1000), recorded in ``layer_sizes``
+            (an Elman network has 5).
     """
 
     policy_kind = "mlp-sigmoid"
@@ -142,6 +158,7 @@ class Controller:
         memory: MemoryConfig | None = None,
         features: str = DEFAULT_FEATURES,
         policy_kind: str = "mlp-sigmoid",
+        hidden: int = N_HIDDEN,
     ) -> None:
         _check_library(library)
         features = check_features(features)
@@ -150,16 +167,20 @@ class Controller:
                 f"policy kind {policy_kind!r} is not supported (this lfd-track runs"
                 f" {', '.join(POLICY_KINDS)})"
             )
+        hidden = check_hidden(hidden)
+        if policy_kind == "elman-sigmoid" and hidden != N_HIDDEN:
+            raise ValueError(f"an Elman network has {N_HIDDEN} hidden nodes, not {hidden}")
         context = N_CONTEXT if policy_kind == "elman-sigmoid" else 0
         if memory is not None and not isinstance(memory, MemoryConfig):
             raise TypeError(f"memory must be a MemoryConfig or None, got {type(memory).__name__}")
         memory = None if memory is None or memory.kind == "none" else memory
         n_inputs = policy_inputs(memory, features) + context
         w = np.array(weights, dtype=np.float64, copy=True)
-        if w.shape != (n_weights(bias, n_inputs),):
+        if w.shape != (n_weights(bias, n_inputs, hidden),):
             raise ValueError(
-                f"expected {n_weights(bias, n_inputs)} weights for {n_inputs} inputs"
-                f" ({'with' if bias else 'without'} biases), got shape {w.shape}"
+                f"expected {n_weights(bias, n_inputs, hidden)} weights for {n_inputs} inputs"
+                + ("" if hidden == N_HIDDEN else f" and {hidden} hidden nodes")
+                + f" ({'with' if bias else 'without'} biases), got shape {w.shape}"
             )
         if not np.all(np.isfinite(w)):
             raise ValueError("weights contain NaN or infinite values")
@@ -187,6 +208,7 @@ class Controller:
         self.memory = memory
         self.features = features
         self.policy_kind = policy_kind
+        self.hidden = hidden
         self._elman = (
             ElmanState(w, self.bias, n_inputs - context) if policy_kind == "elman-sigmoid" else None
         )
@@ -275,7 +297,7 @@ class Controller:
         """This controller's network as a commander for the teaching loop."""
         if self.policy_kind == "elman-sigmoid":
             return ElmanCommander(self.weights, self.bias, self.n_inputs)
-        return PolicyCommander(self.weights)
+        return PolicyCommander(self.weights, hidden=self.hidden)
 
     def act_on_values(self, road_values: np.ndarray) -> int:
         """Command for precomputed road values, (40,) float (then the colour features and the
@@ -300,7 +322,7 @@ class Controller:
             self._previous = self._elman.step(values)
             self.last_outputs = self._elman.last_outputs
             return self._previous
-        outputs = mlp_forward(self.weights, values[None])[0]
+        outputs = mlp_forward(self.weights, values[None], hidden=self.hidden)[0]
         self.last_outputs = outputs
         self._previous = select_action(outputs, self._previous)
         return self._previous
@@ -318,7 +340,7 @@ class Controller:
             "format": CONTROLLER_FORMAT,
             "schema_version": version,
             "policy_kind": self.policy_kind,
-            "layer_sizes": list(layer_sizes(self.n_inputs + self._context)),
+            "layer_sizes": list(layer_sizes(self.n_inputs + self._context, self.hidden)),
             "bias": self.bias,
             "weights": self.weights.tolist(),
             "road_library": self.library.to_dict(),
@@ -429,10 +451,21 @@ class Controller:
                     raise ValueError("a controller without memory stores null as its memory")
         context = N_CONTEXT if kind == "elman-sigmoid" else 0
         expected = list(layer_sizes(policy_inputs(memory, features) + context))
-        if data["layer_sizes"] != expected:
-            raise ValueError(
-                f"layer_sizes {data['layer_sizes']!r} not supported (expected {expected})"
-            )
+        sizes = data["layer_sizes"]
+        hidden = N_HIDDEN
+        if (
+            version >= CONTROLLER_SCHEMA_VERSION
+            and context == 0
+            and isinstance(sizes, list)
+            and len(sizes) == 3
+            and isinstance(sizes[1], int)
+            and not isinstance(sizes[1], bool)
+            and 1 <= sizes[1] <= MAX_HIDDEN
+        ):
+            hidden = sizes[1]  # a wider (or narrower) hidden layer is recorded here
+            expected[1] = hidden
+        if sizes != expected:
+            raise ValueError(f"layer_sizes {sizes!r} not supported (expected {expected})")
         n_inputs = expected[0]
         bias = data["bias"]
         if not isinstance(bias, bool):
@@ -440,9 +473,9 @@ class Controller:
         weights = data["weights"]
         if not isinstance(weights, list) or not all(_is_finite_number(w) for w in weights):
             raise ValueError("'weights' must be a list of finite numbers")
-        if len(weights) != n_weights(bias, n_inputs):
+        if len(weights) != n_weights(bias, n_inputs, hidden):
             raise ValueError(
-                f"expected {n_weights(bias, n_inputs)} weights for layers {expected}"
+                f"expected {n_weights(bias, n_inputs, hidden)} weights for layer_sizes {expected}"
                 f" {'with' if bias else 'without'} biases, got {len(weights)}"
             )
         if any(abs(w) > MAX_ABS_WEIGHT for w in weights):
@@ -482,6 +515,7 @@ class Controller:
             memory=memory,
             features=features,
             policy_kind=kind,
+            hidden=hidden,
         )
 
 

@@ -8,6 +8,10 @@ bias-free vector is a prefix of the bias layout.
 The input layer is the 40 road values, optionally followed by memory inputs
 (:mod:`lfd_track.policy.memory`): a network with ``n`` inputs has ``5 n + 15`` weights (plus 8
 biases); its number of inputs is read from the inputs it is given.
+
+The hidden layer has the paper's 5 nodes unless ``hidden`` says otherwise (a wider network for
+learners that can fit one, e.g. backprop): with ``h`` hidden nodes the layout is the same with 5
+replaced by ``h`` (``h n + 3 h`` weights, plus ``h + 3`` biases).
 """
 
 from __future__ import annotations
@@ -19,17 +23,32 @@ N_HIDDEN = 5
 N_OUTPUTS = 3
 LAYER_SIZES = (N_INPUTS, N_HIDDEN, N_OUTPUTS)
 
-_W2 = N_OUTPUTS * N_HIDDEN
+MAX_HIDDEN = 1_000
+"""Most hidden nodes a network may have."""
 
 
-def n_weights(bias: bool = False, n_inputs: int = N_INPUTS) -> int:
-    """Length of a weight vector: 215 without biases, 223 with (for the paper's 40 inputs)."""
-    return N_HIDDEN * n_inputs + _W2 + (N_HIDDEN + N_OUTPUTS if bias else 0)
+def check_hidden(hidden: int) -> int:
+    """``hidden`` if it is an integer in 1..MAX_HIDDEN, else ``ValueError`` (one line)."""
+    if isinstance(hidden, bool) or not isinstance(hidden, int | np.integer):
+        raise ValueError(
+            f"hidden must be an integer number of hidden nodes, got {type(hidden).__name__}"
+        )
+    if not 1 <= hidden <= MAX_HIDDEN:
+        shown = hidden if abs(hidden) < 10**18 else "a number of more than 18 digits"
+        raise ValueError(f"hidden must be in 1..{MAX_HIDDEN}, got {shown}")
+    return int(hidden)
 
 
-def layer_sizes(n_inputs: int = N_INPUTS) -> tuple[int, int, int]:
-    """(inputs, hidden, outputs) of the network: (40, 5, 3), or more inputs with memory."""
-    return (n_inputs, N_HIDDEN, N_OUTPUTS)
+def n_weights(bias: bool = False, n_inputs: int = N_INPUTS, hidden: int = N_HIDDEN) -> int:
+    """Length of a weight vector: 215 without biases, 223 with (for the paper's 40 inputs and 5
+    hidden nodes)."""
+    return hidden * n_inputs + N_OUTPUTS * hidden + (hidden + N_OUTPUTS if bias else 0)
+
+
+def layer_sizes(n_inputs: int = N_INPUTS, hidden: int = N_HIDDEN) -> tuple[int, int, int]:
+    """(inputs, hidden, outputs) of the network: (40, 5, 3), or more inputs with memory (or
+    another hidden width)."""
+    return (n_inputs, hidden, N_OUTPUTS)
 
 
 def sigmoid(x: np.ndarray) -> np.ndarray:
@@ -43,13 +62,19 @@ def sigmoid(x: np.ndarray) -> np.ndarray:
     return np.reciprocal(e, out=e)
 
 
-def mlp_forward(weights: np.ndarray, inputs: np.ndarray, *, bias: bool | None = None) -> np.ndarray:
+def mlp_forward(
+    weights: np.ndarray,
+    inputs: np.ndarray,
+    *,
+    bias: bool | None = None,
+    hidden: int = N_HIDDEN,
+) -> np.ndarray:
     """Outputs of one network or a population of networks on a batch of inputs.
 
     ``weights``: (W,) or (P, W) float, W = 215 (or 223 with biases; inferred from W when ``bias``
     is None) for 40 inputs. ``inputs``: (N, n) or (n,), n = 40 road values (plus any memory
     inputs). Returns float64 (N, 3), (P, N, 3), or without the N axis when ``inputs`` is 1-D.
-    Sigmoid on hidden and output nodes.
+    Sigmoid on hidden and output nodes. ``hidden``: nodes of the hidden layer (the paper's 5).
     """
     w = np.asarray(weights, dtype=np.float64)
     x = np.asarray(inputs, dtype=np.float64)
@@ -62,28 +87,29 @@ def mlp_forward(weights: np.ndarray, inputs: np.ndarray, *, bias: bool | None = 
         )
     n_in = x2.shape[1]
     if bias is None:
-        bias = w.shape[-1] == n_weights(True, n_in)
-    if w.ndim not in (1, 2) or w.shape[-1] != n_weights(bias, n_in):
-        size = n_weights(bias, n_in)
+        bias = w.shape[-1] == n_weights(True, n_in, hidden)
+    if w.ndim not in (1, 2) or w.shape[-1] != n_weights(bias, n_in, hidden):
+        size = n_weights(bias, n_in, hidden)
         raise ValueError(
             f"weights must have shape ({size},) or (P, {size}) for {n_in} inputs, got {w.shape}"
         )
-    w1 = N_HIDDEN * n_in
+    w1 = hidden * n_in
+    w_2 = N_OUTPUTS * hidden
     single_net = w.ndim == 1
     w2 = w[None, :] if single_net else w
     p = w2.shape[0]
-    w_ih = w2[:, :w1].reshape(p, N_HIDDEN, n_in)
-    w_ho = w2[:, w1 : w1 + _W2].reshape(p, N_OUTPUTS, N_HIDDEN)
+    w_ih = w2[:, :w1].reshape(p, hidden, n_in)
+    w_ho = w2[:, w1 : w1 + w_2].reshape(p, N_OUTPUTS, hidden)
     # Batched (P, N, 40) @ (P, 40, 5) products: many small GEMMs, which OpenBLAS runs on the
     # calling thread. One big (N, 40) @ (40, P*5) GEMM is no faster alone but gets multi-threaded
     # and stalls several-fold when other processes load the cores.
     pre_hidden = np.matmul(x2, np.ascontiguousarray(w_ih.transpose(0, 2, 1)))
     if bias:
-        pre_hidden += w2[:, None, w1 + _W2 : w1 + _W2 + N_HIDDEN]
-    hidden = sigmoid(pre_hidden)
-    pre_out = np.matmul(hidden, np.ascontiguousarray(w_ho.transpose(0, 2, 1)))
+        pre_hidden += w2[:, None, w1 + w_2 : w1 + w_2 + hidden]
+    hidden_out = sigmoid(pre_hidden)
+    pre_out = np.matmul(hidden_out, np.ascontiguousarray(w_ho.transpose(0, 2, 1)))
     if bias:
-        pre_out += w2[:, None, w1 + _W2 + N_HIDDEN :]
+        pre_out += w2[:, None, w1 + w_2 + hidden :]
     out = sigmoid(pre_out)
     if single_input:
         out = out[:, 0]

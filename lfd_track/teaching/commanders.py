@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 import numpy as np
 
 from ..core.commands import Command
-from ..policy.mlp import mlp_forward, select_action
+from ..policy.mlp import N_HIDDEN, mlp_forward, select_action
 
 if TYPE_CHECKING:
     from .types import Moment
@@ -45,10 +45,12 @@ class PolicyCommander:
 
     An exact tie keeps the previous command. ``weights`` may be replaced between steps (a learner
     updating the policy); ``None`` weights mean there is no policy yet (proposes ``None``).
+    ``hidden``: nodes of the hidden layer (the paper's 5; a wider network says so).
     """
 
-    def __init__(self, weights: np.ndarray | None) -> None:
+    def __init__(self, weights: np.ndarray | None, *, hidden: int = N_HIDDEN) -> None:
         self.weights = None if weights is None else np.asarray(weights, dtype=np.float64)
+        self.hidden = hidden
         self._previous: int | None = None
         self.last_outputs: np.ndarray | None = None
         """MLP outputs (3,) of the latest proposal."""
@@ -64,7 +66,8 @@ class PolicyCommander:
         """Command for road values (40,) float (followed by memory inputs if the net has any)."""
         if self.weights is None:
             return None
-        outputs = mlp_forward(self.weights, np.asarray(values, dtype=np.float64)[None])[0]
+        values = np.asarray(values, dtype=np.float64)[None]
+        outputs = mlp_forward(self.weights, values, hidden=self.hidden)[0]
         self.last_outputs = outputs
         self._previous = select_action(outputs, self._previous)
         return Command(self._previous)

@@ -202,6 +202,8 @@ class ProtocolHuman:
         intervention: the rule for taking control back while a policy drives (None: never
             watches; a demonstration without takeover).
         rover: rover settings (its width matters for the tread-overhang rule).
+        label_all: while a policy drives and the human lets it, still decide what the human
+            would command here (:attr:`label`, for DAgger's labels); the policy keeps driving.
     """
 
     def __init__(
@@ -212,8 +214,13 @@ class ProtocolHuman:
         *,
         intervention: InterventionConfig | None = None,
         rover: RoverConfig | None = None,
+        label_all: bool = False,
     ) -> None:
         self.legs = legs
+        self.label_all = bool(label_all)
+        self.label: Command | None = None
+        """The human's command for the latest frame proposed on: the command it gave, or with
+        ``label_all`` the one it would have given while it let the policy drive."""
         self.config = config
         self.person = ScriptedHuman(config, rng)
         rover = rover or RoverConfig()
@@ -298,6 +305,7 @@ class ProtocolHuman:
 
     def propose(self, moment: Moment) -> Command | None:
         self._step = moment.step
+        self.label = None
         self._advance(moment.info)
         if self.done:
             return None
@@ -317,15 +325,19 @@ class ProtocolHuman:
                 if why is None and self.watcher.stalled(self._watched):
                     why = "stall"
                 if why is None:
+                    if self.label_all:
+                        self.label = self.person.decide(self._driver, pose, self.progress_m)
                     return None
                 self.interventions[why] += 1
             self._watched.clear()
-            return self.person.decide(self._driver, pose, self.progress_m)
+            self.label = self.person.decide(self._driver, pose, self.progress_m)
+            return self.label
         self._turns += 1
         self.phase = PHASE_TURNAROUND
         if watching:
             self.interventions["turn"] += 1
-        return self.person.turn(self._direction)
+        self.label = self.person.turn(self._direction)
+        return self.label
 
     def _start_turnaround(self, pose: np.ndarray) -> None:
         # Turn round towards the next leg, alternating the direction at every arrival.

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from lfd_test_support import PerturbedBLAS
 
+from lfd_track.benchmark.dagger import DaggerConfig
 from lfd_track.benchmark.methods import (
     HGDaggerConfig,
     OnlineConfig,
@@ -329,10 +330,11 @@ _QUICK = dict(
     hg_dagger=HGDaggerConfig(rounds=1),
     bc=BCConfig(epochs=50),
     cmaes=CMAESConfig(generations=3),
+    dagger=DaggerConfig(rounds=1),
 )
 
 
-@pytest.mark.parametrize("method", ["online", "hg-dagger", "bc", "cma-es"])
+@pytest.mark.parametrize("method", ["online", "hg-dagger", "bc", "cma-es", "dagger"])
 def test_every_method_gives_the_same_results_with_one_or_two_workers(method, tmp_path):
     config = BenchmarkConfig(method=method, **_QUICK)
     one = run_benchmark(config, tmp_path / "one", workers=1)
@@ -345,7 +347,13 @@ def test_every_method_gives_the_same_results_with_one_or_two_workers(method, tmp
     assert first == (tmp_path / "two" / "rep_00" / "controller.json").read_bytes()
     saved = Controller.load(tmp_path / "one" / "rep_00" / "controller.json")
     assert saved.learner == method
-    settings = {"online": "online", "hg-dagger": "hg_dagger", "bc": "bc", "cma-es": "cmaes"}
+    settings = {
+        "online": "online",
+        "hg-dagger": "hg_dagger",
+        "bc": "bc",
+        "cma-es": "cmaes",
+        "dagger": "dagger",
+    }
     expected = getattr(config, settings[method]).to_dict()
     assert {k: saved.learner_config[k] for k in expected} == expected
 
