@@ -37,7 +37,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "--observations",
         choices=("road-values", "frames"),
         default="road-values",
-        help="what the observations are (default: road-values; recordings store no frames)",
+        help="what the observations are (default: road-values; frames: replayed from a scripted demonstration's seed)",
     )
     minari.add_argument(
         "--datasets-path",

@@ -9,9 +9,15 @@ What a dataset holds:
 
 - **Observations**: the record-time road values, (40,) float64, exactly as the recording stores
   them (``Box(-1, 1, (40,), float64)``; a correlation may lie past +-1 by a rounding error, as in
-  the recording). A recording stores no camera frames, so ``observations="frames"`` is refused:
-  a frame cannot be re-rendered exactly either, since the camera's exposure, white balance and
-  noise follow the random draws of the whole drive, not the pose alone.
+  the recording); or, with ``observations="frames"``, the camera frames, (480, 640, 3) uint8,
+  stored losslessly (not JPEG-encoded; about 0.9 MB a case).
+  A recording stores no frames and a frame cannot be re-rendered from its pose alone (the
+  camera's exposure, white balance and noise follow the random draws of the whole drive), so
+  frames are exported only from a scripted demonstration (``lfd-track demo``,
+  :func:`~lfd_track.demo.demonstrator.run_demonstration`): its drive is replayed from the
+  recorded seed, and it is exported only if the replay gives the recording's commands, steps and
+  road values (within 1e-9); otherwise one line says so. A frames dataset carries the recorded
+  road values in the info ``road_values``, so learning from it reads the recording's cases.
 - **Actions**: the commands, ``Discrete(3)`` (0 forward, 1 left, 2 right).
 - **Episodes**: each run of consecutive recorded steps of one round of a file is an episode
   (a demonstration protocol drive is one; the rounds of corrections are more). A recording does
@@ -87,11 +93,68 @@ METADATA_KEY = "lfd_track"
 _FORMAT = "lfd-track demonstrations"
 _FORMAT_VERSION = 1
 _NO_FRAMES = (
-    "--observations frames: a .lfdemo recording stores road values and region histograms, not"
-    " camera frames, and a frame cannot be re-rendered exactly (the camera's exposure, white"
-    " balance and noise follow the random draws of the whole drive); use"
-    " --observations road-values"
+    "--observations frames needs a scripted demonstration (lfd-track demo), whose drive is"
+    " replayed from its seed: a .lfdemo recording stores road values and region histograms, not"
+    " camera frames, and this one {why}; use --observations road-values"
 )
+#: Largest difference between a replayed and a recorded road value that still counts as the same
+#: drive (the replay runs the same code; only BLAS's last bits may differ between machines).
+_REPLAY_TOLERANCE = 1e-9
+
+
+def _replayed_frames(rec: _Recording) -> dict[int, np.ndarray]:
+    """The camera frame of every recorded case of a scripted demonstration, by step, from a
+    replay of its drive; one line when the recording is not one or the replay differs."""
+    import dataclasses
+    import tempfile
+
+    from ..demo.demonstrator import HumanConfig, run_demonstration
+    from ..vision.road_library import RoadLibrary
+
+    demo, name = rec.demo, shown_path(rec.path)
+    meta = demo.metadata
+    seed, human = meta.get("seed"), meta.get("human")
+    if not isinstance(seed, int) or isinstance(seed, bool) or not isinstance(human, dict):
+        raise LfdTrackError(f"{name}: " + _NO_FRAMES.format(why="records no scripted human"))
+    if set(demo.sources.tolist()) != {"demonstration"} or set(demo.rounds.tolist()) != {0}:
+        raise LfdTrackError(
+            f"{name}: " + _NO_FRAMES.format(why="holds corrections or rounds beyond the drive")
+        )
+    try:
+        names = {f.name for f in dataclasses.fields(HumanConfig)}
+        config = HumanConfig(**{k: v for k, v in human.items() if k in names})
+    except (TypeError, ValueError) as exc:
+        raise LfdTrackError(f"{name}: bad human settings ({first_line(exc)})") from None
+    frames: dict[int, np.ndarray] = {}
+    bins = demo.bins
+    with tempfile.TemporaryDirectory() as tmp:
+        again = Path(tmp) / "replay.lfdemo"
+        run_demonstration(
+            again,
+            seed=seed,
+            track=meta["track"],
+            preset=meta.get("preset", "paper"),
+            human=config,
+            library_factory=lambda: RoadLibrary(bins=bins),
+            fsync=False,
+            memory=demo.memory_settings(),
+            frames=lambda step, frame: frames.__setitem__(step, frame.copy()),
+        )
+        replay = load_demonstration(again)
+    same = (
+        replay.n_cases == demo.n_cases
+        and np.array_equal(replay.commands, demo.commands)
+        and np.array_equal(replay.steps, demo.steps)
+        and np.allclose(replay.road_values, demo.road_values, rtol=0, atol=_REPLAY_TOLERANCE)
+        and all(int(s) in frames for s in demo.steps)
+    )
+    if not same:
+        raise LfdTrackError(
+            f"{name}: replaying its drive from seed {seed} does not give the recorded commands"
+            " and road values (recorded by another lfd-track version, or changed), so its frames"
+            " cannot be exported; use --observations road-values"
+        )
+    return frames
 
 
 @dataclass(frozen=True)
@@ -221,13 +284,20 @@ def _episode_bounds(demo: Demonstration) -> list[tuple[int, int]]:
 
 
 def _episode_buffer(
-    demo: Demonstration, start: int, end: int, episode_id: int, phases: list[str]
+    demo: Demonstration,
+    start: int,
+    end: int,
+    episode_id: int,
+    phases: list[str],
+    frames: dict[int, np.ndarray] | None = None,
 ) -> Any:
     from minari.data_collector import EpisodeBuffer
 
     n = end - start
     with_final = np.r_[np.arange(start, end), end - 1]  # the final observation repeats the last
     observations = np.array(demo.road_values[with_final], dtype=np.float64)
+    if frames is not None:
+        observations = np.stack([frames[int(demo.steps[i])] for i in with_final])
     final = n  # index of the final observation
     histograms = np.array(demo.histograms[with_final], dtype=np.float32)
     histograms[final] = 0.0
@@ -251,6 +321,10 @@ def _episode_buffer(
         "histograms": histograms,
         "memory": memory,
     }
+    if frames is not None:
+        values = np.array(demo.road_values[with_final], dtype=np.float64)
+        values[final] = 0.0
+        infos["road_values"] = values
     truncations = np.zeros(n, dtype=np.bool_)
     truncations[-1] = True
     return EpisodeBuffer(
@@ -264,7 +338,7 @@ def _episode_buffer(
     )
 
 
-def _env(recording: _Recording) -> Any:
+def _env(recording: _Recording, observations: str = "road-values") -> Any:
     import gymnasium as gym
 
     from ..envs.library_observation import LibraryRoadValueObservation
@@ -273,6 +347,8 @@ def _env(recording: _Recording) -> Any:
     register_envs()
     meta = recording.demo.metadata
     env = gym.make(ENV_ID, track=meta["track"], preset=meta.get("preset", "paper"))
+    if observations == "frames":
+        return env
     return LibraryRoadValueObservation(env, recording.library.to_dict())
 
 
@@ -308,8 +384,6 @@ def export_minari(
             f"Minari dataset {dataset_id} already exists in {shown_path(root)}"
             " (use --force to replace it)"
         )
-    if observations == "frames":
-        raise LfdTrackError(_NO_FRAMES)
     if not demos:
         raise LfdTrackError("no demonstration files given")
     recordings = [_read_recording(Path(p)) for p in demos]
@@ -332,8 +406,9 @@ def export_minari(
     files = []
     episodes = []
     for index, rec in enumerate(recordings):
+        frames = _replayed_frames(rec) if observations == "frames" else None
         for start, end in _episode_bounds(rec.demo):
-            buffers.append(_episode_buffer(rec.demo, start, end, len(buffers), phases))
+            buffers.append(_episode_buffer(rec.demo, start, end, len(buffers), phases, frames))
             episodes.append({"file": index, "first_case": start, "n_cases": end - start})
         files.append(
             {
@@ -364,7 +439,7 @@ def export_minari(
     staging = Path(tempfile.mkdtemp(prefix=".lfd-track-staging-", dir=root))
     try:
         with _minari_root(staging) as minari:
-            env = _env(first)
+            env = _env(first, observations)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")  # Minari's warnings about unset optional fields
                 dataset = minari.create_dataset_from_buffers(
@@ -376,10 +451,15 @@ def export_minari(
                     description=(
                         f"{sum(r.demo.n_cases for r in recordings)} cases of"
                         f" {len(recordings)} lfd-track demonstration(s) on the"
-                        f" '{first.demo.metadata['track']}' track: road-value observations,"
+                        f" '{first.demo.metadata['track']}' track:"
+                        f" {'camera-frame' if observations == 'frames' else 'road-value'}"
+                        " observations,"
                         " commands as actions (0 forward, 1 left, 2 right)"
                     ),
                     requirements=[f"lfd-track>={__version__}", "gymnasium>=1.0"],
+                    # Frames are stored as they were seen, not JPEG-encoded (Minari's default for
+                    # image observations, which is lossy).
+                    jpeg_encoding=False,
                 )
                 dataset.storage.update_metadata({METADATA_KEY: text})
             env.close()
@@ -496,6 +576,7 @@ def cases_from_minari(dataset_id: str, *, datasets_path: str | Path | None = Non
         raise LfdTrackError(f"{where}: memory settings do not fit {n_memory} memory inputs")
     library = libraries[0]
     bins = library.bins
+    frames = carried.get("observations") == "frames"
     inputs: list[np.ndarray] = []
     actions: list[np.ndarray] = []
     recomputed = 0
@@ -505,15 +586,20 @@ def cases_from_minari(dataset_id: str, *, datasets_path: str | Path | None = Non
         if not 0 <= index < len(origins):
             raise LfdTrackError(f"{where}: episode {index} is not in its metadata")
         file_index, n_cases = origins[index]
-        obs = np.asarray(episode.observations, dtype=np.float64)
         acts = np.asarray(episode.actions)
         n = acts.shape[0]
         try:
+            # A frames dataset carries the recorded road values in its infos.
+            obs = np.asarray(
+                episode.infos["road_values"] if frames else episode.observations,
+                dtype=np.float64,
+            )
             hists = np.asarray(episode.infos["histograms"])
             mem = np.asarray(episode.infos["memory"], dtype=np.float64).reshape(n + 1, -1)
         except (KeyError, ValueError):
             raise LfdTrackError(
-                f"{where}: episode {index} lacks its histograms or memory"
+                f"{where}: episode {index} lacks its"
+                f" {'road values, ' if frames else ''}histograms or memory"
             ) from None
         if (
             obs.shape != (n + 1, N_VALUES)

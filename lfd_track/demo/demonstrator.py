@@ -95,13 +95,15 @@ def run_demonstration(
     overwrite: bool = False,
     progress: Callable[[int], None] | None = None,
     memory: MemoryConfig | None = None,
+    frames: Callable[[int, np.ndarray], None] | None = None,
 ) -> DemonstrationSummary:
     """Record one demonstration on ``track`` to the file ``out`` and return a summary.
 
     The file is written case by case (crash-safe); the record-time road library is stored in its
     footer. ``progress`` is called with the number of commands given so far; ``human`` None
     means the default :class:`HumanConfig`. ``memory``: the policy's memory inputs, recorded
-    with every case (none by default).
+    with every case (none by default). ``frames``, if given, is called with the step index and
+    the camera frame of every recorded case (the frames themselves are not recorded).
     """
     human = human or HumanConfig()
     rng = np.random.default_rng(seed)
@@ -135,6 +137,14 @@ def run_demonstration(
         ]
         if progress is not None:
             observers.append(CallbackObserver(lambda step: progress(loop.counts.steps)))
+        if frames is not None:
+            observers.append(
+                CallbackObserver(
+                    lambda step: (
+                        frames(step.moment.step, step.moment.frame) if step.is_case else None
+                    )
+                )
+            )
         loop = TeachingLoop(
             env,
             perception,

@@ -239,11 +239,69 @@ def test_a_bad_input_file_is_one_line(tmp_path, capsys, content, problem):
     assert not (tmp_path / "x-v0").exists()
 
 
-def test_frames_are_refused_in_one_line(sample, tmp_path, capsys):
-    args = ["export", "minari", str(sample[0]), "--dataset-id", "f-v0"]
+def test_frames_of_a_scripted_demonstration_are_exported_from_its_replay(sample, tmp_path):
+    from lfd_track.vision.road_library import RoadLibrary
+
+    export_minari(sample[:1], "f-v0", observations="frames", datasets_path=tmp_path)
+    os.environ["MINARI_DATASETS_PATH"] = str(tmp_path)
+    try:
+        dataset = minari.load_dataset("f-v0")
+        (episode,) = list(dataset.iterate_episodes())
+        env = dataset.recover_environment()
+        obs, _ = env.reset(seed=0)
+        env.close()
+    finally:
+        del os.environ["MINARI_DATASETS_PATH"]
+    demo = load_demonstration(sample[0])
+    n = demo.n_cases
+    assert dataset.observation_space.shape == (480, 640, 3) and obs.shape == (480, 640, 3)
+    frames = episode.observations
+    assert frames.shape == (n + 1, 480, 640, 3) and frames.dtype == np.uint8
+    assert np.array_equal(frames[n], frames[n - 1])  # the final observation repeats the last
+    assert np.array_equal(episode.actions, demo.commands)
+    # Each exported frame is the one the case was recorded from: its region histograms (which
+    # depend on the frame alone, not on the library) are the recorded ones.
+    histograms = RoadLibrary(bins=demo.bins)
+    for i in (0, n // 2, n - 1):
+        assert np.allclose(histograms.region_histograms(frames[i]), demo.histograms[i], atol=1e-6)
+    assert np.array_equal(episode.infos["road_values"][:n], demo.road_values)
+    # Learning from the frames dataset reads the recording's cases.
+    cases = cases_from_minari("f-v0", datasets_path=tmp_path)
+    assert np.array_equal(cases.inputs, demo.inputs)
+    assert np.array_equal(cases.actions, demo.commands)
+
+
+def test_frames_of_a_recording_that_does_not_replay_are_refused_in_one_line(
+    sample, tmp_path, capsys
+):
+    demo = load_demonstration(sample[0])
+    changed = tmp_path / "changed.lfdemo"
+    meta = dict(demo.metadata)
+    meta["seed"] = int(meta["seed"]) + 1  # another drive: the replay cannot match
+    save_demonstration(changed, dataclasses.replace(demo, metadata=meta))
+    args = ["export", "minari", str(changed), "--dataset-id", "f-v0"]
     code, err = _run([*args, "--observations", "frames", "--datasets-path", str(tmp_path)], capsys)
-    assert code == 1 and err.count("\n") == 1 and "no" not in err.split(":")[0]
-    assert "not camera frames" in err and "--observations road-values" in err
+    assert code == 1 and err.count("\n") == 1
+    assert str(changed) in err and "--observations road-values" in err
+    assert not (tmp_path / "f-v0").exists()
+    no_human = tmp_path / "taught.lfdemo"
+    meta = {k: v for k, v in demo.metadata.items() if k != "human"}
+    save_demonstration(no_human, dataclasses.replace(demo, metadata=meta))
+    code, err = _run(
+        [
+            "export",
+            "minari",
+            str(no_human),
+            "--dataset-id",
+            "f-v0",
+            "--observations",
+            "frames",
+            "--datasets-path",
+            str(tmp_path),
+        ],
+        capsys,
+    )
+    assert code == 1 and err.count("\n") == 1 and "scripted demonstration" in err
 
 
 def test_a_bad_dataset_id_and_a_missing_dataset_are_one_line(sample, tmp_path, capsys):
