@@ -360,8 +360,7 @@ class Evaluation:
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
         from ..viz.plot_data import trajectories_table, write_picture
-        from .paper import DIRECTIONS as TABLE_DIRECTIONS
-        from .report import plotted_outcomes, trajectories_picture
+        from .report import all_plotted_outcomes, trajectories_picture
 
         info = self.results["evaluation"]
         config = BenchmarkConfig(
@@ -374,16 +373,10 @@ class Evaluation:
             f"Paths of every run of {self.policy}: {info['laps']} per direction,"
             f" seed {self.results['seed']}"
         )
-        plotted = [
-            o
-            for track, directions in TABLE_DIRECTIONS.items()
-            for direction in directions
-            for o in plotted_outcomes(self.outcomes, track, direction)
-        ]
         write_picture(
             out / "trajectories.png",
             trajectories_picture(config, self.outcomes, title=title),
-            trajectories_table(plotted),
+            trajectories_table(all_plotted_outcomes(self.outcomes)),
         )
         from .tables import write_results_json
 

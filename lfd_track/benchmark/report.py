@@ -131,6 +131,16 @@ def plotted_outcomes(
     ]
 
 
+def all_plotted_outcomes(outcomes: list[TrialOutcome]) -> list[TrialOutcome]:
+    """Every run drawn in trajectories.png, panel by panel (the rows of trajectories.csv)."""
+    return [
+        o
+        for track, directions in TABLE_DIRECTIONS.items()
+        for direction in directions
+        for o in plotted_outcomes(outcomes, track, direction)
+    ]
+
+
 def trajectories_picture(
     config: BenchmarkConfig, outcomes: list[TrialOutcome], *, title: str | None = None
 ) -> np.ndarray:
@@ -234,16 +244,10 @@ def write_benchmark_outputs(
         },
     }
 
-    plotted = [
-        o
-        for track, directions in TABLE_DIRECTIONS.items()
-        for direction in directions
-        for o in plotted_outcomes(outcomes, track, direction)
-    ]
     write_picture(
         out / "trajectories.png",
         trajectories_picture(config, outcomes),
-        trajectories_table(plotted),
+        trajectories_table(all_plotted_outcomes(outcomes)),
     )
     write_picture(
         out / "fitness.png",

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from ..dataset import load_demonstration
+from ..dataset.reader import load_for_learning
 from ..errors import LfdTrackError
 from ..learning.fitness import training_accuracy
 from ..learning.ga import GAConfig, evolve
@@ -101,28 +101,7 @@ def run(args: argparse.Namespace) -> int:
             title=f"Minari dataset {args.minari}",
             note="",
         )
-    demo = load_demonstration(args.demo)
-    if demo.n_cases == 0:
-        raise LfdTrackError(f"{shown_path(args.demo)}: the demonstration holds no cases")
-    library_dict = demo.metadata.get("road_library")
-    if not isinstance(library_dict, dict):
-        raise LfdTrackError(
-            f"{shown_path(args.demo)}: no road library stored (an interrupted recording without a"
-            " library log, written by an older lfd-track: record it again)"
-        )
-    try:
-        library = RoadLibrary.from_dict(library_dict)
-    except (ValueError, KeyError, TypeError) as exc:
-        raise LfdTrackError(f"{shown_path(args.demo)}: bad road library ({exc})") from None
-    if library.n_models == 0:
-        raise LfdTrackError(
-            f"{shown_path(args.demo)}: its road library is empty (no frame was learned while"
-            " recording), so a controller could not see the road"
-        )
-    try:
-        memory = demo.memory_settings()
-    except ValueError as exc:
-        raise LfdTrackError(f"{shown_path(args.demo)}: {exc}") from None
+    demo, library, memory = load_for_learning(args.demo)
     return _learn(
         args,
         png,

@@ -70,7 +70,7 @@ from ..utils.outputs import shown_path
 from ..vision.road_library import RoadLibrary
 from .checks import _memory_problem, _road_value_problem
 from .model import Demonstration
-from .reader import load_demonstration
+from .reader import load_demonstration, load_for_learning
 from .records import N_CHANNELS, N_VALUES, SOURCES
 
 __all__ = [
@@ -105,9 +105,7 @@ _REPLAY_TOLERANCE = 1e-9
 def _replayed_frames(rec: _Recording) -> dict[int, np.ndarray]:
     """The camera frame of every recorded case of a scripted demonstration, by step, from a
     replay of its drive; one line when the recording is not one or the replay differs."""
-    import dataclasses
-    import tempfile
-
+    from ..core.config import config_from_dict
     from ..demo.demonstrator import HumanConfig, run_demonstration
     from ..vision.road_library import RoadLibrary
 
@@ -121,9 +119,8 @@ def _replayed_frames(rec: _Recording) -> dict[int, np.ndarray]:
             f"{name}: " + _NO_FRAMES.format(why="holds corrections or rounds beyond the drive")
         )
     try:
-        names = {f.name for f in dataclasses.fields(HumanConfig)}
-        config = HumanConfig(**{k: v for k, v in human.items() if k in names})
-    except (TypeError, ValueError) as exc:
+        config = config_from_dict(HumanConfig, human, "human")
+    except ValueError as exc:
         raise LfdTrackError(f"{name}: bad human settings ({first_line(exc)})") from None
     frames: dict[int, np.ndarray] = {}
     bins = demo.bins
@@ -249,19 +246,8 @@ class _Recording:
 
 def _read_recording(path: Path) -> _Recording:
     """Load one file with the checks ``lfd-track evolve`` makes (one line on a problem)."""
-    demo = load_demonstration(path)
+    demo, library, _ = load_for_learning(path)
     name = shown_path(path)
-    if demo.n_cases == 0:
-        raise LfdTrackError(f"{name}: the demonstration holds no cases")
-    try:
-        library = demo.road_library()
-        demo.memory_settings()
-    except ValueError as exc:
-        raise LfdTrackError(f"{name}: {exc}") from None
-    if library.n_models == 0:
-        raise LfdTrackError(
-            f"{name}: its road library is empty (no frame was learned while recording)"
-        )
     meta = demo.metadata
     kind = meta.get("kind")
     if kind != "simulated":

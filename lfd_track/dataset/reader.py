@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import FileFormatError
+from ..policy.memory import MemoryConfig
 from ..utils.files import NonFiniteNumber, read_regular_file, reject_constant
 from ..vision.road_library import RoadLibrary
 from .checks import (
@@ -448,3 +449,32 @@ def _assemble(
     for arr in arrays.values():
         arr.flags.writeable = False
     return Demonstration(metadata=meta, **arrays)
+
+
+def load_for_learning(path: str | Path) -> tuple[Demonstration, RoadLibrary, MemoryConfig | None]:
+    """A demonstration to learn from, its road library and its memory settings, with the checks
+    every command that learns from a file makes: cases, a stored and non-empty road library,
+    readable memory settings. Raises LfdTrackError (one line naming the file) otherwise."""
+    from ..errors import LfdTrackError
+    from ..utils.outputs import shown_path
+
+    demo = load_demonstration(path)
+    name = shown_path(path)
+    if demo.n_cases == 0:
+        raise LfdTrackError(f"{name}: the demonstration holds no cases")
+    if not isinstance(demo.metadata.get("road_library"), dict):
+        raise LfdTrackError(
+            f"{name}: no road library stored (an interrupted recording without a"
+            " library log, written by an older lfd-track: record it again)"
+        )
+    try:
+        library = demo.road_library()
+        memory = demo.memory_settings()
+    except ValueError as exc:
+        raise LfdTrackError(f"{name}: {exc}") from None
+    if library.n_models == 0:
+        raise LfdTrackError(
+            f"{name}: its road library is empty (no frame was learned while"
+            " recording), so a controller could not see the road"
+        )
+    return demo, library, memory
