@@ -254,14 +254,22 @@ def learn_evolution(part: str, seed: int) -> dict[str, Any]:
         **extra,
     }
     RESULTS.mkdir(exist_ok=True)
-    (RESULTS / f"{name}.learning.json").write_text(json.dumps(learning, indent=1) + "\n")
+    (RESULTS / f"{_stem(name, seed)}.learning.json").write_text(
+        json.dumps(learning, indent=1) + "\n"
+    )
     return learning
 
 
-def score_evolution(part: str, laps: int, workers: int) -> None:
+def _stem(name: str, seed: int) -> str:
+    """Result file stem of an evolution run: seed 0 keeps the first run's names."""
+    return name if seed == 0 else f"{name}.seed{seed}"
+
+
+def score_evolution(part: str, seed: int, laps: int, workers: int) -> None:
     """Score the controller ``learn_evolution`` saved, by the protocol (``laps`` per direction)."""
     name = "direct" if part == "direct" else "mu_plus_one"
-    learning = json.loads((RESULTS / f"{name}.learning.json").read_text())
+    stem = _stem(name, seed)
+    learning = json.loads((RESULTS / f"{stem}.learning.json").read_text())
     x = "generation" if name == "direct" else "evaluation"
     policy = f"{name} (seed {learning['seed']})"
     jobs = [(policy, learning["weights"], *d, laps) for d in directions(LOOPS)]
@@ -277,7 +285,7 @@ def score_evolution(part: str, laps: int, workers: int) -> None:
         + _curve_table(learning["curve"], x)
     )
     body = {k: v for k, v in learning.items() if k != "part"}
-    _write(name, results, note, {**body, "laps": laps})
+    _write(stem, results, note, {**body, "laps": laps})
 
 
 # ---------------------------------------------------------------------------------- tables
@@ -474,7 +482,7 @@ def main(argv: list[str] | None = None) -> int:
         if not args.score_only:
             learn_evolution(args.part, args.seed)
         if not args.learn_only:
-            score_evolution(args.part, args.laps, args.workers)
+            score_evolution(args.part, args.seed, args.laps, args.workers)
     elif args.part == "tune":
         tune("tune", candidates(), ("reactive", "latch"), args.laps, args.workers)
     elif args.part == "tune-seen":
