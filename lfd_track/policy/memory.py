@@ -26,6 +26,18 @@ learner may lean on it (copying the last command) instead of on the road; when d
 wrong command is then fed back and repeated. Learning from a recording where corrections break
 such runs, and reading the training accuracy with that baseline in mind, are the guards.
 
+* ``"fresh_felt"`` — a dead-reckoned map of the felt seen lately, reduced to where the felt the
+  robot has *not* driven along lies (:class:`FreshFeltMemory`). Three inputs: the bearing of
+  that fresh felt's centre (``(1 + bearing / pi) / 2``: 0.5 straight ahead, above 0.5 to the
+  left), how much of it there is, and how far its centre lies. Each frame's 40 road values are
+  placed on the floor where their regions' centres look (the camera's geometry), and every
+  executed command moves the map by the rover's nominal motion for it (forward ``step_m``, a
+  pivot ``pivot_deg``). Felt within ``path_radius_m`` of a place the rover has been is *visited*
+  (the strip it came along); what is left within ``reach_m`` ahead of its axle is *fresh*. At a
+  sharp corner the next strip leaves the picture before the rover can turn, but the stub of it
+  seen on the way in stays on the map, on the side it went, and the strip behind never counts.
+  The map knows nothing the robot could not: its own commands and what its camera saw.
+
 The input is computed from *executed* commands, whoever gave them (the human demonstrating or
 correcting, the policy driving), so a recorded case and an autonomous run see the same thing.
 The teaching loop owns it through :class:`~lfd_track.teaching.perception.Perception`: the loop
@@ -34,17 +46,22 @@ notes each executed command and starts it afresh with each episode.
 
 from __future__ import annotations
 
+import functools
+import math
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
 from ..core.commands import Command
 from ..core.config import DictConfig
-from ..core.frame import N_REGIONS
+from ..core.frame import GRID_COLUMNS, N_REGIONS, REGION_HEIGHT, REGION_WIDTH
 from .features import frame_inputs
 
-MEMORY_KINDS = ("none", "last_bend", "previous_command")
+MEMORY_KINDS = ("none", "last_bend", "previous_command", "fresh_felt")
+#: ``fresh_felt`` settings, written to a controller file only with that kind (so the files of the
+#: other kinds are as they were before it existed).
+_MAP_FIELDS = ("frames", "path_radius_m", "reach_m", "carpet", "felt", "step_m", "pivot_deg")
 #: Value of the ``last_bend`` input before the first bend of an episode.
 UNKNOWN_SIDE = 0.5
 
@@ -59,6 +76,27 @@ class MemoryConfig(DictConfig):
     """One of :data:`MEMORY_KINDS`."""
     bend_pivots: int = 2
     """Net pivots one way that make a bend (``last_bend``)."""
+    frames: int = 25
+    """``fresh_felt``: frames the map remembers (the path is remembered for 40 commands)."""
+    path_radius_m: float = 0.3
+    """[m] ``fresh_felt``: felt this close to a place the rover has been counts as visited."""
+    reach_m: float = 0.8
+    """[m] ``fresh_felt``: fresh felt counts up to this distance from the rover's axle."""
+    carpet: float = 0.3
+    """``fresh_felt``: road value at or below which a region counts as carpet (felt level 0)."""
+    felt: float = 0.5
+    """``fresh_felt``: road value at or above which a region counts as felt (felt level 1)."""
+    step_m: float = 0.10
+    """[m] ``fresh_felt``: the rover's nominal advance per forward command (paper preset)."""
+    pivot_deg: float = 22.9
+    """[deg] ``fresh_felt``: the rover's nominal turn per pivot command (paper preset)."""
+
+    def to_dict(self) -> dict[str, Any]:
+        data = super().to_dict()
+        if self.kind != "fresh_felt":
+            for name in _MAP_FIELDS:
+                del data[name]
+        return data
 
     def __post_init__(self) -> None:
         if self.kind not in MEMORY_KINDS:
@@ -69,11 +107,23 @@ class MemoryConfig(DictConfig):
             raise ValueError(f"memory bend_pivots must be an integer, got {self.bend_pivots!r}")
         if self.bend_pivots < 1:
             raise ValueError(f"memory bend_pivots must be >= 1, got {self.bend_pivots}")
+        if isinstance(self.frames, bool) or not isinstance(self.frames, int) or self.frames < 1:
+            raise ValueError(f"memory frames must be an integer >= 1, got {self.frames!r}")
+        for name in ("path_radius_m", "reach_m", "step_m", "pivot_deg", "carpet", "felt"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ValueError(f"memory {name} must be a number, got {value!r}")
+            if not math.isfinite(value) or value < 0:
+                raise ValueError(f"memory {name} must be a finite number >= 0, got {value!r}")
+        if not self.carpet < self.felt <= 1.0:
+            raise ValueError("memory needs carpet < felt <= 1")
+        if self.reach_m <= 0:
+            raise ValueError(f"memory reach_m must be > 0, got {self.reach_m!r}")
 
     @property
     def n_inputs(self) -> int:
         """Inputs the memory adds after the per-region inputs (the 40 road values)."""
-        return {"none": 0, "last_bend": 1, "previous_command": 3}[self.kind]
+        return {"none": 0, "last_bend": 1, "previous_command": 3, "fresh_felt": 3}[self.kind]
 
     @property
     def policy_inputs(self) -> int:
@@ -85,6 +135,10 @@ class MemoryConfig(DictConfig):
         x = np.asarray(inputs, dtype=np.float64)
         if self.kind == "previous_command":  # the previous left becomes a right and back
             return x[:, [0, 2, 1]]
+        if self.kind == "fresh_felt":  # the bearing changes side; amount and distance do not
+            out = x.copy()
+            out[:, 0] = 1.0 - out[:, 0]
+            return out
         return x.copy() if self.kind == "none" else 1.0 - x
 
 
@@ -124,6 +178,9 @@ class TurnMemory:
             self.side = 0.0
             self._high = self._low = self._count
 
+    def see(self, values: np.ndarray) -> None:
+        """A new frame's road values (this memory reads commands only)."""
+
     def inputs(self) -> np.ndarray:
         """The memory inputs now, (1,) float64."""
         return np.array([self.side])
@@ -152,9 +209,115 @@ class PreviousCommandMemory:
         self._inputs = np.zeros(3)
         self._inputs[cmd] = 1.0
 
+    def see(self, values: np.ndarray) -> None:
+        """A new frame's road values (this memory reads commands only)."""
+
     def inputs(self) -> np.ndarray:
         """The memory inputs now, (3,) float64."""
         return self._inputs.copy()
+
+
+#: Commands of path the ``fresh_felt`` map remembers (4 m of forward driving).
+_PATH_COMMANDS = 40
+#: ``fresh_felt``: weighted felt below this is no fresh felt at all (inputs 0.5, 0, 0).
+_MIN_FRESH = 1.0
+#: ``fresh_felt``: fresh felt counts from this far behind the axle on ([m]; 0: ahead only).
+_BEHIND_M = 0.05
+#: ``fresh_felt``: the amount input is the weighted fresh felt over this (clipped to 1).
+_FULL_FRESH = 20.0
+
+
+@functools.lru_cache(maxsize=1)
+def region_floor_points() -> np.ndarray:
+    """(40, 2) float64 floor points [m] (x ahead, y left of the rover's axle) that the centres
+    of the 40 regions see with the paper preset's camera (0.31 m high, pitched 30° down)."""
+    from ..render.camera import CameraModel  # the camera's geometry, not its renderer
+
+    rows, cols = np.divmod(np.arange(N_REGIONS), GRID_COLUMNS)
+    centres = np.column_stack([(cols + 0.5) * REGION_WIDTH, (rows + 0.5) * REGION_HEIGHT]).astype(
+        np.float64
+    )
+    points = CameraModel().floor_points(centres, np.zeros(3))
+    points.flags.writeable = False
+    return points
+
+
+class FreshFeltMemory:
+    """The ``fresh_felt`` map (see the module docstring): felt seen lately, less where the
+    rover has been, as (bearing, amount, distance) of what is left."""
+
+    def __init__(self, config: MemoryConfig) -> None:
+        if config.kind != "fresh_felt":
+            raise ValueError(f"FreshFeltMemory implements 'fresh_felt', not {config.kind!r}")
+        self.config = config
+        self._region_points = region_floor_points()
+        angle = math.radians(config.pivot_deg)
+        # A pivot turns the rover by +-angle: the map turns the other way.
+        self._turn = {
+            int(Command.LEFT): _rotation(-angle),
+            int(Command.RIGHT): _rotation(angle),
+        }
+        self.reset()
+
+    def reset(self) -> None:
+        """Start of an episode: nothing seen, nowhere been."""
+        self._points: list[np.ndarray] = []  # per remembered frame, (40, 2) in the rover frame
+        self._felt: list[np.ndarray] = []  # per remembered frame, (40,) felt level in [0, 1]
+        self._path = np.zeros((0, 2))  # places the rover has been, before the current one
+        self._inputs = np.array([0.5, 0.0, 0.0])
+
+    def note(self, command: Command | int) -> None:
+        """The rover executed ``command``: move the map by its nominal motion."""
+        cmd = int(command)
+        if cmd not in (0, 1, 2):
+            raise ValueError(f"command must be 0, 1 or 2, got {command!r}")
+        path = np.vstack([self._path, np.zeros((1, 2))])[-_PATH_COMMANDS:]
+        if cmd == Command.FORWARD:
+            shift = np.array([self.config.step_m, 0.0])
+            self._points = [p - shift for p in self._points]
+            self._path = path - shift
+        else:
+            rot = self._turn[cmd]
+            self._points = [p @ rot.T for p in self._points]
+            self._path = path @ rot.T
+
+    def see(self, values: np.ndarray) -> None:
+        """Add a frame's road values (40,) to the map and compute the inputs."""
+        cfg = self.config
+        v = np.asarray(values, dtype=np.float64).reshape(N_REGIONS)
+        felt = np.clip((v - cfg.carpet) / (cfg.felt - cfg.carpet), 0.0, 1.0)
+        self._points = [*self._points, self._region_points.copy()][-cfg.frames :]
+        self._felt = [*self._felt, felt][-cfg.frames :]
+        points = np.concatenate(self._points)
+        weights = np.concatenate(self._felt)
+        dist = np.hypot(points[:, 0], points[:, 1])
+        weights = weights * ((dist < cfg.reach_m) & (points[:, 0] > -_BEHIND_M))
+        if len(self._path):
+            gap = points[:, None, :] - self._path[None, :, :]
+            visited = (np.einsum("ijk,ijk->ij", gap, gap) <= cfg.path_radius_m**2).any(axis=1)
+            weights = weights * ~visited
+        mass = float(weights.sum())
+        if mass < _MIN_FRESH:
+            self._inputs = np.array([0.5, 0.0, 0.0])
+            return
+        centre = weights @ points / mass
+        bearing = math.atan2(centre[1], centre[0])
+        self._inputs = np.array(
+            [
+                0.5 * (1.0 + bearing / math.pi),
+                min(1.0, mass / _FULL_FRESH),
+                min(1.0, float(np.hypot(*centre)) / cfg.reach_m),
+            ]
+        )
+
+    def inputs(self) -> np.ndarray:
+        """The memory inputs now, (3,) float64: bearing, amount, distance, each in [0, 1]."""
+        return self._inputs.copy()
+
+
+def _rotation(angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, -s], [s, c]])
 
 
 def policy_inputs(config: MemoryConfig | None, features: str = "road_values") -> int:
@@ -163,10 +326,14 @@ def policy_inputs(config: MemoryConfig | None, features: str = "road_values") ->
     return frame_inputs(features) + (config or MemoryConfig()).n_inputs
 
 
-def memory_for(config: MemoryConfig | None) -> TurnMemory | PreviousCommandMemory | None:
+def memory_for(
+    config: MemoryConfig | None,
+) -> TurnMemory | PreviousCommandMemory | FreshFeltMemory | None:
     """The memory part for ``config`` (None for no memory)."""
     if config is None or config.kind == "none":
         return None
     if config.kind == "previous_command":
         return PreviousCommandMemory(config)
+    if config.kind == "fresh_felt":
+        return FreshFeltMemory(config)
     return TurnMemory(config)

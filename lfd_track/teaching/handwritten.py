@@ -19,10 +19,18 @@ rule:
   and drives forward when not.
 
 The rule has no random part: the same road values (and latch) give the same command.
+
+:class:`FreshFeltRule` steers by the ``fresh_felt`` memory inputs alone (the dead-reckoned map
+of felt the rover has not driven along yet, :mod:`lfd_track.policy.memory`): it pivots toward
+the fresh felt's bearing when that lies more than ``turn_deg`` off the heading, drives forward
+when not, and with no fresh felt at all pivots toward the side it last turned toward the fresh
+felt (left at first). It reads exactly the inputs a network with that memory gets, so it says
+what those inputs allow without learning.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -122,5 +130,55 @@ class RoadRule:
         if aim < -cfg.turn_at:
             return Command.LEFT
         if aim > cfg.turn_at:
+            return Command.RIGHT
+        return Command.FORWARD
+
+
+@dataclass(frozen=True)
+class FreshFeltRuleConfig:
+    """Settings of the hand-written rule on the ``fresh_felt`` memory inputs."""
+
+    turn_deg: float = 15.0
+    """[deg] bearing of the fresh felt beyond which the rule pivots toward it."""
+    memory: MemoryConfig = field(default_factory=lambda: MemoryConfig(kind="fresh_felt"))
+    """The map's settings (kind ``fresh_felt``)."""
+
+    def __post_init__(self) -> None:
+        if not 0.0 <= self.turn_deg < 180.0:
+            raise ValueError("turn_deg must lie in [0, 180)")
+        if self.memory.kind != "fresh_felt":
+            raise ValueError("a fresh-felt rule needs memory kind 'fresh_felt'")
+
+
+@dataclass
+class FreshFeltRule:
+    """A commander driving by :class:`FreshFeltRuleConfig` from the ``fresh_felt`` inputs."""
+
+    config: FreshFeltRuleConfig = field(default_factory=FreshFeltRuleConfig)
+    blank_frames: int = 0
+    """Frames so far with no fresh felt on the map."""
+    side: Command = Command.LEFT
+    """The side the fresh felt last lay on (the pivot when there is none)."""
+
+    def reset(self) -> None:
+        self.side = Command.LEFT
+
+    def propose(self, moment) -> Command:  # noqa: ANN001 - a teaching-loop Moment
+        inputs = np.asarray(moment.policy_inputs, dtype=np.float64)
+        return self.act(inputs[N_REGIONS:])
+
+    def act(self, memory: np.ndarray) -> Command:
+        """The command for the ``fresh_felt`` inputs (3,): bearing, amount, distance."""
+        bearing01, amount = float(memory[0]), float(memory[1])
+        if amount <= 0.0:
+            self.blank_frames += 1
+            return self.side
+        bearing = (2.0 * bearing01 - 1.0) * math.pi
+        if bearing != 0.0:
+            self.side = Command.LEFT if bearing > 0 else Command.RIGHT
+        limit = math.radians(self.config.turn_deg)
+        if bearing > limit:
+            return Command.LEFT
+        if bearing < -limit:
             return Command.RIGHT
         return Command.FORWARD

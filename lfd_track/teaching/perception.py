@@ -122,7 +122,11 @@ class Perception:
         values = self.library.road_values_from_histograms(
             histograms, update_statistics=self._rule != "frozen"
         )
-        memory = np.zeros(0) if self._memory is None else self._memory.inputs()
+        if self._memory is None:
+            memory = np.zeros(0)
+        else:
+            self._memory.see(values)
+            memory = self._memory.inputs()
         colour = np.zeros(0) if self.features == DEFAULT_FEATURES else colour_features(histograms)
         return Percept(
             values=values,

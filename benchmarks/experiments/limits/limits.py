@@ -10,6 +10,10 @@ Parts (see README.md beside this file for the protocol):
 * ``handwritten`` — the two rules the tuning chose, on every loop and the training track.
 * ``tune-seen`` / ``seen`` — the same for the rule with the other one-bit latch (toward the side
   the felt was last seen on), over its own grid (``SEEN_GRID``), fixed before it ran.
+* ``tune-fresh`` / ``fresh`` — the rule on the ``fresh_felt`` memory (a dead-reckoned map of the
+  felt the rover has not driven along; ``lfd_track.teaching.handwritten.FreshFeltRule``), tuned
+  on the training track and the validation loops ``kite``, ``cove`` and ``ledge`` over
+  ``FRESH_GRID``, then scored on every loop (the two new unseen loops included).
 * ``direct`` — the 40-5-3 network evolved by the paper's GA directly on progress along the
   training track (no human), then scored like the rules; robot time counted.
 * ``online-evolution`` — (μ+1)-ONLINE: the same network evolved on board one robot that is never
@@ -48,9 +52,15 @@ from lfd_track.learning.direct import (
     direct_evolution,
     mu_plus_one_online,
 )
+from lfd_track.policy.memory import MemoryConfig
 from lfd_track.teaching.arbiter import Arbiter
 from lfd_track.teaching.commanders import PolicyCommander
-from lfd_track.teaching.handwritten import RoadRule, RoadRuleConfig
+from lfd_track.teaching.handwritten import (
+    FreshFeltRule,
+    FreshFeltRuleConfig,
+    RoadRule,
+    RoadRuleConfig,
+)
 from lfd_track.teaching.loop import TeachingLoop
 from lfd_track.teaching.perception import Perception
 from lfd_track.teaching.scripted import HumanConfig, ScriptedHuman
@@ -61,6 +71,10 @@ HERE = Path(__file__).resolve().parent
 RESULTS = HERE / "results"
 LOOPS = ("testing", "kite", "sbend", "notch", "bolt", "step")
 VALIDATION = "kite"
+#: Part 2c: its validation loops (choosing only) and every loop it is scored on.
+FRESH_VALIDATION = ("kite", "cove", "ledge")
+FRESH_LOOPS = (*LOOPS, "arrow", "zed", "cove", "ledge")
+UNSEEN = ("notch", "bolt", "step", "arrow", "zed")
 TRIAL_SEED = 20240601  # the worlds (floors, lighting) of every direction are drawn from this
 TEACHERS = {
     "human": HumanConfig(),
@@ -146,6 +160,34 @@ def run_rule(job: tuple[str, dict, str, bool, str, int, int]) -> dict[str, Any]:
             Perception(_library(), "frozen", cfg.memory),
             Arbiter("policy"),
             policy=rule,
+        )
+        loop.reset(seed=world_seed if lap == 0 else None)
+        loop.run()
+        record = _outcome(loop.info, loop.counts.steps)
+        record["blank_frames"] = rule.blank_frames
+        outcomes.append(record)
+    env.close()
+    return {"policy": name, "track": track, "direction": direction, "outcomes": outcomes}
+
+
+def fresh_rule_config(config: dict[str, Any]) -> FreshFeltRuleConfig:
+    """The fresh-felt rule of a grid point: ``turn_deg`` and the map's settings."""
+    memory = {k: v for k, v in config.items() if k != "turn_deg"}
+    return FreshFeltRuleConfig(
+        turn_deg=config.get("turn_deg", 15.0), memory=MemoryConfig(kind="fresh_felt", **memory)
+    )
+
+
+def run_fresh_rule(job: tuple[str, dict, str, bool, str, int, int]) -> dict[str, Any]:
+    """Laps of the fresh-felt rule ``config`` in one direction (frozen standard library)."""
+    name, config, track, reverse, direction, world_seed, laps = job
+    cfg = fresh_rule_config(config)
+    env = LfDTrackEnv(track=track, reverse=reverse)
+    outcomes = []
+    for lap in range(laps):
+        rule = FreshFeltRule(cfg)
+        loop = TeachingLoop(
+            env, Perception(_library(), "frozen", cfg.memory), Arbiter("policy"), policy=rule
         )
         loop.reset(seed=world_seed if lap == 0 else None)
         loop.run()
@@ -311,12 +353,14 @@ def table(results: list[dict[str, Any]], note: str) -> str:
             "| track | direction | laps | failures (kind: corner) |",
             "|---|---|---|---|",
         ]
-        unseen_k = unseen_n = 0
+        unseen_k = unseen_n = all_k = all_n = 0
         for r in rows:
             k = sum(o["success"] for o in r["outcomes"])
             n = len(r["outcomes"])
             if r["track"] in ("notch", "bolt", "step"):
                 unseen_k, unseen_n = unseen_k + k, unseen_n + n
+            if r["track"] in UNSEEN:
+                all_k, all_n = all_k + k, all_n + n
             fails: dict[str, int] = {}
             for o in r["outcomes"]:
                 if not o["success"]:
@@ -331,6 +375,13 @@ def table(results: list[dict[str, Any]], note: str) -> str:
             f"{100 * unseen_k / max(unseen_n, 1):.0f} % [{100 * lo:.0f}–{100 * hi:.0f}].",
             "",
         ]
+        if all_n > unseen_n:  # the newer unseen loops arrow and zed were driven too
+            lo, hi = wilson(all_k, all_n)
+            lines += [
+                f"All unseen loops {'/'.join(UNSEEN)}: {all_k}/{all_n} = "
+                f"{100 * all_k / all_n:.0f} % [{100 * lo:.0f}–{100 * hi:.0f}].",
+                "",
+            ]
     return "\n".join(lines)
 
 
@@ -388,14 +439,35 @@ def seen_candidates() -> list[tuple[str, dict]]:
     return out
 
 
+#: The grid of the fresh-felt rule (README, part 2c), fixed before it ran.
+FRESH_GRID = {
+    "path_radius_m": (0.3, 0.35, 0.4),
+    "reach_m": (0.6, 0.8, 1.0, 1.2),
+    "turn_deg": (10.0, 15.0, 20.0),
+}
+
+
+def fresh_candidates() -> list[tuple[str, dict]]:
+    return [
+        (f"fresh.r{r}.reach{reach}.t{t:g}", {"path_radius_m": r, "reach_m": reach, "turn_deg": t})
+        for r, reach, t in itertools.product(*FRESH_GRID.values())
+    ]
+
+
 def tune(
-    part: str, grid: list[tuple[str, dict]], kinds: tuple[str, ...], laps: int, workers: int
+    part: str,
+    grid: list[tuple[str, dict]],
+    kinds: tuple[str, ...],
+    laps: int,
+    workers: int,
+    validation: tuple[str, ...] = (VALIDATION,),
+    run=None,  # noqa: ANN001 - the job function (default: the road rule)
 ) -> None:
-    """Score every candidate on the training track and the validation loop; the most laps wins
+    """Score every candidate on the training track and the validation loops; the most laps wins
     (ties: the first in grid order), for each kind (the name's first dotted part)."""
-    dirs = directions((VALIDATION,))
+    dirs = directions(validation)
     jobs = [(name, cfg, *d, laps) for name, cfg in grid for d in dirs]
-    results = _run(run_rule, jobs, workers)
+    results = _run(run or run_rule, jobs, workers)
     score: dict[str, int] = {}
     for r in results:
         score[r["policy"]] = score.get(r["policy"], 0) + sum(o["success"] for o in r["outcomes"])
@@ -404,21 +476,30 @@ def tune(
         names = [n for n, _ in grid if n.startswith(kind + ".")]
         best = max(names, key=lambda n: score[n])  # ties: the first in grid order
         chosen[kind] = {"name": best, "config": dict(grid)[best], "laps": score[best]}
+    loops = ", ".join(f"`{v}`" for v in validation)
     note = (
-        f"Tuning on the training track and `{VALIDATION}` only, {laps} laps per "
+        f"Tuning on the training track and {loops} only, {laps} laps per "
         f"direction; chosen: {json.dumps(chosen)}"
     )
     _write(part, results, note, {"score": score, "chosen": chosen})
 
 
-def score_rules(part: str, chosen: dict[str, dict], laps: int, workers: int, how: str) -> None:
+def score_rules(
+    part: str,
+    chosen: dict[str, dict],
+    laps: int,
+    workers: int,
+    how: str,
+    loops: tuple[str, ...] = LOOPS,
+    run=None,  # noqa: ANN001 - the job function (default: the road rule)
+) -> None:
     """The chosen rules on every loop and the training track."""
     jobs = [
         (f"{kind} ({c['name']})", c["config"], *d, laps)
         for kind, c in chosen.items()
-        for d in directions(LOOPS)
+        for d in directions(loops)
     ]
-    results = _run(run_rule, jobs, workers)
+    results = _run(run or run_rule, jobs, workers)
     note = (
         f"The hand-written road-value rules ({how}), {laps} laps per track "
         "and direction; no learning (human commands, corrections, robot seconds while "
@@ -438,6 +519,8 @@ def main(argv: list[str] | None = None) -> int:
             "handwritten",
             "tune-seen",
             "seen",
+            "tune-fresh",
+            "fresh",
             "direct",
             "online-evolution",
         ),
@@ -487,6 +570,27 @@ def main(argv: list[str] | None = None) -> int:
         tune("tune", candidates(), ("reactive", "latch"), args.laps, args.workers)
     elif args.part == "tune-seen":
         tune("tune_seen", seen_candidates(), ("seen",), args.laps, args.workers)
+    elif args.part == "tune-fresh":
+        tune(
+            "tune_fresh",
+            fresh_candidates(),
+            ("fresh",),
+            args.laps,
+            args.workers,
+            FRESH_VALIDATION,
+            run_fresh_rule,
+        )
+    elif args.part == "fresh":
+        chosen = json.loads((RESULTS / "tune_fresh.json").read_text())["chosen"]
+        score_rules(
+            "fresh",
+            chosen,
+            args.laps,
+            args.workers,
+            "the fresh-felt map rule, chosen by `tune-fresh`",
+            FRESH_LOOPS,
+            run_fresh_rule,
+        )
     elif args.part == "seen":
         chosen = json.loads((RESULTS / "tune_seen.json").read_text())["chosen"]
         score_rules("seen", chosen, args.laps, args.workers, "chosen by `tune-seen`")
