@@ -234,9 +234,10 @@ def region_floor_points() -> np.ndarray:
     from ..render.camera import CameraModel  # the camera's geometry, not its renderer
 
     rows, cols = np.divmod(np.arange(N_REGIONS), GRID_COLUMNS)
-    centres = np.column_stack([(cols + 0.5) * REGION_WIDTH, (rows + 0.5) * REGION_HEIGHT]).astype(
-        np.float64
-    )
+    # A pixel's index is its centre (the image's centre column is 319.5).
+    centres = np.column_stack(
+        [(cols + 0.5) * REGION_WIDTH - 0.5, (rows + 0.5) * REGION_HEIGHT - 0.5]
+    ).astype(np.float64)
     points = CameraModel().floor_points(centres, np.zeros(3))
     points.flags.writeable = False
     return points

@@ -1,0 +1,178 @@
+"""The ``fresh_felt`` memory: a dead-reckoned map of felt not yet driven along, and the rule on it."""
+
+import math
+
+import numpy as np
+import pytest
+from lfd_test_support import library_with_road
+
+from lfd_track.core.commands import Command
+from lfd_track.core.frame import GRID_COLUMNS, GRID_ROWS, N_REGIONS
+from lfd_track.envs.track_env import LfDTrackEnv
+from lfd_track.learning.mirror import mirror_cases
+from lfd_track.policy.controller import Controller
+from lfd_track.policy.memory import (
+    FreshFeltMemory,
+    MemoryConfig,
+    memory_for,
+    policy_inputs,
+    region_floor_points,
+)
+from lfd_track.teaching import Arbiter, Perception, TeachingLoop
+from lfd_track.teaching.handwritten import FreshFeltRule, FreshFeltRuleConfig
+
+F, L, R = Command.FORWARD, Command.LEFT, Command.RIGHT
+FRESH = MemoryConfig(kind="fresh_felt")
+
+
+def _values(columns: set[int], rows: set[int] | None = None) -> np.ndarray:
+    """Road values (40,): felt (1.0) in the given grid columns (and rows), carpet (0) elsewhere."""
+    grid = np.zeros((GRID_ROWS, GRID_COLUMNS))
+    for r in rows if rows is not None else range(GRID_ROWS):
+        for c in columns:
+            grid[r, c] = 1.0
+    return grid.reshape(N_REGIONS)
+
+
+def _bearing_deg(inputs: np.ndarray) -> float:
+    return math.degrees((2.0 * inputs[0] - 1.0) * math.pi)
+
+
+def test_region_points_lie_ahead_and_mirror_about_the_axis():
+    points = region_floor_points()
+    assert points.shape == (N_REGIONS, 2)
+    assert np.all(points[:, 0] > 0.25) and np.all(points[:, 0] < 1.85)  # the camera's stated view
+    grid = points.reshape(GRID_ROWS, GRID_COLUMNS, 2)
+    np.testing.assert_allclose(grid[:, ::-1, 1], -grid[:, :, 1], atol=1e-9)
+    assert np.all(np.diff(grid[:, :, 0], axis=0) < 0)  # the top row looks furthest
+
+
+def test_no_felt_gives_the_neutral_inputs_and_felt_ahead_a_bearing_of_zero():
+    memory = FreshFeltMemory(FRESH)
+    np.testing.assert_array_equal(memory.inputs(), [0.5, 0.0, 0.0])
+    memory.see(_values(set()))
+    np.testing.assert_array_equal(memory.inputs(), [0.5, 0.0, 0.0])
+    memory.see(_values({3, 4}))
+    bearing, amount, distance = memory.inputs()
+    assert bearing == pytest.approx(0.5, abs=1e-12)
+    assert 0.0 < amount <= 1.0 and 0.0 < distance < 1.0
+
+
+def test_felt_on_the_left_gives_a_bearing_above_a_half_and_right_below():
+    left, right = FreshFeltMemory(FRESH), FreshFeltMemory(FRESH)
+    left.see(_values({0, 1, 2}))
+    right.see(_values({5, 6, 7}))
+    assert left.inputs()[0] > 0.5 > right.inputs()[0]
+    assert left.inputs()[0] - 0.5 == pytest.approx(0.5 - right.inputs()[0], abs=1e-12)
+
+
+def test_a_pivot_moves_the_remembered_felt_the_other_way_by_the_pivot_angle():
+    memory = FreshFeltMemory(FRESH)
+    memory.see(_values({3, 4}))
+    memory.note(L)
+    memory.see(_values(set()))  # the felt left the picture: the map still has it
+    assert _bearing_deg(memory.inputs()) == pytest.approx(-FRESH.pivot_deg, abs=1e-9)
+    memory.note(R)
+    memory.note(R)
+    memory.see(_values(set()))
+    assert _bearing_deg(memory.inputs()) == pytest.approx(FRESH.pivot_deg, abs=1e-9)
+
+
+def test_felt_where_the_rover_has_been_is_not_fresh():
+    memory = FreshFeltMemory(FRESH)
+    memory.see(_values({3, 4}, rows={4}))  # a patch of felt just ahead (0.29 m)
+    assert memory.inputs()[1] > 0
+    for _ in range(3):  # drive over it: 0.3 m
+        memory.note(F)
+    memory.see(_values(set()))
+    np.testing.assert_array_equal(memory.inputs(), [0.5, 0.0, 0.0])
+
+
+def test_felt_behind_the_axle_and_beyond_reach_does_not_count():
+    memory = FreshFeltMemory(MemoryConfig(kind="fresh_felt", reach_m=0.5))
+    memory.see(_values({3, 4}, rows={0, 1}))  # 0.8 m and 1.3 m ahead: beyond 0.5 m
+    assert memory.inputs()[1] == 0.0
+    memory = FreshFeltMemory(FRESH)
+    memory.see(_values({3, 4}, rows={4}))
+    for _ in range(8):  # turn round: the patch now lies behind
+        memory.note(L)
+    memory.see(_values(set()))
+    assert memory.inputs()[1] == 0.0
+
+
+def test_the_map_forgets_frames_beyond_its_length_and_reset_forgets_all():
+    memory = FreshFeltMemory(MemoryConfig(kind="fresh_felt", frames=2, path_radius_m=0.0))
+    memory.see(_values({0}))
+    memory.see(_values(set()))
+    assert memory.inputs()[1] > 0
+    memory.see(_values(set()))  # the frame with felt is the third back: forgotten
+    assert memory.inputs()[1] == 0.0
+    memory.see(_values({0}))
+    memory.reset()
+    np.testing.assert_array_equal(memory.inputs(), [0.5, 0.0, 0.0])
+
+
+def test_settings_are_checked_and_written_only_for_this_kind():
+    assert isinstance(memory_for(FRESH), FreshFeltMemory)
+    assert policy_inputs(FRESH) == N_REGIONS + 3
+    assert MemoryConfig.from_dict(FRESH.to_dict()) == FRESH
+    assert set(MemoryConfig(kind="last_bend").to_dict()) == {"kind", "bend_pivots"}
+    for bad in (
+        {"frames": 0},
+        {"frames": 2.5},
+        {"reach_m": 0.0},
+        {"path_radius_m": -1.0},
+        {"step_m": float("nan")},
+        {"carpet": 0.6},
+        {"pivot_deg": True},
+    ):
+        with pytest.raises(ValueError, match="memory"):
+            MemoryConfig(kind="fresh_felt", **bad)
+
+
+def test_mirroring_swaps_the_bearing_side_and_keeps_amount_and_distance():
+    x = np.hstack([np.random.default_rng(0).random((4, N_REGIONS)), [[0.7, 0.4, 0.3]] * 4])
+    a = np.array([0, 1, 2, 0])
+    mx, ma = mirror_cases(x, a, memory=FRESH)
+    np.testing.assert_allclose(mx[:, N_REGIONS:], [[0.3, 0.4, 0.3]] * 4, atol=1e-12)
+    assert ma.tolist() == [0, 2, 1, 0]
+
+
+def test_the_rule_turns_toward_fresh_felt_and_keeps_turning_when_there_is_none():
+    rule = FreshFeltRule(FreshFeltRuleConfig(turn_deg=15.0))
+    ahead, left, right = 0.5, 0.5 + 20 / 360, 0.5 - 20 / 360
+    assert rule.act(np.array([ahead, 0.5, 0.5])) == F
+    assert rule.act(np.array([left, 0.5, 0.5])) == L
+    assert rule.act(np.array([0.5, 0.0, 0.0])) == L  # none: the side it last lay on
+    assert rule.act(np.array([right, 0.5, 0.5])) == R
+    assert rule.act(np.array([0.5, 0.0, 0.0])) == R
+    assert rule.blank_frames == 2
+    rule.reset()
+    assert rule.act(np.array([0.5, 0.0, 0.0])) == L
+    with pytest.raises(ValueError, match="fresh_felt"):
+        FreshFeltRuleConfig(memory=MemoryConfig(kind="last_bend"))
+
+
+def test_perception_feeds_each_frame_to_the_map_and_the_loop_moves_it():
+    """In the loop the map sees every frame's road values and moves with every command."""
+    env = LfDTrackEnv(track="training")
+    perception = Perception(library_with_road()[0], "frozen", FRESH)
+    rule = FreshFeltRule()
+    loop = TeachingLoop(env, perception, Arbiter("policy"), policy=rule)
+    loop.reset(seed=3)
+    loop.run()
+    env.close()
+    assert loop.info["success"]  # the rule follows the training track from end to end
+    assert rule.blank_frames < loop.counts.steps
+
+
+def test_a_controller_with_this_memory_saves_loads_and_drives_the_same(tmp_path):
+    library, _ = library_with_road()
+    weights = np.random.default_rng(1).uniform(-1, 1, 5 * (N_REGIONS + 3) + 15)
+    controller = Controller(library, weights, memory=FRESH)
+    path = tmp_path / "c.json"
+    controller.save(path)
+    loaded = Controller.load(path)
+    assert loaded.memory == FRESH
+    x = np.hstack([np.random.default_rng(2).random((20, N_REGIONS)), np.full((20, 3), 0.5)])
+    assert [loaded.act_on_values(v) for v in x] == [controller.act_on_values(v) for v in x]
