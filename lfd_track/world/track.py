@@ -21,6 +21,11 @@ from .track_file import MAX_FILE_BYTES, parse_track
 #: Shipped loops of our own design that no demonstration uses: a generalization set beside the
 #: paper's testing track (``tracks/README.md``).
 UNSEEN_TRACKS: tuple[str, ...] = ("notch", "bolt", "step")
+#: Two more unseen loops of ours, added later and scored beside :data:`UNSEEN_TRACKS` where a
+#: study lists them (``tracks/README.md``); like them, never used to choose anything.
+MORE_UNSEEN_TRACKS: tuple[str, ...] = ("arrow", "zed")
+#: Loops of ours for choosing settings only, never scored as unseen (``tracks/README.md``).
+VALIDATION_TRACKS: tuple[str, ...] = ("kite", "cove", "ledge")
 
 
 @dataclass(frozen=True)

@@ -145,7 +145,8 @@ def test_bad_track_files_are_rejected_with_one_line(tmp_path, text, problem):
 def test_unknown_track_name():
     with pytest.raises(
         FileNotFoundError,
-        match="unknown track 'nowhere' \\(shipped: bolt, kite, notch, sbend, step, testing, training",
+        match="unknown track 'nowhere' \\(shipped: arrow, bolt, cove, kite, ledge, notch, sbend, step,"
+        " testing, training, zed",
     ):
         load_track("nowhere")
 

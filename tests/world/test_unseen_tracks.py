@@ -10,20 +10,52 @@ import pytest
 from lfd_track.render.texture import MAX_TEXTURE_BYTES, AppearanceConfig
 from lfd_track.world.driver import CentrelineDriver, DriverConfig
 from lfd_track.world.rover import Rover, RoverConfig
-from lfd_track.world.track import UNSEEN_TRACKS, ProgressTracker, load_track
+from lfd_track.world.track import (
+    MORE_UNSEEN_TRACKS,
+    UNSEEN_TRACKS,
+    VALIDATION_TRACKS,
+    ProgressTracker,
+    load_track,
+)
 
 #: Turning angles per corner in file (counter-clockwise) order, left positive [deg].
 EXPECTED_TURNS = {
     "notch": {"B": 90.0, "C": 90.0, "D": 63.43, "E": -126.87, "F": 63.43, "G": 90.0, "A": 90.0},
     "bolt": {"B": 90.0, "C": 135.0, "D": -45.0, "E": -45.0, "F": 135.0, "A": 90.0},
     "step": {"B": 90.0, "C": 90.0, "D": -90.0, "E": 90.0, "F": 45.0, "G": 45.0, "A": 90.0},
+    "arrow": {"B": 50.19, "C": 79.61, "D": 50.19, "E": 129.81, "F": -79.61, "A": 129.81},
+    "zed": {
+        "B": 90.0,
+        "C": -90.0,
+        "D": 90.0,
+        "E": 90.0,
+        "F": 90.0,
+        "G": -66.8,
+        "H": 66.8,
+        "A": 90.0,
+    },
+    # The validation loops that mix left and right turns (kite turns one way only).
+    "cove": {"B": 90.0, "C": 135.0, "D": -90.0, "E": 45.0, "F": 90.0, "A": 90.0},
+    "ledge": {
+        "B": 45.0,
+        "C": -45.0,
+        "D": 90.0,
+        "E": 90.0,
+        "F": 90.0,
+        "G": -90.0,
+        "H": 90.0,
+        "A": 90.0,
+    },
 }
 
 
 def test_there_are_at_least_three_unseen_tracks():
     assert len(UNSEEN_TRACKS) >= 3
-    assert set(UNSEEN_TRACKS) == set(EXPECTED_TURNS)
-    assert not {"testing", "training"} & set(UNSEEN_TRACKS)
+    mixed_validation = set(VALIDATION_TRACKS) - {"kite"}
+    assert {*UNSEEN_TRACKS, *MORE_UNSEEN_TRACKS, *mixed_validation} == set(EXPECTED_TURNS)
+    assert not {"testing", "training"} & {*UNSEEN_TRACKS, *MORE_UNSEEN_TRACKS}
+    # A loop is either for choosing or for scoring, never both.
+    assert not set(VALIDATION_TRACKS) & {*UNSEEN_TRACKS, *MORE_UNSEEN_TRACKS}
 
 
 @pytest.mark.parametrize("name", sorted(EXPECTED_TURNS))
