@@ -126,7 +126,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         default="none",
         help="memory inputs of the policy after the 40 road values: none (the paper's),"
         " last_bend (the side of the last bend; pair it with --turnarounds toward_last_bend)"
-        " or previous_command (the command executed the step before)",
+        ", previous_command (the command executed the step before) or fresh_felt (a"
+        " dead-reckoned map of the felt not yet driven along: its bearing, amount, distance)",
     )
     bench.add_argument(
         "--features",

@@ -384,8 +384,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "--memory",
         choices=MEMORY_KINDS,
         default="none",
-        help="memory inputs recorded with every case for the policy to read (see the README's"
-        " 'Memory inputs'; default none, the paper's 40 road values)",
+        help="memory inputs recorded with every case for the policy to read (see"
+        " docs/learning-api.md; default none, the paper's 40 road values)",
     )
     demo.set_defaults(func=_guarded(_cmd_demo))
     return hardware
