@@ -78,9 +78,10 @@ class MemoryConfig(DictConfig):
     """Net pivots one way that make a bend (``last_bend``)."""
     frames: int = 25
     """``fresh_felt``: frames the map remembers (the path is remembered for 40 commands)."""
-    path_radius_m: float = 0.3
-    """[m] ``fresh_felt``: felt this close to a place the rover has been counts as visited."""
-    reach_m: float = 0.8
+    path_radius_m: float = 0.35
+    """[m] ``fresh_felt``: felt this close to a place the rover has been counts as visited
+    (the default, with ``reach_m``, is the limits experiment's choice on validation loops)."""
+    reach_m: float = 0.6
     """[m] ``fresh_felt``: fresh felt counts up to this distance from the rover's axle."""
     carpet: float = 0.3
     """``fresh_felt``: road value at or below which a region counts as carpet (felt level 0)."""

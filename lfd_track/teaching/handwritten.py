@@ -138,8 +138,9 @@ class RoadRule:
 class FreshFeltRuleConfig:
     """Settings of the hand-written rule on the ``fresh_felt`` memory inputs."""
 
-    turn_deg: float = 15.0
-    """[deg] bearing of the fresh felt beyond which the rule pivots toward it."""
+    turn_deg: float = 20.0
+    """[deg] bearing of the fresh felt beyond which the rule pivots toward it (the default
+    and the memory's defaults are the limits experiment's choice, part 2c)."""
     memory: MemoryConfig = field(default_factory=lambda: MemoryConfig(kind="fresh_felt"))
     """The map's settings (kind ``fresh_felt``)."""
 
