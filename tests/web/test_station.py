@@ -352,3 +352,26 @@ def test_online_teaching_with_memory_learns_from_the_wider_input(open_station) -
     session.close()
     demo = load_demonstration(station.out)
     assert demo.memory[:, 0].tolist() == [0.5, 0.5, 0.0, 0.0]
+
+
+def test_online_teaching_with_the_fresh_felt_map_learns_from_its_three_inputs(open_station) -> None:
+    """``--online --memory fresh_felt``: every case carries the map's bearing, amount and
+    distance, and the GA evolves networks that read them (43 inputs, 230 weights)."""
+    from lfd_track.policy.memory import MemoryConfig
+
+    station = open_station("--online", "--memory", "fresh_felt", "--population", "10")
+    session = station.session
+    commands = ["forward", "forward", "left", "forward"]
+    with connect(station.url.replace("http", "ws") + "ws", proxy=None, max_queue=None) as ws:
+        for given, command in enumerate(commands, start=1):
+            ws.send(json.dumps({"type": "press", "command": command}))
+            ws.send(json.dumps({"type": "release"}))
+            status = settled(session, given)
+    assert status["generation"] is not None and status["generation"] > 0
+    assert session.learner.state.population.shape == (10, 230)
+    session.close()
+    demo = load_demonstration(station.out)
+    assert demo.metadata["memory"] == MemoryConfig(kind="fresh_felt").to_dict()
+    assert demo.memory.shape == (4, 3)
+    assert ((demo.memory >= 0) & (demo.memory <= 1)).all()
+    assert demo.memory[:, 1].max() > 0  # the felt ahead of the start is on the map
