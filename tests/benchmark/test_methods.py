@@ -97,9 +97,11 @@ def test_paper_repetition_is_unchanged_by_the_loop_refactor(quick_paper):
     assert decisions["trajectories"] == "a3f91d6445cadbe5"
     assert result.demo["cases"] == 172
     assert result.training_accuracy == 126 / 172
-    # Sums of a few hundred products: other kernels round them differently, by far less than
-    # 1e-12 (the fitness values of one kernel differ from another's from the 15th digit on).
-    assert result.fitness_best[-1] == pytest.approx(0.4529673243710729, rel=0, abs=1e-12)
+    # A float, not a decision: the road values it is computed from pass through OpenCV's float32
+    # histogram kernels, which OpenCV picks by the processor (an AVX-512 machine gives
+    # 0.4529676003616053, 2.8e-7 away, with every decision above the same), and the sums of a
+    # few hundred products round differently under each BLAS kernel (from the 15th digit on).
+    assert result.fitness_best[-1] == pytest.approx(0.4529673243710729, rel=0, abs=1e-6)
     assert len(result.fitness_best) == 30
     saved = Controller.load(folder / "rep_00" / "controller.json")
     assert saved.learner == "ga" and saved.learner_config == QUICK_PAPER.ga.to_dict()
