@@ -73,7 +73,8 @@ LOOPS = ("testing", "kite", "sbend", "notch", "bolt", "step")
 VALIDATION = "kite"
 #: Part 2c: its validation loops (choosing only) and every loop it is scored on.
 FRESH_VALIDATION = ("kite", "cove", "ledge")
-FRESH_LOOPS = (*LOOPS, "arrow", "zed", "cove", "ledge")
+NEW_LOOPS = ("arrow", "zed", "cove", "ledge")
+FRESH_LOOPS = (*LOOPS, *NEW_LOOPS)
 UNSEEN = ("notch", "bolt", "step", "arrow", "zed")
 TRIAL_SEED = 20240601  # the worlds (floors, lighting) of every direction are drawn from this
 TEACHERS = {
@@ -307,14 +308,17 @@ def _stem(name: str, seed: int) -> str:
     return name if seed == 0 else f"{name}.seed{seed}"
 
 
-def score_evolution(part: str, seed: int, laps: int, workers: int) -> None:
-    """Score the controller ``learn_evolution`` saved, by the protocol (``laps`` per direction)."""
+def score_evolution(
+    part: str, seed: int, laps: int, workers: int, loops: tuple[str, ...] = LOOPS
+) -> None:
+    """Score the controller ``learn_evolution`` saved, by the protocol (``laps`` per direction);
+    ``loops`` other than the protocol's go to ``<stem>.new_loops``."""
     name = "direct" if part == "direct" else "mu_plus_one"
     stem = _stem(name, seed)
     learning = json.loads((RESULTS / f"{stem}.learning.json").read_text())
     x = "generation" if name == "direct" else "evaluation"
     policy = f"{name} (seed {learning['seed']})"
-    jobs = [(policy, learning["weights"], *d, laps) for d in directions(LOOPS)]
+    jobs = [(policy, learning["weights"], *d, laps) for d in directions(loops)]
     results = _run(run_network, jobs, workers)
     effort = learning["effort"]
     note = (
@@ -327,7 +331,7 @@ def score_evolution(part: str, seed: int, laps: int, workers: int) -> None:
         + _curve_table(learning["curve"], x)
     )
     body = {k: v for k, v in learning.items() if k != "part"}
-    _write(stem, results, note, {**body, "laps": laps})
+    _write(stem if loops == LOOPS else f"{stem}.new_loops", results, note, {**body, "laps": laps})
 
 
 # ---------------------------------------------------------------------------------- tables
@@ -515,12 +519,14 @@ def main(argv: list[str] | None = None) -> int:
         choices=(
             "library",
             "teacher",
+            "teacher-new-loops",
             "tune",
             "handwritten",
             "tune-seen",
             "seen",
             "tune-fresh",
             "fresh",
+            "rules-new-loops",
             "direct",
             "online-evolution",
         ),
@@ -535,6 +541,11 @@ def main(argv: list[str] | None = None) -> int:
         help="direct, online-evolution: score the controller an earlier run evolved",
     )
     parser.add_argument("--laps", type=int, default=30, help="laps per track and direction")
+    parser.add_argument(
+        "--new-loops",
+        action="store_true",
+        help="direct, online-evolution --score-only: score on the loops added later instead",
+    )
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument(
         "--fixed", action="store_true", help="handwritten: the default rule settings, untuned"
@@ -544,11 +555,13 @@ def main(argv: list[str] | None = None) -> int:
     if args.part == "library":
         RESULTS.mkdir(exist_ok=True)
         (RESULTS / "library.json").write_text(json.dumps(standard_library().to_dict()) + "\n")
-    elif args.part == "teacher":
+    elif args.part in ("teacher", "teacher-new-loops"):
+        # The loops added after part 1 ran get their own results (part 1's stay as they were).
+        loops = LOOPS if args.part == "teacher" else NEW_LOOPS
         jobs = [
             (teacher, track, rev, d, seed, args.laps, 1000 + i)
             for teacher in TEACHERS
-            for i, (track, rev, d, seed) in enumerate(directions(LOOPS))
+            for i, (track, rev, d, seed) in enumerate(directions(loops))
         ]
         results = _run(run_teacher, jobs, args.workers)
         note = (
@@ -556,7 +569,7 @@ def main(argv: list[str] | None = None) -> int:
             "learning (human commands, corrections, robot seconds while learning: none)."
         )
         _write(
-            "teacher",
+            args.part.replace("-", "_"),
             results,
             note,
             {"teachers": {k: dataclasses.asdict(v) for k, v in TEACHERS.items()}},
@@ -565,7 +578,8 @@ def main(argv: list[str] | None = None) -> int:
         if not args.score_only:
             learn_evolution(args.part, args.seed)
         if not args.learn_only:
-            score_evolution(args.part, args.seed, args.laps, args.workers)
+            loops = NEW_LOOPS if args.new_loops else LOOPS
+            score_evolution(args.part, args.seed, args.laps, args.workers, loops)
     elif args.part == "tune":
         tune("tune", candidates(), ("reactive", "latch"), args.laps, args.workers)
     elif args.part == "tune-seen":
@@ -590,6 +604,15 @@ def main(argv: list[str] | None = None) -> int:
             "the fresh-felt map rule, chosen by `tune-fresh`",
             FRESH_LOOPS,
             run_fresh_rule,
+        )
+    elif args.part == "rules-new-loops":
+        # Parts 2 and 2b's chosen rules on the loops added after they ran.
+        chosen = {
+            **json.loads((RESULTS / "tune.json").read_text())["chosen"],
+            **json.loads((RESULTS / "tune_seen.json").read_text())["chosen"],
+        }
+        score_rules(
+            "rules_new_loops", chosen, args.laps, args.workers, "parts 2 and 2b's", NEW_LOOPS
         )
     elif args.part == "seen":
         chosen = json.loads((RESULTS / "tune_seen.json").read_text())["chosen"]
