@@ -336,17 +336,22 @@ def test_online_takeover_then_a_human_command_is_a_correction(
     assert demo.sources.tolist() == ["demonstration"] * given + ["correction"]
 
 
+def _teach(station, commands: list[str]) -> dict:
+    """Press and release each command over the page's websocket; the status after the last."""
+    with connect(station.url.replace("http", "ws") + "ws", proxy=None, max_queue=None) as ws:
+        for given, command in enumerate(commands, start=1):
+            ws.send(json.dumps({"type": "press", "command": command}))
+            ws.send(json.dumps({"type": "release"}))
+            status = settled(station.session, given)
+    return status
+
+
 def test_online_teaching_with_memory_learns_from_the_wider_input(open_station) -> None:
     """``--online --memory last_bend``: the cases carry the memory and the GA evolves networks
     that read it (41 inputs, 220 weights)."""
     station = open_station("--online", "--memory", "last_bend", "--population", "10")
     session = station.session
-    commands = ["right", "right", "forward", "forward"]
-    with connect(station.url.replace("http", "ws") + "ws", proxy=None, max_queue=None) as ws:
-        for given, command in enumerate(commands, start=1):
-            ws.send(json.dumps({"type": "press", "command": command}))
-            ws.send(json.dumps({"type": "release"}))
-            status = settled(session, given)
+    status = _teach(station, ["right", "right", "forward", "forward"])
     assert status["generation"] is not None and status["generation"] > 0
     assert session.learner.state.population.shape == (10, 220)
     session.close()
@@ -361,12 +366,7 @@ def test_online_teaching_with_the_fresh_felt_map_learns_from_its_three_inputs(op
 
     station = open_station("--online", "--memory", "fresh_felt", "--population", "10")
     session = station.session
-    commands = ["forward", "forward", "left", "forward"]
-    with connect(station.url.replace("http", "ws") + "ws", proxy=None, max_queue=None) as ws:
-        for given, command in enumerate(commands, start=1):
-            ws.send(json.dumps({"type": "press", "command": command}))
-            ws.send(json.dumps({"type": "release"}))
-            status = settled(session, given)
+    status = _teach(station, ["forward", "forward", "left", "forward"])
     assert status["generation"] is not None and status["generation"] > 0
     assert session.learner.state.population.shape == (10, 230)
     session.close()

@@ -148,19 +148,16 @@ def _library() -> RoadLibrary:
     return _LIBRARY
 
 
-def run_rule(job: tuple[str, dict, str, bool, str, int, int]) -> dict[str, Any]:
-    """Laps of the hand-written rule ``config`` in one direction (frozen standard library)."""
-    name, config, track, reverse, direction, world_seed, laps = job
-    cfg = RoadRuleConfig(**config)
+def _rule_laps(job: tuple, make_rule, memory: MemoryConfig | None) -> dict[str, Any]:  # noqa: ANN001
+    """Laps in one direction of the hand-written rule ``make_rule()`` builds afresh for each
+    lap, reading ``memory`` (frozen standard library)."""
+    name, _, track, reverse, direction, world_seed, laps = job
     env = LfDTrackEnv(track=track, reverse=reverse)
     outcomes = []
     for lap in range(laps):
-        rule = RoadRule(cfg)
+        rule = make_rule()
         loop = TeachingLoop(
-            env,
-            Perception(_library(), "frozen", cfg.memory),
-            Arbiter("policy"),
-            policy=rule,
+            env, Perception(_library(), "frozen", memory), Arbiter("policy"), policy=rule
         )
         loop.reset(seed=world_seed if lap == 0 else None)
         loop.run()
@@ -169,6 +166,12 @@ def run_rule(job: tuple[str, dict, str, bool, str, int, int]) -> dict[str, Any]:
         outcomes.append(record)
     env.close()
     return {"policy": name, "track": track, "direction": direction, "outcomes": outcomes}
+
+
+def run_rule(job: tuple[str, dict, str, bool, str, int, int]) -> dict[str, Any]:
+    """Laps of the hand-written rule ``config`` in one direction (frozen standard library)."""
+    cfg = RoadRuleConfig(**job[1])
+    return _rule_laps(job, lambda: RoadRule(cfg), cfg.memory)
 
 
 def fresh_rule_config(config: dict[str, Any]) -> FreshFeltRuleConfig:
@@ -181,22 +184,8 @@ def fresh_rule_config(config: dict[str, Any]) -> FreshFeltRuleConfig:
 
 def run_fresh_rule(job: tuple[str, dict, str, bool, str, int, int]) -> dict[str, Any]:
     """Laps of the fresh-felt rule ``config`` in one direction (frozen standard library)."""
-    name, config, track, reverse, direction, world_seed, laps = job
-    cfg = fresh_rule_config(config)
-    env = LfDTrackEnv(track=track, reverse=reverse)
-    outcomes = []
-    for lap in range(laps):
-        rule = FreshFeltRule(cfg)
-        loop = TeachingLoop(
-            env, Perception(_library(), "frozen", cfg.memory), Arbiter("policy"), policy=rule
-        )
-        loop.reset(seed=world_seed if lap == 0 else None)
-        loop.run()
-        record = _outcome(loop.info, loop.counts.steps)
-        record["blank_frames"] = rule.blank_frames
-        outcomes.append(record)
-    env.close()
-    return {"policy": name, "track": track, "direction": direction, "outcomes": outcomes}
+    cfg = fresh_rule_config(job[1])
+    return _rule_laps(job, lambda: FreshFeltRule(cfg), cfg.memory)
 
 
 def run_network(job: tuple[str, list[float], str, bool, str, int, int]) -> dict[str, Any]:
