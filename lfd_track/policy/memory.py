@@ -55,7 +55,7 @@ import numpy as np
 
 from ..core.commands import Command
 from ..core.config import DictConfig
-from ..core.frame import GRID_COLUMNS, N_REGIONS, REGION_HEIGHT, REGION_WIDTH
+from ..core.frame import N_REGIONS, region_bounds
 from .features import frame_inputs
 
 MEMORY_KINDS = ("none", "last_bend", "previous_command", "fresh_felt")
@@ -234,14 +234,19 @@ def region_floor_points() -> np.ndarray:
     of the 40 regions see with the paper preset's camera (0.31 m high, pitched 30° down)."""
     from ..render.camera import CameraModel  # the camera's geometry, not its renderer
 
-    rows, cols = np.divmod(np.arange(N_REGIONS), GRID_COLUMNS)
-    # A pixel's index is its centre (the image's centre column is 319.5).
-    centres = np.column_stack(
-        [(cols + 0.5) * REGION_WIDTH - 0.5, (rows + 0.5) * REGION_HEIGHT - 0.5]
-    ).astype(np.float64)
+    # Pixel centres: a pixel's index is its centre, so a region spanning columns x0..x1-1 is
+    # centred on (x0 + x1 - 1) / 2 (the image's centre column is 319.5).
+    bounds = np.array([region_bounds(i) for i in range(N_REGIONS)], dtype=np.float64)
+    centres = (bounds[:, :2] + bounds[:, 2:] - 1.0) / 2.0
     points = CameraModel().floor_points(centres, np.zeros(3))
     points.flags.writeable = False
     return points
+
+
+def fresh_bearing_rad(inputs: np.ndarray) -> float:
+    """The bearing [rad] (left positive) that ``fresh_felt`` inputs (bearing, amount, distance)
+    encode in their first entry."""
+    return (2.0 * float(inputs[0]) - 1.0) * math.pi
 
 
 class FreshFeltMemory:
@@ -254,19 +259,25 @@ class FreshFeltMemory:
         self.config = config
         self._region_points = region_floor_points()
         angle = math.radians(config.pivot_deg)
-        # A pivot turns the rover by +-angle: the map turns the other way.
-        self._turn = {
-            int(Command.LEFT): _rotation(-angle),
-            int(Command.RIGHT): _rotation(angle),
-        }
+        self._cos, self._sin = math.cos(angle), math.sin(angle)
         self.reset()
 
     def reset(self) -> None:
         """Start of an episode: nothing seen, nowhere been."""
-        self._points: list[np.ndarray] = []  # per remembered frame, (40, 2) in the rover frame
-        self._felt: list[np.ndarray] = []  # per remembered frame, (40,) felt level in [0, 1]
+        self._points = np.zeros((0, 2))  # the remembered frames' floor points, oldest first
+        self._felt = np.zeros(0)  # their felt levels in [0, 1]
         self._path = np.zeros((0, 2))  # places the rover has been, before the current one
         self._inputs = np.array([0.5, 0.0, 0.0])
+
+    def _moved(self, points: np.ndarray, command: int) -> np.ndarray:
+        """``points`` (N, 2) in the rover frame after it executed ``command`` (element by
+        element, so the same bits on every processor)."""
+        if command == Command.FORWARD:
+            return points - np.array([self.config.step_m, 0.0])
+        # A pivot turns the rover by +-angle: the map turns the other way.
+        sin = -self._sin if command == Command.LEFT else self._sin
+        x, y = points[:, 0], points[:, 1]
+        return np.column_stack([self._cos * x - sin * y, sin * x + self._cos * y])
 
     def note(self, command: Command | int) -> None:
         """The rover executed ``command``: move the map by its nominal motion."""
@@ -274,26 +285,20 @@ class FreshFeltMemory:
         if cmd not in (0, 1, 2):
             raise ValueError(f"command must be 0, 1 or 2, got {command!r}")
         path = np.vstack([self._path, np.zeros((1, 2))])[-_PATH_COMMANDS:]
-        if cmd == Command.FORWARD:
-            shift = np.array([self.config.step_m, 0.0])
-            self._points = [p - shift for p in self._points]
-            self._path = path - shift
-        else:
-            rot = self._turn[cmd]
-            self._points = [p @ rot.T for p in self._points]
-            self._path = path @ rot.T
+        self._points = self._moved(self._points, cmd)
+        self._path = self._moved(path, cmd)
 
     def see(self, values: np.ndarray) -> None:
         """Add a frame's road values (40,) to the map and compute the inputs."""
         cfg = self.config
         v = np.asarray(values, dtype=np.float64).reshape(N_REGIONS)
         felt = np.clip((v - cfg.carpet) / (cfg.felt - cfg.carpet), 0.0, 1.0)
-        self._points = [*self._points, self._region_points.copy()][-cfg.frames :]
-        self._felt = [*self._felt, felt][-cfg.frames :]
-        points = np.concatenate(self._points)
-        weights = np.concatenate(self._felt)
+        keep = cfg.frames * N_REGIONS
+        self._points = np.vstack([self._points, self._region_points])[-keep:]
+        self._felt = np.concatenate([self._felt, felt])[-keep:]
+        points = self._points
         dist = np.hypot(points[:, 0], points[:, 1])
-        weights = weights * ((dist < cfg.reach_m) & (points[:, 0] > -_BEHIND_M))
+        weights = self._felt * ((dist < cfg.reach_m) & (points[:, 0] > -_BEHIND_M))
         if len(self._path):
             gap = points[:, None, :] - self._path[None, :, :]
             visited = (np.einsum("ijk,ijk->ij", gap, gap) <= cfg.path_radius_m**2).any(axis=1)
@@ -302,24 +307,20 @@ class FreshFeltMemory:
         if mass < _MIN_FRESH:
             self._inputs = np.array([0.5, 0.0, 0.0])
             return
-        centre = weights @ points / mass
-        bearing = math.atan2(centre[1], centre[0])
+        centre_x = float((weights * points[:, 0]).sum()) / mass
+        centre_y = float((weights * points[:, 1]).sum()) / mass
+        bearing = math.atan2(centre_y, centre_x)
         self._inputs = np.array(
             [
                 0.5 * (1.0 + bearing / math.pi),
                 min(1.0, mass / _FULL_FRESH),
-                min(1.0, float(np.hypot(*centre)) / cfg.reach_m),
+                min(1.0, math.hypot(centre_x, centre_y) / cfg.reach_m),
             ]
         )
 
     def inputs(self) -> np.ndarray:
         """The memory inputs now, (3,) float64: bearing, amount, distance, each in [0, 1]."""
         return self._inputs.copy()
-
-
-def _rotation(angle: float) -> np.ndarray:
-    c, s = math.cos(angle), math.sin(angle)
-    return np.array([[c, -s], [s, c]])
 
 
 def policy_inputs(config: MemoryConfig | None, features: str = "road_values") -> int:

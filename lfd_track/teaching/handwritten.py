@@ -37,7 +37,7 @@ import numpy as np
 
 from ..core.commands import Command
 from ..core.frame import GRID_COLUMNS, GRID_ROWS, N_REGIONS
-from ..policy.memory import UNKNOWN_SIDE, MemoryConfig
+from ..policy.memory import UNKNOWN_SIDE, MemoryConfig, fresh_bearing_rad
 
 _COLUMN_X = np.arange(GRID_COLUMNS, dtype=np.float64) - (GRID_COLUMNS - 1) / 2.0
 
@@ -170,11 +170,10 @@ class FreshFeltRule:
 
     def act(self, memory: np.ndarray) -> Command:
         """The command for the ``fresh_felt`` inputs (3,): bearing, amount, distance."""
-        bearing01, amount = float(memory[0]), float(memory[1])
-        if amount <= 0.0:
+        if float(memory[1]) <= 0.0:  # no fresh felt
             self.blank_frames += 1
             return self.side
-        bearing = (2.0 * bearing01 - 1.0) * math.pi
+        bearing = fresh_bearing_rad(memory)
         if bearing != 0.0:
             self.side = Command.LEFT if bearing > 0 else Command.RIGHT
         limit = math.radians(self.config.turn_deg)

@@ -14,6 +14,7 @@ from lfd_track.policy.controller import Controller
 from lfd_track.policy.memory import (
     FreshFeltMemory,
     MemoryConfig,
+    fresh_bearing_rad,
     memory_for,
     policy_inputs,
     region_floor_points,
@@ -35,7 +36,7 @@ def _values(columns: set[int], rows: set[int] | None = None) -> np.ndarray:
 
 
 def _bearing_deg(inputs: np.ndarray) -> float:
-    return math.degrees((2.0 * inputs[0] - 1.0) * math.pi)
+    return math.degrees(fresh_bearing_rad(inputs))
 
 
 def test_region_points_lie_ahead_and_mirror_about_the_axis():
