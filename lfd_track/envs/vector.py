@@ -1,0 +1,194 @@
+"""Many ``LfDTrack-v0`` worlds stepped at once in one process, on a pool of threads.
+
+Almost all of a step's time is spent inside OpenCV (the texture warp, the camera's image
+pipeline) and pymunk, both of which release Python's global interpreter lock, so the worlds of one
+process can render side by side on several cores. Unlike Gymnasium's ``AsyncVectorEnv`` nothing
+is pickled or copied between processes: each frame is written once, by the thread that rendered
+it, into the batch that ``step`` returns.
+
+``gym.make_vec("LfDTrack-v0", num_envs=N)`` makes one (the spec's ``vector_entry_point``, which
+``make_vec`` uses when no ``vectorization_mode`` is given; ``threads=`` sets the pool's size,
+default ``min(N, os.cpu_count())``); Gymnasium's own ``"sync"`` and ``"async"`` modes still
+work. The semantics are ``SyncVectorEnv``'s, autoreset modes
+included, and the results are the same as its results, env by env and step by step: each world
+is stepped by one thread at a time and draws only from its own random generators.
+
+OpenCV may also split one call over its own threads; for the pool to use the cores, set
+``cv2.setNumThreads(1)`` (``benchmarks/speed/bench_vector.py`` does).
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from copy import deepcopy
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium.vector import AutoresetMode, SyncVectorEnv
+from gymnasium.vector.utils import iterate
+
+_Result = tuple[np.ndarray, float, bool, bool, dict[str, Any], dict[str, Any] | None]
+
+
+class ThreadedVectorEnv(SyncVectorEnv):
+    """``SyncVectorEnv`` whose ``step`` and ``reset`` run the sub-envs on a thread pool.
+
+    ``threads`` is the pool's size (default ``min(len(env_fns), os.cpu_count())``); 1 steps the
+    worlds one after the other, exactly like ``SyncVectorEnv``. The other arguments are
+    ``SyncVectorEnv``'s.
+    """
+
+    def __init__(
+        self,
+        env_fns: Sequence[Callable[[], gym.Env]],
+        threads: int | None = None,
+        copy: bool = True,
+        observation_mode: str = "same",
+        autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
+    ) -> None:
+        if threads is None:
+            threads = min(len(env_fns), os.cpu_count() or 1)
+        if isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1:
+            raise ValueError(f"threads must be a positive integer or None, got {threads!r}")
+        super().__init__(
+            env_fns, copy=copy, observation_mode=observation_mode, autoreset_mode=autoreset_mode
+        )
+        if not isinstance(self._observations, np.ndarray):
+            raise TypeError("ThreadedVectorEnv needs a Box observation space (one batched array)")
+        self.threads = int(threads)
+        self._pool = ThreadPoolExecutor(max_workers=self.threads, thread_name_prefix="lfd-env")
+
+    # ------------------------------------------------------------------------------------
+    def _step_one(self, i: int, action: Any) -> _Result:
+        """Step (or autoreset) sub-env ``i``; its frame goes straight into the batch."""
+        env = self.envs[i]
+        final = None
+        if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._autoreset_envs[i]:
+            obs, info = env.reset()
+            reward, terminated, truncated = 0.0, False, False
+        else:
+            if self.autoreset_mode == AutoresetMode.DISABLED:
+                assert not self._autoreset_envs[i], f"{self._autoreset_envs=}"
+            obs, reward, terminated, truncated, info = env.step(action)
+            if self.autoreset_mode == AutoresetMode.SAME_STEP and (terminated or truncated):
+                final = {"final_obs": obs, "final_info": info}
+                obs, info = env.reset()
+        self._observations[i] = obs
+        return obs, reward, terminated, truncated, info, final
+
+    def step(
+        self, actions: Any
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+        """Step every sub-env (in parallel); the batch as ``SyncVectorEnv.step`` returns it."""
+        if self.autoreset_mode not in (
+            AutoresetMode.NEXT_STEP,
+            AutoresetMode.DISABLED,
+            AutoresetMode.SAME_STEP,
+        ):
+            raise ValueError(f"Unexpected autoreset mode, {self.autoreset_mode}")
+        per_env = list(iterate(self.action_space, actions))
+        if len(per_env) != self.num_envs:
+            raise ValueError(f"expected {self.num_envs} actions, got {len(per_env)}")
+        results = list(self._pool.map(self._step_one, range(self.num_envs), per_env))
+        infos: dict[str, Any] = {}
+        for i, (obs, reward, terminated, truncated, info, final) in enumerate(results):
+            self._env_obs[i] = obs
+            self._rewards[i] = reward
+            self._terminations[i] = terminated
+            self._truncations[i] = truncated
+            if final is not None:
+                infos = self._add_info(infos, final, i)
+            infos = self._add_info(infos, info, i)
+        self._autoreset_envs = np.logical_or(self._terminations, self._truncations)
+        return (
+            deepcopy(self._observations) if self.copy else self._observations,
+            np.copy(self._rewards),
+            np.copy(self._terminations),
+            np.copy(self._truncations),
+            infos,
+        )
+
+    def reset(
+        self,
+        *,
+        seed: int | list[int | None] | None = None,
+        options: dict[str, Any] | None = None,
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        """Reset the sub-envs (in parallel); seeds and ``reset_mask`` as ``SyncVectorEnv``."""
+        if options is not None and "reset_mask" in options:
+            # A partial reset is rare (between episodes): the serial implementation does it.
+            return super().reset(seed=seed, options=options)
+        if seed is None:
+            seeds: list[int | None] = [None] * self.num_envs
+        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+            seeds = [int(seed) + i for i in range(self.num_envs)]
+        else:
+            seeds = list(seed)
+        if len(seeds) != self.num_envs:
+            raise ValueError(
+                "If seeds are passed as a list the length must match"
+                f" num_envs={self.num_envs} but got length={len(seeds)}."
+            )
+
+        def reset_one(i: int) -> dict[str, Any]:
+            obs, info = self.envs[i].reset(seed=seeds[i], options=options)
+            self._env_obs[i] = obs
+            self._observations[i] = obs
+            return info
+
+        results = list(self._pool.map(reset_one, range(self.num_envs)))
+        infos: dict[str, Any] = {}
+        for i, info in enumerate(results):
+            infos = self._add_info(infos, info, i)
+        self._terminations = np.zeros((self.num_envs,), dtype=np.bool_)
+        self._truncations = np.zeros((self.num_envs,), dtype=np.bool_)
+        self._autoreset_envs = np.zeros((self.num_envs,), dtype=np.bool_)
+        return deepcopy(self._observations) if self.copy else self._observations, infos
+
+    def close_extras(self, **kwargs: Any) -> None:
+        """Stop the thread pool, then close the sub-envs."""
+        pool = getattr(self, "_pool", None)
+        if pool is not None:
+            pool.shutdown(wait=True)
+        super().close_extras(**kwargs)
+
+
+def make_vector_env(
+    num_envs: int,
+    *,
+    threads: int | None = None,
+    copy: bool = True,
+    autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
+    wrappers: Sequence[Callable[[gym.Env], gym.Wrapper]] | None = None,
+    render_mode: str | None = None,
+    **env_kwargs: Any,
+) -> ThreadedVectorEnv:
+    """``LfDTrack-v0``'s vector entry point: ``num_envs`` envs made with ``env_kwargs``.
+
+    Called by ``gym.make_vec("LfDTrack-v0", num_envs=N, **kwargs)``: ``threads``, ``copy`` and
+    ``autoreset_mode`` are the vector env's, everything else goes to every
+    ``gym.make("LfDTrack-v0", ...)``. ``wrappers`` (when called directly; ``make_vec`` refuses
+    wrappers for a vector entry point) wrap each sub-env.
+    """
+    if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
+        raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
+    if render_mode not in (None, "rgb_array"):
+        raise ValueError(
+            f"a vector of LfDTrack envs renders only 'rgb_array' or None, got {render_mode!r}"
+        )
+    env_kwargs.pop("max_episode_steps", None)  # the env sets its own budget (its spec says it)
+
+    def make_one() -> gym.Env:
+        env = gym.make("LfDTrack-v0", render_mode=render_mode, **env_kwargs)
+        for wrap in wrappers or ():
+            env = wrap(env)
+        return env
+
+    vec = ThreadedVectorEnv(
+        [make_one] * int(num_envs), threads=threads, copy=copy, autoreset_mode=autoreset_mode
+    )
+    vec.metadata = {**vec.metadata, "autoreset_mode": vec.autoreset_mode}
+    return vec

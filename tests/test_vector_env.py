@@ -1,0 +1,106 @@
+"""The threaded vector env: make_vec's default, with SyncVectorEnv's results step for step."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.vector import AutoresetMode, SyncVectorEnv
+
+import lfd_track  # noqa: F401  (registers LfDTrack-v0)
+from lfd_track.envs.vector import ThreadedVectorEnv, make_vector_env
+
+# A short budget so that episodes end (truncated) and restart inside the vector env.
+KWARGS = {"track": "training", "max_steps": 4}
+
+
+def _roll(vec, actions):
+    """Everything a vector env returns over ``actions``, frames as copies."""
+    out = [vec.reset(seed=[5, 9, 11])]
+    for a in actions:
+        obs, rewards, terminated, truncated, infos = vec.step(a)
+        out.append((obs.copy(), rewards, terminated, truncated, infos))
+    return out
+
+
+def _same(a, b):
+    """Equal batches: arrays exactly (frames, rewards, flags), dicts key by key."""
+    if isinstance(a, dict):
+        assert sorted(a) == sorted(b)
+        for key in a:
+            _same(a[key], b[key])
+    elif isinstance(a, (tuple, list)):
+        assert len(a) == len(b)
+        for x, y in zip(a, b, strict=True):
+            _same(x, y)
+    elif isinstance(a, np.ndarray) and a.dtype == object:
+        assert a.shape == b.shape
+        for x, y in zip(a.ravel(), b.ravel(), strict=True):
+            _same(x, y)
+    elif isinstance(a, np.ndarray):
+        np.testing.assert_array_equal(a, b)
+    else:
+        assert a == b
+
+
+@pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
+def test_threaded_equals_sync_step_for_step(mode):
+    actions = np.random.default_rng(0).integers(3, size=(11, 3))
+    fns = [lambda: gym.make("LfDTrack-v0", **KWARGS)] * 3
+    sync = SyncVectorEnv(fns, autoreset_mode=mode)
+    threaded = ThreadedVectorEnv(fns, threads=2, autoreset_mode=mode)
+    try:
+        expected, got = _roll(sync, actions), _roll(threaded, actions)
+    finally:
+        sync.close()
+        threaded.close()
+    _same(got, expected)
+    # The rollout crossed episode ends, so autoreset was exercised.
+    assert any(step[3].any() for step in got[1:])
+
+
+def test_make_vec_defaults_to_the_threaded_env():
+    vec = gym.make_vec("LfDTrack-v0", num_envs=2, threads=2, **KWARGS)
+    try:
+        assert isinstance(vec, ThreadedVectorEnv) and vec.threads == 2
+        obs, infos = vec.reset(seed=3)
+        assert obs.shape == (2, 480, 640, 3) and obs.dtype == np.uint8
+        assert not np.array_equal(obs[0], obs[1])  # seeds 3 and 4: two worlds
+        assert infos["max_steps"].tolist() == [4, 4]
+        obs2, rewards, terminated, truncated, _ = vec.step(np.array([0, 2]))
+        assert rewards.shape == (2,) and not np.shares_memory(obs, obs2)
+    finally:
+        vec.close()
+    assert vec.closed and vec._pool._shutdown
+
+
+def test_copy_false_returns_the_batch_buffer_and_reset_mask_resets_one_env():
+    vec = make_vector_env(2, copy=False, **KWARGS)
+    try:
+        obs, _ = vec.reset(seed=1)
+        first = obs[0].copy()
+        obs_step, *_ = vec.step(np.array([0, 0]))
+        assert obs_step is obs  # the vector env's own buffer, rewritten in place
+        obs_reset, infos = vec.reset(
+            seed=[1, None], options={"reset_mask": np.array([True, False])}
+        )
+        np.testing.assert_array_equal(obs_reset[0], first)  # seed 1 again: the same first frame
+        assert infos["_step"].tolist() == [True, False]
+    finally:
+        vec.close()
+
+
+def test_bad_arguments_are_refused_in_one_line():
+    with pytest.raises(ValueError, match="threads must be a positive integer"):
+        ThreadedVectorEnv([lambda: gym.make("LfDTrack-v0")], threads=0)
+    with pytest.raises(ValueError, match="num_envs must be a positive integer"):
+        make_vector_env(0)
+    with pytest.raises(ValueError, match="renders only 'rgb_array' or None"):
+        make_vector_env(2, render_mode="human")
+    vec = make_vector_env(2, **KWARGS)
+    try:
+        vec.reset(seed=0)
+        with pytest.raises(ValueError, match="If seeds are passed as a list"):
+            vec.reset(seed=[1, 2, 3])
+    finally:
+        vec.close()
