@@ -143,6 +143,10 @@ class BenchmarkConfig:
         check_int("trials_per_direction", self.trials_per_direction, 1, MAX_TRIALS_PER_DIRECTION)
         check_int("seed", self.seed, 0, MAX_SEED)
         check_features(self.features)
+        if self.human.steers_by == "picture" and self.memory.kind != "fresh_felt":
+            raise ValueError(
+                "human steers_by 'picture' reads the fresh_felt map: set memory kind 'fresh_felt'"
+            )
         if self.method == "dagger" and self.features != DEFAULT_FEATURES:
             raise ValueError(f"method dagger reads the road values only, not {self.features}")
 
@@ -457,6 +461,9 @@ def run_benchmark(
 def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
     """JSON-friendly form of a benchmark config (stored in results.json)."""
     data = dataclasses.asdict(config)
+    # A human steering by the centreline stores what it stored before "picture" existed.
+    if config.human.steers_by == "centreline":
+        del data["human"]["steers_by"], data["human"]["picture_turn_deg"]
     data["online"] = config.online.to_dict()
     data["hg_dagger"] = config.hg_dagger.to_dict()
     data["bc"] = config.bc.to_dict()

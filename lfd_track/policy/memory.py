@@ -36,6 +36,8 @@ such runs, and reading the training accuracy with that baseline in mind, are the
   (the strip it came along); what is left within ``reach_m`` ahead of its axle is *fresh*. At a
   sharp corner the next strip leaves the picture before the rover can turn, but the stub of it
   seen on the way in stays on the map, on the side it went, and the strip behind never counts.
+  While no fresh felt is left the bearing input is 0.5, or with ``blank_bearing = "last"`` the
+  bearing the fresh felt last had (which way it went: the side to pivot to at a blank corner).
   The map knows nothing the robot could not: its own commands and what its camera saw.
 
 The input is computed from *executed* commands, whoever gave them (the human demonstrating or
@@ -62,6 +64,8 @@ MEMORY_KINDS = ("none", "last_bend", "previous_command", "fresh_felt")
 #: ``fresh_felt`` settings, written to a controller file only with that kind (so the files of the
 #: other kinds are as they were before it existed).
 _MAP_FIELDS = ("frames", "path_radius_m", "reach_m", "carpet", "felt", "step_m", "pivot_deg")
+#: What the ``fresh_felt`` bearing input says while no fresh felt is left (``blank_bearing``).
+BLANK_BEARINGS = ("centre", "last")
 #: Value of the ``last_bend`` input before the first bend of an episode.
 UNKNOWN_SIDE = 0.5
 
@@ -91,12 +95,19 @@ class MemoryConfig(DictConfig):
     """[m] ``fresh_felt``: the rover's nominal advance per forward command (paper preset)."""
     pivot_deg: float = 22.9
     """[deg] ``fresh_felt``: the rover's nominal turn per pivot command (paper preset)."""
+    blank_bearing: str = "centre"
+    """``fresh_felt``: the bearing input while no fresh felt is left: ``"centre"`` (0.5, as
+    when nothing was ever seen) or ``"last"`` (the bearing the fresh felt last had, so the policy
+    still knows which side it went; amount and distance stay 0). Written to a controller file
+    only when it is ``"last"``."""
 
     def to_dict(self) -> dict[str, Any]:
         data = super().to_dict()
         if self.kind != "fresh_felt":
             for name in _MAP_FIELDS:
                 del data[name]
+        if self.kind != "fresh_felt" or self.blank_bearing == "centre":
+            del data["blank_bearing"]
         return data
 
     def __post_init__(self) -> None:
@@ -116,6 +127,11 @@ class MemoryConfig(DictConfig):
                 raise ValueError(f"memory {name} must be a number, got {value!r}")
             if not math.isfinite(value) or value < 0:
                 raise ValueError(f"memory {name} must be a finite number >= 0, got {value!r}")
+        if self.blank_bearing not in BLANK_BEARINGS:
+            raise ValueError(
+                f"memory blank_bearing must be one of {', '.join(BLANK_BEARINGS)},"
+                f" got {self.blank_bearing!r}"
+            )
         if not self.carpet < self.felt <= 1.0:
             raise ValueError("memory needs carpet < felt <= 1")
         if self.reach_m <= 0:
@@ -305,7 +321,8 @@ class FreshFeltMemory:
             weights = weights * ~visited
         mass = float(weights.sum())
         if mass < _MIN_FRESH:
-            self._inputs = np.array([0.5, 0.0, 0.0])
+            last = self._inputs[0] if cfg.blank_bearing == "last" else 0.5
+            self._inputs = np.array([last, 0.0, 0.0])
             return
         centre_x = float((weights * points[:, 0]).sum()) / mass
         centre_y = float((weights * points[:, 1]).sum()) / mass

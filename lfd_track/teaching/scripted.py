@@ -22,9 +22,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.commands import Command
+from ..core.frame import N_REGIONS
 from ..world.driver import CentrelineDriver, DriverConfig
 from ..world.rover import RoverConfig
 from ..world.track import ProgressTracker, Track
+from .handwritten import FreshFeltRule, FreshFeltRuleConfig
 from .types import Moment
 
 PHASE_LIBRARY_ONLY = "library_only"
@@ -38,6 +40,9 @@ TURNAROUND_RULES = (
     "toward_last_bend",
     "toward_next_bend",
 )
+
+#: What the scripted human steers by while driving a leg (``HumanConfig.steers_by``).
+STEERING = ("centreline", "picture")
 
 
 @dataclass(frozen=True)
@@ -63,6 +68,14 @@ class HumanConfig:
     turnarounds: str = "alternate"
     careful: bool = True  # pause library learning while the safe box is off the felt
     max_commands: int = 1000  # give up (error) after this many commands
+    # What the human steers by while driving a leg: "centreline" (the privileged pure pursuit
+    # above) or "picture" (what the phone shows, as a person at the browser station sees it:
+    # the fresh-felt rule, lfd_track.teaching.handwritten.FreshFeltRule, on the policy's
+    # fresh_felt map inputs, pivoting beyond picture_turn_deg; needs memory kind fresh_felt).
+    # The human traits (reaction delay, lapses, rate limit), the library-only start, the stops
+    # and turn-arounds and the rule for intervening are the same for both.
+    steers_by: str = "centreline"
+    picture_turn_deg: float = 20.0  # [deg] "picture": the rule's turn threshold
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.dead_band_deg < 90.0:
@@ -77,6 +90,10 @@ class HumanConfig:
             raise ValueError(f"turnarounds must be one of {', '.join(TURNAROUND_RULES)}")
         if self.legs < 1 or self.library_only_commands < 0:
             raise ValueError("legs must be >= 1 and library_only_commands >= 0")
+        if self.steers_by not in STEERING:
+            raise ValueError(f"steers_by must be one of {', '.join(STEERING)}")
+        if not (math.isfinite(self.picture_turn_deg) and 0.0 <= self.picture_turn_deg < 180.0):
+            raise ValueError("picture_turn_deg must lie in [0, 180)")
 
     @property
     def driver(self) -> DriverConfig:
@@ -132,9 +149,17 @@ class ScriptedHuman:
         self._pending: Command | None = None
         self.previous = Command.FORWARD
 
-    def decide(self, driver: CentrelineDriver, pose: np.ndarray, progress_m: float) -> Command:
-        """The command for this frame while driving along a leg."""
-        intended = driver.act(pose, progress_m)
+    def decide(
+        self,
+        driver: CentrelineDriver,
+        pose: np.ndarray,
+        progress_m: float,
+        intended: Command | None = None,
+    ) -> Command:
+        """The command for this frame while driving along a leg: ``intended`` (what the human
+        makes of the picture) or the centreline driver's, through the human traits."""
+        if intended is None:
+            intended = driver.act(pose, progress_m)
         cfg = self.config
         command = intended
         if self._pending is not None and self.rng.random() < cfg.reaction_delay_prob:
@@ -252,6 +277,11 @@ class ProtocolHuman:
         self._direction = self._next_turn
         self._step = 0
         self._advanced_for: dict | None = None
+        self._picture = (
+            FreshFeltRule(FreshFeltRuleConfig(turn_deg=config.picture_turn_deg))
+            if config.steers_by == "picture"
+            else None
+        )
 
     @property
     def records(self) -> bool:
@@ -313,6 +343,8 @@ class ProtocolHuman:
         watching = moment.driving == "policy" and self.watcher is not None
         if self._state == "drive":
             self.phase = PHASE_DRIVE if self._past_library_only else PHASE_LIBRARY_ONLY
+            # What the human makes of the picture: every frame, driving or watching.
+            seen = self._look(moment)
             if watching:
                 self._watched.append(self.progress_m)
                 why = self.watcher.reason(
@@ -326,11 +358,11 @@ class ProtocolHuman:
                     why = "stall"
                 if why is None:
                     if self.label_all:
-                        self.label = self.person.decide(self._driver, pose, self.progress_m)
+                        self.label = self.person.decide(self._driver, pose, self.progress_m, seen)
                     return None
                 self.interventions[why] += 1
             self._watched.clear()
-            self.label = self.person.decide(self._driver, pose, self.progress_m)
+            self.label = self.person.decide(self._driver, pose, self.progress_m, seen)
             return self.label
         self._turns += 1
         self.phase = PHASE_TURNAROUND
@@ -338,6 +370,19 @@ class ProtocolHuman:
             self.interventions["turn"] += 1
         self.label = self.person.turn(self._direction)
         return self.label
+
+    def _look(self, moment: Moment) -> Command | None:
+        """With ``steers_by = "picture"`` and the library built, the command the picture's map
+        calls for; None: steer by the centreline."""
+        if self._picture is None or not self._past_library_only:
+            return None
+        inputs = moment.inputs
+        if inputs is None or len(inputs) < N_REGIONS + 3:
+            raise ValueError(
+                "human steers_by 'picture' reads the fresh_felt map: the policy needs memory"
+                " kind 'fresh_felt'"
+            )
+        return self._picture.act(np.asarray(inputs[-3:], dtype=np.float64))
 
     def _start_turnaround(self, pose: np.ndarray) -> None:
         # Turn round towards the next leg, alternating the direction at every arrival.
