@@ -177,3 +177,28 @@ def test_a_controller_with_this_memory_saves_loads_and_drives_the_same(tmp_path)
     assert loaded.memory == FRESH
     x = np.hstack([np.random.default_rng(2).random((20, N_REGIONS)), np.full((20, 3), 0.5)])
     assert [loaded.act_on_values(v) for v in x] == [controller.act_on_values(v) for v in x]
+
+
+def test_blank_bearing_last_keeps_the_side_of_the_last_fresh_felt():
+    last = FreshFeltMemory(MemoryConfig(kind="fresh_felt", blank_bearing="last"))
+    centre = FreshFeltMemory(FRESH)
+    for memory in (last, centre):
+        memory.see(_values({7}, rows={4}))  # felt just ahead, on the right
+        for _ in range(4):  # drive past it: nothing fresh is left
+            memory.note(F)
+        memory.see(_values(set()))
+        memory.see(_values(set()))
+    assert last.inputs()[0] < 0.5 and last.inputs()[1:].tolist() == [0.0, 0.0]
+    np.testing.assert_array_equal(centre.inputs(), [0.5, 0.0, 0.0])
+    last.reset()
+    last.see(_values(set()))
+    np.testing.assert_array_equal(last.inputs(), [0.5, 0.0, 0.0])  # nothing seen yet: centre
+
+
+def test_blank_bearing_is_checked_and_written_only_when_last():
+    with pytest.raises(ValueError, match="memory blank_bearing must be one of centre, last"):
+        MemoryConfig(kind="fresh_felt", blank_bearing="left")
+    assert "blank_bearing" not in FRESH.to_dict()  # fresh_felt files as before the option
+    last = MemoryConfig(kind="fresh_felt", blank_bearing="last")
+    assert last.to_dict()["blank_bearing"] == "last"
+    assert MemoryConfig.from_dict(last.to_dict()) == last

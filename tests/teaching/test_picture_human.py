@@ -1,0 +1,98 @@
+"""The scripted human who steers by the phone's picture (``HumanConfig.steers_by = "picture"``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from lfd_track.benchmark.runner import BenchmarkConfig, config_dict
+from lfd_track.core.commands import Command
+from lfd_track.dataset import load_demonstration
+from lfd_track.demo.demonstrator import protocol_human, run_demonstration
+from lfd_track.policy.memory import MemoryConfig
+from lfd_track.teaching.handwritten import FreshFeltRule, FreshFeltRuleConfig
+from lfd_track.teaching.scripted import HumanConfig
+from lfd_track.teaching.types import Moment
+
+FRESH = MemoryConfig(kind="fresh_felt")
+NOISE_FREE = {"reaction_delay_prob": 0.0, "lapse_prob": 0.0}
+
+
+def _turnaround_cases(commands: np.ndarray, run: int = 5) -> set[int]:
+    """Cases of the turn-arounds: runs of at least ``run`` equal pivots, and the case after each
+    (where the rate limit may put a forward between the turn-around and the rule's pivot)."""
+    out: set[int] = set()
+    start = 0
+    for i in range(1, len(commands) + 1):
+        if i == len(commands) or commands[i] != commands[start]:
+            if commands[start] != Command.FORWARD and i - start >= run:
+                out.update(range(start, min(i + 1, len(commands))))
+            start = i
+    return out
+
+
+def _agreement(tmp_path, steers_by: str) -> float:
+    """Share of a noise-free demonstration's driving cases with fresh felt on the map where the
+    human's command is the fresh-felt rule's."""
+    human = HumanConfig(steers_by=steers_by, **NOISE_FREE)
+    out = tmp_path / f"{steers_by}.lfdemo"
+    run_demonstration(out, seed=4, human=human, memory=FRESH, fsync=False)
+    demo = load_demonstration(out)
+    rule = FreshFeltRule(FreshFeltRuleConfig(turn_deg=human.picture_turn_deg))
+    turning = _turnaround_cases(demo.commands)
+    agree = total = 0
+    for i, (command, memory) in enumerate(zip(demo.commands, demo.memory, strict=True)):
+        wanted = rule.act(memory)
+        if memory[1] <= 0.0 or i in turning:
+            continue
+        total += 1
+        agree += int(command == wanted)
+    assert total > 100
+    return agree / total
+
+
+def test_the_picture_human_drives_by_the_map_rule_and_the_centreline_human_does_not(tmp_path):
+    # A noise-free human who steers by the picture gives the rule's command on its driving cases
+    # (the rate limit could still put a forward between a left and a right); the one who steers
+    # by the centreline agrees far less (57-59 % of all driving cases in the goal study's label_agreement.py, 83 % of
+    # those with fresh felt on the map here).
+    picture = _agreement(tmp_path, "picture")
+    centreline = _agreement(tmp_path, "centreline")
+    assert picture >= 0.97, picture
+    assert centreline < 0.92, centreline  # 0.83 for this seed
+
+
+def test_the_picture_human_needs_the_map_inputs():
+    person = protocol_human(
+        "training",
+        HumanConfig(steers_by="picture", library_only_commands=0),
+        np.random.default_rng(0),
+    )
+    info = {"pose": (0.3, 0.0, 0.0)}
+    moment = Moment(
+        step=0, frame=np.zeros((1, 1, 3), np.uint8), values=np.zeros(40), info=info, driving="human"
+    )
+    with pytest.raises(ValueError, match="needs memory kind 'fresh_felt'"):
+        person.propose(moment)
+    moment = Moment(
+        step=0,
+        frame=moment.frame,
+        values=np.zeros(40),
+        info=info,
+        driving="human",
+        inputs=np.concatenate([np.zeros(40), [0.5 + 40 / 360, 0.5, 0.5]]),
+    )
+    assert person.propose(moment) == Command.LEFT  # fresh felt 40 degrees to the left
+
+
+def test_settings_are_checked_and_stored_only_when_used():
+    for bad in ({"steers_by": "pixels"}, {"picture_turn_deg": 180.0}, {"picture_turn_deg": -1.0}):
+        with pytest.raises(ValueError, match="steers_by|picture_turn_deg"):
+            HumanConfig(**bad)
+    with pytest.raises(ValueError, match="set memory kind 'fresh_felt'"):
+        BenchmarkConfig(human=HumanConfig(steers_by="picture"))
+    plain = config_dict(BenchmarkConfig())
+    assert "steers_by" not in plain["human"] and "picture_turn_deg" not in plain["human"]
+    picture = config_dict(BenchmarkConfig(human=HumanConfig(steers_by="picture"), memory=FRESH))
+    assert picture["human"]["steers_by"] == "picture"
+    assert picture["human"]["picture_turn_deg"] == 20.0
