@@ -464,6 +464,8 @@ def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
     # A human steering by the centreline stores what it stored before "picture" existed.
     if config.human.steers_by == "centreline":
         del data["human"]["steers_by"], data["human"]["picture_turn_deg"]
+    if not config.human.clear_memory_per_leg:
+        del data["human"]["clear_memory_per_leg"]
     data["online"] = config.online.to_dict()
     data["hg_dagger"] = config.hg_dagger.to_dict()
     data["bc"] = config.bc.to_dict()

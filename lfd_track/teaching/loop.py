@@ -127,6 +127,9 @@ class TeachingLoop:
             claim = getattr(self.human, "claim", None)
             if claim is not None and not claim():
                 return self._waiting()
+        reset = getattr(self.human, "memory_reset", None)
+        if reset is not None and reset():  # the human's script starts a leg afresh
+            self.perception.start_episode()
         percept = self.perception.perceive(self.frame, self.info.get("safe_box_on_felt"))
         moment = Moment(
             step=self._episode_steps,

@@ -76,6 +76,10 @@ class HumanConfig:
     # and turn-arounds and the rule for intervening are the same for both.
     steers_by: str = "centreline"
     picture_turn_deg: float = 20.0  # [deg] "picture": the rule's turn threshold
+    # Start the policy's memory afresh at each leg after a turn-around, as at an episode's start
+    # (for the fresh_felt map: the strip ahead is the one just driven, which would not count as
+    # fresh, and a picture-steering human would pivot round looking for fresh felt).
+    clear_memory_per_leg: bool = False
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.dead_band_deg < 90.0:
@@ -282,6 +286,7 @@ class ProtocolHuman:
             if config.steers_by == "picture"
             else None
         )
+        self._clear_memory = False
 
     @property
     def records(self) -> bool:
@@ -332,6 +337,7 @@ class ProtocolHuman:
             if self.leg >= self.config.legs:
                 self.done = True
                 return
+            self._clear_memory = self.config.clear_memory_per_leg
 
     def propose(self, moment: Moment) -> Command | None:
         self._step = moment.step
@@ -370,6 +376,12 @@ class ProtocolHuman:
             self.interventions["turn"] += 1
         self.label = self.person.turn(self._direction)
         return self.label
+
+    def memory_reset(self) -> bool:
+        """Whether the policy's memory starts afresh before the next frame: once, when a leg
+        begins after a turn-around, with ``clear_memory_per_leg``."""
+        clear, self._clear_memory = self._clear_memory, False
+        return clear
 
     def _look(self, moment: Moment) -> Command | None:
         """With ``steers_by = "picture"`` and the library built, the command the picture's map

@@ -92,7 +92,26 @@ def test_settings_are_checked_and_stored_only_when_used():
     with pytest.raises(ValueError, match="set memory kind 'fresh_felt'"):
         BenchmarkConfig(human=HumanConfig(steers_by="picture"))
     plain = config_dict(BenchmarkConfig())
-    assert "steers_by" not in plain["human"] and "picture_turn_deg" not in plain["human"]
+    assert not {"steers_by", "picture_turn_deg", "clear_memory_per_leg"} & set(plain["human"])
     picture = config_dict(BenchmarkConfig(human=HumanConfig(steers_by="picture"), memory=FRESH))
     assert picture["human"]["steers_by"] == "picture"
     assert picture["human"]["picture_turn_deg"] == 20.0
+    legs = config_dict(BenchmarkConfig(human=HumanConfig(clear_memory_per_leg=True)))
+    assert legs["human"]["clear_memory_per_leg"] is True
+
+
+def test_clearing_the_memory_per_leg_stops_the_spin_after_each_turn_around(tmp_path):
+    """After a turn-around the strip ahead is the one just driven, which the map does not count
+    as fresh: without clearing, the picture-steering human pivots round on the spot looking for
+    fresh felt; with ``clear_memory_per_leg`` each leg starts with an empty map and it drives."""
+    commands, blank_driving = {}, {}
+    for clear in (False, True):
+        human = HumanConfig(steers_by="picture", clear_memory_per_leg=clear)
+        out = tmp_path / f"{clear}.lfdemo"
+        summary = run_demonstration(out, seed=4, human=human, memory=FRESH, fsync=False)
+        demo = load_demonstration(out)
+        driving = demo.phases == "drive"
+        commands[clear] = summary.commands
+        blank_driving[clear] = int((demo.memory[driving, 1] <= 0.0).sum())
+    assert commands[True] < 220 < commands[False], commands  # 176 and 274 for this seed
+    assert blank_driving[True] < 5 < blank_driving[False], blank_driving
