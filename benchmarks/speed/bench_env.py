@@ -481,6 +481,18 @@ def instrument(env: gym.Env) -> dict[str, list[float]]:
     return inner
 
 
+def random_steps(env: gym.Env, seconds: float, rng: np.random.Generator) -> int:
+    """Steps of one env in ``seconds`` of random actions (resets when an episode ends, not
+    counted)."""
+    steps, t0 = 0, time.perf_counter()
+    while time.perf_counter() - t0 < seconds:
+        _, _, terminated, truncated, _ = env.step(int(rng.integers(3)))
+        steps += 1
+        if terminated or truncated:
+            env.reset()
+    return steps
+
+
 def vector_scaling(seconds: float, rounds: int, seed: int, **env_kwargs: Any) -> dict:
     """Steps/s of ``make_vec(num_envs=2, async)`` against one env, interleaved, random actions.
 
@@ -495,12 +507,8 @@ def vector_scaling(seconds: float, rounds: int, seed: int, **env_kwargs: Any) ->
     rng = np.random.default_rng(seed)
 
     def run_single() -> float:
-        steps, t0 = 0, time.perf_counter()
-        while time.perf_counter() - t0 < seconds:
-            _, _, terminated, truncated, _ = single.step(int(rng.integers(3)))
-            steps += 1
-            if terminated or truncated:
-                single.reset()
+        t0 = time.perf_counter()
+        steps = random_steps(single, seconds, rng)
         return steps / (time.perf_counter() - t0)
 
     def run_vec() -> float:

@@ -33,6 +33,7 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+from bench_env import random_steps
 from single_thread import load_average, machine, pin_one_thread, source_state
 
 import lfd_track  # noqa: F401  (registers LfDTrack-v0)
@@ -41,29 +42,18 @@ from lfd_track.utils.atomic import atomic_write_text
 RESULTS = Path(__file__).resolve().parent / "results" / "vector.json"
 
 
-def _step_for(env: gym.Env, seconds: float, rng: np.random.Generator) -> int:
-    """Steps of one env in ``seconds`` (resets when an episode ends, not counted)."""
-    steps, t0 = 0, time.perf_counter()
-    while time.perf_counter() - t0 < seconds:
-        _, _, terminated, truncated, _ = env.step(int(rng.integers(3)))
-        steps += 1
-        if terminated or truncated:
-            env.reset()
-    return steps
-
-
 def _process_worker(seed: int, seconds: float, go, conn) -> None:
     """One env in its own process: on each ``go`` it steps for ``seconds`` and reports."""
     pin_one_thread()
     env = gym.make("LfDTrack-v0")
     env.reset(seed=seed)
     rng = np.random.default_rng(seed)
-    _step_for(env, 0.3, rng)  # warm the caches
+    random_steps(env, 0.3, rng)  # warm the caches
     conn.send("ready")
     while conn.recv() == "run":
         go.wait()
         t0 = time.perf_counter()
-        steps = _step_for(env, seconds, rng)
+        steps = random_steps(env, seconds, rng)
         conn.send((steps, t0, time.perf_counter()))
     env.close()
 
@@ -136,7 +126,7 @@ def main(argv: list[str] | None = None) -> int:
         return steps / (time.perf_counter() - t0)
 
     workloads = {
-        "one_env": lambda: _step_for(single, args.seconds, rng) / args.seconds,
+        "one_env": lambda: random_steps(single, args.seconds, rng) / args.seconds,
         "two_processes": pair.run,
         **{name: (lambda v=vec: run_vec(v)) for name, vec in vectors.items()},
     }
