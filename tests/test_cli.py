@@ -174,6 +174,7 @@ def test_benchmark_is_identical_with_one_or_two_workers(tmp_path):
         (["drive", "MISSING.json"], "MISSING.json"),
         (["drive", "CONTROLLER", "--track", "moon"], "unknown track 'moon'"),
         (["benchmark", "--repetitions", "-3", "--out", "b"], "must be at least 1"),
+        (["benchmark", "--steers-by", "picture", "--out", "b"], "set memory kind 'fresh_felt'"),
         (["demo", "--track", "nowhere", "--out", "d.lfdemo"], "unknown track 'nowhere'"),
     ],
 )

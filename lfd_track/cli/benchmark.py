@@ -16,9 +16,9 @@ from ..benchmark.dagger import DAGGER_LEARNERS, DaggerConfig
 from ..benchmark.methods import METHODS
 from ..demo.demonstrator import HumanConfig
 from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
-from ..policy.memory import MEMORY_KINDS, MemoryConfig
+from ..policy.memory import BLANK_BEARINGS, MEMORY_KINDS, MemoryConfig
 from ..policy.mlp import MAX_HIDDEN, N_HIDDEN
-from ..teaching.scripted import TURNAROUND_RULES
+from ..teaching.scripted import STEERING, TURNAROUND_RULES
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output, shown_path
 from ..utils.signals import Terminated, interrupted_exit_code, raise_terminated
 from ..utils.staging import staged_output
@@ -130,6 +130,20 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         " dead-reckoned map of the felt not yet driven along: its bearing, amount, distance)",
     )
     bench.add_argument(
+        "--blank-bearing",
+        choices=BLANK_BEARINGS,
+        default="centre",
+        help="with --memory fresh_felt: the bearing input while no fresh felt is left: centre"
+        " (0.5) or last (the side the fresh felt last lay on); default centre",
+    )
+    bench.add_argument(
+        "--steers-by",
+        choices=STEERING,
+        default="centreline",
+        help="what the scripted human steers by: centreline (the track seen from above, default)"
+        " or picture (the fresh-felt rule on the policy's map: needs --memory fresh_felt)",
+    )
+    bench.add_argument(
         "--features",
         choices=FEATURE_SETS,
         default=DEFAULT_FEATURES,
@@ -190,21 +204,27 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_USAGE
     repetitions = 1 if args.quick and args.repetitions is None else (args.repetitions or 10)
     trials = args.trials or (1 if args.quick else 3)
-    config = runner.BenchmarkConfig(
-        repetitions=repetitions,
-        seed=args.seed,
-        trials_per_direction=trials,
-        preset=args.preset,
-        human=HumanConfig(careful=not args.careless, turnarounds=args.turnarounds),
-        keep_learning=args.keep_learning,
-        method=args.method,
-        test_tracks=("testing", *args.test_track),
-        memory=MemoryConfig(kind=args.memory),
-        mirror=args.mirror,
-        demo_track=args.demo_track,
-        features=args.features,
-        dagger=dagger,
-    )
+    try:
+        config = runner.BenchmarkConfig(
+            repetitions=repetitions,
+            seed=args.seed,
+            trials_per_direction=trials,
+            preset=args.preset,
+            human=HumanConfig(
+                careful=not args.careless, turnarounds=args.turnarounds, steers_by=args.steers_by
+            ),
+            keep_learning=args.keep_learning,
+            method=args.method,
+            test_tracks=("testing", *args.test_track),
+            memory=MemoryConfig(kind=args.memory, blank_bearing=args.blank_bearing),
+            mirror=args.mirror,
+            demo_track=args.demo_track,
+            features=args.features,
+            dagger=dagger,
+        )
+    except ValueError as exc:  # e.g. --steers-by picture without --memory fresh_felt
+        print(f"lfd-track benchmark: {exc}", file=sys.stderr)
+        return EXIT_USAGE
     # Track and preset names are recorded in results.json and report.md, which hold text only.
     for what, name in (
         ("preset", args.preset),

@@ -12,7 +12,7 @@ from typing import Any
 
 from ..benchmark.methods import OnlineConfig
 from ..errors import LfdTrackError
-from ..policy.memory import MEMORY_KINDS
+from ..policy.memory import BLANK_BEARINGS, MEMORY_KINDS
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output
 from ..utils.signals import stop_signals_interrupt
 from ..web.defaults import DEFAULT_FPS, DEFAULT_HOST, DEFAULT_PORT
@@ -49,6 +49,7 @@ def teach_config(args: argparse.Namespace) -> Any:
         ),
         population_size=args.population,
         memory=args.memory,
+        blank_bearing=args.blank_bearing,
         library_only=args.library_only,
         force=args.force,
         fps=args.fps,
@@ -180,6 +181,13 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         default="none",
         help="memory inputs recorded with every case for the policy to read (see"
         " docs/learning-api.md; default none, the paper's 40 road values)",
+    )
+    teach.add_argument(
+        "--blank-bearing",
+        choices=BLANK_BEARINGS,
+        default="centre",
+        help="with --memory fresh_felt: the bearing input while no fresh felt is left: centre"
+        " (0.5, default) or last (the side the fresh felt last lay on)",
     )
     teach.add_argument(
         "--library-only",

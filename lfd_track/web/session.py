@@ -72,6 +72,9 @@ class TeachConfig:
     """GA population of the online learner (the paper's 40)."""
     memory: str = "none"
     """Memory inputs recorded with every case (a :data:`~lfd_track.policy.memory.MEMORY_KINDS`)."""
+    blank_bearing: str = "centre"
+    """With ``memory = "fresh_felt"``: the bearing input while no fresh felt is left
+    (``MemoryConfig.blank_bearing``)."""
     library_only: int = 0
     """The first N commands only build the road library and are not recorded."""
     force: bool = False
@@ -486,7 +489,11 @@ def open_session(config: TeachConfig) -> LoopSession:
     target = RecordingTarget(out, replace=config.force and out.exists())
     writer: Any
     try:
-        perception = Perception(RoadLibrary(), "careful", MemoryConfig(kind=config.memory))
+        perception = Perception(
+            RoadLibrary(),
+            "careful",
+            MemoryConfig(kind=config.memory, blank_bearing=config.blank_bearing),
+        )
         writer = target.writer(metadata, perception, fsync=True, overwrite=config.force)
     except BaseException:
         env.close()

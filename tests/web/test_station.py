@@ -360,18 +360,23 @@ def test_online_teaching_with_memory_learns_from_the_wider_input(open_station) -
 
 
 def test_online_teaching_with_the_fresh_felt_map_learns_from_its_three_inputs(open_station) -> None:
-    """``--online --memory fresh_felt``: every case carries the map's bearing, amount and
-    distance, and the GA evolves networks that read them (43 inputs, 230 weights)."""
+    """``--online --memory fresh_felt --blank-bearing last`` (the goal's chosen inputs): every
+    case carries the map's bearing, amount and distance, and the GA evolves networks that read
+    them (43 inputs, 230 weights)."""
     from lfd_track.policy.memory import MemoryConfig
 
-    station = open_station("--online", "--memory", "fresh_felt", "--population", "10")
+    station = open_station(
+        "--online", "--memory", "fresh_felt", "--blank-bearing", "last", "--population", "10"
+    )
     session = station.session
     status = _teach(station, ["forward", "forward", "left", "forward"])
     assert status["generation"] is not None and status["generation"] > 0
     assert session.learner.state.population.shape == (10, 230)
     session.close()
     demo = load_demonstration(station.out)
-    assert demo.metadata["memory"] == MemoryConfig(kind="fresh_felt").to_dict()
+    assert (
+        demo.metadata["memory"] == MemoryConfig(kind="fresh_felt", blank_bearing="last").to_dict()
+    )
     assert demo.memory.shape == (4, 3)
     assert ((demo.memory >= 0) & (demo.memory <= 1)).all()
     assert demo.memory[:, 1].max() > 0  # the felt ahead of the start is on the map
