@@ -3,7 +3,10 @@
 The human is the privileged centreline driver (pure pursuit on the known track, not pixels) with
 human traits: a heading dead-band, an occasional reaction delay (acting on the previous frame's
 decision), occasional lapses (repeating the previous command), and a rate limit on direction
-changes (never left straight after right or the reverse).
+changes (never left straight after right or the reverse). With ``HumanConfig.steers_by =
+"picture"`` it steers each leg by what the phone shows instead: the fresh-felt rule
+(:class:`~lfd_track.teaching.handwritten.FreshFeltRule`) on the policy's ``fresh_felt`` map
+inputs, with the same traits.
 
 :class:`ProtocolHuman` drives the protocol: the training track from the right end to the left end
 and back, twice; at each of the four arrivals it stops about 0.35 m before the end and pivots
