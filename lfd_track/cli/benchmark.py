@@ -193,18 +193,14 @@ def run(args: argparse.Namespace) -> int:
     if dagger_flags and args.method != "dagger":
         print(f"lfd-track benchmark: {dagger_flags[0]} needs --method dagger", file=sys.stderr)
         return EXIT_USAGE
-    try:
+    repetitions = 1 if args.quick and args.repetitions is None else (args.repetitions or 10)
+    trials = args.trials or (1 if args.quick else 3)
+    try:  # settings that do not go together (e.g. --steers-by picture without the map) refused
         dagger = DaggerConfig(
             learner=args.dagger_learner or "ga",
             hidden=args.hidden or N_HIDDEN,
             label_noise=args.label_noise,
         )
-    except ValueError as exc:
-        print(f"lfd-track benchmark: {exc}", file=sys.stderr)
-        return EXIT_USAGE
-    repetitions = 1 if args.quick and args.repetitions is None else (args.repetitions or 10)
-    trials = args.trials or (1 if args.quick else 3)
-    try:
         config = runner.BenchmarkConfig(
             repetitions=repetitions,
             seed=args.seed,
@@ -222,7 +218,7 @@ def run(args: argparse.Namespace) -> int:
             features=args.features,
             dagger=dagger,
         )
-    except ValueError as exc:  # e.g. --steers-by picture without --memory fresh_felt
+    except ValueError as exc:
         print(f"lfd-track benchmark: {exc}", file=sys.stderr)
         return EXIT_USAGE
     # Track and preset names are recorded in results.json and report.md, which hold text only.

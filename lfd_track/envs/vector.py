@@ -83,12 +83,6 @@ class ThreadedVectorEnv(SyncVectorEnv):
         self, actions: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
         """Step every sub-env (in parallel); the batch as ``SyncVectorEnv.step`` returns it."""
-        if self.autoreset_mode not in (
-            AutoresetMode.NEXT_STEP,
-            AutoresetMode.DISABLED,
-            AutoresetMode.SAME_STEP,
-        ):
-            raise ValueError(f"Unexpected autoreset mode, {self.autoreset_mode}")
         per_env = list(iterate(self.action_space, actions))
         if len(per_env) != self.num_envs:
             raise ValueError(f"expected {self.num_envs} actions, got {len(per_env)}")
@@ -187,8 +181,6 @@ def make_vector_env(
             env = wrap(env)
         return env
 
-    vec = ThreadedVectorEnv(
+    return ThreadedVectorEnv(
         [make_one] * int(num_envs), threads=threads, copy=copy, autoreset_mode=autoreset_mode
     )
-    vec.metadata = {**vec.metadata, "autoreset_mode": vec.autoreset_mode}
-    return vec

@@ -346,16 +346,23 @@ def _teach(station, commands: list[str]) -> dict:
     return status
 
 
+def _teach_online(open_station, memory: list[str], commands: list[str], weights: int):
+    """Teach ``commands`` online (population 10) with the ``memory`` flags: the GA has evolved
+    networks of ``weights`` weights; the recording, once the session is closed."""
+    station = open_station("--online", *memory, "--population", "10")
+    session = station.session
+    status = _teach(station, commands)
+    assert status["generation"] is not None and status["generation"] > 0
+    assert session.learner.state.population.shape == (10, weights)
+    session.close()
+    return load_demonstration(station.out)
+
+
 def test_online_teaching_with_memory_learns_from_the_wider_input(open_station) -> None:
     """``--online --memory last_bend``: the cases carry the memory and the GA evolves networks
     that read it (41 inputs, 220 weights)."""
-    station = open_station("--online", "--memory", "last_bend", "--population", "10")
-    session = station.session
-    status = _teach(station, ["right", "right", "forward", "forward"])
-    assert status["generation"] is not None and status["generation"] > 0
-    assert session.learner.state.population.shape == (10, 220)
-    session.close()
-    demo = load_demonstration(station.out)
+    commands = ["right", "right", "forward", "forward"]
+    demo = _teach_online(open_station, ["--memory", "last_bend"], commands, 220)
     assert demo.memory[:, 0].tolist() == [0.5, 0.5, 0.0, 0.0]
 
 
@@ -365,15 +372,8 @@ def test_online_teaching_with_the_fresh_felt_map_learns_from_its_three_inputs(op
     them (43 inputs, 230 weights)."""
     from lfd_track.policy.memory import MemoryConfig
 
-    station = open_station(
-        "--online", "--memory", "fresh_felt", "--blank-bearing", "last", "--population", "10"
-    )
-    session = station.session
-    status = _teach(station, ["forward", "forward", "left", "forward"])
-    assert status["generation"] is not None and status["generation"] > 0
-    assert session.learner.state.population.shape == (10, 230)
-    session.close()
-    demo = load_demonstration(station.out)
+    memory = ["--memory", "fresh_felt", "--blank-bearing", "last"]
+    demo = _teach_online(open_station, memory, ["forward", "forward", "left", "forward"], 230)
     assert (
         demo.metadata["memory"] == MemoryConfig(kind="fresh_felt", blank_bearing="last").to_dict()
     )
