@@ -8,7 +8,8 @@ import pytest
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 
 import lfd_track  # noqa: F401  (registers LfDTrack-v0)
-from lfd_track.envs.vector import ThreadedVectorEnv, make_vector_env
+from lfd_track.envs.process_vector import ProcessVectorEnv
+from lfd_track.envs.vector import EnvFactory, ThreadedVectorEnv, make_vector_env
 
 # A short budget so that episodes end (truncated) and restart inside the vector env.
 KWARGS = {"track": "training", "max_steps": 4}
@@ -104,3 +105,74 @@ def test_bad_arguments_are_refused_in_one_line():
             vec.reset(seed=[1, 2, 3])
     finally:
         vec.close()
+
+
+# --- worker processes, frames in shared memory ------------------------------------------
+
+
+@pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
+def test_process_env_equals_sync_step_for_step(mode):
+    # 3 envs on 2 workers: envs 0-1 stepped by this process, env 2 by a child process.
+    actions = np.random.default_rng(1).integers(3, size=(11, 3))
+    fns = [EnvFactory(KWARGS)] * 3
+    sync = SyncVectorEnv(fns, autoreset_mode=mode)
+    procs = ProcessVectorEnv(fns, workers=2, autoreset_mode=mode)
+    try:
+        assert [len(b) for b in procs._blocks] == [2, 1] and len(procs._processes) == 1
+        expected, got = _roll(sync, actions), _roll(procs, actions)
+    finally:
+        sync.close()
+        procs.close()
+    _same(got, expected)
+    assert any(step[3].any() for step in got[1:])
+    assert procs.closed and not procs._processes
+
+
+def test_make_vec_workers_gives_the_process_env_sharing_one_batch():
+    vec = gym.make_vec("LfDTrack-v0", num_envs=2, workers=2, copy=False, **KWARGS)
+    try:
+        assert isinstance(vec, ProcessVectorEnv) and vec.workers == 2
+        assert vec.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+        obs, _ = vec.reset(seed=1)
+        first = obs[1].copy()  # rendered by the child process into the shared batch
+        obs_step, rewards, *_ = vec.step(np.array([0, 2]))
+        assert obs_step is obs and rewards.shape == (2,)
+        assert not np.array_equal(obs_step[1], first)
+        obs_reset, infos = vec.reset(
+            seed=[None, 2], options={"reset_mask": np.array([False, True])}
+        )
+        np.testing.assert_array_equal(obs_reset[1], first)  # seed 2 (= 1 + 1) again
+        assert infos["_step"].tolist() == [False, True]
+        assert vec.get_attr("max_steps") == (4, 4)
+        vec.set_attr("max_steps", [3, 5])
+        assert vec.call("max_steps") == (3, 5)
+        with pytest.raises(ValueError, match="off the painted floor") as caught:
+            vec.reset(options={"pose": (99.0, 99.0, 0.0), "reset_mask": np.array([False, True])})
+        assert "in the env worker" in "".join(caught.value.__notes__)
+        vec.step(np.array([1, 1]))  # the worker answers again after its error
+    finally:
+        vec.close()
+    vec.close()  # closing twice is harmless
+    with pytest.raises(RuntimeError, match="closed"):
+        vec.step(np.array([0, 0]))
+
+
+def test_a_dead_worker_is_reported_not_waited_for():
+    vec = ProcessVectorEnv([EnvFactory(KWARGS)] * 2, workers=2)
+    try:
+        vec.reset(seed=0)
+        vec._processes[0].kill()
+        vec._processes[0].join()
+        with pytest.raises(RuntimeError, match="env worker 1 died"):
+            vec.step(np.array([0, 0]))
+    finally:
+        vec.close()
+
+
+def test_process_env_bad_arguments_are_refused_in_one_line():
+    with pytest.raises(ValueError, match="workers must be a positive integer"):
+        ProcessVectorEnv([EnvFactory(KWARGS)], workers=0)
+    with pytest.raises(ValueError, match="spin_s must be between"):
+        ProcessVectorEnv([EnvFactory(KWARGS)], spin_s=-1)
+    with pytest.raises(ValueError, match="not both"):
+        make_vector_env(2, threads=2, workers=2)

@@ -11,7 +11,10 @@ vector env restarts its episodes itself):
 * ``async_2`` — Gymnasium's ``AsyncVectorEnv`` of 2 (``make_vec(..., vectorization_mode="async",
   vector_kwargs={"copy": False})``: a process per env, frames through shared memory);
 * ``threaded_N`` — ``lfd_track.envs.vector.ThreadedVectorEnv`` (``make_vec``'s default) of N
-  envs on a pool of 2 threads, ``copy=False``, for N in ``--threaded``.
+  envs on a pool of 2 threads, ``copy=False``, for N in ``--threaded``;
+* ``processes_N`` — ``lfd_track.envs.process_vector.ProcessVectorEnv`` (``make_vec(...,
+  workers=2)``) of N envs in 2 worker processes, frames in shared memory, ``copy=False``, for N
+  in ``--processes``.
 
 Steps/s of a vector env count every sub-env's step. Everything runs with OpenCV and BLAS on one
 thread per process or worker (``single_thread.pin_one_thread``); the ratio of a workload is the
@@ -98,6 +101,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seconds", type=float, default=3.0, help="per workload per round")
     parser.add_argument("--rounds", type=int, default=5, help="counted rounds (after a warm-up)")
     parser.add_argument("--threaded", type=int, nargs="+", default=[2, 4], help="N envs")
+    parser.add_argument("--processes", type=int, nargs="+", default=[2, 4, 8], help="N envs")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", type=Path, default=RESULTS)
     args = parser.parse_args(argv)
@@ -114,6 +118,8 @@ def main(argv: list[str] | None = None) -> int:
     }
     for n in args.threaded:
         vectors[f"threaded_{n}"] = gym.make_vec("LfDTrack-v0", num_envs=n, threads=2, copy=False)
+    for n in args.processes:
+        vectors[f"processes_{n}"] = gym.make_vec("LfDTrack-v0", num_envs=n, workers=2, copy=False)
     for vec in vectors.values():
         vec.reset(seed=args.seed)
     pair = TwoProcesses(args.seed, args.seconds)

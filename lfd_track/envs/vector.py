@@ -33,6 +33,43 @@ from gymnasium.vector.utils import iterate
 _Result = tuple[np.ndarray, float, bool, bool, dict[str, Any], dict[str, Any] | None]
 
 
+def step_env(env: gym.Env, pending_reset: bool, action: Any, mode: AutoresetMode) -> _Result:
+    """One sub-env's share of ``SyncVectorEnv.step`` in autoreset ``mode``.
+
+    ``pending_reset`` says the env's episode ended on the previous step. Returns the frame,
+    reward, flags, info and, in the SAME_STEP mode when an episode ends, the ``final_obs`` /
+    ``final_info`` pair that the batch's infos carry.
+    """
+    final = None
+    if mode == AutoresetMode.NEXT_STEP and pending_reset:
+        obs, info = env.reset()
+        reward, terminated, truncated = 0.0, False, False
+    else:
+        if mode == AutoresetMode.DISABLED:
+            assert not pending_reset, "autoreset is disabled: reset the env before stepping it"
+        obs, reward, terminated, truncated, info = env.step(action)
+        if mode == AutoresetMode.SAME_STEP and (terminated or truncated):
+            final = {"final_obs": obs, "final_info": info}
+            obs, info = env.reset()
+    return obs, reward, terminated, truncated, info, final
+
+
+def expand_seeds(seed: int | Sequence[int | None] | None, num_envs: int) -> list[int | None]:
+    """``SyncVectorEnv.reset``'s seeds: None for all, ``seed + i``, or a list of ``num_envs``."""
+    if seed is None:
+        seeds: list[int | None] = [None] * num_envs
+    elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+        seeds = [int(seed) + i for i in range(num_envs)]
+    else:
+        seeds = list(seed)
+    if len(seeds) != num_envs:
+        raise ValueError(
+            "If seeds are passed as a list the length must match"
+            f" num_envs={num_envs} but got length={len(seeds)}."
+        )
+    return seeds
+
+
 class ThreadedVectorEnv(SyncVectorEnv):
     """``SyncVectorEnv`` whose ``step`` and ``reset`` run the sub-envs on a thread pool.
 
@@ -64,20 +101,9 @@ class ThreadedVectorEnv(SyncVectorEnv):
     # ------------------------------------------------------------------------------------
     def _step_one(self, i: int, action: Any) -> _Result:
         """Step (or autoreset) sub-env ``i``; its frame goes straight into the batch."""
-        env = self.envs[i]
-        final = None
-        if self.autoreset_mode == AutoresetMode.NEXT_STEP and self._autoreset_envs[i]:
-            obs, info = env.reset()
-            reward, terminated, truncated = 0.0, False, False
-        else:
-            if self.autoreset_mode == AutoresetMode.DISABLED:
-                assert not self._autoreset_envs[i], f"{self._autoreset_envs=}"
-            obs, reward, terminated, truncated, info = env.step(action)
-            if self.autoreset_mode == AutoresetMode.SAME_STEP and (terminated or truncated):
-                final = {"final_obs": obs, "final_info": info}
-                obs, info = env.reset()
-        self._observations[i] = obs
-        return obs, reward, terminated, truncated, info, final
+        result = step_env(self.envs[i], bool(self._autoreset_envs[i]), action, self.autoreset_mode)
+        self._observations[i] = result[0]
+        return result
 
     def step(
         self, actions: Any
@@ -115,17 +141,7 @@ class ThreadedVectorEnv(SyncVectorEnv):
         if options is not None and "reset_mask" in options:
             # A partial reset is rare (between episodes): the serial implementation does it.
             return super().reset(seed=seed, options=options)
-        if seed is None:
-            seeds: list[int | None] = [None] * self.num_envs
-        elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
-            seeds = [int(seed) + i for i in range(self.num_envs)]
-        else:
-            seeds = list(seed)
-        if len(seeds) != self.num_envs:
-            raise ValueError(
-                "If seeds are passed as a list the length must match"
-                f" num_envs={self.num_envs} but got length={len(seeds)}."
-            )
+        seeds = expand_seeds(seed, self.num_envs)
 
         def reset_one(i: int) -> dict[str, Any]:
             obs, info = self.envs[i].reset(seed=seeds[i], options=options)
@@ -150,22 +166,41 @@ class ThreadedVectorEnv(SyncVectorEnv):
         super().close_extras(**kwargs)
 
 
+class EnvFactory:
+    """A picklable ``gym.make("LfDTrack-v0", **kwargs)`` with ``wrappers`` applied in order."""
+
+    def __init__(
+        self, kwargs: dict[str, Any], wrappers: Sequence[Callable[[gym.Env], gym.Wrapper]] = ()
+    ) -> None:
+        self.kwargs, self.wrappers = dict(kwargs), tuple(wrappers)
+
+    def __call__(self) -> gym.Env:
+        env = gym.make("LfDTrack-v0", **self.kwargs)
+        for wrap in self.wrappers:
+            env = wrap(env)
+        return env
+
+
 def make_vector_env(
     num_envs: int,
     *,
     threads: int | None = None,
+    workers: int | None = None,
     copy: bool = True,
     autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
     wrappers: Sequence[Callable[[gym.Env], gym.Wrapper]] | None = None,
     render_mode: str | None = None,
     **env_kwargs: Any,
-) -> ThreadedVectorEnv:
+) -> gym.vector.VectorEnv:
     """``LfDTrack-v0``'s vector entry point: ``num_envs`` envs made with ``env_kwargs``.
 
-    Called by ``gym.make_vec("LfDTrack-v0", num_envs=N, **kwargs)``: ``threads``, ``copy`` and
-    ``autoreset_mode`` are the vector env's, everything else goes to every
-    ``gym.make("LfDTrack-v0", ...)``. ``wrappers`` (when called directly; ``make_vec`` refuses
-    wrappers for a vector entry point) wrap each sub-env.
+    Called by ``gym.make_vec("LfDTrack-v0", num_envs=N, **kwargs)``. By default the envs live in
+    this process, stepped by a pool of ``threads`` (``ThreadedVectorEnv``); ``workers=W`` puts
+    them in W worker processes instead, frames in shared memory
+    (``lfd_track.envs.process_vector.ProcessVectorEnv``). ``copy`` and ``autoreset_mode`` are the
+    vector env's, everything else goes to every ``gym.make("LfDTrack-v0", ...)``. ``wrappers``
+    (when called directly; ``make_vec`` refuses wrappers for a vector entry point) wrap each
+    sub-env.
     """
     if isinstance(num_envs, bool) or not isinstance(num_envs, (int, np.integer)) or num_envs < 1:
         raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
@@ -173,14 +208,13 @@ def make_vector_env(
         raise ValueError(
             f"a vector of LfDTrack envs renders only 'rgb_array' or None, got {render_mode!r}"
         )
+    if threads is not None and workers is not None:
+        raise ValueError("give threads (one process) or workers (worker processes), not both")
     env_kwargs.pop("max_episode_steps", None)  # the env sets its own budget (its spec says it)
+    make_one = EnvFactory({"render_mode": render_mode, **env_kwargs}, wrappers or ())
+    fns = [make_one] * int(num_envs)
+    if workers is not None:
+        from .process_vector import ProcessVectorEnv
 
-    def make_one() -> gym.Env:
-        env = gym.make("LfDTrack-v0", render_mode=render_mode, **env_kwargs)
-        for wrap in wrappers or ():
-            env = wrap(env)
-        return env
-
-    return ThreadedVectorEnv(
-        [make_one] * int(num_envs), threads=threads, copy=copy, autoreset_mode=autoreset_mode
-    )
+        return ProcessVectorEnv(fns, workers=workers, copy=copy, autoreset_mode=autoreset_mode)
+    return ThreadedVectorEnv(fns, threads=threads, copy=copy, autoreset_mode=autoreset_mode)
