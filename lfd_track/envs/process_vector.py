@@ -128,16 +128,30 @@ class _Block:
             env.close()
 
 
-def _wait(conn: Any, spin_s: float) -> None:
-    """Poll ``conn`` for up to ``spin_s`` before the blocking read that follows.
+class _Waiter:
+    """Wait for a message on a connection: poll first, for at most ``spin_s``, then block.
 
-    In lockstep, each side sleeps for a moment every step; on a virtual machine waking an idle
-    core costs a good part of a millisecond. While the steps keep coming, polling keeps the core
-    awake; when they stop, the blocking read gives the core back.
+    In lockstep each side waits for the other every step; on a virtual machine a core that
+    sleeps costs a good part of a millisecond to wake. While answers come within the budget,
+    polling keeps the core awake. When they do not (the other side is slow, or the machine is
+    busy and it is not running), the poll only burns time another process could use, so each
+    wait that outlasts the budget halves it and each that ends within it doubles it back, up to
+    ``spin_s``.
     """
-    deadline = time.perf_counter() + spin_s
-    while not conn.poll(0) and time.perf_counter() < deadline:
-        pass
+
+    def __init__(self, spin_s: float) -> None:
+        self.limit = float(spin_s)
+        self.budget = self.limit
+
+    def wait(self, conn: Any) -> None:
+        if self.limit <= 0.0:
+            return
+        deadline = time.perf_counter() + self.budget
+        while not conn.poll(0):
+            if time.perf_counter() >= deadline:
+                self.budget = max(self.budget / 2, self.limit / 64)
+                return
+        self.budget = min(self.budget * 2, self.limit)
 
 
 def _worker(
@@ -154,6 +168,7 @@ def _worker(
     import cv2
 
     cv2.setNumThreads(1)
+    waiter = _Waiter(spin_s)
     try:
         frames = np.frombuffer(buffer, dtype=dtype).reshape(batch_shape)
         block = _Block([fn() for fn in env_fns], first, frames, mode)
@@ -163,7 +178,7 @@ def _worker(
         return
     while True:
         try:
-            _wait(conn, spin_s)
+            waiter.wait(conn)
             command, data = conn.recv()
         except (EOFError, KeyboardInterrupt):
             break
@@ -184,7 +199,7 @@ class ProcessVectorEnv(VectorEnv):
     block itself while ``workers - 1`` child processes step the others, so that no process sleeps
     while the others work. ``workers`` defaults to ``min(len(env_fns), os.cpu_count())``;
     ``context`` is a ``multiprocessing`` start method (default ``"forkserver"``, else
-    ``"spawn"``); ``spin_s`` is how long a waiting side polls before it blocks (``_wait``).
+    ``"spawn"``); ``spin_s`` is the longest a waiting side polls before it blocks (``_Waiter``).
     ``copy`` and ``autoreset_mode`` are ``SyncVectorEnv``'s; with ``copy=False`` ``step`` and
     ``reset`` return the shared batch itself, rewritten in place by the next call. The sub-envs
     need a ``Box`` observation space.
@@ -217,6 +232,7 @@ class ProcessVectorEnv(VectorEnv):
         self._conns: list[Any] = []
         self._processes: list[Any] = []
         self._local: _Block | None = None
+        self._waiters = [_Waiter(self.spin_s) for _ in self._blocks[1:]]
 
         # The first env (constructing one builds no world; that happens at its first reset)
         # tells the spaces, so the batch is sized before any worker starts.
@@ -275,7 +291,7 @@ class ProcessVectorEnv(VectorEnv):
         answers, error = [], None
         for w, conn in enumerate(self._conns, start=1):
             try:
-                _wait(conn, self.spin_s)
+                self._waiters[w - 1].wait(conn)
                 status, payload = conn.recv()
             except (EOFError, ConnectionError, OSError):
                 status, payload = "error", (RuntimeError(f"env worker {w} died"), "")
