@@ -1,16 +1,19 @@
-"""Many ``LfDTrack-v0`` worlds stepped at once by worker processes, frames in shared memory.
+"""Many ``LfDTrack-v0`` worlds stepped at once by several processes, frames in shared memory.
 
 ``ThreadedVectorEnv`` keeps every world in one process; the Python glue of a step (episode
 rules, the physics wrappers) holds Python's lock, so two threads never quite use two cores. Here
-each of ``workers`` processes owns a contiguous block of the worlds and steps them one after the
-other; every frame is rendered straight into one batch of shared memory that ``step`` returns,
-so nothing bigger than an action, a reward and an info dict crosses a pipe. Several worlds per
-worker keep the workers busy while a slow step (a reset) holds one of them up.
+the worlds are split into contiguous blocks, one per process: the calling process steps the
+first block itself and a child process each of the others, one world after the other. Each
+frame is copied once, by the process that rendered it, into one batch of shared memory that
+``step`` returns, so nothing bigger than an action, a reward and an info dict crosses a pipe.
+Several worlds per process average out a slow step (a reset) in any one of them.
 
 ``gym.make_vec("LfDTrack-v0", num_envs=N, workers=W)`` makes one (``make_vector_env``). The
 semantics are ``SyncVectorEnv``'s, autoreset modes and ``reset_mask`` included, and so are the
 results, env by env and step by step: each world lives in one worker and draws only from its own
-random generators. Each worker runs OpenCV on one thread: the workers are the parallelism.
+random generators. Each child process runs OpenCV on one thread (the processes are the
+parallelism); the calling process keeps its own setting, so call ``cv2.setNumThreads(1)``
+there too.
 
 Workers start by ``"forkserver"`` (``"spawn"`` where there is none) unless ``context`` names
 another ``multiprocessing`` start method: a plain fork of a process that has used OpenCV's
@@ -154,6 +157,16 @@ class _Waiter:
         self.budget = min(self.budget * 2, self.limit)
 
 
+def _report(conn: Any, exc: BaseException) -> None:
+    """Send ``exc`` and its traceback to the parent (as a ``RuntimeError`` if it cannot be
+    pickled)."""
+    trace = traceback.format_exc()
+    try:
+        conn.send(("error", (exc, trace)))
+    except Exception:  # noqa: BLE001 - an exception that does not pickle
+        conn.send(("error", (RuntimeError(f"{type(exc).__name__}: {exc}"), trace)))
+
+
 def _worker(
     env_fns: Sequence[Callable[[], gym.Env]],
     first: int,
@@ -174,7 +187,7 @@ def _worker(
         block = _Block([fn() for fn in env_fns], first, frames, mode)
         conn.send(("ok", None))
     except BaseException as exc:  # noqa: BLE001 - reported to the parent, which raises it
-        conn.send(("error", (exc, traceback.format_exc())))
+        _report(conn, exc)
         return
     while True:
         try:
@@ -187,7 +200,7 @@ def _worker(
         try:
             conn.send(("ok", getattr(block, command)(*data)))
         except BaseException as exc:  # noqa: BLE001 - reported to the parent, which raises it
-            conn.send(("error", (exc, traceback.format_exc())))
+            _report(conn, exc)
     block.close()
     conn.close()
 
