@@ -44,17 +44,29 @@ def _same(a, b):
         assert a == b
 
 
+def _threaded(fns, mode):
+    return ThreadedVectorEnv(fns, threads=2, autoreset_mode=mode)
+
+
+def _processes(fns, mode):
+    # 3 envs on 2 workers: envs 0-1 stepped by this process, env 2 by a child process.
+    vec = ProcessVectorEnv(fns, workers=2, autoreset_mode=mode)
+    assert [len(b) for b in vec._blocks] == [2, 1] and len(vec._processes) == 1
+    return vec
+
+
+@pytest.mark.parametrize("make", [_threaded, _processes])
 @pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
-def test_threaded_equals_sync_step_for_step(mode):
+def test_vector_envs_equal_sync_step_for_step(make, mode):
     actions = np.random.default_rng(0).integers(3, size=(11, 3))
-    fns = [lambda: gym.make("LfDTrack-v0", **KWARGS)] * 3
+    fns = [EnvFactory(KWARGS)] * 3
     sync = SyncVectorEnv(fns, autoreset_mode=mode)
-    threaded = ThreadedVectorEnv(fns, threads=2, autoreset_mode=mode)
+    vec = make(fns, mode)
     try:
-        expected, got = _roll(sync, actions), _roll(threaded, actions)
+        expected, got = _roll(sync, actions), _roll(vec, actions)
     finally:
         sync.close()
-        threaded.close()
+        vec.close()
     _same(got, expected)
     # The rollout crossed episode ends, so autoreset was exercised.
     assert any(step[3].any() for step in got[1:])
@@ -108,24 +120,6 @@ def test_bad_arguments_are_refused_in_one_line():
 
 
 # --- worker processes, frames in shared memory ------------------------------------------
-
-
-@pytest.mark.parametrize("mode", [AutoresetMode.NEXT_STEP, AutoresetMode.SAME_STEP])
-def test_process_env_equals_sync_step_for_step(mode):
-    # 3 envs on 2 workers: envs 0-1 stepped by this process, env 2 by a child process.
-    actions = np.random.default_rng(1).integers(3, size=(11, 3))
-    fns = [EnvFactory(KWARGS)] * 3
-    sync = SyncVectorEnv(fns, autoreset_mode=mode)
-    procs = ProcessVectorEnv(fns, workers=2, autoreset_mode=mode)
-    try:
-        assert [len(b) for b in procs._blocks] == [2, 1] and len(procs._processes) == 1
-        expected, got = _roll(sync, actions), _roll(procs, actions)
-    finally:
-        sync.close()
-        procs.close()
-    _same(got, expected)
-    assert any(step[3].any() for step in got[1:])
-    assert procs.closed and not procs._processes
 
 
 def test_make_vec_workers_gives_the_process_env_sharing_one_batch():

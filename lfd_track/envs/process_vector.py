@@ -37,7 +37,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space, iterate
 
-from .vector import expand_seeds, step_env
+from .vector import expand_seeds, gather_step, step_env
 
 
 def _default_context() -> str:
@@ -345,15 +345,14 @@ class ProcessVectorEnv(VectorEnv):
         if len(per_env) != self.num_envs:
             raise ValueError(f"expected {self.num_envs} actions, got {len(per_env)}")
         answers = self._run("step", [([per_env[i] for i in b],) for b in self._blocks])
-        infos: dict[str, Any] = {}
-        for block, results in zip(self._blocks, answers, strict=True):
-            for i, (reward, terminated, truncated, info, final) in zip(block, results, strict=True):
-                self._rewards[i] = reward
-                self._terminations[i] = terminated
-                self._truncations[i] = truncated
-                if final is not None:
-                    infos = self._add_info(infos, final, i)
-                infos = self._add_info(infos, info, i)
+        infos = gather_step(
+            self,
+            (
+                pair
+                for block, results in zip(self._blocks, answers, strict=True)
+                for pair in zip(block, results, strict=True)
+            ),
+        )
         return (
             self._batch(),
             np.copy(self._rewards),

@@ -20,7 +20,7 @@ OpenCV may also split one call over its own threads; for the pool to use the cor
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from copy import deepcopy
 from typing import Any
@@ -70,6 +70,21 @@ def expand_seeds(seed: int | Sequence[int | None] | None, num_envs: int) -> list
     return seeds
 
 
+def gather_step(vec: Any, results: Iterable[tuple[int, tuple]]) -> dict[str, Any]:
+    """Write sub-env ``i``'s (reward, terminated, truncated, info, final) into ``vec``'s reward
+    and flag arrays for each ``(i, result)``; return the batch's infos as ``SyncVectorEnv`` builds
+    them (a SAME_STEP ``final`` pair before the env's own info)."""
+    infos: dict[str, Any] = {}
+    for i, (reward, terminated, truncated, info, final) in results:
+        vec._rewards[i] = reward
+        vec._terminations[i] = terminated
+        vec._truncations[i] = truncated
+        if final is not None:
+            infos = vec._add_info(infos, final, i)
+        infos = vec._add_info(infos, info, i)
+    return infos
+
+
 class ThreadedVectorEnv(SyncVectorEnv):
     """``SyncVectorEnv`` whose ``step`` and ``reset`` run the sub-envs on a thread pool.
 
@@ -113,15 +128,9 @@ class ThreadedVectorEnv(SyncVectorEnv):
         if len(per_env) != self.num_envs:
             raise ValueError(f"expected {self.num_envs} actions, got {len(per_env)}")
         results = list(self._pool.map(self._step_one, range(self.num_envs), per_env))
-        infos: dict[str, Any] = {}
-        for i, (obs, reward, terminated, truncated, info, final) in enumerate(results):
-            self._env_obs[i] = obs
-            self._rewards[i] = reward
-            self._terminations[i] = terminated
-            self._truncations[i] = truncated
-            if final is not None:
-                infos = self._add_info(infos, final, i)
-            infos = self._add_info(infos, info, i)
+        for i, result in enumerate(results):
+            self._env_obs[i] = result[0]
+        infos = gather_step(self, enumerate(result[1:] for result in results))
         self._autoreset_envs = np.logical_or(self._terminations, self._truncations)
         return (
             deepcopy(self._observations) if self.copy else self._observations,
