@@ -8,7 +8,8 @@ it, into the batch that ``step`` returns.
 
 ``gym.make_vec("LfDTrack-v0", num_envs=N)`` makes one (the spec's ``vector_entry_point``, which
 ``make_vec`` uses when no ``vectorization_mode`` is given; ``threads=`` sets the pool's size,
-default ``min(N, os.cpu_count())``); Gymnasium's own ``"sync"`` and ``"async"`` modes still
+default ``min(N, os.cpu_count())``); ``workers=W`` splits the worlds over W processes instead
+(``lfd_track.envs.process_vector``). Gymnasium's own ``"sync"`` and ``"async"`` modes still
 work. The semantics are ``SyncVectorEnv``'s, autoreset modes
 included, and the results are the same as its results, env by env and step by step: each world
 is stepped by one thread at a time and draws only from its own random generators.
