@@ -37,7 +37,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space, iterate
 
-from .vector import expand_seeds, gather_step, step_env
+from .batching import expand_seeds, gather_step, step_env
 
 
 def _default_context() -> str:

@@ -21,7 +21,7 @@ OpenCV may also split one call over its own threads; for the pool to use the cor
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from copy import deepcopy
 from typing import Any
@@ -31,59 +31,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from gymnasium.vector.utils import iterate
 
-_Result = tuple[np.ndarray, float, bool, bool, dict[str, Any], dict[str, Any] | None]
-
-
-def step_env(env: gym.Env, pending_reset: bool, action: Any, mode: AutoresetMode) -> _Result:
-    """One sub-env's share of ``SyncVectorEnv.step`` in autoreset ``mode``.
-
-    ``pending_reset`` says the env's episode ended on the previous step. Returns the frame,
-    reward, flags, info and, in the SAME_STEP mode when an episode ends, the ``final_obs`` /
-    ``final_info`` pair that the batch's infos carry.
-    """
-    final = None
-    if mode == AutoresetMode.NEXT_STEP and pending_reset:
-        obs, info = env.reset()
-        reward, terminated, truncated = 0.0, False, False
-    else:
-        if mode == AutoresetMode.DISABLED:
-            assert not pending_reset, "autoreset is disabled: reset the env before stepping it"
-        obs, reward, terminated, truncated, info = env.step(action)
-        if mode == AutoresetMode.SAME_STEP and (terminated or truncated):
-            final = {"final_obs": obs, "final_info": info}
-            obs, info = env.reset()
-    return obs, reward, terminated, truncated, info, final
-
-
-def expand_seeds(seed: int | Sequence[int | None] | None, num_envs: int) -> list[int | None]:
-    """``SyncVectorEnv.reset``'s seeds: None for all, ``seed + i``, or a list of ``num_envs``."""
-    if seed is None:
-        seeds: list[int | None] = [None] * num_envs
-    elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
-        seeds = [int(seed) + i for i in range(num_envs)]
-    else:
-        seeds = list(seed)
-    if len(seeds) != num_envs:
-        raise ValueError(
-            "If seeds are passed as a list the length must match"
-            f" num_envs={num_envs} but got length={len(seeds)}."
-        )
-    return seeds
-
-
-def gather_step(vec: Any, results: Iterable[tuple[int, tuple]]) -> dict[str, Any]:
-    """Write sub-env ``i``'s (reward, terminated, truncated, info, final) into ``vec``'s reward
-    and flag arrays for each ``(i, result)``; return the batch's infos as ``SyncVectorEnv`` builds
-    them (a SAME_STEP ``final`` pair before the env's own info)."""
-    infos: dict[str, Any] = {}
-    for i, (reward, terminated, truncated, info, final) in results:
-        vec._rewards[i] = reward
-        vec._terminations[i] = terminated
-        vec._truncations[i] = truncated
-        if final is not None:
-            infos = vec._add_info(infos, final, i)
-        infos = vec._add_info(infos, info, i)
-    return infos
+from .batching import Result, expand_seeds, gather_step, step_env
 
 
 class ThreadedVectorEnv(SyncVectorEnv):
@@ -115,7 +63,7 @@ class ThreadedVectorEnv(SyncVectorEnv):
         self._pool = ThreadPoolExecutor(max_workers=self.threads, thread_name_prefix="lfd-env")
 
     # ------------------------------------------------------------------------------------
-    def _step_one(self, i: int, action: Any) -> _Result:
+    def _step_one(self, i: int, action: Any) -> Result:
         """Step (or autoreset) sub-env ``i``; its frame goes straight into the batch."""
         result = step_env(self.envs[i], bool(self._autoreset_envs[i]), action, self.autoreset_mode)
         self._observations[i] = result[0]
