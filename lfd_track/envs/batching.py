@@ -1,10 +1,11 @@
 """What the vector envs of ``lfd_track.envs`` share: one sub-env's step in a given autoreset
-mode, ``SyncVectorEnv``'s seed expansion, and the batch's rewards, flags and infos from
-per-env results (``vector.ThreadedVectorEnv`` and ``process_vector.ProcessVectorEnv``)."""
+mode, ``SyncVectorEnv``'s seed expansion, the batch's rewards, flags and infos from per-env
+results, and the batch a step or reset returns (``vector.ThreadedVectorEnv`` and ``process_vector.ProcessVectorEnv``)."""
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
+from copy import deepcopy
 from typing import Any
 
 import gymnasium as gym
@@ -64,3 +65,21 @@ def gather_step(vec: Any, results: Iterable[tuple[int, tuple]]) -> dict[str, Any
             infos = vec._add_info(infos, final, i)
         infos = vec._add_info(infos, info, i)
     return infos
+
+
+def batch(vec: Any) -> np.ndarray:
+    """``vec``'s frames as ``step`` and ``reset`` return them: a copy unless ``vec.copy`` is off."""
+    return deepcopy(vec._observations) if vec.copy else vec._observations
+
+
+def step_return(
+    vec: Any, infos: dict[str, Any]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
+    """What ``SyncVectorEnv.step`` returns, from ``vec``'s batch, rewards and flags."""
+    return (
+        batch(vec),
+        np.copy(vec._rewards),
+        np.copy(vec._terminations),
+        np.copy(vec._truncations),
+        infos,
+    )

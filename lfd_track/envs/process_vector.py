@@ -29,7 +29,6 @@ import os
 import time
 import traceback
 from collections.abc import Callable, Sequence
-from copy import deepcopy
 from typing import Any
 
 import gymnasium as gym
@@ -37,7 +36,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space, iterate
 
-from .batching import expand_seeds, gather_step, step_env
+from .batching import batch, expand_seeds, gather_step, step_env, step_return
 
 
 def _default_context() -> str:
@@ -334,9 +333,6 @@ class ProcessVectorEnv(VectorEnv):
             raise
         return [mine, *self._gather()]
 
-    def _batch(self) -> np.ndarray:
-        return deepcopy(self._observations) if self.copy else self._observations
-
     def step(
         self, actions: Any
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict[str, Any]]:
@@ -353,13 +349,7 @@ class ProcessVectorEnv(VectorEnv):
                 for pair in zip(block, results, strict=True)
             ),
         )
-        return (
-            self._batch(),
-            np.copy(self._rewards),
-            np.copy(self._terminations),
-            np.copy(self._truncations),
-            infos,
-        )
+        return step_return(self, infos)
 
     def reset(
         self,
@@ -388,7 +378,7 @@ class ProcessVectorEnv(VectorEnv):
         reset = np.ones(self.num_envs, dtype=np.bool_) if mask is None else mask
         self._terminations[reset] = False
         self._truncations[reset] = False
-        return self._batch(), infos
+        return batch(self), infos
 
     def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
         """Call method ``name`` (or read attribute ``name``) of every sub-env, in env order."""

@@ -23,7 +23,6 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from copy import deepcopy
 from typing import Any
 
 import gymnasium as gym
@@ -31,7 +30,7 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from gymnasium.vector.utils import iterate
 
-from .batching import Result, expand_seeds, gather_step, step_env
+from .batching import Result, batch, expand_seeds, gather_step, step_env, step_return
 
 
 class ThreadedVectorEnv(SyncVectorEnv):
@@ -81,13 +80,7 @@ class ThreadedVectorEnv(SyncVectorEnv):
             self._env_obs[i] = result[0]
         infos = gather_step(self, enumerate(result[1:] for result in results))
         self._autoreset_envs = np.logical_or(self._terminations, self._truncations)
-        return (
-            deepcopy(self._observations) if self.copy else self._observations,
-            np.copy(self._rewards),
-            np.copy(self._terminations),
-            np.copy(self._truncations),
-            infos,
-        )
+        return step_return(self, infos)
 
     def reset(
         self,
@@ -114,7 +107,7 @@ class ThreadedVectorEnv(SyncVectorEnv):
         self._terminations = np.zeros((self.num_envs,), dtype=np.bool_)
         self._truncations = np.zeros((self.num_envs,), dtype=np.bool_)
         self._autoreset_envs = np.zeros((self.num_envs,), dtype=np.bool_)
-        return deepcopy(self._observations) if self.copy else self._observations, infos
+        return batch(self), infos
 
     def close_extras(self, **kwargs: Any) -> None:
         """Stop the thread pool, then close the sub-envs."""
