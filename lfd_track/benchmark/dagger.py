@@ -265,6 +265,7 @@ def learn_dagger(
                     intervention=dagger.intervention,
                     rover=env.preset.rover,
                     label_all=True,
+                    memory=memory,
                 )
                 buffer.person = person
                 loop = TeachingLoop(

@@ -358,7 +358,7 @@ def learn_online(
     env_seed = int(rng.integers(2**31 - 1))
     env = LfDTrackEnv(track=track, preset=preset, max_steps=10**9, continue_after_end=True)
     person = protocol_human(
-        track, human, rng, intervention=online.intervention, rover=env.preset.rover
+        track, human, rng, intervention=online.intervention, rover=env.preset.rover, memory=memory
     )
     library = RoadLibrary()
     perception = Perception(library, "careful" if human.careful else "always", memory, features)
@@ -517,6 +517,7 @@ def learn_hg_dagger(
                     human_rng,
                     intervention=hg.intervention,
                     rover=env.preset.rover,
+                    memory=memory,
                 )
                 loop = TeachingLoop(
                     env,

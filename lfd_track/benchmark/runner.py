@@ -120,8 +120,9 @@ class BenchmarkConfig:
     test_tracks: tuple[str, ...] = ("testing",)  # loops (names or paths) lapped both ways
     memory: MemoryConfig = MemoryConfig()  # memory inputs of the policy (none: the paper's 40)
     mirror: bool = False  # learn from the cases and their mirror images (learning/mirror.py)
-    # Per-region inputs of the policy (policy/features.py): the paper's road values, or
-    # "road_values+colour" (also each region's mean hue and saturation).
+    # Per-region inputs of the policy (policy/features.py): the paper's road values,
+    # "road_values+colour" (also each region's mean hue and saturation), or "none" (the memory
+    # inputs alone).
     features: str = DEFAULT_FEATURES
     # The open track the human demonstrates on (and HG-DAgger's rounds drive); the paper's
     # training track by default. Trials still run the paper's training track both ways.
@@ -146,6 +147,10 @@ class BenchmarkConfig:
         if self.human.steers_by == "picture" and self.memory.kind != "fresh_felt":
             raise ValueError(
                 "human steers_by 'picture' reads the fresh_felt map: set memory kind 'fresh_felt'"
+            )
+        if self.features == "none" and not self.memory.n_inputs:
+            raise ValueError(
+                "features 'none' leave the policy only its memory inputs: set a memory kind"
             )
         if self.method == "dagger" and self.features != DEFAULT_FEATURES:
             raise ValueError(f"method dagger reads the road values only, not {self.features}")

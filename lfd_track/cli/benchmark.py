@@ -147,8 +147,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "--features",
         choices=FEATURE_SETS,
         default=DEFAULT_FEATURES,
-        help="per-region inputs of the policy: road_values (the paper's 40) or"
-        " road_values+colour (also each region's mean hue and saturation: 160)",
+        help="per-region inputs of the policy: road_values (the paper's 40),"
+        " road_values+colour (also each region's mean hue and saturation: 160) or none (its"
+        " memory inputs alone; needs a memory)",
     )
     bench.add_argument(
         "--mirror",

@@ -109,7 +109,7 @@ def run_demonstration(
     rng = np.random.default_rng(seed)
     env_seed = int(rng.integers(2**31 - 1))
     env = LfDTrackEnv(track=track, preset=preset, max_steps=10**9, continue_after_end=True)
-    person = protocol_human(track, human, rng)
+    person = protocol_human(track, human, rng, memory=memory)
     library = library_factory()
     metadata: dict[str, Any] = {
         "kind": "simulated",

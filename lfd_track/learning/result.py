@@ -44,10 +44,10 @@ def check_cases(inputs: np.ndarray, actions: np.ndarray) -> tuple[np.ndarray, np
     what is wrong: wrong shapes, no cases, non-finite road values, or commands outside 0..2.
     """
     x = np.asarray(inputs)
-    if x.ndim != 2 or x.shape[1] < N_INPUTS:
+    if x.ndim != 2 or x.shape[1] < 1:
         raise ValueError(
-            f"inputs must have shape (N, {N_INPUTS}) (road values, then any memory inputs),"
-            f" got {x.shape}"
+            f"inputs must have shape (N, n), n >= 1 (the {N_INPUTS} road values, then any"
+            f" memory inputs; or the memory inputs alone), got {x.shape}"
         )
     check_numbers("inputs", x)
     x = x.astype(np.float64)

@@ -19,8 +19,9 @@ as schema 3: the schema 2 keys plus ``memory`` (the memory settings), with ``lay
 A controller whose network reads more per-region features than the road values
 (:mod:`lfd_track.policy.features`, e.g. ``"road_values+colour"``: 160 inputs) is saved as
 schema 4: the schema 2 keys plus ``features`` (the feature set's name) and ``memory`` (the memory
-settings, or null), with ``layer_sizes`` ``[160 + m, 5, 3]``. Every controller that reads only
-road values is written as before (schema 2 or 3), byte for byte.
+settings, or null), with ``layer_sizes`` ``[160 + m, 5, 3]``; with the features ``"none"`` the
+network reads its memory inputs alone (``[m, 5, 3]``; a memory is required). Every controller
+that reads only road values is written as before (schema 2 or 3), byte for byte.
 
 Policy kind ``"elman-sigmoid"`` (:mod:`lfd_track.policy.elman`) is an Elman network: its 5
 previous hidden activations are 5 more inputs after all the others, so its ``layer_sizes`` are
@@ -174,6 +175,10 @@ class Controller:
         if memory is not None and not isinstance(memory, MemoryConfig):
             raise TypeError(f"memory must be a MemoryConfig or None, got {type(memory).__name__}")
         memory = None if memory is None or memory.kind == "none" else memory
+        if features == "none" and memory is None:
+            raise ValueError(
+                "features 'none' leave the network only its memory inputs: it needs a memory"
+            )
         n_inputs = policy_inputs(memory, features) + context
         w = np.array(weights, dtype=np.float64, copy=True)
         if w.shape != (n_weights(bias, n_inputs, hidden),):
@@ -301,18 +306,22 @@ class Controller:
 
     def act_on_values(self, road_values: np.ndarray) -> int:
         """Command for precomputed road values, (40,) float (then the colour features and the
-        memory inputs, if the network reads them: :attr:`Perception.inputs`).
+        memory inputs, if the network reads them; with the features ``"none"`` the memory inputs
+        alone: :attr:`Percept.inputs`).
 
         Raises ``ValueError`` for another shape or NaN / infinite values (a NaN would otherwise
         silently become command 0).
         """
         values = np.asarray(road_values)
         if values.shape != (self.n_inputs,):
-            extra = "" if self.features == DEFAULT_FEATURES else ", then the colour features"
-            extra += "" if self.memory is None else ", then the memory inputs"
+            if self.features == "none":
+                what = "the memory inputs"
+            else:
+                what = "the road values"
+                what += "" if self.features == DEFAULT_FEATURES else ", then the colour features"
+                what += "" if self.memory is None else ", then the memory inputs"
             raise ValueError(
-                f"road_values must have shape ({self.n_inputs},) (the road values{extra}),"
-                f" got {values.shape}"
+                f"road_values must have shape ({self.n_inputs},) ({what}), got {values.shape}"
             )
         check_numbers("road_values", values)
         values = values.astype(np.float64)

@@ -13,7 +13,14 @@ are the same to the network however different their colours. The feature sets:
   hue circle at 2° a step), so its mean is the mean of unit vectors: red at H = 2 and H = 178
   average to red, not to cyan, and a region of many hues gets a short vector (both features
   near 0.5). The inputs are ordered feature by feature, each a row-major block of 40 regions:
-  ``road values | hue cos | hue sin | saturation``.
+  ``road values | hue cos | hue sin | saturation``;
+* ``"none"`` — no per-region inputs: the network reads its memory inputs alone (a memory kind
+  with inputs is required). With the ``fresh_felt`` map (:mod:`lfd_track.policy.memory`) the
+  road values still reach the network, through the map they feed (bearing, amount and distance
+  of the felt not driven along yet), but not one by one: a 3-5-3 network on what a camera and
+  the commands told the map. The picture-steering human steers by exactly those three inputs, so
+  the 40 road values can only add ways to fit that teacher's labels by what the training track
+  looks like rather than by where its felt lies.
 
 The colour features are computed from the region histograms the road values are computed from
 (the H and S histograms of each region, :mod:`lfd_track.vision.histograms`), as the means of
@@ -44,7 +51,7 @@ import numpy as np
 
 from ..core.frame import GRID_COLUMNS, GRID_ROWS, N_REGIONS
 
-FEATURE_SETS = ("road_values", "road_values+colour")
+FEATURE_SETS = ("road_values", "road_values+colour", "none")
 """Per-region input feature sets a policy may read (see the module docstring)."""
 DEFAULT_FEATURES = "road_values"
 COLOUR_PER_REGION = 3
@@ -60,8 +67,10 @@ def check_features(features: str) -> str:
 
 
 def frame_inputs(features: str = DEFAULT_FEATURES) -> int:
-    """Inputs a network reads of one frame: 40, or 160 with the colour features."""
+    """Inputs a network reads of one frame: 40, 160 with the colour features, 0 with none."""
     check_features(features)
+    if features == "none":
+        return 0
     return N_REGIONS if features == DEFAULT_FEATURES else N_REGIONS * (1 + COLOUR_PER_REGION)
 
 
@@ -111,16 +120,19 @@ def frame_features(
     road_values: np.ndarray, histograms: np.ndarray, features: str = DEFAULT_FEATURES
 ) -> np.ndarray:
     """The per-region inputs of ``features``: ``road_values`` (..., 40) alone, or followed by
-    the :func:`colour_features` of ``histograms`` (..., 40, 5, bins); float64."""
+    the :func:`colour_features` of ``histograms`` (..., 40, 5, bins), or nothing (..., 0) with
+    ``"none"``; float64."""
     values = np.asarray(road_values, dtype=np.float64)
     if check_features(features) == DEFAULT_FEATURES:
         return values
+    if features == "none":
+        return values[..., :0]
     return np.concatenate([values, colour_features(histograms)], axis=-1)
 
 
 def mirror_frame_inputs(inputs: np.ndarray, features: str = DEFAULT_FEATURES) -> np.ndarray:
-    """Per-region inputs (N, 40) or (N, 160) as they would be in a world flipped left to right:
-    every block of 40 has each grid row reversed."""
+    """Per-region inputs (N, 40), (N, 160) or (N, 0) as they would be in a world flipped left to
+    right: every block of 40 has each grid row reversed."""
     x = np.asarray(inputs, dtype=np.float64)
     n = frame_inputs(features)
     if x.ndim != 2 or x.shape[1] != n:

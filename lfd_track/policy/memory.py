@@ -29,7 +29,9 @@ such runs, and reading the training accuracy with that baseline in mind, are the
 * ``"fresh_felt"`` — a dead-reckoned map of the felt seen lately, reduced to where the felt the
   robot has *not* driven along lies (:class:`FreshFeltMemory`). Three inputs: the bearing of
   that fresh felt's centre (``(1 + bearing / pi) / 2``: 0.5 straight ahead, above 0.5 to the
-  left), how much of it there is, and how far its centre lies. Each frame's 40 road values are
+  left; with ``bearing_range_deg`` r below 180, ``(1 + bearing / r) / 2`` clipped to [0, 1], so
+  that a network whose weights stay small can still tell 20° from straight ahead), how much of
+  it there is, and how far its centre lies. Each frame's 40 road values are
   placed on the floor where their regions' centres look (the camera's geometry), and every
   executed command moves the map by the rover's nominal motion for it (forward ``step_m``, a
   pivot ``pivot_deg``). Felt within ``path_radius_m`` of a place the rover has been is *visited*
@@ -64,6 +66,8 @@ MEMORY_KINDS = ("none", "last_bend", "previous_command", "fresh_felt")
 #: ``fresh_felt`` settings, written to a controller file only with that kind (so the files of the
 #: other kinds are as they were before it existed).
 _MAP_FIELDS = ("frames", "path_radius_m", "reach_m", "carpet", "felt", "step_m", "pivot_deg")
+#: The ``fresh_felt`` bearing input's range [deg] when it is not set: the whole circle.
+FULL_BEARING_RANGE_DEG = 180.0
 #: What the ``fresh_felt`` bearing input says while no fresh felt is left (``blank_bearing``).
 BLANK_BEARINGS = ("centre", "last")
 #: Value of the ``last_bend`` input before the first bend of an episode.
@@ -100,6 +104,11 @@ class MemoryConfig(DictConfig):
     when nothing was ever seen) or ``"last"`` (the bearing the fresh felt last had, so the policy
     still knows which side it went; amount and distance stay 0). Written to a controller file
     only when it is ``"last"``."""
+    bearing_range_deg: float = FULL_BEARING_RANGE_DEG
+    """[deg] ``fresh_felt``: the bearing that the bearing input maps to 1 (left) and 0 (right);
+    bearings beyond it are clipped. 180 (the whole circle, the default) keeps every bearing
+    apart; a narrower range spreads the bearings that decide a turn over more of [0, 1]. Written
+    to a controller file only when it is not 180."""
 
     def to_dict(self) -> dict[str, Any]:
         data = super().to_dict()
@@ -108,6 +117,8 @@ class MemoryConfig(DictConfig):
                 del data[name]
         if self.kind != "fresh_felt" or self.blank_bearing == "centre":
             del data["blank_bearing"]
+        if self.kind != "fresh_felt" or self.bearing_range_deg == FULL_BEARING_RANGE_DEG:
+            del data["bearing_range_deg"]
         return data
 
     def __post_init__(self) -> None:
@@ -132,6 +143,9 @@ class MemoryConfig(DictConfig):
                 f"memory blank_bearing must be one of {', '.join(BLANK_BEARINGS)},"
                 f" got {self.blank_bearing!r}"
             )
+        r = self.bearing_range_deg
+        if isinstance(r, bool) or not isinstance(r, (int, float)) or not 0.0 < r <= 180.0:
+            raise ValueError(f"memory bearing_range_deg must be a number in (0, 180], got {r!r}")
         if not self.carpet < self.felt <= 1.0:
             raise ValueError("memory needs carpet < felt <= 1")
         if self.reach_m <= 0:
@@ -259,10 +273,13 @@ def region_floor_points() -> np.ndarray:
     return points
 
 
-def fresh_bearing_rad(inputs: np.ndarray) -> float:
+def fresh_bearing_rad(inputs: np.ndarray, range_deg: float = FULL_BEARING_RANGE_DEG) -> float:
     """The bearing [rad] (left positive) that ``fresh_felt`` inputs (bearing, amount, distance)
-    encode in their first entry."""
-    return (2.0 * float(inputs[0]) - 1.0) * math.pi
+    encode in their first entry, with the bearing input's range ``range_deg`` (a bearing that
+    was clipped decodes as the range's end)."""
+    if range_deg == FULL_BEARING_RANGE_DEG:
+        return (2.0 * float(inputs[0]) - 1.0) * math.pi
+    return (2.0 * float(inputs[0]) - 1.0) * math.radians(range_deg)
 
 
 class FreshFeltMemory:
@@ -327,9 +344,14 @@ class FreshFeltMemory:
         centre_x = float((weights * points[:, 0]).sum()) / mass
         centre_y = float((weights * points[:, 1]).sum()) / mass
         bearing = math.atan2(centre_y, centre_x)
+        if cfg.bearing_range_deg == FULL_BEARING_RANGE_DEG:  # the same bits as before the option
+            encoded = 0.5 * (1.0 + bearing / math.pi)
+        else:
+            half = 0.5 * (1.0 + bearing / math.radians(cfg.bearing_range_deg))
+            encoded = min(1.0, max(0.0, half))
         self._inputs = np.array(
             [
-                0.5 * (1.0 + bearing / math.pi),
+                encoded,
                 min(1.0, mass / _FULL_FRESH),
                 min(1.0, math.hypot(centre_x, centre_y) / cfg.reach_m),
             ]

@@ -80,10 +80,10 @@ def mlp_forward(
     x = np.asarray(inputs, dtype=np.float64)
     single_input = x.ndim == 1
     x2 = x[None, :] if single_input else x
-    if x2.ndim != 2 or x2.shape[1] < N_INPUTS:
+    if x2.ndim != 2 or x2.shape[1] < 1:
         raise ValueError(
-            f"inputs must have shape (N, {N_INPUTS}) (road values, then any memory inputs),"
-            f" got {x.shape}"
+            f"inputs must have shape (N, n), n >= 1 (the {N_INPUTS} road values, then any"
+            f" memory inputs; or the memory inputs alone), got {x.shape}"
         )
     n_in = x2.shape[1]
     if bias is None:

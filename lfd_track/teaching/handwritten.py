@@ -149,6 +149,8 @@ class FreshFeltRuleConfig:
             raise ValueError("turn_deg must lie in [0, 180)")
         if self.memory.kind != "fresh_felt":
             raise ValueError("a fresh-felt rule needs memory kind 'fresh_felt'")
+        if self.turn_deg >= self.memory.bearing_range_deg:
+            raise ValueError("turn_deg must lie below the memory's bearing_range_deg")
 
 
 @dataclass
@@ -166,14 +168,14 @@ class FreshFeltRule:
 
     def propose(self, moment) -> Command:  # noqa: ANN001 - a teaching-loop Moment
         inputs = np.asarray(moment.policy_inputs, dtype=np.float64)
-        return self.act(inputs[N_REGIONS:])
+        return self.act(inputs[-3:])  # the map's three inputs come last
 
     def act(self, memory: np.ndarray) -> Command:
         """The command for the ``fresh_felt`` inputs (3,): bearing, amount, distance."""
         if float(memory[1]) <= 0.0:  # no fresh felt
             self.blank_frames += 1
             return self.side
-        bearing = fresh_bearing_rad(memory)
+        bearing = fresh_bearing_rad(memory, self.config.memory.bearing_range_deg)
         if bearing != 0.0:
             self.side = Command.LEFT if bearing > 0 else Command.RIGHT
         limit = math.radians(self.config.turn_deg)

@@ -49,10 +49,17 @@ class Percept:
     """The regions' colour features, (120,) float64 with the ``road_values+colour`` features,
     else (0,) (computed from :attr:`histograms`, as for a recorded case)."""
 
+    road_inputs: bool = True
+    """Whether the policy reads the road values one by one (False with the ``"none"`` features:
+    it reads the memory inputs alone)."""
+
     @cached_property
     def inputs(self) -> np.ndarray:
-        """The policy's inputs: the road values, then any colour features, then the memory
-        inputs, (40 + c + m,) float64 (joined once, on first use)."""
+        """The policy's inputs: the road values (unless the features are ``"none"``), then any
+        colour features, then the memory inputs, (40 + c + m,) or (m,) float64 (joined once, on
+        first use)."""
+        if not self.road_inputs:
+            return self.memory
         if not len(self.memory) and not len(self.colour):
             return self.values
         return np.concatenate([self.values, self.colour, self.memory])
@@ -74,6 +81,10 @@ class Perception:
         self.rule = rule
         self.memory_config = memory or MemoryConfig()
         self.features = check_features(features)
+        if features == "none" and not self.memory_config.n_inputs:
+            raise ValueError(
+                "features 'none' leave the policy only its memory inputs: set a memory kind"
+            )
         self._memory = memory_for(memory)
 
     @property
@@ -127,7 +138,9 @@ class Perception:
         else:
             self._memory.see(values)
             memory = self._memory.inputs()
-        colour = np.zeros(0) if self.features == DEFAULT_FEATURES else colour_features(histograms)
+        colour = (
+            colour_features(histograms) if self.features == "road_values+colour" else np.zeros(0)
+        )
         return Percept(
             values=values,
             histograms=histograms,
@@ -135,6 +148,7 @@ class Perception:
             box_on_felt=box_on_felt,
             memory=memory,
             colour=colour,
+            road_inputs=self.features != "none",
         )
 
     def look(self, frame: np.ndarray) -> np.ndarray:

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.commands import Command
-from ..core.frame import N_REGIONS
+from ..policy.memory import MemoryConfig
 from ..world.driver import CentrelineDriver, DriverConfig
 from ..world.rover import RoverConfig
 from ..world.track import ProgressTracker, Track
@@ -247,6 +247,7 @@ class ProtocolHuman:
         intervention: InterventionConfig | None = None,
         rover: RoverConfig | None = None,
         label_all: bool = False,
+        memory: MemoryConfig | None = None,
     ) -> None:
         self.legs = legs
         self.label_all = bool(label_all)
@@ -284,8 +285,13 @@ class ProtocolHuman:
         self._direction = self._next_turn
         self._step = 0
         self._advanced_for: dict | None = None
+        # The picture's map is the policy's (``memory``): its bearing input's range says how to
+        # read it.
+        picture_map = (
+            {"memory": memory} if memory is not None and memory.kind == "fresh_felt" else {}
+        )
         self._picture = (
-            FreshFeltRule(FreshFeltRuleConfig(turn_deg=config.picture_turn_deg))
+            FreshFeltRule(FreshFeltRuleConfig(turn_deg=config.picture_turn_deg, **picture_map))
             if config.steers_by == "picture"
             else None
         )
@@ -392,7 +398,7 @@ class ProtocolHuman:
         if self._picture is None or not self._past_library_only:
             return None
         inputs = moment.inputs
-        if inputs is None or len(inputs) < N_REGIONS + 3:
+        if inputs is None or len(inputs) < 3:  # the map's three inputs come last
             raise ValueError(
                 "human steers_by 'picture' reads the fresh_felt map: the policy needs memory"
                 " kind 'fresh_felt'"
