@@ -458,6 +458,10 @@ class Controller:
                 memory = MemoryConfig.from_dict(data["memory"])
                 if memory.kind == "none":
                     raise ValueError("a controller without memory stores null as its memory")
+            if features == "none" and memory is None:
+                raise ValueError(
+                    "features 'none' leave the network only its memory inputs: it needs a memory"
+                )
         context = N_CONTEXT if kind == "elman-sigmoid" else 0
         expected = list(layer_sizes(policy_inputs(memory, features) + context))
         sizes = data["layer_sizes"]

@@ -202,3 +202,41 @@ def test_blank_bearing_is_checked_and_written_only_when_last():
     last = MemoryConfig(kind="fresh_felt", blank_bearing="last")
     assert last.to_dict()["blank_bearing"] == "last"
     assert MemoryConfig.from_dict(last.to_dict()) == last
+
+
+def test_a_narrower_bearing_range_spreads_and_clips_the_bearing_input():
+    narrow = MemoryConfig(kind="fresh_felt", bearing_range_deg=30.0)
+    wide_memory, narrow_memory = FreshFeltMemory(FRESH), FreshFeltMemory(narrow)
+    for memory in (wide_memory, narrow_memory):
+        memory.see(_values({2}, rows={3, 4}))  # felt a little left of ahead
+    wide, spread = wide_memory.inputs(), narrow_memory.inputs()
+    bearing = fresh_bearing_rad(wide)
+    assert 0.0 < math.degrees(bearing) < 30.0
+    assert spread[0] - 0.5 == pytest.approx((wide[0] - 0.5) * 6.0, abs=1e-12)  # 180 / 30
+    assert fresh_bearing_rad(spread, 30.0) == pytest.approx(bearing, abs=1e-12)
+    np.testing.assert_array_equal(spread[1:], wide[1:])  # amount and distance unchanged
+    far = FreshFeltMemory(narrow)
+    far.see(_values({0}, rows={4}))  # felt far to the left of the nearest row: beyond 30 deg
+    assert far.inputs()[0] == 1.0
+    assert math.degrees(fresh_bearing_rad(far.inputs(), 30.0)) == pytest.approx(30.0, abs=1e-9)
+
+
+def test_the_rule_reads_the_bearing_with_its_maps_range():
+    narrow = MemoryConfig(kind="fresh_felt", bearing_range_deg=30.0)
+    rule = FreshFeltRule(FreshFeltRuleConfig(turn_deg=20.0, memory=narrow))
+    # 15 deg left: 0.75 in a +-30 deg range (0.54 in the full circle's); 25 deg right: 0.083.
+    assert rule.act(np.array([0.5 + 15 / 60, 0.5, 0.5])) == F
+    assert rule.act(np.array([0.5 - 25 / 60, 0.5, 0.5])) == R
+    assert rule.act(np.array([1.0, 0.5, 0.5])) == L
+    with pytest.raises(ValueError, match="bearing_range_deg"):
+        FreshFeltRuleConfig(turn_deg=30.0, memory=narrow)
+
+
+def test_bearing_range_is_checked_and_written_only_when_narrower():
+    for bad in (0.0, -10.0, 190.0, True, "30"):
+        with pytest.raises(ValueError, match="memory bearing_range_deg"):
+            MemoryConfig(kind="fresh_felt", bearing_range_deg=bad)
+    assert "bearing_range_deg" not in FRESH.to_dict()  # files as before the option
+    narrow = MemoryConfig(kind="fresh_felt", bearing_range_deg=30.0)
+    assert narrow.to_dict()["bearing_range_deg"] == 30.0
+    assert MemoryConfig.from_dict(narrow.to_dict()) == narrow

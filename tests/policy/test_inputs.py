@@ -150,10 +150,12 @@ def _synthetic_cases(kind: str, n: int = 90) -> tuple[np.ndarray, np.ndarray]:
     rng = np.random.default_rng(7)
     actions = rng.integers(0, 3, n)
     x = rng.uniform(0, 1, (n, frame_inputs(COLOUR) if kind != "memory" else 40))
+    if kind == "memory_only":  # no per-region inputs: the memory alone
+        x = x[:, :0]
     if kind in ("colour", "both"):
         x[:, 80:120] = 0.2  # the hue sin block says the command
         x[:, 80:120] += 0.3 * actions[:, None]
-    if kind in ("memory", "both"):
+    if kind in ("memory", "both", "memory_only"):
         previous = np.eye(3)[actions]
         x = np.hstack([x, previous])
     return x, actions
@@ -164,6 +166,7 @@ def _settings(kind: str) -> dict:
         "colour": {"features": COLOUR},
         "memory": {"memory": PREVIOUS},
         "both": {"features": COLOUR, "memory": PREVIOUS},
+        "memory_only": {"features": "none", "memory": PREVIOUS},
     }[kind]
 
 
@@ -178,7 +181,7 @@ def _check_round_trip(tmp_path, controller: Controller, x: np.ndarray) -> Contro
     return loaded
 
 
-@pytest.mark.parametrize("kind", ["colour", "memory", "both"])
+@pytest.mark.parametrize("kind", ["colour", "memory", "both", "memory_only"])
 def test_the_ga_learns_the_new_inputs_and_the_file_keeps_them(tmp_path, library, kind):
     x, a = _synthetic_cases(kind)
     result = evolve(x, a, GAConfig(generations=60), np.random.default_rng(0))
@@ -188,7 +191,7 @@ def test_the_ga_learns_the_new_inputs_and_the_file_keeps_them(tmp_path, library,
     _check_round_trip(tmp_path, controller, x)
 
 
-@pytest.mark.parametrize("kind", ["colour", "memory", "both"])
+@pytest.mark.parametrize("kind", ["colour", "memory", "both", "memory_only"])
 def test_bc_learns_the_new_inputs_and_the_file_keeps_them(tmp_path, library, kind):
     x, a = _synthetic_cases(kind)
     fit = fit_bc(x, a, BCConfig(epochs=400, learning_rate=0.05), np.random.default_rng(0))
@@ -223,6 +226,11 @@ def test_the_file_records_the_options_and_old_layouts_are_unchanged(tmp_path, li
         Controller(library, w40, features=COLOUR)
     with pytest.raises(ValueError, match="features must be one of"):
         Controller(library, w40, features="colour")
+    alone = Controller(library, np.zeros(5 * 3 + 15), features="none", memory=PREVIOUS).to_dict()
+    assert alone["schema_version"] == 4 and alone["features"] == "none"
+    assert alone["layer_sizes"] == [3, 5, 3] and alone["memory"]["kind"] == "previous_command"
+    with pytest.raises(ValueError, match="features 'none' .* needs a memory"):
+        Controller(library, np.zeros(15), features="none")
 
 
 def test_a_damaged_schema_4_file_is_refused_in_one_line(tmp_path, library):
@@ -235,6 +243,7 @@ def test_a_damaged_schema_4_file_is_refused_in_one_line(tmp_path, library):
         ({"features": "road_values"}, "must name features beyond the road values"),
         ({"memory": {"kind": "none", "bend_pivots": 2}}, "stores null as its memory"),
         ({"layer_sizes": [40, 5, 3]}, "expected [160, 5, 3]"),
+        ({"features": "none", "layer_sizes": [0, 5, 3]}, "it needs a memory"),
     ]:
         data = {**good, **change}
         data["checksum"] = checksum(data)
@@ -260,6 +269,34 @@ def test_a_controller_drives_frames_with_the_inputs_it_was_trained_on(tmp_path, 
     assert commands == by_hand
     loaded = Controller.load(_save(tmp_path, controller))
     assert [loaded.act(f) for f in frames] == commands
+
+
+def test_a_controller_reading_its_memory_alone_drives_frames_by_it(tmp_path, frames, library):
+    """Features "none": the network reads the memory inputs only (here the previous command),
+    the road values still computed for the library but not fed to the network."""
+    rng = np.random.default_rng(4)
+    weights = rng.uniform(-3, 3, 5 * 3 + 15)
+    controller = Controller(library, weights, features="none", memory=PREVIOUS)
+    commands = [controller.act(f) for f in frames]
+    perception = Perception(library, "frozen", PREVIOUS, "none")
+    assert perception.n_inputs == 3
+    twin = Controller(library, weights, features="none", memory=PREVIOUS)
+    by_hand = []
+    for f in frames:
+        percept = perception.perceive(f)
+        assert percept.inputs.shape == (3,) and percept.values.shape == (40,)
+        by_hand.append(twin.act_on_values(percept.inputs))
+        perception.note(by_hand[-1])
+    assert commands == by_hand
+    loaded = Controller.load(_save(tmp_path, controller))
+    assert loaded.features == "none" and loaded.n_inputs == 3
+    assert [loaded.act(f) for f in frames] == commands
+    with pytest.raises(ValueError, match="features 'none' .* set a memory kind"):
+        Perception(library, "frozen", None, "none")
+    x = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    mx, ma = mirror_cases(x, np.array([1, 2]), PREVIOUS, "none")  # no per-region block
+    np.testing.assert_array_equal(mx, [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
+    assert ma.tolist() == [2, 1]
 
 
 def _save(tmp_path, controller: Controller):
@@ -297,4 +334,9 @@ name = "paper"
     assert "features" not in config_dict(paper.config)  # results of older runs stay as they were
     path.write_text(base.replace('"road_values+colour"', '"colours"'))
     with pytest.raises(FileFormatError, match="features must be one of"):
+        load_study(path, check_names=False)
+    path.write_text(
+        base.replace('"road_values+colour"', '"none"').replace("previous_command", "none")
+    )
+    with pytest.raises(FileFormatError, match="features 'none' .* set a memory kind"):
         load_study(path, check_names=False)

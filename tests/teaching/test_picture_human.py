@@ -115,3 +115,22 @@ def test_clearing_the_memory_per_leg_stops_the_spin_after_each_turn_around(tmp_p
         blank_driving[clear] = int((demo.memory[driving, 1] <= 0.0).sum())
     assert commands[True] < 220 < commands[False], commands  # 176 and 274 for this seed
     assert blank_driving[True] < 5 < blank_driving[False], blank_driving
+
+
+def test_the_picture_human_reads_the_policys_map_whatever_its_bearing_range(tmp_path):
+    """The same noise-free demonstration with the map's bearing input spread over +-30 deg: the
+    human reads the bearing with the map's range, so every command is the same, and only the
+    bearing input differs (spread six times, clipped beyond 30 deg)."""
+    human = HumanConfig(steers_by="picture", **NOISE_FREE)
+    narrow = MemoryConfig(kind="fresh_felt", bearing_range_deg=30.0)
+    demos = []
+    for name, memory in (("wide", FRESH), ("narrow", narrow)):
+        out = tmp_path / f"{name}.lfdemo"
+        run_demonstration(out, seed=4, human=human, memory=memory, fsync=False)
+        demos.append(load_demonstration(out))
+    wide, spread = demos
+    np.testing.assert_array_equal(spread.commands, wide.commands)
+    np.testing.assert_array_equal(spread.memory[:, 1:], wide.memory[:, 1:])
+    expected = np.clip(0.5 + (wide.memory[:, 0] - 0.5) * 6.0, 0.0, 1.0)
+    np.testing.assert_allclose(spread.memory[:, 0], expected, atol=1e-9)
+    assert (spread.memory[:, 0] == 1.0).any() and (spread.memory[:, 0] == 0.0).any()
