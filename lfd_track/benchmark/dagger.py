@@ -45,6 +45,7 @@ from ..learning.fitness import training_accuracy
 from ..learning.ga import GAConfig, evolve
 from ..learning.result import check_bool, shown_int
 from ..policy.controller import Controller
+from ..policy.features import DEFAULT_FEATURES
 from ..policy.memory import MemoryConfig
 from ..policy.mlp import MAX_HIDDEN, N_HIDDEN, check_hidden
 from ..teaching.arbiter import Arbiter
@@ -176,6 +177,7 @@ def learn_dagger(
     memory: MemoryConfig | None = None,
     mirror: bool = False,
     track: str = "training",
+    features: str = DEFAULT_FEATURES,
 ) -> Learned:
     """The paper's demonstration and a first fit, then DAgger rounds with every state labelled.
 
@@ -186,7 +188,7 @@ def learn_dagger(
     summary, demo, library = _demonstrate(
         rep_dir, demo_seed=demo_seed, preset=preset, human=human, memory=memory, track=track
     )
-    inputs = [np.asarray(demo.inputs, dtype=np.float64)]
+    inputs = [np.asarray(demo.policy_inputs(features), dtype=np.float64)]
     actions = [np.asarray(demo.commands, dtype=np.intp)]
     fitter = ga if dagger.learner == "ga" else bc
     learner_config = {**dagger.to_dict(), dagger.learner: fitter.to_dict()}
@@ -194,7 +196,7 @@ def learn_dagger(
     fitness_mean: list[float] = []
 
     def fit(x: np.ndarray, a: np.ndarray, rng: np.random.Generator) -> Controller:
-        tx, ta = _training_set(x, a, memory, mirror)
+        tx, ta = _training_set(x, a, memory, mirror, features)
         if dagger.learner == "ga":
             result = evolve(tx, ta, ga, rng)
             weights, bias = result.best_weights, ga.bias
@@ -214,6 +216,7 @@ def learn_dagger(
             seed=ga_seed,
             fitness_history=best,
             memory=memory,
+            features=features,
             hidden=dagger.hidden,
         )
 
