@@ -102,6 +102,11 @@ def run(args: argparse.Namespace) -> int:
             note="",
         )
     demo, library, memory = load_for_learning(args.demo)
+    if args.features == "none" and memory is None:
+        raise LfdTrackError(
+            f"{shown_path(args.demo)}: --features none reads the memory inputs alone, and this"
+            " recording has none (record it with --memory)"
+        )
     return _learn(
         args,
         png,

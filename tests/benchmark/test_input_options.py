@@ -76,3 +76,44 @@ def test_bc_learns_the_colour_features_and_the_run_records_them(tmp_path):
     config = BenchmarkConfig(method="bc", features=COLOUR)
     assert config_dict(config)["features"] == COLOUR
     assert "features" not in config_dict(BenchmarkConfig())
+
+
+def test_dagger_learns_and_drives_a_network_that_reads_its_memory_alone(tmp_path, capsys):
+    """Features "none": DAgger's demonstration, labels and controller hold the memory inputs
+    only (the picture human's three map inputs, the bearing spread over +-30 deg), and the
+    command line refuses the features without a memory in one line."""
+    from lfd_track.benchmark.dagger import DaggerConfig, learn_dagger
+
+    demo_seed, ga_seed = _seeds()
+    narrow = MemoryConfig(kind="fresh_felt", blank_bearing="last", bearing_range_deg=30.0)
+    learned = learn_dagger(
+        tmp_path,
+        demo_seed=demo_seed,
+        ga_seed=ga_seed,
+        preset="paper",
+        human=HumanConfig(legs=1, steers_by="picture", reaction_delay_prob=0.0, lapse_prob=0.0),
+        ga=GAConfig(generations=5),
+        bc=BCConfig(epochs=100, bias=True),
+        dagger=DaggerConfig(learner="bc", rounds=1),
+        memory=narrow,
+        features="none",
+    )
+    controller = learned.controller
+    assert controller.features == "none" and controller.memory == narrow
+    assert controller.n_inputs == 3 and controller.weights.shape == (5 * 3 + 5 + 3 * 5 + 3,)
+    labels = load_demonstration(tmp_path / "labels_r1.lfdemo")
+    assert labels.policy_inputs("none").shape == (labels.n_cases, 3)
+    assert labels.memory_settings() == narrow
+    path = tmp_path / "controller.json"
+    controller.save(path)
+    loaded = Controller.load(path)
+    x = labels.policy_inputs("none")
+    assert [loaded.act_on_values(v) for v in x] == [controller.act_on_values(v) for v in x]
+    plain = tmp_path / "plain.lfdemo"
+    args = ["--quiet", "evolve", str(plain), "--generations", "2", "--features", "none"]
+    from lfd_track.demo.demonstrator import run_demonstration
+
+    run_demonstration(plain, seed=demo_seed, human=HumanConfig(legs=1), fsync=False)
+    assert main([*args, "--out", str(tmp_path / "none.json")]) != 0
+    assert not (tmp_path / "none.json").exists()
+    assert "--features none reads the memory inputs alone" in capsys.readouterr().err
