@@ -22,7 +22,7 @@ from ..teaching.scripted import STEERING, TURNAROUND_RULES
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output, shown_path
 from ..utils.signals import Terminated, interrupted_exit_code, raise_terminated
 from ..utils.staging import staged_output
-from .types import EXIT_OK, EXIT_USAGE, whole_number_in
+from .types import EXIT_OK, EXIT_USAGE, float_in, whole_number_in
 
 
 def _cores() -> int:
@@ -137,6 +137,14 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         " (0.5) or last (the side the fresh felt last lay on); default centre",
     )
     bench.add_argument(
+        "--bearing-range",
+        type=float_in(1.0, 180.0),
+        default=180.0,
+        metavar="DEG",
+        help="with --memory fresh_felt: the bearing the bearing input maps to 1 and 0, bearings"
+        " beyond it clipped (default 180, the whole circle)",
+    )
+    bench.add_argument(
         "--steers-by",
         choices=STEERING,
         default="centreline",
@@ -213,7 +221,11 @@ def run(args: argparse.Namespace) -> int:
             keep_learning=args.keep_learning,
             method=args.method,
             test_tracks=("testing", *args.test_track),
-            memory=MemoryConfig(kind=args.memory, blank_bearing=args.blank_bearing),
+            memory=MemoryConfig(
+                kind=args.memory,
+                blank_bearing=args.blank_bearing,
+                bearing_range_deg=args.bearing_range,
+            ),
             mirror=args.mirror,
             demo_track=args.demo_track,
             features=args.features,

@@ -12,6 +12,7 @@ from typing import Any
 
 from ..benchmark.methods import OnlineConfig
 from ..errors import LfdTrackError
+from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
 from ..policy.memory import BLANK_BEARINGS, MEMORY_KINDS
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output
 from ..utils.signals import stop_signals_interrupt
@@ -32,6 +33,8 @@ def teach_config(args: argparse.Namespace) -> Any:
     """The :class:`~lfd_track.web.session.TeachConfig` the arguments ask for."""
     from ..web.session import TeachConfig  # lazy: the web stack
 
+    if args.features == "none" and args.memory == "none":
+        raise LfdTrackError("--features none reads the memory inputs alone: give --memory")
     return TeachConfig(
         out=Path(args.out),
         backend=args.backend,
@@ -50,6 +53,10 @@ def teach_config(args: argparse.Namespace) -> Any:
         population_size=args.population,
         memory=args.memory,
         blank_bearing=args.blank_bearing,
+        bearing_range_deg=args.bearing_range,
+        features=args.features,
+        ga_bias=args.ga_bias,
+        mutation_delta=args.mutation_delta,
         library_only=args.library_only,
         force=args.force,
         fps=args.fps,
@@ -188,6 +195,33 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         default="centre",
         help="with --memory fresh_felt: the bearing input while no fresh felt is left: centre"
         " (0.5, default) or last (the side the fresh felt last lay on)",
+    )
+    teach.add_argument(
+        "--bearing-range",
+        type=float_in(1.0, 180.0),
+        default=180.0,
+        metavar="DEG",
+        help="with --memory fresh_felt: the bearing the bearing input maps to 1 and 0, bearings"
+        " beyond it clipped (default 180, the whole circle; the goal's chosen policy: 30)",
+    )
+    teach.add_argument(
+        "--features",
+        choices=FEATURE_SETS,
+        default=DEFAULT_FEATURES,
+        help="with --online: per-region inputs of the policy: road_values (the paper's 40,"
+        " default), road_values+colour (160) or none (its memory inputs alone; needs --memory)",
+    )
+    teach.add_argument(
+        "--ga-bias",
+        action="store_true",
+        help="with --online: networks with biases (the goal's chosen policy kind learns with them)",
+    )
+    teach.add_argument(
+        "--mutation-delta",
+        type=float_in(0.001, 10.0),
+        default=0.1,
+        metavar="D",
+        help="with --online: the GA's mutation step (default 0.1, the paper's)",
     )
     teach.add_argument(
         "--library-only",

@@ -75,6 +75,16 @@ class TeachConfig:
     blank_bearing: str = "centre"
     """With ``memory = "fresh_felt"``: the bearing input while no fresh felt is left
     (``MemoryConfig.blank_bearing``)."""
+    bearing_range_deg: float = 180.0
+    """With ``memory = "fresh_felt"``: the bearing input's range (``MemoryConfig.
+    bearing_range_deg``)."""
+    features: str = "road_values"
+    """Per-region inputs of the online policy (:data:`~lfd_track.policy.features.FEATURE_SETS`;
+    ``"none"``: the memory inputs alone)."""
+    ga_bias: bool = False
+    """With ``online``: networks with biases (``GAConfig.bias``)."""
+    mutation_delta: float = 0.1
+    """With ``online``: the GA's mutation step (``GAConfig.mutation_delta``, the paper's 0.1)."""
     library_only: int = 0
     """The first N commands only build the road library and are not recorded."""
     force: bool = False
@@ -492,7 +502,8 @@ def open_session(config: TeachConfig) -> LoopSession:
         perception = Perception(
             RoadLibrary(),
             "careful",
-            MemoryConfig(kind=config.memory, blank_bearing=config.blank_bearing),
+            _memory_config(config),
+            config.features,
         )
         writer = target.writer(metadata, perception, fsync=True, overwrite=config.force)
     except BaseException:
@@ -559,6 +570,17 @@ def open_session(config: TeachConfig) -> LoopSession:
         raise
 
 
+def _memory_config(config: TeachConfig) -> MemoryConfig:
+    """The memory settings the session records (and its online policy reads)."""
+    if config.memory != "fresh_felt":
+        return MemoryConfig(kind=config.memory)
+    return MemoryConfig(
+        kind="fresh_felt",
+        blank_bearing=config.blank_bearing,
+        bearing_range_deg=config.bearing_range_deg,
+    )
+
+
 def _online_parts(config: TeachConfig, n_inputs: int) -> tuple[PolicyCommander, Any]:
     """The policy commander and the loop's GA learner feed, which updates its weights."""
     from ..learning.ga import GAConfig
@@ -566,7 +588,11 @@ def _online_parts(config: TeachConfig, n_inputs: int) -> tuple[PolicyCommander, 
 
     policy = PolicyCommander(None)  # no policy until the first case was learned
     learner = GALearnerFeed(
-        GAConfig(population_size=config.population_size),
+        GAConfig(
+            population_size=config.population_size,
+            bias=config.ga_bias,
+            mutation_delta=config.mutation_delta,
+        ),
         np.random.default_rng(config.seed),
         config.takeover.generations_per_case,
         policy,

@@ -380,3 +380,19 @@ def test_online_teaching_with_the_fresh_felt_map_learns_from_its_three_inputs(op
     assert demo.memory.shape == (4, 3)
     assert ((demo.memory >= 0) & (demo.memory <= 1)).all()
     assert demo.memory[:, 1].max() > 0  # the felt ahead of the start is on the map
+
+
+def test_online_teaching_of_the_goals_chosen_policy_kind_reads_the_map_alone(open_station) -> None:
+    """``--online --features none`` with the map (bearing over +-30 deg) and a GA with biases:
+    the policy the goal chose (a 3-5-3 network on the map, 38 weights with biases) is what the
+    GA evolves while the person teaches, and the recording keeps the map's settings."""
+    from lfd_track.policy.memory import MemoryConfig
+
+    flags = [
+        "--memory", "fresh_felt", "--blank-bearing", "last", "--bearing-range", "30",
+        "--features", "none", "--ga-bias", "--mutation-delta", "0.5",
+    ]  # fmt: skip
+    demo = _teach_online(open_station, flags, ["forward", "forward", "left", "forward"], 38)
+    expected = MemoryConfig(kind="fresh_felt", blank_bearing="last", bearing_range_deg=30.0)
+    assert demo.metadata["memory"] == expected.to_dict()
+    assert demo.policy_inputs("none").shape == (4, 3)
