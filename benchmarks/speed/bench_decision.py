@@ -43,6 +43,7 @@ KINDS = [  # (features, memory kind, policy kind)
     ("road_values", "last_bend", "mlp-sigmoid"),
     ("road_values", "previous_command", "mlp-sigmoid"),
     ("road_values", "fresh_felt", "mlp-sigmoid"),
+    ("none", "fresh_felt", "mlp-sigmoid"),
     ("road_values", "none", "elman-sigmoid"),
     ("road_values+colour", "none", "mlp-sigmoid"),
     ("road_values+colour", "previous_command", "mlp-sigmoid"),
