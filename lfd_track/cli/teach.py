@@ -214,7 +214,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     teach.add_argument(
         "--ga-bias",
         action="store_true",
-        help="with --online: networks with biases (the goal's chosen policy kind learns with them)",
+        help="with --online: networks with biases (the map-only policy kind needs them to reach steep weights)",
     )
     teach.add_argument(
         "--mutation-delta",

@@ -367,7 +367,7 @@ def test_online_teaching_with_memory_learns_from_the_wider_input(open_station) -
 
 
 def test_online_teaching_with_the_fresh_felt_map_learns_from_its_three_inputs(open_station) -> None:
-    """``--online --memory fresh_felt --blank-bearing last`` (the goal's chosen inputs): every
+    """``--online --memory fresh_felt --blank-bearing last`` (round 10's chosen inputs): every
     case carries the map's bearing, amount and distance, and the GA evolves networks that read
     them (43 inputs, 230 weights)."""
     from lfd_track.policy.memory import MemoryConfig
