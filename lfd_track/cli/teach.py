@@ -214,7 +214,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     teach.add_argument(
         "--ga-bias",
         action="store_true",
-        help="with --online: networks with biases (the map-only policy kind needs them to reach steep weights)",
+        help="with --online: networks with biases (the map-only policy kind needs them to reach"
+        " steep weights)",
     )
     teach.add_argument(
         "--mutation-delta",
