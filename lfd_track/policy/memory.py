@@ -40,6 +40,14 @@ such runs, and reading the training accuracy with that baseline in mind, are the
   seen on the way in stays on the map, on the side it went, and the strip behind never counts.
   While no fresh felt is left the bearing input is 0.5, or with ``blank_bearing = "last"`` the
   bearing the fresh felt last had (which way it went: the side to pivot to at a blank corner).
+  Two options change what counts as fresh (both off by default, so earlier files read the same
+  map): ``strip_link_m`` keeps only the felt connected *along felt* to the felt the rover stands
+  on — a chain of felt points each within ``strip_link_m`` of the next, at most
+  :data:`_STRIP_HOPS` links from felt within :data:`_STRIP_SEED_M` of the axle — so that where
+  two strips pass within reach of each other across carpet, the one the rover is not on does not
+  pull it off its own; ``blank_reach_m`` looks again up to that distance while nothing is fresh
+  within ``reach_m``, for a sharp corner whose outgoing strip lies within ``path_radius_m`` of the
+  incoming one for its first half metre.
   The map knows nothing the robot could not: its own commands and what its camera saw.
 
 The input is computed from *executed* commands, whoever gave them (the human demonstrating or
@@ -66,6 +74,8 @@ MEMORY_KINDS = ("none", "last_bend", "previous_command", "fresh_felt")
 #: ``fresh_felt`` settings, written to a controller file only with that kind (so the files of the
 #: other kinds are as they were before it existed).
 _MAP_FIELDS = ("frames", "path_radius_m", "reach_m", "carpet", "felt", "step_m", "pivot_deg")
+#: ``fresh_felt`` options written to a controller file only when set (not 0).
+_OPTIONAL_MAP_FIELDS = ("strip_link_m", "blank_reach_m")
 #: The ``fresh_felt`` bearing input's range [deg] when it is not set: the whole circle.
 FULL_BEARING_RANGE_DEG = 180.0
 #: What the ``fresh_felt`` bearing input says while no fresh felt is left (``blank_bearing``).
@@ -110,8 +120,19 @@ class MemoryConfig(DictConfig):
     apart; a narrower range spreads the bearings that decide a turn over more of [0, 1]. Written
     to a controller file only when it is not 180."""
 
+    strip_link_m: float = 0.0
+    """[m] ``fresh_felt``: fresh felt must be connected along felt to the felt the rover stands
+    on, by links of at most this length (0: off, any felt may be fresh). Written to a controller
+    file only when set."""
+    blank_reach_m: float = 0.0
+    """[m] ``fresh_felt``: while nothing is fresh within ``reach_m``, look again up to this far
+    (0: off; else above ``reach_m``). Written to a controller file only when set."""
+
     def to_dict(self) -> dict[str, Any]:
         data = super().to_dict()
+        for name in _OPTIONAL_MAP_FIELDS:
+            if self.kind != "fresh_felt" or not getattr(self, name):
+                del data[name]
         if self.kind != "fresh_felt":
             for name in _MAP_FIELDS:
                 del data[name]
@@ -132,7 +153,15 @@ class MemoryConfig(DictConfig):
             raise ValueError(f"memory bend_pivots must be >= 1, got {self.bend_pivots}")
         if isinstance(self.frames, bool) or not isinstance(self.frames, int) or self.frames < 1:
             raise ValueError(f"memory frames must be an integer >= 1, got {self.frames!r}")
-        for name in ("path_radius_m", "reach_m", "step_m", "pivot_deg", "carpet", "felt"):
+        for name in (
+            "path_radius_m",
+            "reach_m",
+            "step_m",
+            "pivot_deg",
+            "carpet",
+            "felt",
+            *_OPTIONAL_MAP_FIELDS,
+        ):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise ValueError(f"memory {name} must be a number, got {value!r}")
@@ -150,6 +179,10 @@ class MemoryConfig(DictConfig):
             raise ValueError("memory needs carpet < felt <= 1")
         if self.reach_m <= 0:
             raise ValueError(f"memory reach_m must be > 0, got {self.reach_m!r}")
+        if self.blank_reach_m and self.blank_reach_m <= self.reach_m:
+            raise ValueError(
+                f"memory blank_reach_m must be 0 (off) or above reach_m, got {self.blank_reach_m!r}"
+            )
 
     @property
     def n_inputs(self) -> int:
@@ -256,6 +289,12 @@ _MIN_FRESH = 1.0
 _BEHIND_M = 0.05
 #: ``fresh_felt``: the amount input is the weighted fresh felt over this (clipped to 1).
 _FULL_FRESH = 20.0
+#: ``fresh_felt`` with ``strip_link_m``: felt this close to the axle is the rover's own strip.
+_STRIP_SEED_M = 0.3
+#: ``fresh_felt`` with ``strip_link_m``: links along felt from the rover's strip at most.
+_STRIP_HOPS = 8
+#: ``fresh_felt`` with ``strip_link_m``: only felt this close to the axle is linked up [m].
+_STRIP_WINDOW_M = 1.2
 
 
 @functools.lru_cache(maxsize=1)
@@ -331,12 +370,14 @@ class FreshFeltMemory:
         self._felt = np.concatenate([self._felt, felt])[-keep:]
         points = self._points
         dist = np.hypot(points[:, 0], points[:, 1])
-        weights = self._felt * ((dist < cfg.reach_m) & (points[:, 0] > -_BEHIND_M))
-        if len(self._path):
-            gap = points[:, None, :] - self._path[None, :, :]
-            visited = (np.einsum("ijk,ijk->ij", gap, gap) <= cfg.path_radius_m**2).any(axis=1)
-            weights = weights * ~visited
+        strip = self._own_strip(dist) if cfg.strip_link_m else None
+        reach = cfg.reach_m
+        weights = self._fresh(dist, reach, strip)
         mass = float(weights.sum())
+        if mass < _MIN_FRESH and cfg.blank_reach_m:  # nothing near: look further
+            reach = cfg.blank_reach_m
+            weights = self._fresh(dist, reach, strip)
+            mass = float(weights.sum())
         if mass < _MIN_FRESH:
             last = self._inputs[0] if cfg.blank_bearing == "last" else 0.5
             self._inputs = np.array([last, 0.0, 0.0])
@@ -353,9 +394,45 @@ class FreshFeltMemory:
             [
                 encoded,
                 min(1.0, mass / _FULL_FRESH),
-                min(1.0, math.hypot(centre_x, centre_y) / cfg.reach_m),
+                min(1.0, math.hypot(centre_x, centre_y) / reach),
             ]
         )
+
+    def _fresh(self, dist: np.ndarray, reach: float, strip: np.ndarray | None) -> np.ndarray:
+        """Weights of the felt that is fresh: felt within ``reach`` ahead of the axle (and on the
+        rover's own strip, if ``strip`` is given), farther than ``path_radius_m`` from every
+        place the rover has been."""
+        points = self._points
+        inside = (dist < reach) & (points[:, 0] > -_BEHIND_M)
+        if strip is not None:
+            inside &= strip
+        weights = self._felt * inside
+        if len(self._path):
+            gap = points[:, None, :] - self._path[None, :, :]
+            radius2 = self.config.path_radius_m**2
+            visited = (np.einsum("ijk,ijk->ij", gap, gap) <= radius2).any(axis=1)
+            weights = weights * ~visited
+        return weights
+
+    def _own_strip(self, dist: np.ndarray) -> np.ndarray:
+        """(N,) bool: map points on felt connected along felt to the felt the rover stands on
+        (links of at most ``strip_link_m``, at most :data:`_STRIP_HOPS` of them, among felt points
+        within :data:`_STRIP_WINDOW_M`; see the module docstring)."""
+        on_strip = np.zeros(len(dist), dtype=bool)
+        candidates = np.flatnonzero((dist < _STRIP_WINDOW_M) & (self._felt >= 0.5))
+        if not len(candidates):
+            return on_strip
+        p = self._points[candidates]
+        gap = p[:, None, :] - p[None, :, :]
+        linked = np.einsum("ijk,ijk->ij", gap, gap) <= self.config.strip_link_m**2
+        reached = dist[candidates] <= _STRIP_SEED_M
+        for _ in range(_STRIP_HOPS):
+            grown = linked[:, reached].any(axis=1) | reached
+            if np.array_equal(grown, reached):
+                break
+            reached = grown
+        on_strip[candidates[reached]] = True
+        return on_strip
 
     def inputs(self) -> np.ndarray:
         """The memory inputs now, (3,) float64: bearing, amount, distance, each in [0, 1]."""

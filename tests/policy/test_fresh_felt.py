@@ -240,3 +240,50 @@ def test_bearing_range_is_checked_and_written_only_when_narrower():
     narrow = MemoryConfig(kind="fresh_felt", bearing_range_deg=30.0)
     assert narrow.to_dict()["bearing_range_deg"] == 30.0
     assert MemoryConfig.from_dict(narrow.to_dict()) == narrow
+
+
+def test_strip_link_keeps_only_the_felt_connected_to_the_rovers_own_strip():
+    """Felt ahead of the rover (columns 3-4 of the two nearest rows) and a patch across carpet on
+    the left (column 0): without the option the patch pulls the bearing left; with links of
+    0.15 m it is not on the rover's strip and the bearing is straight ahead."""
+    values = _values({3, 4}, rows={3, 4}) + _values({0}, rows={3})
+    plain = FreshFeltMemory(MemoryConfig(kind="fresh_felt"))
+    strip = FreshFeltMemory(MemoryConfig(kind="fresh_felt", strip_link_m=0.15))
+    plain.see(values)
+    strip.see(values)
+    assert _bearing_deg(plain.inputs()) > 5.0
+    assert abs(_bearing_deg(strip.inputs())) < 1e-6
+    assert strip.inputs()[1] < plain.inputs()[1]
+    lonely = FreshFeltMemory(MemoryConfig(kind="fresh_felt", strip_link_m=0.15))
+    lonely.see(_values({0}, rows={3}))  # felt, but none under the rover: no strip, nothing fresh
+    np.testing.assert_array_equal(lonely.inputs(), [0.5, 0.0, 0.0])
+
+
+def test_blank_reach_looks_further_only_while_nothing_is_fresh_near():
+    far_only = _values({3, 4}, rows={1})  # felt 0.79 m ahead: beyond reach_m (0.6)
+    plain = FreshFeltMemory(FRESH)
+    wide = FreshFeltMemory(MemoryConfig(kind="fresh_felt", blank_reach_m=1.0))
+    plain.see(far_only)
+    wide.see(far_only)
+    np.testing.assert_array_equal(plain.inputs(), [0.5, 0.0, 0.0])
+    bearing, amount, distance = wide.inputs()
+    assert bearing == pytest.approx(0.5, abs=1e-12) and amount > 0
+    centre = region_floor_points()[[8 + 3, 8 + 4]].mean(axis=0)  # row 1, columns 3 and 4
+    assert distance == pytest.approx(np.hypot(*centre) / 1.0, abs=1e-9)  # over the wider reach
+    near = _values({3, 4}, rows={1, 4})  # felt near too: the usual reach decides
+    plain.reset(), wide.reset()
+    plain.see(near)
+    wide.see(near)
+    np.testing.assert_array_equal(wide.inputs(), plain.inputs())
+
+
+def test_strip_and_blank_reach_are_checked_and_written_only_when_set():
+    assert "strip_link_m" not in FRESH.to_dict() and "blank_reach_m" not in FRESH.to_dict()
+    both = MemoryConfig(kind="fresh_felt", strip_link_m=0.15, blank_reach_m=1.0)
+    assert both.to_dict()["strip_link_m"] == 0.15 and both.to_dict()["blank_reach_m"] == 1.0
+    assert MemoryConfig.from_dict(both.to_dict()) == both
+    assert "strip_link_m" not in MemoryConfig(kind="last_bend", strip_link_m=0.15).to_dict()
+    with pytest.raises(ValueError, match="memory blank_reach_m must be 0"):
+        MemoryConfig(kind="fresh_felt", blank_reach_m=0.5)
+    with pytest.raises(ValueError, match="memory strip_link_m"):
+        MemoryConfig(kind="fresh_felt", strip_link_m=-0.1)
