@@ -44,6 +44,7 @@ KINDS = [  # (features, memory kind, policy kind)
     ("road_values", "previous_command", "mlp-sigmoid"),
     ("road_values", "fresh_felt", "mlp-sigmoid"),
     ("none", "fresh_felt", "mlp-sigmoid"),
+    ("none", "fresh_felt+strip", "mlp-sigmoid"),
     ("road_values", "none", "elman-sigmoid"),
     ("road_values+colour", "none", "mlp-sigmoid"),
     ("road_values+colour", "previous_command", "mlp-sigmoid"),
@@ -55,7 +56,10 @@ def controllers(library, rng: np.random.Generator) -> dict[str, Controller]:
     """One controller with random weights per policy kind."""
     out = {}
     for features, kind, policy in KINDS:
-        memory = None if kind == "none" else MemoryConfig(kind=kind)
+        if kind == "fresh_felt+strip":  # the map keeping only the rover's own strip
+            memory = MemoryConfig(kind="fresh_felt", strip_link_m=0.15, blank_reach_m=1.0)
+        else:
+            memory = None if kind == "none" else MemoryConfig(kind=kind)
         n = policy_inputs(memory, features) + (N_CONTEXT if policy == "elman-sigmoid" else 0)
         weights = rng.uniform(-1, 1, n_weights(False, n))
         out[f"{policy} / {features} / {kind}"] = Controller(
