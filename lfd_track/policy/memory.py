@@ -76,6 +76,8 @@ MEMORY_KINDS = ("none", "last_bend", "previous_command", "fresh_felt")
 _MAP_FIELDS = ("frames", "path_radius_m", "reach_m", "carpet", "felt", "step_m", "pivot_deg")
 #: ``fresh_felt`` options written to a controller file only when set (not 0).
 _OPTIONAL_MAP_FIELDS = ("strip_link_m", "blank_reach_m")
+#: Where the ``fresh_felt`` map's ``strip_link_m`` strip starts (``strip_from``).
+STRIP_STARTS = ("axle", "nearest")
 #: The ``fresh_felt`` bearing input's range [deg] when it is not set: the whole circle.
 FULL_BEARING_RANGE_DEG = 180.0
 #: What the ``fresh_felt`` bearing input says while no fresh felt is left (``blank_bearing``).
@@ -127,6 +129,11 @@ class MemoryConfig(DictConfig):
     blank_reach_m: float = 0.0
     """[m] ``fresh_felt``: while nothing is fresh within ``reach_m``, look again up to this far
     (0: off; else above ``reach_m``). Written to a controller file only when set."""
+    strip_from: str = "axle"
+    """``fresh_felt`` with ``strip_link_m``: where the rover's strip starts: ``"axle"`` (felt
+    within 0.3 m of the axle) or ``"nearest"`` (also the felt nearest the axle, wherever it
+    lies, and what lies within ``strip_link_m`` of that distance: a rover that drifted off its
+    strip still has one). Written to a controller file only when ``"nearest"``."""
 
     def to_dict(self) -> dict[str, Any]:
         data = super().to_dict()
@@ -140,6 +147,8 @@ class MemoryConfig(DictConfig):
             del data["blank_bearing"]
         if self.kind != "fresh_felt" or self.bearing_range_deg == FULL_BEARING_RANGE_DEG:
             del data["bearing_range_deg"]
+        if self.kind != "fresh_felt" or self.strip_from == "axle":
+            del data["strip_from"]
         return data
 
     def __post_init__(self) -> None:
@@ -167,6 +176,11 @@ class MemoryConfig(DictConfig):
                 raise ValueError(f"memory {name} must be a number, got {value!r}")
             if not math.isfinite(value) or value < 0:
                 raise ValueError(f"memory {name} must be a finite number >= 0, got {value!r}")
+        if self.strip_from not in STRIP_STARTS:
+            raise ValueError(
+                f"memory strip_from must be one of {', '.join(STRIP_STARTS)},"
+                f" got {self.strip_from!r}"
+            )
         if self.blank_bearing not in BLANK_BEARINGS:
             raise ValueError(
                 f"memory blank_bearing must be one of {', '.join(BLANK_BEARINGS)},"
@@ -425,7 +439,11 @@ class FreshFeltMemory:
         p = self._points[candidates]
         gap = p[:, None, :] - p[None, :, :]
         linked = np.einsum("ijk,ijk->ij", gap, gap) <= self.config.strip_link_m**2
-        reached = dist[candidates] <= _STRIP_SEED_M
+        start = dist[candidates]
+        seed_m = _STRIP_SEED_M
+        if self.config.strip_from == "nearest":
+            seed_m = max(seed_m, float(start.min()) + self.config.strip_link_m)
+        reached = start <= seed_m
         for _ in range(_STRIP_HOPS):
             grown = linked[:, reached].any(axis=1) | reached
             if np.array_equal(grown, reached):
