@@ -287,3 +287,21 @@ def test_strip_and_blank_reach_are_checked_and_written_only_when_set():
         MemoryConfig(kind="fresh_felt", blank_reach_m=0.5)
     with pytest.raises(ValueError, match="memory strip_link_m"):
         MemoryConfig(kind="fresh_felt", strip_link_m=-0.1)
+
+
+def test_a_strip_from_the_nearest_felt_keeps_a_rover_that_drifted_off_it_going():
+    """Felt only 0.54 m ahead (row 2) and none under the rover: a strip that starts at the axle
+    finds nothing fresh; one that starts from the nearest felt finds that felt, straight ahead."""
+    ahead = _values({2, 3, 4, 5}, rows={2})
+    axle = FreshFeltMemory(MemoryConfig(kind="fresh_felt", strip_link_m=0.15))
+    nearest = FreshFeltMemory(
+        MemoryConfig(kind="fresh_felt", strip_link_m=0.15, strip_from="nearest")
+    )
+    axle.see(ahead)
+    nearest.see(ahead)
+    np.testing.assert_array_equal(axle.inputs(), [0.5, 0.0, 0.0])
+    assert nearest.inputs()[1] > 0 and abs(_bearing_deg(nearest.inputs())) < 1e-6
+    assert nearest.config.to_dict()["strip_from"] == "nearest"
+    assert "strip_from" not in axle.config.to_dict()
+    with pytest.raises(ValueError, match="memory strip_from must be one of axle, nearest"):
+        MemoryConfig(kind="fresh_felt", strip_from="middle")
