@@ -16,13 +16,13 @@ from ..benchmark.dagger import DAGGER_LEARNERS, DaggerConfig
 from ..benchmark.methods import METHODS
 from ..demo.demonstrator import HumanConfig
 from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
-from ..policy.memory import BLANK_BEARINGS, MEMORY_KINDS, MemoryConfig
+from ..policy.memory import MEMORY_KINDS, MemoryConfig
 from ..policy.mlp import MAX_HIDDEN, N_HIDDEN
 from ..teaching.scripted import STEERING, TURNAROUND_RULES
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output, shown_path
 from ..utils.signals import Terminated, interrupted_exit_code, raise_terminated
 from ..utils.staging import staged_output
-from .types import EXIT_OK, EXIT_USAGE, float_in, whole_number_in
+from .types import EXIT_OK, EXIT_USAGE, add_map_arguments, whole_number_in
 
 
 def _cores() -> int:
@@ -129,21 +129,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         ", previous_command (the command executed the step before) or fresh_felt (a"
         " dead-reckoned map of the felt not yet driven along: its bearing, amount, distance)",
     )
-    bench.add_argument(
-        "--blank-bearing",
-        choices=BLANK_BEARINGS,
-        default="centre",
-        help="with --memory fresh_felt: the bearing input while no fresh felt is left: centre"
-        " (0.5) or last (the side the fresh felt last lay on); default centre",
-    )
-    bench.add_argument(
-        "--bearing-range",
-        type=float_in(1.0, 180.0),
-        default=180.0,
-        metavar="DEG",
-        help="with --memory fresh_felt: the bearing the bearing input maps to 1 and 0, bearings"
-        " beyond it clipped (default 180, the whole circle)",
-    )
+    add_map_arguments(bench)
     bench.add_argument(
         "--steers-by",
         choices=STEERING,

@@ -13,11 +13,11 @@ from typing import Any
 from ..benchmark.methods import OnlineConfig
 from ..errors import LfdTrackError
 from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
-from ..policy.memory import BLANK_BEARINGS, MEMORY_KINDS
+from ..policy.memory import MEMORY_KINDS
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output
 from ..utils.signals import stop_signals_interrupt
 from ..web.defaults import DEFAULT_FPS, DEFAULT_HOST, DEFAULT_PORT
-from .types import EXIT_OK, float_in, port, share
+from .types import EXIT_OK, add_map_arguments, float_in, port, share
 from .types import non_negative_int as _count
 from .types import positive_int as _positive_int
 
@@ -189,21 +189,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="memory inputs recorded with every case for the policy to read (see"
         " docs/learning-api.md; default none, the paper's 40 road values)",
     )
-    teach.add_argument(
-        "--blank-bearing",
-        choices=BLANK_BEARINGS,
-        default="centre",
-        help="with --memory fresh_felt: the bearing input while no fresh felt is left: centre"
-        " (0.5, default) or last (the side the fresh felt last lay on)",
-    )
-    teach.add_argument(
-        "--bearing-range",
-        type=float_in(1.0, 180.0),
-        default=180.0,
-        metavar="DEG",
-        help="with --memory fresh_felt: the bearing the bearing input maps to 1 and 0, bearings"
-        " beyond it clipped (default 180, the whole circle; the goal's chosen policy: 30)",
-    )
+    add_map_arguments(teach)
     teach.add_argument(
         "--features",
         choices=FEATURE_SETS,

@@ -97,3 +97,25 @@ def float_in(low: float, high: float) -> Callable[[str], float]:
         return value
 
     return parse
+
+
+def add_map_arguments(parser: argparse.ArgumentParser) -> None:
+    """The ``fresh_felt`` map's options a command line offers: ``--blank-bearing`` and
+    ``--bearing-range`` (``MemoryConfig.blank_bearing`` and ``bearing_range_deg``)."""
+    from ..policy.memory import BLANK_BEARINGS, FULL_BEARING_RANGE_DEG
+
+    parser.add_argument(
+        "--blank-bearing",
+        choices=BLANK_BEARINGS,
+        default="centre",
+        help="with --memory fresh_felt: the bearing input while no fresh felt is left: centre"
+        " (0.5, default) or last (the side the fresh felt last lay on)",
+    )
+    parser.add_argument(
+        "--bearing-range",
+        type=float_in(1.0, FULL_BEARING_RANGE_DEG),
+        default=FULL_BEARING_RANGE_DEG,
+        metavar="DEG",
+        help="with --memory fresh_felt: the bearing the bearing input maps to 1 and 0, bearings"
+        " beyond it clipped (default 180, the whole circle; the goal's chosen policy: 30)",
+    )
