@@ -287,6 +287,11 @@ class ProtocolHuman:
         self._advanced_for: dict | None = None
         # The picture's map is the policy's (``memory``): its bearing input's range says how to
         # read it.
+        if config.steers_by == "picture" and memory is not None and memory.kind != "fresh_felt":
+            raise ValueError(
+                "human steers_by 'picture' reads the fresh_felt map: the policy needs memory"
+                " kind 'fresh_felt'"
+            )
         picture_map = (
             {"memory": memory} if memory is not None and memory.kind == "fresh_felt" else {}
         )

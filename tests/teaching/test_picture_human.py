@@ -83,6 +83,13 @@ def test_the_picture_human_needs_the_map_inputs():
         inputs=np.concatenate([np.zeros(40), [0.5 + 40 / 360, 0.5, 0.5]]),
     )
     assert person.propose(moment) == Command.LEFT  # fresh felt 40 degrees to the left
+    with pytest.raises(ValueError, match="needs memory kind 'fresh_felt'"):  # told the policy's
+        protocol_human(
+            "training",
+            HumanConfig(steers_by="picture"),
+            np.random.default_rng(0),
+            memory=MemoryConfig(kind="previous_command"),
+        )
 
 
 def test_settings_are_checked_and_stored_only_when_used():
