@@ -211,6 +211,7 @@ def run(args: argparse.Namespace) -> int:
                 kind=args.memory,
                 blank_bearing=args.blank_bearing,
                 bearing_range_deg=args.bearing_range,
+                strip_link_m=args.strip_link or 0.0,
             ),
             mirror=args.mirror,
             demo_track=args.demo_track,

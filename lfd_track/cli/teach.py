@@ -54,6 +54,7 @@ def teach_config(args: argparse.Namespace) -> Any:
         memory=args.memory,
         blank_bearing=args.blank_bearing,
         bearing_range_deg=args.bearing_range,
+        strip_link_m=args.strip_link or 0.0,
         features=args.features,
         ga_bias=args.ga_bias,
         mutation_delta=args.mutation_delta,

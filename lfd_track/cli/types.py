@@ -119,3 +119,11 @@ def add_map_arguments(parser: argparse.ArgumentParser) -> None:
         help="with --memory fresh_felt: the bearing the bearing input maps to 1 and 0, bearings"
         " beyond it clipped (default 180, the whole circle; the goal's chosen policy: 30)",
     )
+    parser.add_argument(
+        "--strip-link",
+        type=float_in(0.01, 1.0),
+        default=None,
+        metavar="M",
+        help="with --memory fresh_felt: only felt connected along felt to the rover's own strip,"
+        " by links of at most M metres, is fresh (default off; the goal's chosen policy: 0.15)",
+    )

@@ -78,6 +78,9 @@ class TeachConfig:
     bearing_range_deg: float = 180.0
     """With ``memory = "fresh_felt"``: the bearing input's range (``MemoryConfig.
     bearing_range_deg``)."""
+    strip_link_m: float = 0.0
+    """With ``memory = "fresh_felt"``: only the felt on the rover's own strip is fresh
+    (``MemoryConfig.strip_link_m``; 0: off)."""
     features: str = "road_values"
     """Per-region inputs of the online policy (:data:`~lfd_track.policy.features.FEATURE_SETS`;
     ``"none"``: the memory inputs alone)."""
@@ -578,6 +581,7 @@ def _memory_config(config: TeachConfig) -> MemoryConfig:
         kind="fresh_felt",
         blank_bearing=config.blank_bearing,
         bearing_range_deg=config.bearing_range_deg,
+        strip_link_m=config.strip_link_m,
     )
 
 

@@ -390,9 +390,11 @@ def test_online_teaching_of_the_goals_chosen_policy_kind_reads_the_map_alone(ope
 
     flags = [
         "--memory", "fresh_felt", "--blank-bearing", "last", "--bearing-range", "30",
-        "--features", "none", "--ga-bias", "--mutation-delta", "0.5",
+        "--strip-link", "0.15", "--features", "none", "--ga-bias", "--mutation-delta", "0.5",
     ]  # fmt: skip
     demo = _teach_online(open_station, flags, ["forward", "forward", "left", "forward"], 38)
-    expected = MemoryConfig(kind="fresh_felt", blank_bearing="last", bearing_range_deg=30.0)
+    expected = MemoryConfig(
+        kind="fresh_felt", blank_bearing="last", bearing_range_deg=30.0, strip_link_m=0.15
+    )
     assert demo.metadata["memory"] == expected.to_dict()
     assert demo.policy_inputs("none").shape == (4, 3)
