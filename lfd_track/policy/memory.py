@@ -385,12 +385,13 @@ class FreshFeltMemory:
         points = self._points
         dist = np.hypot(points[:, 0], points[:, 1])
         strip = self._own_strip(dist) if cfg.strip_link_m else None
+        visited = self._visited()
         reach = cfg.reach_m
-        weights = self._fresh(dist, reach, strip)
+        weights = self._fresh(dist, reach, strip, visited)
         mass = float(weights.sum())
         if mass < _MIN_FRESH and cfg.blank_reach_m:  # nothing near: look further
             reach = cfg.blank_reach_m
-            weights = self._fresh(dist, reach, strip)
+            weights = self._fresh(dist, reach, strip, visited)
             mass = float(weights.sum())
         if mass < _MIN_FRESH:
             last = self._inputs[0] if cfg.blank_bearing == "last" else 0.5
@@ -412,19 +413,28 @@ class FreshFeltMemory:
             ]
         )
 
-    def _fresh(self, dist: np.ndarray, reach: float, strip: np.ndarray | None) -> np.ndarray:
+    def _visited(self) -> np.ndarray | None:
+        """(N,) bool: map points within ``path_radius_m`` of a place the rover has been (None
+        before it has been anywhere)."""
+        if not len(self._path):
+            return None
+        gap = self._points[:, None, :] - self._path[None, :, :]
+        return (np.einsum("ijk,ijk->ij", gap, gap) <= self.config.path_radius_m**2).any(axis=1)
+
+    def _fresh(
+        self,
+        dist: np.ndarray,
+        reach: float,
+        strip: np.ndarray | None,
+        visited: np.ndarray | None,
+    ) -> np.ndarray:
         """Weights of the felt that is fresh: felt within ``reach`` ahead of the axle (and on the
-        rover's own strip, if ``strip`` is given), farther than ``path_radius_m`` from every
-        place the rover has been."""
-        points = self._points
-        inside = (dist < reach) & (points[:, 0] > -_BEHIND_M)
+        rover's own strip, if ``strip`` is given), not ``visited``."""
+        inside = (dist < reach) & (self._points[:, 0] > -_BEHIND_M)
         if strip is not None:
             inside &= strip
         weights = self._felt * inside
-        if len(self._path):
-            gap = points[:, None, :] - self._path[None, :, :]
-            radius2 = self.config.path_radius_m**2
-            visited = (np.einsum("ijk,ijk->ij", gap, gap) <= radius2).any(axis=1)
+        if visited is not None:
             weights = weights * ~visited
         return weights
 
