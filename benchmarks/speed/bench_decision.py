@@ -45,6 +45,7 @@ KINDS = [  # (features, memory kind, policy kind)
     ("road_values", "fresh_felt", "mlp-sigmoid"),
     ("none", "fresh_felt", "mlp-sigmoid"),
     ("none", "fresh_felt+strip", "mlp-sigmoid"),
+    ("none", "fresh_felt+strip+blank_reach", "mlp-sigmoid"),
     ("road_values", "none", "elman-sigmoid"),
     ("road_values+colour", "none", "mlp-sigmoid"),
     ("road_values+colour", "previous_command", "mlp-sigmoid"),
@@ -56,7 +57,14 @@ def controllers(library, rng: np.random.Generator) -> dict[str, Controller]:
     """One controller with random weights per policy kind."""
     out = {}
     for features, kind, policy in KINDS:
-        if kind == "fresh_felt+strip":  # the map keeping only the rover's own strip
+        if kind == "fresh_felt+strip":  # the goal's chosen map: only the rover's own strip
+            memory = MemoryConfig(
+                kind="fresh_felt",
+                strip_link_m=0.15,
+                blank_bearing="last",
+                bearing_range_deg=30.0,
+            )
+        elif kind == "fresh_felt+strip+blank_reach":  # ... looking to 1 m while blank
             memory = MemoryConfig(kind="fresh_felt", strip_link_m=0.15, blank_reach_m=1.0)
         else:
             memory = None if kind == "none" else MemoryConfig(kind=kind)

@@ -446,16 +446,15 @@ class FreshFeltMemory:
         candidates = np.flatnonzero((dist < _STRIP_WINDOW_M) & (self._felt >= 0.5))
         if not len(candidates):
             return on_strip
-        p = self._points[candidates]
-        gap = p[:, None, :] - p[None, :, :]
-        linked = np.einsum("ijk,ijk->ij", gap, gap) <= self.config.strip_link_m**2
+        src, dst = _links(self._points[candidates], self.config.strip_link_m)
         start = dist[candidates]
         seed_m = _STRIP_SEED_M
         if self.config.strip_from == "nearest":
             seed_m = max(seed_m, float(start.min()) + self.config.strip_link_m)
         reached = start <= seed_m
         for _ in range(_STRIP_HOPS):
-            grown = linked[:, reached].any(axis=1) | reached
+            grown = reached.copy()
+            grown[dst[reached[src]]] = True
             if np.array_equal(grown, reached):
                 break
             reached = grown
@@ -465,6 +464,40 @@ class FreshFeltMemory:
     def inputs(self) -> np.ndarray:
         """The memory inputs now, (3,) float64: bearing, amount, distance, each in [0, 1]."""
         return self._inputs.copy()
+
+
+def _links(points: np.ndarray, link_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Every ordered pair (i, j) of ``points`` (N, 2) at most ``link_m`` apart (i == j
+    included), as index arrays ``(src, dst)``.
+
+    Only points in the same or a neighbouring cell of a grid of cells a hair wider than
+    ``link_m`` can be that close, so only those pairs are measured: about 60 per point on a
+    crowded map instead of all N of them. A pair's distance is computed exactly as a full
+    N x N table would compute it, so the links are the same.
+    """
+    n = len(points)
+    cell = np.floor(points / (link_m * (1.0 + 1e-9))).astype(np.int64)
+    cell -= cell.min(axis=0)
+    width = int(cell[:, 1].max()) + 3  # a row of cells and a blank column either side
+    key = (cell[:, 0] + 1) * width + (cell[:, 1] + 1)
+    order = np.argsort(key, kind="stable")
+    sorted_key = key[order]
+    index = np.arange(n)
+    sources, targets = [], []
+    for offset in (-width - 1, -width, -width + 1, -1, 0, 1, width - 1, width, width + 1):
+        lo = np.searchsorted(sorted_key, key + offset, side="left")
+        count = np.searchsorted(sorted_key, key + offset, side="right") - lo
+        total = int(count.sum())
+        if not total:
+            continue
+        first = np.cumsum(count) - count  # where each point's run starts in the output
+        within = np.arange(total) - np.repeat(first, count)
+        sources.append(np.repeat(index, count))
+        targets.append(order[np.repeat(lo, count) + within])
+    src, dst = np.concatenate(sources), np.concatenate(targets)
+    gap = points[src] - points[dst]
+    near = np.einsum("ij,ij->i", gap, gap) <= link_m**2
+    return src[near], dst[near]
 
 
 def policy_inputs(config: MemoryConfig | None, features: str = "road_values") -> int:
