@@ -48,6 +48,14 @@ such runs, and reading the training accuracy with that baseline in mind, are the
   pull it off its own; ``blank_reach_m`` looks again up to that distance while nothing is fresh
   within ``reach_m``, for a sharp corner whose outgoing strip lies within ``path_radius_m`` of the
   incoming one for its first half metre.
+  Three more (off by default): ``blank_distance = "reach"`` measures the distance input of felt
+  found by looking further against ``reach_m`` (clipped to 1), so the input means what it means
+  when the map did not look further; ``visited_fade_m`` lets a fresh point's weight rise
+  linearly from 0 at ``path_radius_m`` from the rover's path to 1 that much further, so of two
+  fresh patches in reach the one further from where the rover came from pulls harder (at the
+  vertex of a 135° corner, the outgoing strip away from the incoming one, not the corner's tip);
+  ``path_places = "forward"`` leaves a place on the path only for a forward command, so pivoting
+  on the spot does not push the strip behind out of the path's 40 places.
   The map knows nothing the robot could not: its own commands and what its camera saw.
 
 The input is computed from *executed* commands, whoever gave them (the human demonstrating or
@@ -75,13 +83,18 @@ MEMORY_KINDS = ("none", "last_bend", "previous_command", "fresh_felt")
 #: other kinds are as they were before it existed).
 _MAP_FIELDS = ("frames", "path_radius_m", "reach_m", "carpet", "felt", "step_m", "pivot_deg")
 #: ``fresh_felt`` options written to a controller file only when set (not 0).
-_OPTIONAL_MAP_FIELDS = ("strip_link_m", "blank_reach_m")
+_OPTIONAL_MAP_FIELDS = ("strip_link_m", "blank_reach_m", "visited_fade_m")
 #: Where the ``fresh_felt`` map's ``strip_link_m`` strip starts (``strip_from``).
 STRIP_STARTS = ("axle", "nearest")
 #: The ``fresh_felt`` bearing input's range [deg] when it is not set: the whole circle.
 FULL_BEARING_RANGE_DEG = 180.0
 #: What the ``fresh_felt`` bearing input says while no fresh felt is left (``blank_bearing``).
 BLANK_BEARINGS = ("centre", "last")
+#: Which commands leave a place on the ``fresh_felt`` map's path (``path_places``).
+PATH_PLACES = ("every_command", "forward")
+#: What the ``fresh_felt`` distance input is measured against when ``blank_reach_m`` looked
+#: further (``blank_distance``).
+BLANK_DISTANCES = ("blank_reach", "reach")
 #: Value of the ``last_bend`` input before the first bend of an episode.
 UNKNOWN_SIDE = 0.5
 
@@ -134,6 +147,23 @@ class MemoryConfig(DictConfig):
     within 0.3 m of the axle) or ``"nearest"`` (also the felt nearest the axle, wherever it
     lies, and what lies within ``strip_link_m`` of that distance: a rover that drifted off its
     strip still has one). Written to a controller file only when ``"nearest"``."""
+    visited_fade_m: float = 0.0
+    """[m] ``fresh_felt``: felt counts as fresh in full only this far beyond ``path_radius_m``
+    from every place the rover has been; in between its weight rises linearly from 0 (0: off,
+    felt beyond ``path_radius_m`` counts in full). Of two fresh patches, the one further from
+    where the rover came from then weighs more. Written to a controller file only when set."""
+    path_places: str = "every_command"
+    """``fresh_felt``: which executed commands leave a place on the path the map remembers (the
+    last 40 places): ``"every_command"`` (a pivot on the spot leaves its place again, so 40
+    commands of pivoting at a blank corner forget the strip the rover came along) or
+    ``"forward"`` (only a forward command leaves one: the path is the last 4 m driven, however
+    long the rover pivots). Written to a controller file only when ``"forward"``."""
+    blank_distance: str = "blank_reach"
+    """``fresh_felt`` with ``blank_reach_m``: the distance input when the map looked further
+    because nothing was fresh within ``reach_m``: the distance over ``"blank_reach"`` (so 1 is
+    ``blank_reach_m`` away) or over ``"reach"`` (clipped to 1: felt found further reads as
+    felt at the edge of ``reach_m``, the same meaning as when the map did not look further).
+    Written to a controller file only when ``"reach"``."""
 
     def to_dict(self) -> dict[str, Any]:
         data = super().to_dict()
@@ -149,6 +179,10 @@ class MemoryConfig(DictConfig):
             del data["bearing_range_deg"]
         if self.kind != "fresh_felt" or self.strip_from == "axle":
             del data["strip_from"]
+        if self.kind != "fresh_felt" or self.path_places == "every_command":
+            del data["path_places"]
+        if self.kind != "fresh_felt" or self.blank_distance == "blank_reach":
+            del data["blank_distance"]
         return data
 
     def __post_init__(self) -> None:
@@ -180,6 +214,16 @@ class MemoryConfig(DictConfig):
             raise ValueError(
                 f"memory strip_from must be one of {', '.join(STRIP_STARTS)},"
                 f" got {self.strip_from!r}"
+            )
+        if self.path_places not in PATH_PLACES:
+            raise ValueError(
+                f"memory path_places must be one of {', '.join(PATH_PLACES)},"
+                f" got {self.path_places!r}"
+            )
+        if self.blank_distance not in BLANK_DISTANCES:
+            raise ValueError(
+                f"memory blank_distance must be one of {', '.join(BLANK_DISTANCES)},"
+                f" got {self.blank_distance!r}"
             )
         if self.blank_bearing not in BLANK_BEARINGS:
             raise ValueError(
@@ -370,7 +414,9 @@ class FreshFeltMemory:
         cmd = int(command)
         if cmd not in (0, 1, 2):
             raise ValueError(f"command must be 0, 1 or 2, got {command!r}")
-        path = np.vstack([self._path, np.zeros((1, 2))])[-_PATH_COMMANDS:]
+        path = self._path
+        if cmd == Command.FORWARD or self.config.path_places == "every_command":
+            path = np.vstack([path, np.zeros((1, 2))])[-_PATH_COMMANDS:]
         self._points = self._moved(self._points, cmd)
         self._path = self._moved(path, cmd)
 
@@ -390,9 +436,10 @@ class FreshFeltMemory:
         weights = self._fresh(dist, reach, strip, visited)
         mass = float(weights.sum())
         if mass < _MIN_FRESH and cfg.blank_reach_m:  # nothing near: look further
-            reach = cfg.blank_reach_m
-            weights = self._fresh(dist, reach, strip, visited)
+            weights = self._fresh(dist, cfg.blank_reach_m, strip, visited)
             mass = float(weights.sum())
+            if cfg.blank_distance == "blank_reach":
+                reach = cfg.blank_reach_m
         if mass < _MIN_FRESH:
             last = self._inputs[0] if cfg.blank_bearing == "last" else 0.5
             self._inputs = np.array([last, 0.0, 0.0])
@@ -415,11 +462,16 @@ class FreshFeltMemory:
 
     def _visited(self) -> np.ndarray | None:
         """(N,) bool: map points within ``path_radius_m`` of a place the rover has been (None
-        before it has been anywhere)."""
+        before it has been anywhere); with ``visited_fade_m``, (N,) float64: the weight each
+        point keeps, 0 within ``path_radius_m`` rising to 1 at ``visited_fade_m`` beyond it."""
         if not len(self._path):
             return None
         gap = self._points[:, None, :] - self._path[None, :, :]
-        return (np.einsum("ijk,ijk->ij", gap, gap) <= self.config.path_radius_m**2).any(axis=1)
+        nearest = np.einsum("ijk,ijk->ij", gap, gap).min(axis=1)
+        radius, fade = self.config.path_radius_m, self.config.visited_fade_m
+        if not fade:
+            return nearest <= radius**2
+        return np.clip((np.sqrt(nearest) - radius) / fade, 0.0, 1.0)
 
     def _fresh(
         self,
@@ -434,9 +486,11 @@ class FreshFeltMemory:
         if strip is not None:
             inside &= strip
         weights = self._felt * inside
-        if visited is not None:
-            weights = weights * ~visited
-        return weights
+        if visited is None:
+            return weights
+        if visited.dtype == bool:
+            return weights * ~visited
+        return weights * visited
 
     def _own_strip(self, dist: np.ndarray) -> np.ndarray:
         """(N,) bool: map points on felt connected along felt to the felt the rover stands on

@@ -327,3 +327,61 @@ def test_a_strip_from_the_nearest_felt_keeps_a_rover_that_drifted_off_it_going()
     assert "strip_from" not in axle.config.to_dict()
     with pytest.raises(ValueError, match="memory strip_from must be one of axle, nearest"):
         MemoryConfig(kind="fresh_felt", strip_from="middle")
+
+
+def test_with_forward_path_places_pivoting_does_not_push_the_path_out_of_memory():
+    """After 3 m forward, 40 pivots on the spot: every command leaves a place by default, so the
+    path is only the spot (the strip behind is fresh again); with ``path_places = "forward"`` it
+    is still the last 3 m driven."""
+    plain = FreshFeltMemory(FRESH)
+    forward = FreshFeltMemory(MemoryConfig(kind="fresh_felt", path_places="forward"))
+    for memory in (plain, forward):
+        for _ in range(30):
+            memory.note(F)
+        for _ in range(40):
+            memory.note(L)
+    assert len(plain._path) == 40 and np.allclose(plain._path, 0.0)
+    assert len(forward._path) == 30
+    np.testing.assert_allclose(np.hypot(*forward._path.T)[::-1], 0.1 * np.arange(1, 31))
+    assert forward.config.to_dict()["path_places"] == "forward"
+    assert "path_places" not in FRESH.to_dict()
+    with pytest.raises(ValueError, match="memory path_places must be one of every_command, fo"):
+        MemoryConfig(kind="fresh_felt", path_places="pivots")
+
+
+def test_blank_distance_reach_reads_felt_found_further_as_at_the_edge_of_reach():
+    far_only = _values({3, 4}, rows={1})  # felt 0.79 m ahead: beyond reach_m (0.6)
+    wide = FreshFeltMemory(MemoryConfig(kind="fresh_felt", blank_reach_m=1.0))
+    edge = FreshFeltMemory(
+        MemoryConfig(kind="fresh_felt", blank_reach_m=1.0, blank_distance="reach")
+    )
+    wide.see(far_only)
+    edge.see(far_only)
+    assert wide.inputs()[2] < 1.0 and edge.inputs()[2] == 1.0  # 0.79 / 0.6, clipped
+    np.testing.assert_array_equal(wide.inputs()[:2], edge.inputs()[:2])
+    near = _values({3, 4}, rows={4})  # felt within reach: the option changes nothing
+    wide.reset(), edge.reset()
+    wide.see(near)
+    edge.see(near)
+    np.testing.assert_array_equal(wide.inputs(), edge.inputs())
+    assert edge.config.to_dict()["blank_distance"] == "reach"
+    assert "blank_distance" not in wide.config.to_dict()
+    with pytest.raises(ValueError, match="memory blank_distance must be one of blank_reach, r"):
+        MemoryConfig(kind="fresh_felt", blank_distance="far")
+
+
+def test_visited_fade_weighs_felt_by_how_far_it_lies_beyond_the_path_radius():
+    """Felt 0.35-0.6 m ahead after one step forward: with a fade of 0.3 m the felt just beyond
+    the path radius weighs less, so less fresh felt is left and its centre lies further."""
+    values = _values({2, 3, 4, 5})
+    hard = FreshFeltMemory(FRESH)
+    soft = FreshFeltMemory(MemoryConfig(kind="fresh_felt", visited_fade_m=0.3))
+    for memory in (hard, soft):
+        memory.note(F)
+        memory.see(values)
+    assert 0 < soft.inputs()[1] < hard.inputs()[1]
+    assert soft.inputs()[2] > hard.inputs()[2]
+    assert soft.config.to_dict()["visited_fade_m"] == 0.3
+    assert "visited_fade_m" not in FRESH.to_dict()
+    with pytest.raises(ValueError, match="memory visited_fade_m must be a finite number >= 0"):
+        MemoryConfig(kind="fresh_felt", visited_fade_m=-0.1)
