@@ -153,6 +153,24 @@ def test_benchmark_runs_the_memory_pipeline_from_flags(tmp_path):
     )
 
 
+def test_benchmark_online_runs_the_goals_chosen_map_from_flags(tmp_path):
+    """The goal's chosen map (every option of it a flag) with a network that reads it alone,
+    learned by the online method: the settings reach the run and the controller file."""
+    out = tmp_path / "bench"
+    argv = ["--quiet", "benchmark", "--quick", "--workers", "1", "--out", str(out)]
+    argv += ["--method", "online", "--features", "none", "--steers-by", "picture"]
+    argv += ["--memory", "fresh_felt", "--blank-bearing", "last", "--bearing-range", "30"]
+    argv += ["--strip-link", "0.15", "--blank-reach", "1.0", "--blank-distance", "reach"]
+    argv += ["--visited-fade", "0.3"]
+    assert main(argv) == 0
+    memory = json.loads((out / "results.json").read_text())["config"]["memory"]
+    expected = {"strip_link_m": 0.15, "blank_reach_m": 1.0, "visited_fade_m": 0.3}
+    assert {k: memory[k] for k in expected} == expected
+    assert memory["blank_distance"] == "reach" and "path_places" not in memory
+    controller = json.loads((out / "repetitions" / "rep_00" / "controller.json").read_text())
+    assert controller["layer_sizes"] == [3, 5, 3] and controller["memory"] == memory
+
+
 def _without_timing(path: Path) -> dict:
     data = json.loads(path.read_text())
     data.pop("timing_s")

@@ -22,7 +22,7 @@ from ..teaching.scripted import STEERING, TURNAROUND_RULES
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output, shown_path
 from ..utils.signals import Terminated, interrupted_exit_code, raise_terminated
 from ..utils.staging import staged_output
-from .types import EXIT_OK, EXIT_USAGE, add_map_arguments, whole_number_in
+from .types import EXIT_OK, EXIT_USAGE, add_map_arguments, map_settings, whole_number_in
 
 
 def _cores() -> int:
@@ -207,12 +207,7 @@ def run(args: argparse.Namespace) -> int:
             keep_learning=args.keep_learning,
             method=args.method,
             test_tracks=("testing", *args.test_track),
-            memory=MemoryConfig(
-                kind=args.memory,
-                blank_bearing=args.blank_bearing,
-                bearing_range_deg=args.bearing_range,
-                strip_link_m=args.strip_link or 0.0,
-            ),
+            memory=MemoryConfig(kind=args.memory, **map_settings(args)),
             mirror=args.mirror,
             demo_track=args.demo_track,
             features=args.features,

@@ -17,7 +17,7 @@ from ..policy.memory import MEMORY_KINDS
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output
 from ..utils.signals import stop_signals_interrupt
 from ..web.defaults import DEFAULT_FPS, DEFAULT_HOST, DEFAULT_PORT
-from .types import EXIT_OK, add_map_arguments, float_in, port, share
+from .types import EXIT_OK, add_map_arguments, float_in, map_settings, port, share
 from .types import non_negative_int as _count
 from .types import positive_int as _positive_int
 
@@ -52,9 +52,7 @@ def teach_config(args: argparse.Namespace) -> Any:
         ),
         population_size=args.population,
         memory=args.memory,
-        blank_bearing=args.blank_bearing,
-        bearing_range_deg=args.bearing_range,
-        strip_link_m=args.strip_link or 0.0,
+        **map_settings(args),
         features=args.features,
         ga_bias=args.ga_bias,
         mutation_delta=args.mutation_delta,

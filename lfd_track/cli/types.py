@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 from collections.abc import Callable
+from typing import Any
 
 from ..learning.result import shown_int
 from ..utils.signals import EXIT_INTERRUPTED, EXIT_TERMINATED
@@ -100,9 +101,14 @@ def float_in(low: float, high: float) -> Callable[[str], float]:
 
 
 def add_map_arguments(parser: argparse.ArgumentParser) -> None:
-    """The ``fresh_felt`` map's options a command line offers: ``--blank-bearing`` and
-    ``--bearing-range`` (``MemoryConfig.blank_bearing`` and ``bearing_range_deg``)."""
-    from ..policy.memory import BLANK_BEARINGS, FULL_BEARING_RANGE_DEG
+    """The ``fresh_felt`` map's options a command line offers (``MemoryConfig``'s fields of
+    the same names; :func:`map_settings` reads them back)."""
+    from ..policy.memory import (
+        BLANK_BEARINGS,
+        BLANK_DISTANCES,
+        FULL_BEARING_RANGE_DEG,
+        PATH_PLACES,
+    )
 
     parser.add_argument(
         "--blank-bearing",
@@ -127,3 +133,46 @@ def add_map_arguments(parser: argparse.ArgumentParser) -> None:
         help="with --memory fresh_felt: only felt connected along felt to the rover's own strip,"
         " by links of at most M metres, is fresh (default off; the goal's chosen policy: 0.15)",
     )
+    parser.add_argument(
+        "--blank-reach",
+        type=float_in(0.1, 5.0),
+        default=None,
+        metavar="M",
+        help="with --memory fresh_felt: while nothing is fresh within reach (0.6 m), look again up"
+        " to M metres (default off; the goal's chosen policy: 1.0)",
+    )
+    parser.add_argument(
+        "--blank-distance",
+        choices=BLANK_DISTANCES,
+        default="blank_reach",
+        help="with --blank-reach: the distance input of felt found further, over the blank reach"
+        " (default) or over the reach, clipped to 1 (the goal's chosen policy: reach)",
+    )
+    parser.add_argument(
+        "--visited-fade",
+        type=float_in(0.01, 2.0),
+        default=None,
+        metavar="M",
+        help="with --memory fresh_felt: fresh felt weighs from 0 at the path radius up to full M"
+        " metres beyond it (default off; the goal's chosen policy: 0.3)",
+    )
+    parser.add_argument(
+        "--path-places",
+        choices=PATH_PLACES,
+        default="every_command",
+        help="with --memory fresh_felt: which commands leave a place on the map's path:"
+        " every_command (default) or forward (pivots on the spot do not)",
+    )
+
+
+def map_settings(args: argparse.Namespace) -> dict[str, Any]:
+    """The ``MemoryConfig`` keyword arguments of the options :func:`add_map_arguments` added."""
+    return {
+        "blank_bearing": args.blank_bearing,
+        "bearing_range_deg": args.bearing_range,
+        "strip_link_m": args.strip_link or 0.0,
+        "blank_reach_m": args.blank_reach or 0.0,
+        "blank_distance": args.blank_distance,
+        "visited_fade_m": args.visited_fade or 0.0,
+        "path_places": args.path_places,
+    }

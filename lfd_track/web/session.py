@@ -81,6 +81,18 @@ class TeachConfig:
     strip_link_m: float = 0.0
     """With ``memory = "fresh_felt"``: only the felt on the rover's own strip is fresh
     (``MemoryConfig.strip_link_m``; 0: off)."""
+    blank_reach_m: float = 0.0
+    """With ``memory = "fresh_felt"``: look this far while nothing is fresh near
+    (``MemoryConfig.blank_reach_m``; 0: off)."""
+    blank_distance: str = "blank_reach"
+    """With ``blank_reach_m``: the distance input of felt found further
+    (``MemoryConfig.blank_distance``)."""
+    visited_fade_m: float = 0.0
+    """With ``memory = "fresh_felt"``: fresh felt's weight beyond the path radius
+    (``MemoryConfig.visited_fade_m``; 0: off)."""
+    path_places: str = "every_command"
+    """With ``memory = "fresh_felt"``: which commands leave a place on the map's path
+    (``MemoryConfig.path_places``)."""
     features: str = "road_values"
     """Per-region inputs of the online policy (:data:`~lfd_track.policy.features.FEATURE_SETS`;
     ``"none"``: the memory inputs alone)."""
@@ -582,6 +594,10 @@ def _memory_config(config: TeachConfig) -> MemoryConfig:
         blank_bearing=config.blank_bearing,
         bearing_range_deg=config.bearing_range_deg,
         strip_link_m=config.strip_link_m,
+        blank_reach_m=config.blank_reach_m,
+        blank_distance=config.blank_distance,
+        visited_fade_m=config.visited_fade_m,
+        path_places=config.path_places,
     )
 
 

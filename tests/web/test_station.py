@@ -390,11 +390,18 @@ def test_online_teaching_of_the_goals_chosen_policy_kind_reads_the_map_alone(ope
 
     flags = [
         "--memory", "fresh_felt", "--blank-bearing", "last", "--bearing-range", "30",
-        "--strip-link", "0.15", "--features", "none", "--ga-bias", "--mutation-delta", "0.5",
+        "--strip-link", "0.15", "--blank-reach", "1.0", "--blank-distance", "reach",
+        "--visited-fade", "0.3", "--features", "none", "--ga-bias", "--mutation-delta", "0.5",
     ]  # fmt: skip
     demo = _teach_online(open_station, flags, ["forward", "forward", "left", "forward"], 38)
     expected = MemoryConfig(
-        kind="fresh_felt", blank_bearing="last", bearing_range_deg=30.0, strip_link_m=0.15
+        kind="fresh_felt",
+        blank_bearing="last",
+        bearing_range_deg=30.0,
+        strip_link_m=0.15,
+        blank_reach_m=1.0,
+        blank_distance="reach",
+        visited_fade_m=0.3,
     )
     assert demo.metadata["memory"] == expected.to_dict()
     assert demo.policy_inputs("none").shape == (4, 3)
