@@ -75,7 +75,7 @@ import numpy as np
 
 from ..core.commands import Command
 from ..core.config import DictConfig
-from ..core.frame import N_REGIONS, region_bounds
+from ..core.frame import GRID_COLUMNS, GRID_ROWS, N_REGIONS, region_bounds
 from .features import frame_inputs
 
 MEMORY_KINDS = ("none", "last_bend", "previous_command", "fresh_felt")
@@ -165,6 +165,14 @@ class MemoryConfig(DictConfig):
     felt at the edge of ``reach_m``, the same meaning as when the map did not look further).
     Written to a controller file only when ``"reach"``."""
 
+    strip_picture_links: bool = False
+    """``fresh_felt`` with ``strip_link_m``: felt regions that touch in one frame's 8 x 5 grid
+    (side or corner) are linked too, however far apart their centres lie on the floor. The
+    regions tile the picture, so touching regions see touching floor; but the floor points of
+    the far rows lie 0.25-0.5 m apart, further than a strip link, so without this a strip seen
+    only beyond about 0.55 m (the way on at the vertex of a sharp corner, seen while pivoting)
+    is never linked to the rover's own. Written to a controller file only when set."""
+
     def to_dict(self) -> dict[str, Any]:
         data = super().to_dict()
         for name in _OPTIONAL_MAP_FIELDS:
@@ -183,6 +191,8 @@ class MemoryConfig(DictConfig):
             del data["path_places"]
         if self.kind != "fresh_felt" or self.blank_distance == "blank_reach":
             del data["blank_distance"]
+        if self.kind != "fresh_felt" or not self.strip_picture_links:
+            del data["strip_picture_links"]
         return data
 
     def __post_init__(self) -> None:
@@ -224,6 +234,10 @@ class MemoryConfig(DictConfig):
             raise ValueError(
                 f"memory blank_distance must be one of {', '.join(BLANK_DISTANCES)},"
                 f" got {self.blank_distance!r}"
+            )
+        if not isinstance(self.strip_picture_links, bool):
+            raise ValueError(
+                f"memory strip_picture_links must be true or false, got {self.strip_picture_links!r}"
             )
         if self.blank_bearing not in BLANK_BEARINGS:
             raise ValueError(
@@ -501,6 +515,8 @@ class FreshFeltMemory:
         if not len(candidates):
             return on_strip
         src, dst = _links(self._points[candidates], self.config.strip_link_m)
+        if self.config.strip_picture_links:
+            src, dst = _with_picture_links(src, dst, candidates, len(dist) // N_REGIONS)
         start = dist[candidates]
         seed_m = _STRIP_SEED_M
         if self.config.strip_from == "nearest":
@@ -552,6 +568,40 @@ def _links(points: np.ndarray, link_m: float) -> tuple[np.ndarray, np.ndarray]:
     gap = points[src] - points[dst]
     near = np.einsum("ij,ij->i", gap, gap) <= link_m**2
     return src[near], dst[near]
+
+
+@functools.lru_cache(maxsize=1)
+def _touching_regions() -> tuple[np.ndarray, np.ndarray]:
+    """(a, b) index arrays of every ordered pair of regions that touch in the 8 x 5 grid (side or
+    corner)."""
+    pairs = []
+    for a in range(N_REGIONS):
+        row, col = divmod(a, GRID_COLUMNS)
+        for dr in (-1, 0, 1):
+            for dc in (-1, 0, 1):
+                r, c = row + dr, col + dc
+                if (dr or dc) and 0 <= r < GRID_ROWS and 0 <= c < GRID_COLUMNS:
+                    pairs.append((a, r * GRID_COLUMNS + c))
+    a, b = np.array(pairs).T
+    return a, b
+
+
+def _with_picture_links(
+    src: np.ndarray, dst: np.ndarray, candidates: np.ndarray, frames: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(src, dst)`` (indices into ``candidates``) and the pairs of candidates that are
+    touching regions of one remembered frame (the map holds ``frames`` frames of
+    :data:`N_REGIONS` points each, oldest first)."""
+    a, b = _touching_regions()
+    base = (np.arange(frames) * N_REGIONS)[:, None]
+    first, second = (base + a).ravel(), (base + b).ravel()
+    position = np.full(frames * N_REGIONS, -1)
+    position[candidates] = np.arange(len(candidates))
+    both = (position[first] >= 0) & (position[second] >= 0)
+    return (
+        np.concatenate([src, position[first[both]]]),
+        np.concatenate([dst, position[second[both]]]),
+    )
 
 
 def policy_inputs(config: MemoryConfig | None, features: str = "road_values") -> int:

@@ -385,3 +385,28 @@ def test_visited_fade_weighs_felt_by_how_far_it_lies_beyond_the_path_radius():
     assert "visited_fade_m" not in FRESH.to_dict()
     with pytest.raises(ValueError, match="memory visited_fade_m must be a finite number >= 0"):
         MemoryConfig(kind="fresh_felt", visited_fade_m=-0.1)
+
+
+def test_picture_links_join_the_far_rows_a_strip_link_cannot_reach():
+    """A strip straight ahead in every row of one frame: the floor points of the second row
+    (0.79 m) lie 0.25 m beyond the next row's, so links of 0.15 m leave them off the rover's
+    strip; regions that touch in the picture join them. The far row (1.31 m) lies beyond the
+    1.2 m within which felt is linked at all, and felt that touches nothing (a patch in the
+    far left corner, across carpet) stays off."""
+    values = _values({3, 4}) + _values({0}, rows={1})
+    plain = FreshFeltMemory(MemoryConfig(kind="fresh_felt", strip_link_m=0.15))
+    linked = FreshFeltMemory(
+        MemoryConfig(kind="fresh_felt", strip_link_m=0.15, strip_picture_links=True)
+    )
+    on = {}
+    for name, memory in (("plain", plain), ("linked", linked)):
+        memory.see(values)
+        dist = np.hypot(*memory._points.T)
+        on[name] = set(np.flatnonzero(memory._own_strip(dist)))
+    strip = {r * GRID_COLUMNS + c for r in range(1, GRID_ROWS) for c in (3, 4)}
+    assert on["plain"] == strip - {GRID_COLUMNS + 3, GRID_COLUMNS + 4}
+    assert on["linked"] == strip
+    assert linked.config.to_dict()["strip_picture_links"] is True
+    assert "strip_picture_links" not in plain.config.to_dict()
+    with pytest.raises(ValueError, match="memory strip_picture_links must be true or false"):
+        MemoryConfig(kind="fresh_felt", strip_picture_links=1)
