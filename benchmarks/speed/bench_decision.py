@@ -57,12 +57,15 @@ def controllers(library, rng: np.random.Generator) -> dict[str, Controller]:
     """One controller with random weights per policy kind."""
     out = {}
     for features, kind, policy in KINDS:
-        if kind == "fresh_felt+strip":  # the goal's chosen map: only the rover's own strip
+        if kind == "fresh_felt+strip":  # the goal's chosen map (round 16)
             memory = MemoryConfig(
                 kind="fresh_felt",
                 strip_link_m=0.15,
                 blank_bearing="last",
                 bearing_range_deg=30.0,
+                blank_reach_m=1.0,
+                blank_distance="reach",
+                visited_fade_m=0.3,
             )
         elif kind == "fresh_felt+strip+blank_reach":  # ... looking to 1 m while blank
             memory = MemoryConfig(kind="fresh_felt", strip_link_m=0.15, blank_reach_m=1.0)
