@@ -57,7 +57,7 @@ def controllers(library, rng: np.random.Generator) -> dict[str, Controller]:
     """One controller with random weights per policy kind."""
     out = {}
     for features, kind, policy in KINDS:
-        if kind == "fresh_felt+strip":  # the goal's chosen map (round 16)
+        if kind == "fresh_felt+strip":  # the goal's chosen map (round 17)
             memory = MemoryConfig(
                 kind="fresh_felt",
                 strip_link_m=0.15,
@@ -66,6 +66,7 @@ def controllers(library, rng: np.random.Generator) -> dict[str, Controller]:
                 blank_reach_m=1.0,
                 blank_distance="reach",
                 visited_fade_m=0.3,
+                strip_picture_links=True,
             )
         elif kind == "fresh_felt+strip+blank_reach":  # ... looking to 1 m while blank
             memory = MemoryConfig(kind="fresh_felt", strip_link_m=0.15, blank_reach_m=1.0)
