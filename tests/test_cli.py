@@ -161,10 +161,11 @@ def test_benchmark_online_runs_the_goals_chosen_map_from_flags(tmp_path):
     argv += ["--method", "online", "--features", "none", "--steers-by", "picture"]
     argv += ["--memory", "fresh_felt", "--blank-bearing", "last", "--bearing-range", "30"]
     argv += ["--strip-link", "0.15", "--blank-reach", "1.0", "--blank-distance", "reach"]
-    argv += ["--visited-fade", "0.3"]
+    argv += ["--visited-fade", "0.3", "--strip-picture-links"]
     assert main(argv) == 0
     memory = json.loads((out / "results.json").read_text())["config"]["memory"]
     expected = {"strip_link_m": 0.15, "blank_reach_m": 1.0, "visited_fade_m": 0.3}
+    assert memory["strip_picture_links"] is True
     assert {k: memory[k] for k in expected} == expected
     assert memory["blank_distance"] == "reach" and "path_places" not in memory
     controller = json.loads((out / "repetitions" / "rep_00" / "controller.json").read_text())

@@ -157,6 +157,12 @@ def add_map_arguments(parser: argparse.ArgumentParser) -> None:
         " metres beyond it (default off; the goal's chosen policy: 0.3)",
     )
     parser.add_argument(
+        "--strip-picture-links",
+        action="store_true",
+        help="with --strip-link: felt regions that touch in one frame's grid are linked too"
+        " (the goal's chosen policy)",
+    )
+    parser.add_argument(
         "--path-places",
         choices=PATH_PLACES,
         default="every_command",
@@ -175,4 +181,5 @@ def map_settings(args: argparse.Namespace) -> dict[str, Any]:
         "blank_distance": args.blank_distance,
         "visited_fade_m": args.visited_fade or 0.0,
         "path_places": args.path_places,
+        "strip_picture_links": args.strip_picture_links,
     }

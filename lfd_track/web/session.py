@@ -93,6 +93,9 @@ class TeachConfig:
     path_places: str = "every_command"
     """With ``memory = "fresh_felt"``: which commands leave a place on the map's path
     (``MemoryConfig.path_places``)."""
+    strip_picture_links: bool = False
+    """With ``strip_link_m``: felt regions that touch in one frame's grid are linked too
+    (``MemoryConfig.strip_picture_links``)."""
     features: str = "road_values"
     """Per-region inputs of the online policy (:data:`~lfd_track.policy.features.FEATURE_SETS`;
     ``"none"``: the memory inputs alone)."""
@@ -598,6 +601,7 @@ def _memory_config(config: TeachConfig) -> MemoryConfig:
         blank_distance=config.blank_distance,
         visited_fade_m=config.visited_fade_m,
         path_places=config.path_places,
+        strip_picture_links=config.strip_picture_links,
     )
 
 

@@ -391,7 +391,8 @@ def test_online_teaching_of_the_goals_chosen_policy_kind_reads_the_map_alone(ope
     flags = [
         "--memory", "fresh_felt", "--blank-bearing", "last", "--bearing-range", "30",
         "--strip-link", "0.15", "--blank-reach", "1.0", "--blank-distance", "reach",
-        "--visited-fade", "0.3", "--features", "none", "--ga-bias", "--mutation-delta", "0.5",
+        "--visited-fade", "0.3", "--strip-picture-links", "--features", "none", "--ga-bias",
+        "--mutation-delta", "0.5",
     ]  # fmt: skip
     demo = _teach_online(open_station, flags, ["forward", "forward", "left", "forward"], 38)
     expected = MemoryConfig(
@@ -402,6 +403,7 @@ def test_online_teaching_of_the_goals_chosen_policy_kind_reads_the_map_alone(ope
         blank_reach_m=1.0,
         blank_distance="reach",
         visited_fade_m=0.3,
+        strip_picture_links=True,
     )
     assert demo.metadata["memory"] == expected.to_dict()
     assert demo.policy_inputs("none").shape == (4, 3)
