@@ -52,7 +52,7 @@ def teach_config(args: argparse.Namespace) -> Any:
         ),
         population_size=args.population,
         memory=args.memory,
-        **map_settings(args),
+        map_settings=map_settings(args),
         features=args.features,
         ga_bias=args.ga_bias,
         mutation_delta=args.mutation_delta,

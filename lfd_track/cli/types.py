@@ -100,6 +100,19 @@ def float_in(low: float, high: float) -> Callable[[str], float]:
     return parse
 
 
+#: The ``MemoryConfig`` fields :func:`add_map_arguments` offers.
+_MAP_SETTINGS = (
+    "blank_bearing",
+    "bearing_range_deg",
+    "strip_link_m",
+    "blank_reach_m",
+    "visited_fade_m",
+    "blank_distance",
+    "strip_picture_links",
+    "path_places",
+)
+
+
 def add_map_arguments(parser: argparse.ArgumentParser) -> None:
     """The ``fresh_felt`` map's options a command line offers (``MemoryConfig``'s fields of
     the same names; :func:`map_settings` reads them back)."""
@@ -119,42 +132,45 @@ def add_map_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--bearing-range",
+        dest="bearing_range_deg",
         type=float_in(1.0, FULL_BEARING_RANGE_DEG),
         default=FULL_BEARING_RANGE_DEG,
         metavar="DEG",
         help="with --memory fresh_felt: the bearing the bearing input maps to 1 and 0, bearings"
         " beyond it clipped (default 180, the whole circle; the goal's chosen policy: 30)",
     )
-    parser.add_argument(
-        "--strip-link",
-        type=float_in(0.01, 1.0),
-        default=None,
-        metavar="M",
-        help="with --memory fresh_felt: only felt connected along felt to the rover's own strip,"
-        " by links of at most M metres, is fresh (default off; the goal's chosen policy: 0.15)",
-    )
-    parser.add_argument(
-        "--blank-reach",
-        type=float_in(0.1, 5.0),
-        default=None,
-        metavar="M",
-        help="with --memory fresh_felt: while nothing is fresh within reach (0.6 m), look again up"
-        " to M metres (default off; the goal's chosen policy: 1.0)",
-    )
+    # Options of a length in metres, off (0) unless given: flag, MemoryConfig field, range, help.
+    for flag, dest, low, high, text in (
+        (
+            "--strip-link", "strip_link_m", 0.01, 1.0,
+            "only felt connected along felt to the rover's own strip, by links of at most M"
+            " metres, is fresh (default off; the goal's chosen policy: 0.15)",
+        ),
+        (
+            "--blank-reach", "blank_reach_m", 0.1, 5.0,
+            "while nothing is fresh within reach (0.6 m), look again up to M metres (default"
+            " off; the goal's chosen policy: 1.0)",
+        ),
+        (
+            "--visited-fade", "visited_fade_m", 0.01, 2.0,
+            "fresh felt weighs from 0 at the path radius up to full M metres beyond it (default"
+            " off; the goal's chosen policy: 0.3)",
+        ),
+    ):  # fmt: skip
+        parser.add_argument(
+            flag,
+            dest=dest,
+            type=float_in(low, high),
+            default=0.0,
+            metavar="M",
+            help=f"with --memory fresh_felt: {text}",
+        )
     parser.add_argument(
         "--blank-distance",
         choices=BLANK_DISTANCES,
         default="blank_reach",
         help="with --blank-reach: the distance input of felt found further, over the blank reach"
         " (default) or over the reach, clipped to 1 (the goal's chosen policy: reach)",
-    )
-    parser.add_argument(
-        "--visited-fade",
-        type=float_in(0.01, 2.0),
-        default=None,
-        metavar="M",
-        help="with --memory fresh_felt: fresh felt weighs from 0 at the path radius up to full M"
-        " metres beyond it (default off; the goal's chosen policy: 0.3)",
     )
     parser.add_argument(
         "--strip-picture-links",
@@ -172,14 +188,6 @@ def add_map_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def map_settings(args: argparse.Namespace) -> dict[str, Any]:
-    """The ``MemoryConfig`` keyword arguments of the options :func:`add_map_arguments` added."""
-    return {
-        "blank_bearing": args.blank_bearing,
-        "bearing_range_deg": args.bearing_range,
-        "strip_link_m": args.strip_link or 0.0,
-        "blank_reach_m": args.blank_reach or 0.0,
-        "blank_distance": args.blank_distance,
-        "visited_fade_m": args.visited_fade or 0.0,
-        "path_places": args.path_places,
-        "strip_picture_links": args.strip_picture_links,
-    }
+    """The ``MemoryConfig`` keyword arguments of the options :func:`add_map_arguments` added
+    (each option's destination is the field's name)."""
+    return {name: getattr(args, name) for name in _MAP_SETTINGS}

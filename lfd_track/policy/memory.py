@@ -445,12 +445,12 @@ class FreshFeltMemory:
         points = self._points
         dist = np.hypot(points[:, 0], points[:, 1])
         strip = self._own_strip(dist) if cfg.strip_link_m else None
-        visited = self._visited()
+        kept = self._kept()
         reach = cfg.reach_m
-        weights = self._fresh(dist, reach, strip, visited)
+        weights = self._fresh(dist, reach, strip, kept)
         mass = float(weights.sum())
         if mass < _MIN_FRESH and cfg.blank_reach_m:  # nothing near: look further
-            weights = self._fresh(dist, cfg.blank_reach_m, strip, visited)
+            weights = self._fresh(dist, cfg.blank_reach_m, strip, kept)
             mass = float(weights.sum())
             if cfg.blank_distance == "blank_reach":
                 reach = cfg.blank_reach_m
@@ -474,17 +474,18 @@ class FreshFeltMemory:
             ]
         )
 
-    def _visited(self) -> np.ndarray | None:
-        """(N,) bool: map points within ``path_radius_m`` of a place the rover has been (None
-        before it has been anywhere); with ``visited_fade_m``, (N,) float64: the weight each
-        point keeps, 0 within ``path_radius_m`` rising to 1 at ``visited_fade_m`` beyond it."""
+    def _kept(self) -> np.ndarray | None:
+        """(N,) float64: how much of each map point's felt is fresh for having lain away from
+        every place the rover has been — 0 within ``path_radius_m`` of one, else 1, or with
+        ``visited_fade_m`` rising linearly to 1 that much further (None before the rover has
+        been anywhere)."""
         if not len(self._path):
             return None
         gap = self._points[:, None, :] - self._path[None, :, :]
         nearest = np.einsum("ijk,ijk->ij", gap, gap).min(axis=1)
         radius, fade = self.config.path_radius_m, self.config.visited_fade_m
         if not fade:
-            return nearest <= radius**2
+            return (nearest > radius**2).astype(np.float64)
         return np.clip((np.sqrt(nearest) - radius) / fade, 0.0, 1.0)
 
     def _fresh(
@@ -492,19 +493,15 @@ class FreshFeltMemory:
         dist: np.ndarray,
         reach: float,
         strip: np.ndarray | None,
-        visited: np.ndarray | None,
+        kept: np.ndarray | None,
     ) -> np.ndarray:
         """Weights of the felt that is fresh: felt within ``reach`` ahead of the axle (and on the
-        rover's own strip, if ``strip`` is given), not ``visited``."""
+        rover's own strip, if ``strip`` is given), times what :meth:`_kept` keeps of it."""
         inside = (dist < reach) & (self._points[:, 0] > -_BEHIND_M)
         if strip is not None:
             inside &= strip
         weights = self._felt * inside
-        if visited is None:
-            return weights
-        if visited.dtype == bool:
-            return weights * ~visited
-        return weights * visited
+        return weights if kept is None else weights * kept
 
     def _own_strip(self, dist: np.ndarray) -> np.ndarray:
         """(N,) bool: map points on felt connected along felt to the felt the rover stands on

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -72,30 +72,9 @@ class TeachConfig:
     """GA population of the online learner (the paper's 40)."""
     memory: str = "none"
     """Memory inputs recorded with every case (a :data:`~lfd_track.policy.memory.MEMORY_KINDS`)."""
-    blank_bearing: str = "centre"
-    """With ``memory = "fresh_felt"``: the bearing input while no fresh felt is left
-    (``MemoryConfig.blank_bearing``)."""
-    bearing_range_deg: float = 180.0
-    """With ``memory = "fresh_felt"``: the bearing input's range (``MemoryConfig.
-    bearing_range_deg``)."""
-    strip_link_m: float = 0.0
-    """With ``memory = "fresh_felt"``: only the felt on the rover's own strip is fresh
-    (``MemoryConfig.strip_link_m``; 0: off)."""
-    blank_reach_m: float = 0.0
-    """With ``memory = "fresh_felt"``: look this far while nothing is fresh near
-    (``MemoryConfig.blank_reach_m``; 0: off)."""
-    blank_distance: str = "blank_reach"
-    """With ``blank_reach_m``: the distance input of felt found further
-    (``MemoryConfig.blank_distance``)."""
-    visited_fade_m: float = 0.0
-    """With ``memory = "fresh_felt"``: fresh felt's weight beyond the path radius
-    (``MemoryConfig.visited_fade_m``; 0: off)."""
-    path_places: str = "every_command"
-    """With ``memory = "fresh_felt"``: which commands leave a place on the map's path
-    (``MemoryConfig.path_places``)."""
-    strip_picture_links: bool = False
-    """With ``strip_link_m``: felt regions that touch in one frame's grid are linked too
-    (``MemoryConfig.strip_picture_links``)."""
+    map_settings: Mapping[str, Any] = field(default_factory=dict)
+    """With ``memory = "fresh_felt"``: the map's settings, as ``MemoryConfig`` keyword arguments
+    (``blank_bearing``, ``strip_link_m`` ...; the defaults where absent)."""
     features: str = "road_values"
     """Per-region inputs of the online policy (:data:`~lfd_track.policy.features.FEATURE_SETS`;
     ``"none"``: the memory inputs alone)."""
@@ -592,17 +571,7 @@ def _memory_config(config: TeachConfig) -> MemoryConfig:
     """The memory settings the session records (and its online policy reads)."""
     if config.memory != "fresh_felt":
         return MemoryConfig(kind=config.memory)
-    return MemoryConfig(
-        kind="fresh_felt",
-        blank_bearing=config.blank_bearing,
-        bearing_range_deg=config.bearing_range_deg,
-        strip_link_m=config.strip_link_m,
-        blank_reach_m=config.blank_reach_m,
-        blank_distance=config.blank_distance,
-        visited_fade_m=config.visited_fade_m,
-        path_places=config.path_places,
-        strip_picture_links=config.strip_picture_links,
-    )
+    return MemoryConfig(kind="fresh_felt", **config.map_settings)
 
 
 def _online_parts(config: TeachConfig, n_inputs: int) -> tuple[PolicyCommander, Any]:
