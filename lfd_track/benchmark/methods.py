@@ -43,6 +43,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.commands import Command
 from ..core.config import DictConfig
 from ..dataset import Demonstration, load_demonstration
 from ..dataset.recording import recording_writer
@@ -52,6 +53,7 @@ from ..demo.demonstrator import (
     protocol_human,
     run_demonstration,
 )
+from ..demo.views import ViewCases
 from ..envs.presets import Preset
 from ..envs.track_env import LfDTrackEnv
 from ..learning.bc import BCConfig
@@ -75,6 +77,9 @@ from ..vision.road_library import RoadLibrary
 from ..world.track import load_track
 
 METHODS = ("paper", "online", "hg-dagger", "bc", "cma-es", "dagger")
+#: The methods that learn after one simulated demonstration, so can learn from its shifted and
+#: turned views (:mod:`lfd_track.demo.views`).
+VIEW_METHODS = ("paper", "bc", "cma-es")
 
 
 @dataclass(frozen=True)
@@ -168,8 +173,10 @@ def _demonstrate(
     human: HumanConfig,
     memory: MemoryConfig | None = None,
     track: str = "training",
+    views: ViewCases | None = None,
 ) -> tuple[DemonstrationSummary, Demonstration, RoadLibrary]:
-    """Record the paper's demonstration on ``track`` in ``rep_dir``; (summary, cases, library)."""
+    """Record the paper's demonstration on ``track`` in ``rep_dir``; (summary, cases, library).
+    ``views``, if given, receives the shifted and turned views of every case."""
     demo_path = rep_dir / "demonstration.lfdemo"
     summary = run_demonstration(
         demo_path,
@@ -180,6 +187,7 @@ def _demonstrate(
         fsync=False,
         overwrite=True,
         memory=memory,
+        views=views,
     )
     demo = load_demonstration(demo_path)
     return summary, demo, RoadLibrary.from_dict(demo.metadata["road_library"])
@@ -234,17 +242,26 @@ def learn_paper(
     mirror: bool = False,
     track: str = "training",
     features: str = DEFAULT_FEATURES,
+    shifted_views: bool = False,
 ) -> Learned:
     """The paper: record a demonstration, then evolve offline (200 generations by default).
 
     ``mirror``: learn from the cases and their mirror images (:mod:`lfd_track.learning.mirror`).
     ``features``: the per-region inputs (:mod:`lfd_track.policy.features`), computed from the
-    recorded histograms.
+    recorded histograms. ``shifted_views``: learn also from the shifted and turned views of
+    every case (:mod:`lfd_track.demo.views`; mirrored too with ``mirror``).
     """
+    views = ViewCases() if shifted_views else None
     summary, demo, library = _demonstrate(
-        rep_dir, demo_seed=demo_seed, preset=preset, human=human, memory=memory, track=track
+        rep_dir,
+        demo_seed=demo_seed,
+        preset=preset,
+        human=human,
+        memory=memory,
+        track=track,
+        views=views,
     )
-    x, a = _training_set(demo.policy_inputs(features), demo.commands, memory, mirror, features)
+    x, a = _training_set(*_cases(demo, views, features), memory, mirror, features)
     result = evolve(x, a, ga, np.random.default_rng(ga_seed))
     return _learned_offline(
         summary,
@@ -253,6 +270,7 @@ def learn_paper(
         preset,
         fitness_best=result.best_history.tolist(),
         fitness_mean=result.mean_history.tolist(),
+        extra=_views_record(views),
     )
 
 
@@ -268,13 +286,22 @@ def learn_baseline(
     mirror: bool = False,
     track: str = "training",
     features: str = DEFAULT_FEATURES,
+    shifted_views: bool = False,
 ) -> Learned:
-    """The paper's demonstration, then BC or CMA-ES instead of the GA (same cases, same seed)."""
+    """The paper's demonstration, then BC or CMA-ES instead of the GA (same cases, same seed;
+    ``shifted_views`` as for :func:`learn_paper`)."""
+    views = ViewCases() if shifted_views else None
     summary, demo, library = _demonstrate(
-        rep_dir, demo_seed=demo_seed, preset=preset, human=human, memory=memory, track=track
+        rep_dir,
+        demo_seed=demo_seed,
+        preset=preset,
+        human=human,
+        memory=memory,
+        track=track,
+        views=views,
     )
     trainer = learner_for(learner)
-    x, a = _training_set(demo.policy_inputs(features), demo.commands, memory, mirror, features)
+    x, a = _training_set(*_cases(demo, views, features), memory, mirror, features)
     result = trainer.fit(x, a, np.random.default_rng(ga_seed))
     controller = Controller(
         library,
@@ -294,8 +321,29 @@ def learn_baseline(
         preset,
         fitness_best=result.history.tolist(),
         fitness_mean=[],
-        extra={"learner": result.learner},
+        extra={"learner": result.learner, **_views_record(views)},
     )
+
+
+def _cases(
+    demo: Demonstration, views: ViewCases | None, features: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """A demonstration's cases (inputs, commands), followed by its views when there are any."""
+    x, a = demo.policy_inputs(features), demo.commands
+    if views is None or not len(views):
+        return x, a
+    return (
+        np.concatenate([x, views.policy_inputs(features)]),
+        np.concatenate([np.asarray(a, dtype=np.int64), views.commands]),
+    )
+
+
+def _views_record(views: ViewCases | None) -> dict[str, Any]:
+    """What a repetition records of its views: their number per label (nothing without)."""
+    if views is None:
+        return {}
+    counts = np.bincount(views.commands, minlength=len(Command))
+    return {"views": {c.name.lower(): int(counts[c]) for c in Command}}
 
 
 def _training_set(

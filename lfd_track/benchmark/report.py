@@ -287,6 +287,11 @@ def write_report_from_results(out: str | Path, results: dict[str, Any]) -> Path:
         )
     if config.get("mirror"):
         notes.append("it learned from its cases and their mirror images")
+    if config.get("shifted_views"):
+        notes.append(
+            "it learned also from each case's views one command before it (a step behind, a pivot"
+            " either way), labelled with that command"
+        )
     turnarounds = config.get("human", {}).get("turnarounds", "alternate")
     if turnarounds != "alternate":
         notes.append(f"the human's turn-arounds were `{turnarounds}`")

@@ -38,6 +38,7 @@ from ..world.track import load_track
 from .dagger import DaggerConfig, learn_dagger
 from .methods import (
     METHODS,
+    VIEW_METHODS,
     HGDaggerConfig,
     Learned,
     OnlineConfig,
@@ -120,6 +121,9 @@ class BenchmarkConfig:
     test_tracks: tuple[str, ...] = ("testing",)  # loops (names or paths) lapped both ways
     memory: MemoryConfig = MemoryConfig()  # memory inputs of the policy (none: the paper's 40)
     mirror: bool = False  # learn from the cases and their mirror images (learning/mirror.py)
+    # Learn also from the shifted and turned views of every case (demo/views.py): methods
+    # "paper", "bc" and "cma-es", which learn after one simulated demonstration.
+    shifted_views: bool = False
     # Per-region inputs of the policy (policy/features.py): the paper's road values,
     # "road_values+colour" (also each region's mean hue and saturation), or "none" (the memory
     # inputs alone).
@@ -147,6 +151,11 @@ class BenchmarkConfig:
         if self.human.steers_by == "picture" and self.memory.kind != "fresh_felt":
             raise ValueError(
                 "human steers_by 'picture' reads the fresh_felt map: set memory kind 'fresh_felt'"
+            )
+        if self.shifted_views and self.method not in VIEW_METHODS:
+            raise ValueError(
+                f"shifted_views applies to the methods {', '.join(VIEW_METHODS)} (one simulated"
+                f" demonstration, then learning), not '{self.method}'"
             )
         if self.features == "none" and not self.memory.n_inputs:
             raise ValueError(
@@ -368,6 +377,8 @@ def learn_repetition(
     )
     if config.features != DEFAULT_FEATURES:  # passed only when used: every method takes it
         common["features"] = config.features
+    if config.shifted_views:
+        common["shifted_views"] = True
     if config.method == "online":
         return learn_online(rep_dir, **common, ga=config.ga, online=config.online)
     if config.method == "hg-dagger":
@@ -485,6 +496,8 @@ def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
         data["memory"] = config.memory.to_dict()
     if not config.mirror:
         del data["mirror"]
+    if not config.shifted_views:
+        del data["shifted_views"]
     if config.demo_track == "training":
         del data["demo_track"]
     if config.features == DEFAULT_FEATURES:

@@ -151,6 +151,12 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="learn from the cases and their mirror images (left and right swapped)",
     )
     bench.add_argument(
+        "--shifted-views",
+        action="store_true",
+        help="learn also from each case's views from a step behind and a pivot either way,"
+        " labelled with the command back (methods paper, bc and cma-es)",
+    )
+    bench.add_argument(
         "--careless",
         action="store_true",
         help="demonstrator keeps learning while the safe box is off the felt",
@@ -209,6 +215,7 @@ def run(args: argparse.Namespace) -> int:
             test_tracks=("testing", *args.test_track),
             memory=MemoryConfig(kind=args.memory, **map_settings(args)),
             mirror=args.mirror,
+            shifted_views=args.shifted_views,
             demo_track=args.demo_track,
             features=args.features,
             dagger=dagger,

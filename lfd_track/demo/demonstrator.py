@@ -45,6 +45,7 @@ from ..teaching.scripted import (
 )
 from ..vision.road_library import RoadLibrary
 from ..world.track import load_track
+from .views import PredecessorViews, ViewCases
 
 __all__ = [
     "PHASE_DRIVE",
@@ -96,6 +97,7 @@ def run_demonstration(
     progress: Callable[[int], None] | None = None,
     memory: MemoryConfig | None = None,
     frames: Callable[[int, np.ndarray], None] | None = None,
+    views: ViewCases | None = None,
 ) -> DemonstrationSummary:
     """Record one demonstration on ``track`` to the file ``out`` and return a summary.
 
@@ -103,7 +105,9 @@ def run_demonstration(
     footer. ``progress`` is called with the number of commands given so far; ``human`` None
     means the default :class:`HumanConfig`. ``memory``: the policy's memory inputs, recorded
     with every case (none by default). ``frames``, if given, is called with the step index and
-    the camera frame of every recorded case (the frames themselves are not recorded).
+    the camera frame of every recorded case (the frames themselves are not recorded). ``views``,
+    if given, receives the shifted and turned views of every case (:mod:`lfd_track.demo.views`;
+    not recorded); the demonstration itself runs exactly as without them.
     """
     human = human or HumanConfig()
     rng = np.random.default_rng(seed)
@@ -145,6 +149,10 @@ def run_demonstration(
                     )
                 )
             )
+        if views is not None:
+            # Its own stream (the seed's second child), so the demonstration's draws do not move.
+            view_rng = np.random.default_rng(np.random.SeedSequence(seed).spawn(2)[1])
+            observers.append(PredecessorViews(env, perception, view_rng, views))
         loop = TeachingLoop(
             env,
             perception,

@@ -360,6 +360,14 @@ class LfDTrackEnv(gym.Env):
         """The latest rendered camera frame (same array as the last observation)."""
         return self._frame
 
+    def view_from(self, pose: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """The camera frame a rover standing still at ``pose`` (x, y, theta) would see now, in
+        this world with the camera's current exposure, without moving the rover or touching the
+        episode's random streams (white balance and noise are drawn from ``rng``)."""
+        if self._rover is None or self._renderer is None:
+            raise RuntimeError("call reset() before view_from()")
+        return self._renderer.view(self._ground, np.asarray(pose, dtype=np.float64), rng)
+
     def camera_footprint(self, pose: np.ndarray) -> np.ndarray:
         """(N, 2) floor polygon [m] the camera sees from ``pose`` (x, y, theta); N = 4 for an
         ideal pinhole, more for a distorted lens (``CameraModel.footprint``)."""

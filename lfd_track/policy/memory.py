@@ -314,6 +314,10 @@ class TurnMemory:
             self.side = 0.0
             self._high = self._low = self._count
 
+    def place_before(self, command: Command | int) -> None:
+        """The rover stands where ``command`` would bring it here from (no command executed):
+        this memory reads executed commands only, so nothing changes."""
+
     def see(self, values: np.ndarray) -> None:
         """A new frame's road values (this memory reads commands only)."""
 
@@ -344,6 +348,10 @@ class PreviousCommandMemory:
             raise ValueError(f"command must be 0, 1 or 2, got {command!r}")
         self._inputs = np.zeros(3)
         self._inputs[cmd] = 1.0
+
+    def place_before(self, command: Command | int) -> None:
+        """The rover stands where ``command`` would bring it here from (no command executed):
+        this memory reads executed commands only, so nothing changes."""
 
     def see(self, values: np.ndarray) -> None:
         """A new frame's road values (this memory reads commands only)."""
@@ -433,6 +441,21 @@ class FreshFeltMemory:
             path = np.vstack([path, np.zeros((1, 2))])[-_PATH_COMMANDS:]
         self._points = self._moved(self._points, cmd)
         self._path = self._moved(path, cmd)
+
+    def place_before(self, command: Command | int) -> None:
+        """The rover stands where ``command`` would bring it here from: one step behind for a
+        forward command, turned one pivot the other way for a pivot (the command's nominal
+        motion undone). The map and the path move with it; no place is added to the path."""
+        cmd = int(command)
+        if cmd not in (0, 1, 2):
+            raise ValueError(f"command must be 0, 1 or 2, got {command!r}")
+        if cmd == Command.FORWARD:
+            back = np.array([self.config.step_m, 0.0])
+            self._points, self._path = self._points + back, self._path + back
+            return
+        undo = Command.RIGHT if cmd == Command.LEFT else Command.LEFT
+        self._points = self._moved(self._points, undo)
+        self._path = self._moved(self._path, undo)
 
     def see(self, values: np.ndarray) -> None:
         """Add a frame's road values (40,) to the map and compute the inputs."""

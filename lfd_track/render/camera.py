@@ -526,6 +526,7 @@ class CameraRenderer:
         self._cast = np.ones(3)
         self._gain: float | None = None
         self._last_raw: np.ndarray | None = None
+        self._frame_gain: float | None = None  # the exposure gain the last frame was taken with
         # A distorted lens is rendered through a per-pixel floor map (rover frame), built once.
         self._floor_map = None if self.model.is_homography else self.model.floor_map_rover()
         self._mipmap = self.camera.texture_filter == "mipmap"
@@ -742,6 +743,19 @@ class CameraRenderer:
             return raw
         return cv2.remap(ground.rgba, maps, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
 
+    def view(self, ground: GroundTexture, pose: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+        """A still frame from another ``pose`` taken as the last frame was (its exposure, the
+        colour cast and noise pools), leaving the camera as it was: the exposure it settles
+        towards and the last raw frame stay those of the frames :meth:`render` drew. Draws the
+        frame's white balance and noise from ``rng``."""
+        gain, last_raw, frame_gain = self._gain, self._last_raw, self._frame_gain
+        if frame_gain is not None:
+            self._gain = frame_gain  # the exposure of the last frame, not the next one's
+        try:
+            return self.render(ground, pose, rng)
+        finally:
+            self._gain, self._last_raw, self._frame_gain = gain, last_raw, frame_gain
+
     def render(
         self,
         ground: GroundTexture,
@@ -776,7 +790,7 @@ class CameraRenderer:
         wanted = float(np.clip(s.exposure_target / luma, s.exposure_min_gain, s.exposure_max_gain))
         if self._gain is None:
             self._gain = wanted
-        gain = self._gain
+        gain = self._frame_gain = self._gain
         rate = 1.0 if s.exposure_lag_frames == 0 else 1.0 - math.exp(-1.0 / s.exposure_lag_frames)
         self._gain = math.exp(math.log(gain) + rate * (math.log(wanted) - math.log(gain)))
 

@@ -18,6 +18,7 @@ only :meth:`Perception.perceive`, the loop's learn step, does.
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -86,6 +87,7 @@ class Perception:
                 "features 'none' leave the policy only its memory inputs: set a memory kind"
             )
         self._memory = memory_for(memory)
+        self._memory_before = self._memory  # the memory as it was before the last frame
 
     @property
     def n_inputs(self) -> int:
@@ -96,6 +98,7 @@ class Perception:
         """A new episode: the memory forgets (the library does not)."""
         if self._memory is not None:
             self._memory.reset()
+            self._memory_before = copy.copy(self._memory)
 
     def note(self, command: Command | int) -> None:
         """The loop executed ``command`` (the memory counts it)."""
@@ -136,15 +139,47 @@ class Perception:
         if self._memory is None:
             memory = np.zeros(0)
         else:
+            # A shallow copy is a snapshot: the memories replace their arrays, never write them.
+            self._memory_before = copy.copy(self._memory)
             self._memory.see(values)
             memory = self._memory.inputs()
+        return self._percept(values, histograms, learn, box_on_felt, memory)
+
+    def view(self, frame: np.ndarray, before: Command | int) -> Percept:
+        """The last perceived frame's percept as seen from another pose: the one ``before``
+        would bring the rover from to where it stood (one step behind it for a forward command,
+        one pivot the other way for a pivot). ``frame`` is the camera's view from that pose.
+
+        The road values come from the library as it is (nothing learned, nothing counted), the
+        memory inputs from the memory as it was before the last frame, placed there
+        (:meth:`~lfd_track.policy.memory.FreshFeltMemory.place_before`) and shown ``frame``.
+        Nothing in this perception changes.
+        """
+        histograms = self.library.region_histograms(frame)
+        values = self.library.road_values_from_histograms(histograms, update_statistics=False)
+        memory = np.zeros(0)
+        if self._memory is not None:
+            placed = copy.copy(self._memory_before)
+            placed.place_before(before)
+            placed.see(values)
+            memory = placed.inputs()
+        return self._percept(values, histograms, False, None, memory)
+
+    def _percept(
+        self,
+        values: np.ndarray,
+        histograms: np.ndarray,
+        learned: bool,
+        box_on_felt: bool | None,
+        memory: np.ndarray,
+    ) -> Percept:
         colour = (
             colour_features(histograms) if self.features == "road_values+colour" else np.zeros(0)
         )
         return Percept(
             values=values,
             histograms=histograms,
-            learned=learn,
+            learned=learned,
             box_on_felt=box_on_felt,
             memory=memory,
             colour=colour,
