@@ -58,6 +58,7 @@ from ..envs.presets import Preset
 from ..envs.track_env import LfDTrackEnv
 from ..learning.bc import BCConfig
 from ..learning.cmaes import CMAESConfig
+from ..learning.elman import episode_starts, evolve_elman, fit_bc_elman, sequence_accuracy
 from ..learning.fitness import training_accuracy
 from ..learning.ga import GAConfig, evolve, ga_rescore, ga_result
 from ..learning.learners import learner_for
@@ -217,9 +218,7 @@ def _learned_offline(
         },
         fitness_best=fitness_best,
         fitness_mean=fitness_mean,
-        training_accuracy=training_accuracy(
-            controller.weights, demo.policy_inputs(controller.features), demo.commands
-        ),
+        training_accuracy=_accuracy(controller, demo),
         effort={
             "commands": summary.commands,
             "corrections": 0,
@@ -228,6 +227,22 @@ def _learned_offline(
             "autonomous_drive_s": 0.0,
         },
     )
+
+
+def _accuracy(controller: Controller, demo: Demonstration) -> float:
+    """Share of a demonstration's cases whose command the controller's network would give (an
+    Elman network run over the cases in order, its context from 0)."""
+    x = demo.policy_inputs(controller.features)
+    if controller.policy_kind == "elman-sigmoid":
+        starts = episode_starts(len(demo.commands))
+        return sequence_accuracy(controller.weights, x, demo.commands, starts, bias=controller.bias)
+    return training_accuracy(controller.weights, x, demo.commands)
+
+
+def _episodes(demo: Demonstration, mirror: bool) -> list[int]:
+    """The episodes an Elman network is fitted over: the demonstration's cases in order, one
+    episode (the rover drives on through the turn-arounds), then its mirror image as another."""
+    return [demo.n_cases] * (2 if mirror else 1)
 
 
 def learn_paper(
@@ -243,13 +258,16 @@ def learn_paper(
     track: str = "training",
     features: str = DEFAULT_FEATURES,
     shifted_views: bool = False,
+    policy_kind: str = "mlp-sigmoid",
 ) -> Learned:
     """The paper: record a demonstration, then evolve offline (200 generations by default).
 
     ``mirror``: learn from the cases and their mirror images (:mod:`lfd_track.learning.mirror`).
     ``features``: the per-region inputs (:mod:`lfd_track.policy.features`), computed from the
     recorded histograms. ``shifted_views``: learn also from the shifted and turned views of
-    every case (:mod:`lfd_track.demo.views`; mirrored too with ``mirror``).
+    every case (:mod:`lfd_track.demo.views`; mirrored too with ``mirror``). ``policy_kind``
+    ``"elman-sigmoid"``: evolve an Elman network over the cases in order
+    (:func:`~lfd_track.learning.elman.evolve_elman`; not with ``shifted_views``).
     """
     views = ViewCases() if shifted_views else None
     summary, demo, library = _demonstrate(
@@ -262,11 +280,19 @@ def learn_paper(
         views=views,
     )
     x, a = _training_set(*_cases(demo, views, features), memory, mirror, features)
-    result = evolve(x, a, ga, np.random.default_rng(ga_seed))
+    rng = np.random.default_rng(ga_seed)
+    if policy_kind == "elman-sigmoid":
+        _check_sequence(views)
+        result = evolve_elman(x, a, ga, rng, episodes=_episodes(demo, mirror))
+    else:
+        result = evolve(x, a, ga, rng)
+    controller = Controller.from_evolution(
+        library, result, seed=ga_seed, memory=memory, features=features, policy_kind=policy_kind
+    )
     return _learned_offline(
         summary,
         demo,
-        Controller.from_evolution(library, result, seed=ga_seed, memory=memory, features=features),
+        controller,
         preset,
         fitness_best=result.best_history.tolist(),
         fitness_mean=result.mean_history.tolist(),
@@ -287,9 +313,12 @@ def learn_baseline(
     track: str = "training",
     features: str = DEFAULT_FEATURES,
     shifted_views: bool = False,
+    policy_kind: str = "mlp-sigmoid",
 ) -> Learned:
     """The paper's demonstration, then BC or CMA-ES instead of the GA (same cases, same seed;
-    ``shifted_views`` as for :func:`learn_paper`)."""
+    ``shifted_views`` as for :func:`learn_paper`). ``policy_kind`` ``"elman-sigmoid"``: BC
+    trains an Elman network by backpropagation through time
+    (:func:`~lfd_track.learning.elman.fit_bc_elman`; CMA-ES does not train this kind)."""
     views = ViewCases() if shifted_views else None
     summary, demo, library = _demonstrate(
         rep_dir,
@@ -302,7 +331,14 @@ def learn_baseline(
     )
     trainer = learner_for(learner)
     x, a = _training_set(*_cases(demo, views, features), memory, mirror, features)
-    result = trainer.fit(x, a, np.random.default_rng(ga_seed))
+    rng = np.random.default_rng(ga_seed)
+    if policy_kind == "elman-sigmoid":
+        if not isinstance(learner, BCConfig):
+            raise ValueError("an Elman network is trained by the GA or by backprop, not CMA-ES")
+        _check_sequence(views)
+        result = fit_bc_elman(x, a, learner, rng, episodes=_episodes(demo, mirror))
+    else:
+        result = trainer.fit(x, a, rng)
     controller = Controller(
         library,
         result.weights,
@@ -313,6 +349,7 @@ def learn_baseline(
         fitness_history=result.history.tolist(),
         memory=memory,
         features=features,
+        policy_kind=policy_kind,
     )
     return _learned_offline(
         summary,
@@ -336,6 +373,14 @@ def _cases(
         np.concatenate([x, views.policy_inputs(features)]),
         np.concatenate([np.asarray(a, dtype=np.int64), views.commands]),
     )
+
+
+def _check_sequence(views: ViewCases | None) -> None:
+    """An Elman network learns from cases in the order they were driven: views have none."""
+    if views is not None:
+        raise ValueError(
+            "shifted views have no place in a driven sequence: not with an Elman network"
+        )
 
 
 def _views_record(views: ViewCases | None) -> dict[str, Any]:

@@ -287,6 +287,10 @@ def write_report_from_results(out: str | Path, results: dict[str, Any]) -> Path:
         )
     if config.get("mirror"):
         notes.append("it learned from its cases and their mirror images")
+    if config.get("policy_kind") == "elman-sigmoid":
+        notes.append(
+            "the network is an Elman network (its hidden activations of the step before fed back)"
+        )
     if config.get("shifted_views"):
         notes.append(
             "it learned also from each case's views one command before it (a step behind, a pivot"

@@ -28,7 +28,7 @@ from ..learning.bc import BCConfig
 from ..learning.cmaes import CMAESConfig
 from ..learning.ga import GAConfig
 from ..learning.result import check_int
-from ..policy.controller import Controller
+from ..policy.controller import POLICY_KINDS, Controller
 from ..policy.features import DEFAULT_FEATURES, check_features
 from ..policy.memory import MemoryConfig
 from ..teaching.arbiter import Arbiter
@@ -124,6 +124,10 @@ class BenchmarkConfig:
     # Learn also from the shifted and turned views of every case (demo/views.py): methods
     # "paper", "bc" and "cma-es", which learn after one simulated demonstration.
     shifted_views: bool = False
+    # The network: "mlp-sigmoid" (the paper's) or "elman-sigmoid" (its hidden activations fed
+    # back, policy/elman.py), which the GA (method "paper") and backprop through time (method
+    # "bc") train over the demonstration's cases in order.
+    policy_kind: str = "mlp-sigmoid"
     # Per-region inputs of the policy (policy/features.py): the paper's road values,
     # "road_values+colour" (also each region's mean hue and saturation), or "none" (the memory
     # inputs alone).
@@ -156,6 +160,19 @@ class BenchmarkConfig:
             raise ValueError(
                 f"shifted_views applies to the methods {', '.join(VIEW_METHODS)} (one simulated"
                 f" demonstration, then learning), not '{self.method}'"
+            )
+        if self.policy_kind not in POLICY_KINDS:
+            raise ValueError(
+                f"unknown policy_kind '{self.policy_kind}' (choose from {', '.join(POLICY_KINDS)})"
+            )
+        if self.policy_kind == "elman-sigmoid" and self.method not in ("paper", "bc"):
+            raise ValueError(
+                "policy_kind 'elman-sigmoid' is trained by the methods paper (the GA) and bc"
+                f" (backprop through time), not '{self.method}'"
+            )
+        if self.policy_kind == "elman-sigmoid" and self.shifted_views:
+            raise ValueError(
+                "shifted_views have no place in the driven sequence an Elman network learns"
             )
         if self.features == "none" and not self.memory.n_inputs:
             raise ValueError(
@@ -379,6 +396,8 @@ def learn_repetition(
         common["features"] = config.features
     if config.shifted_views:
         common["shifted_views"] = True
+    if config.policy_kind != "mlp-sigmoid":
+        common["policy_kind"] = config.policy_kind
     if config.method == "online":
         return learn_online(rep_dir, **common, ga=config.ga, online=config.online)
     if config.method == "hg-dagger":
@@ -498,6 +517,8 @@ def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
         del data["mirror"]
     if not config.shifted_views:
         del data["shifted_views"]
+    if config.policy_kind == "mlp-sigmoid":
+        del data["policy_kind"]
     if config.demo_track == "training":
         del data["demo_track"]
     if config.features == DEFAULT_FEATURES:

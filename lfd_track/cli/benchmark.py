@@ -151,6 +151,13 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="learn from the cases and their mirror images (left and right swapped)",
     )
     bench.add_argument(
+        "--policy-kind",
+        choices=("mlp-sigmoid", "elman-sigmoid"),
+        default="mlp-sigmoid",
+        help="the network: the paper's MLP, or an Elman network (its hidden activations fed back;"
+        " trained by the GA with --method paper, by backprop through time with --method bc)",
+    )
+    bench.add_argument(
         "--shifted-views",
         action="store_true",
         help="learn also from each case's views from a step behind and a pivot either way,"
@@ -216,6 +223,7 @@ def run(args: argparse.Namespace) -> int:
             memory=MemoryConfig(kind=args.memory, **map_settings(args)),
             mirror=args.mirror,
             shifted_views=args.shifted_views,
+            policy_kind=args.policy_kind,
             demo_track=args.demo_track,
             features=args.features,
             dagger=dagger,

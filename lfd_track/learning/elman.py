@@ -12,6 +12,11 @@ Elman network's longer weight vectors.
 The cases of a recording are the steps the human drove as teaching cases; the few steps that are
 not (the library-only commands before the first case) are not part of the sequence, whereas
 when driving the context runs over every frame.
+
+Backprop trains the same network (:func:`fit_bc_elman`): the behaviour-cloning loss of
+:mod:`lfd_track.learning.bc` on the outputs of the sequence run, its exact gradient by
+backpropagation through time over each whole episode (the context's gradient flows back step by
+step until the episode's first case), Adam on whole episodes at once.
 """
 
 from __future__ import annotations
@@ -20,10 +25,12 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ..policy.elman import N_CONTEXT, elman_sequence
+from ..policy.elman import N_CONTEXT, elman_sequence, elman_weights
+from ..policy.mlp import N_HIDDEN, N_OUTPUTS, sigmoid
+from .bc import BCConfig
 from .fitness import _OTHERS, _category_weights, _check_threshold
 from .ga import EvolutionResult, GAConfig, ga_ask, ga_init, ga_result, ga_tell
-from .result import check_cases, check_config
+from .result import LearnerFit, check_cases, check_config
 
 
 def episode_starts(n_cases: int, episodes: list[int] | None = None) -> np.ndarray:
@@ -90,3 +97,147 @@ def evolve_elman(
         if progress is not None:
             progress(state.generation, state.best_history[-1], state.mean_history[-1])
     return ga_result(state, config, rng_state)
+
+
+def sequence_accuracy(
+    weights: np.ndarray, inputs: np.ndarray, actions: np.ndarray, starts: np.ndarray, *, bias: bool
+) -> float:
+    """Share of cases where one Elman network's (W,) largest output, run over the episodes in
+    order, is the demonstrated command (the MLP's
+    :func:`~lfd_track.learning.fitness.training_accuracy`)."""
+    x, a = check_cases(inputs, actions)
+    outputs = elman_sequence(
+        np.asarray(weights, dtype=np.float64)[None], x, bias=bias, starts=starts
+    )
+    return float((outputs[0].argmax(axis=1) == a).mean())
+
+
+def elman_loss_and_gradient(
+    weights: np.ndarray,
+    inputs: np.ndarray,
+    actions: np.ndarray,
+    case_weights: np.ndarray,
+    starts: np.ndarray,
+    temperature: float,
+    weight_decay: float = 0.0,
+) -> tuple[float, np.ndarray, np.ndarray]:
+    """The BC loss of one Elman network (W,) run over the episodes in order, its exact gradient
+    by backpropagation through time, and the outputs it produced, ``(loss, gradient (W,),
+    outputs (N, 3))``. ``inputs`` (N, n), ``actions`` (N,) intp, ``case_weights`` (N,) as for
+    :func:`~lfd_track.learning.bc.bc_loss_and_gradient`; ``starts`` (N,) bool as for
+    :func:`episode_starts`."""
+    w = np.asarray(weights, dtype=np.float64)
+    x = np.asarray(inputs, dtype=np.float64)
+    n, n_in = x.shape
+    bias = w.shape[0] == elman_weights(True, n_in)
+    width = N_HIDDEN * (n_in + N_CONTEXT)
+    w_ih = w[:width].reshape(N_HIDDEN, n_in + N_CONTEXT)
+    w_x, w_c = w_ih[:, :n_in], w_ih[:, n_in:]
+    w_ho = w[width : width + N_OUTPUTS * N_HIDDEN].reshape(N_OUTPUTS, N_HIDDEN)
+    tail = width + N_OUTPUTS * N_HIDDEN
+    pre_x = x @ w_x.T
+    if bias:
+        pre_x += w[tail : tail + N_HIDDEN]
+    reset = np.asarray(starts, dtype=bool)
+    hidden = np.empty((n, N_HIDDEN))
+    contexts = np.zeros((n, N_CONTEXT))  # the context each step read
+    context = np.zeros(N_CONTEXT)
+    for t in range(n):
+        if reset[t]:
+            context = np.zeros(N_CONTEXT)
+        contexts[t] = context
+        context = sigmoid(pre_x[t] + w_c @ context)
+        hidden[t] = context
+    pre_out = hidden @ w_ho.T
+    if bias:
+        pre_out += w[tail + N_HIDDEN :]
+    out = sigmoid(pre_out)
+    logits = out / temperature
+    logits -= logits.max(axis=1, keepdims=True)
+    log_norm = np.log(np.exp(logits).sum(axis=1))
+    rows = np.arange(n)
+    c = case_weights / case_weights.sum()
+    loss = float(c @ (log_norm - logits[rows, actions])) + 0.5 * weight_decay * float(w @ w)
+
+    d_logits = np.exp(logits - log_norm[:, None])
+    d_logits[rows, actions] -= 1.0
+    d_logits *= c[:, None]
+    d_pre_out = d_logits / temperature * out * (1.0 - out)  # (N, 3)
+    d_hidden = d_pre_out @ w_ho  # (N, 5): from each step's own outputs
+    slope = hidden * (1.0 - hidden)
+    d_pre = np.empty((n, N_HIDDEN))
+    carry = np.zeros(N_HIDDEN)  # from the steps after, through the context
+    for t in range(n - 1, -1, -1):
+        d_pre[t] = (d_hidden[t] + carry) * slope[t]
+        carry = np.zeros(N_HIDDEN) if reset[t] else d_pre[t] @ w_c
+    grad = np.empty_like(w)
+    grad[:width] = np.hstack([d_pre.T @ x, d_pre.T @ contexts]).ravel()
+    grad[width:tail] = (d_pre_out.T @ hidden).ravel()
+    if bias:
+        grad[tail : tail + N_HIDDEN] = d_pre.sum(axis=0)
+        grad[tail + N_HIDDEN :] = d_pre_out.sum(axis=0)
+    grad += weight_decay * w
+    return loss, grad, out
+
+
+def fit_bc_elman(
+    inputs: np.ndarray,
+    actions: np.ndarray,
+    config: BCConfig | None,
+    rng: np.random.Generator,
+    *,
+    episodes: list[int] | None = None,
+) -> LearnerFit:
+    """Train an Elman network on cases in recorded order by backpropagation through time: Adam
+    on :func:`elman_loss_and_gradient`, every episode whole in every step (``config.batch_size``
+    must be 0). ``rng`` draws the initial weights (uniform in ±``init_range``, as the GA draws
+    them); ``episodes`` as for :func:`episode_starts`. ``history[e]`` is the Algorithm 3
+    fitness (:func:`sequence_fitness`) of the weights after epoch ``e + 1``."""
+    if not isinstance(rng, np.random.Generator):
+        raise ValueError("fit_bc_elman needs a numpy Generator (rng) so that runs are reproducible")
+    config = check_config(config, BCConfig, "fit_bc_elman")
+    if config.batch_size != 0:
+        raise ValueError(
+            "backprop through time fits whole episodes: the BC batch_size must be 0 for an Elman"
+            f" network, got {config.batch_size}"
+        )
+    x, a = check_cases(inputs, actions)
+    starts = episode_starts(len(a), episodes)
+    case_weights = _category_weights(a)
+    weights = rng.uniform(
+        -config.init_range, config.init_range, size=elman_weights(config.bias, x.shape[1])
+    )
+    m = np.zeros_like(weights)
+    v = np.zeros_like(weights)
+    history = np.empty(config.epochs)
+    for epoch in range(config.epochs):
+        _, grad, out = elman_loss_and_gradient(
+            weights, x, a, case_weights, starts, config.temperature, config.weight_decay
+        )
+        if epoch:  # the outputs of the weights after the previous epoch
+            history[epoch - 1] = _fitness_of(out, a, config.threshold)
+        step = epoch + 1
+        m = config.beta1 * m + (1.0 - config.beta1) * grad
+        v = config.beta2 * v + (1.0 - config.beta2) * grad * grad
+        m_hat = m / (1.0 - config.beta1**step)
+        v_hat = v / (1.0 - config.beta2**step)
+        weights = weights - config.learning_rate * m_hat / (np.sqrt(v_hat) + config.epsilon)
+    history[-1] = sequence_fitness(weights[None], x, a, starts, config.threshold, bias=config.bias)[
+        0
+    ]
+    return LearnerFit(
+        weights=weights,
+        fitness=float(history[-1]),
+        history=history,
+        learner="bc",
+        config=config.to_dict(),
+    )
+
+
+def _fitness_of(outputs: np.ndarray, actions: np.ndarray, threshold: float) -> float:
+    """Algorithm 3 of one network's outputs (N, 3) (as :func:`sequence_fitness` scores them)."""
+    n = actions.shape[0]
+    winning = outputs[np.arange(n), actions]
+    diff = winning[:, None] - outputs[np.arange(n)[:, None], _OTHERS[actions]]
+    score = np.where(diff >= threshold, 0.5, 0.5 * diff / threshold).sum(axis=1)
+    return float(1.0 - (score @ _category_weights(actions)) / 3.0)
