@@ -3,16 +3,26 @@ memory, and every file they write says so."""
 
 from __future__ import annotations
 
-import numpy as np
+import json
 
-from lfd_track.benchmark.methods import HGDaggerConfig, learn_baseline, learn_hg_dagger
+import numpy as np
+import pytest
+
+from lfd_track.benchmark.methods import (
+    HGDaggerConfig,
+    learn_baseline,
+    learn_hg_dagger,
+    learn_paper,
+)
 from lfd_track.benchmark.runner import BenchmarkConfig, config_dict, repetition_seeds
 from lfd_track.cli import main
 from lfd_track.dataset import load_demonstration
 from lfd_track.demo.demonstrator import HumanConfig
 from lfd_track.learning.bc import BCConfig
+from lfd_track.learning.cmaes import CMAESConfig
 from lfd_track.learning.ga import GAConfig
 from lfd_track.policy.controller import Controller
+from lfd_track.policy.elman import elman_sequence
 from lfd_track.policy.memory import MemoryConfig
 
 COLOUR = "road_values+colour"
@@ -117,3 +127,59 @@ def test_dagger_learns_and_drives_a_network_that_reads_its_memory_alone(tmp_path
     assert main([*args, "--out", str(tmp_path / "none.json")]) != 0
     assert not (tmp_path / "none.json").exists()
     assert "--features none reads the memory inputs alone" in capsys.readouterr().err
+
+
+def test_both_learners_train_an_elman_network_and_the_run_records_it(tmp_path):
+    """method "paper" evolves an Elman network and method "bc" trains one by backprop through
+    time, over the demonstration's cases in order; the controller files say so and drive."""
+    demo_seed, ga_seed = _seeds()
+    common = dict(demo_seed=demo_seed, ga_seed=ga_seed, preset="paper", human=HumanConfig(legs=1))
+    evolved = learn_paper(
+        tmp_path / "ga", ga=GAConfig(generations=5), policy_kind="elman-sigmoid", **common
+    )
+    trained = learn_baseline(
+        tmp_path / "bc", learner=BCConfig(epochs=30), policy_kind="elman-sigmoid", **common
+    )
+    for learned, learner in ((evolved, "ga"), (trained, "bc")):
+        controller = learned.controller
+        assert controller.policy_kind == "elman-sigmoid" and controller.learner == learner
+        assert controller.to_dict()["layer_sizes"] == [45, 5, 3]
+        assert 0.0 <= learned.training_accuracy <= 1.0
+    # The training accuracy is the sequence run's: the context carried from case to case.
+    demo = load_demonstration(tmp_path / "bc" / "demonstration.lfdemo")
+    controller = trained.controller
+    controller.reset()
+    decisions = np.array([controller.act_on_values(v) for v in demo.inputs])
+    out = elman_sequence(controller.weights[None], demo.inputs, bias=False)[0]
+    assert trained.training_accuracy == pytest.approx((out.argmax(axis=1) == demo.commands).mean())
+    assert decisions.shape == (demo.n_cases,)
+    with pytest.raises(ValueError, match="not CMA-ES"):
+        learn_baseline(
+            tmp_path / "cma", learner=CMAESConfig(), policy_kind="elman-sigmoid", **common
+        )
+
+
+def test_the_policy_kind_is_a_benchmark_option_of_the_paper_and_bc_methods():
+    assert config_dict(BenchmarkConfig(policy_kind="elman-sigmoid"))["policy_kind"] == (
+        "elman-sigmoid"
+    )
+    assert "policy_kind" not in config_dict(BenchmarkConfig())
+    BenchmarkConfig(method="bc", policy_kind="elman-sigmoid")
+    for method in ("online", "hg-dagger", "dagger", "cma-es"):
+        with pytest.raises(ValueError, match="trained by the methods paper"):
+            BenchmarkConfig(method=method, policy_kind="elman-sigmoid")
+    with pytest.raises(ValueError, match="unknown policy_kind 'lstm'"):
+        BenchmarkConfig(policy_kind="lstm")
+    with pytest.raises(ValueError, match="shifted_views have no place"):
+        BenchmarkConfig(policy_kind="elman-sigmoid", shifted_views=True)
+
+
+def test_benchmark_takes_the_policy_kind_from_the_command_line(tmp_path):
+    out = tmp_path / "bench"
+    argv = ["--quiet", "benchmark", "--quick", "--workers", "1", "--out", str(out)]
+    assert main([*argv, "--policy-kind", "elman-sigmoid"]) == 0
+    results = json.loads((out / "results.json").read_text())
+    assert results["config"]["policy_kind"] == "elman-sigmoid"
+    controller = Controller.load(out / "repetitions" / "rep_00" / "controller.json")
+    assert controller.policy_kind == "elman-sigmoid"
+    assert "an Elman network" in (out / "report.md").read_text()
