@@ -87,7 +87,7 @@ class Perception:
                 "features 'none' leave the policy only its memory inputs: set a memory kind"
             )
         self._memory = memory_for(memory)
-        self._memory_before = self._memory  # the memory as it was before the last frame
+        self._memory_before = copy.copy(self._memory)  # the memory as it was before the last frame
 
     @property
     def n_inputs(self) -> int:
