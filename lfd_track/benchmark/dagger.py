@@ -185,7 +185,7 @@ def learn_dagger(
     controller is the ``paper`` method's); later fits continue one random stream. Round r's labels
     are written to ``rep_dir/labels_r<r>.lfdemo`` (interventions as ``correction`` cases).
     """
-    summary, demo, library = _demonstrate(
+    summary, demo, library, _ = _demonstrate(
         rep_dir, demo_seed=demo_seed, preset=preset, human=human, memory=memory, track=track
     )
     inputs = [np.asarray(demo.policy_inputs(features), dtype=np.float64)]

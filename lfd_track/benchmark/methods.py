@@ -174,10 +174,11 @@ def _demonstrate(
     human: HumanConfig,
     memory: MemoryConfig | None = None,
     track: str = "training",
-    views: ViewCases | None = None,
-) -> tuple[DemonstrationSummary, Demonstration, RoadLibrary]:
-    """Record the paper's demonstration on ``track`` in ``rep_dir``; (summary, cases, library).
-    ``views``, if given, receives the shifted and turned views of every case."""
+    shifted_views: bool = False,
+) -> tuple[DemonstrationSummary, Demonstration, RoadLibrary, ViewCases | None]:
+    """Record the paper's demonstration on ``track`` in ``rep_dir``; (summary, cases, library,
+    views): the shifted and turned views of every case with ``shifted_views``, else None."""
+    views = ViewCases() if shifted_views else None
     demo_path = rep_dir / "demonstration.lfdemo"
     summary = run_demonstration(
         demo_path,
@@ -191,7 +192,7 @@ def _demonstrate(
         views=views,
     )
     demo = load_demonstration(demo_path)
-    return summary, demo, RoadLibrary.from_dict(demo.metadata["road_library"])
+    return summary, demo, RoadLibrary.from_dict(demo.metadata["road_library"]), views
 
 
 def _learned_offline(
@@ -269,15 +270,14 @@ def learn_paper(
     ``"elman-sigmoid"``: evolve an Elman network over the cases in order
     (:func:`~lfd_track.learning.elman.evolve_elman`; not with ``shifted_views``).
     """
-    views = ViewCases() if shifted_views else None
-    summary, demo, library = _demonstrate(
+    summary, demo, library, views = _demonstrate(
         rep_dir,
         demo_seed=demo_seed,
         preset=preset,
         human=human,
         memory=memory,
         track=track,
-        views=views,
+        shifted_views=shifted_views,
     )
     x, a = _training_set(*_cases(demo, views, features), memory, mirror, features)
     rng = np.random.default_rng(ga_seed)
@@ -319,15 +319,14 @@ def learn_baseline(
     ``shifted_views`` as for :func:`learn_paper`). ``policy_kind`` ``"elman-sigmoid"``: BC
     trains an Elman network by backpropagation through time
     (:func:`~lfd_track.learning.elman.fit_bc_elman`; CMA-ES does not train this kind)."""
-    views = ViewCases() if shifted_views else None
-    summary, demo, library = _demonstrate(
+    summary, demo, library, views = _demonstrate(
         rep_dir,
         demo_seed=demo_seed,
         preset=preset,
         human=human,
         memory=memory,
         track=track,
-        views=views,
+        shifted_views=shifted_views,
     )
     trainer = learner_for(learner)
     x, a = _training_set(*_cases(demo, views, features), memory, mirror, features)

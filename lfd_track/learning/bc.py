@@ -136,6 +136,22 @@ def bc_loss_and_gradient(
     return loss, grad
 
 
+def adam_step(
+    weights: np.ndarray,
+    grad: np.ndarray,
+    m: np.ndarray,
+    v: np.ndarray,
+    step: int,
+    config: BCConfig,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One Adam update (``step`` counts from 1): the new ``(weights, m, v)``."""
+    m = config.beta1 * m + (1.0 - config.beta1) * grad
+    v = config.beta2 * v + (1.0 - config.beta2) * grad * grad
+    m_hat = m / (1.0 - config.beta1**step)
+    v_hat = v / (1.0 - config.beta2**step)
+    return weights - config.learning_rate * m_hat / (np.sqrt(v_hat) + config.epsilon), m, v
+
+
 def fit_bc(
     inputs: np.ndarray,
     actions: np.ndarray,
@@ -182,11 +198,7 @@ def fit_bc(
                 hidden,
             )
             step += 1
-            m = config.beta1 * m + (1.0 - config.beta1) * grad
-            v = config.beta2 * v + (1.0 - config.beta2) * grad * grad
-            m_hat = m / (1.0 - config.beta1**step)
-            v_hat = v / (1.0 - config.beta2**step)
-            weights = weights - config.learning_rate * m_hat / (np.sqrt(v_hat) + config.epsilon)
+            weights, m, v = adam_step(weights, grad, m, v, step, config)
         fitness = population_fitness(
             weights[None], cases, config.threshold, bias=config.bias, hidden=hidden
         )

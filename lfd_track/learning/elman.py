@@ -27,7 +27,7 @@ import numpy as np
 
 from ..policy.elman import N_CONTEXT, elman_sequence, elman_weights
 from ..policy.mlp import N_HIDDEN, N_OUTPUTS, sigmoid
-from .bc import BCConfig
+from .bc import BCConfig, adam_step
 from .fitness import _OTHERS, _category_weights, _check_threshold
 from .ga import EvolutionResult, GAConfig, ga_ask, ga_init, ga_result, ga_tell
 from .result import LearnerFit, check_cases, check_config
@@ -216,12 +216,7 @@ def fit_bc_elman(
         )
         if epoch:  # the outputs of the weights after the previous epoch
             history[epoch - 1] = _fitness_of(out, a, config.threshold)
-        step = epoch + 1
-        m = config.beta1 * m + (1.0 - config.beta1) * grad
-        v = config.beta2 * v + (1.0 - config.beta2) * grad * grad
-        m_hat = m / (1.0 - config.beta1**step)
-        v_hat = v / (1.0 - config.beta2**step)
-        weights = weights - config.learning_rate * m_hat / (np.sqrt(v_hat) + config.epsilon)
+        weights, m, v = adam_step(weights, grad, m, v, epoch + 1, config)
     history[-1] = sequence_fitness(weights[None], x, a, starts, config.threshold, bias=config.bias)[
         0
     ]
