@@ -246,40 +246,22 @@ def _can_open(station: Any) -> bool:
         return False
 
 
-def _flood_in_background(sock: socket.socket, data: bytes) -> Callable[[], None]:
-    """Send ``data`` over and over, reading whatever comes back, until the returned function is
-    called (it ends both threads and closes ``sock``)."""
-    done = threading.Event()
-
-    def send() -> None:
-        try:
-            while not done.is_set():
-                sock.sendall(data)
-        except OSError:
-            pass
-
-    def read() -> None:
-        try:
-            while not done.is_set() and sock.recv(1 << 20):
-                pass
-        except OSError:
-            pass
-
-    threads = [
-        threading.Thread(target=send, daemon=True),
-        threading.Thread(target=read, daemon=True),
-    ]
-    for thread in threads:
-        thread.start()
+def _flood_in_background(sock: socket.socket, frame: bytes, count: int) -> Callable[[], None]:
+    """Send ``frame`` ``count`` times in one write, over and over, reading whatever comes back,
+    from a process of its own (``raw_flooder.py``), until the returned function is called (it
+    ends the flooder and closes ``sock``)."""
+    proc = subprocess.Popen(
+        [sys.executable, str(HERE / "raw_flooder.py"), str(sock.fileno()), frame.hex(), str(count)],
+        pass_fds=[sock.fileno()],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+    )
+    assert proc.stdout.readline().strip() == "flooding"
 
     def end() -> None:
-        done.set()
-        try:
-            sock.shutdown(socket.SHUT_RDWR)
-        except OSError:
-            pass
-        for thread in threads:
-            thread.join(WAIT_S)
+        proc.communicate(timeout=WAIT_S)  # closes stdin: the flooder stops
         sock.close()
 
     return end
@@ -298,7 +280,7 @@ def test_frames_that_make_no_message_cannot_hold_up_a_stop(open_station, opcode)
         start = ws_frame(TEXT, b"{", fin=False) if opcode == CONTINUATION else b""
         flooder.sendall(start)
         frame = ws_frame(opcode, fin=opcode != CONTINUATION)
-        end_flood = _flood_in_background(flooder, frame * 50_000)
+        end_flood = _flood_in_background(flooder, frame, 50_000)
         try:
             latencies = []
             for given in range(1, 6):
