@@ -81,6 +81,8 @@ METHODS = ("paper", "online", "hg-dagger", "bc", "cma-es", "dagger")
 #: The methods that learn after one simulated demonstration, so can learn from its shifted and
 #: turned views (:mod:`lfd_track.demo.views`).
 VIEW_METHODS = ("paper", "bc", "cma-es")
+#: The methods that train an Elman network: the GA (``paper``) and backprop through time (``bc``).
+ELMAN_METHODS = ("paper", "bc")
 
 
 @dataclass(frozen=True)
@@ -270,19 +272,20 @@ def learn_paper(
     ``"elman-sigmoid"``: evolve an Elman network over the cases in order
     (:func:`~lfd_track.learning.elman.evolve_elman`; not with ``shifted_views``).
     """
-    summary, demo, library, views = _demonstrate(
+    summary, demo, library, views, (x, a) = _offline_cases(
         rep_dir,
         demo_seed=demo_seed,
         preset=preset,
         human=human,
         memory=memory,
+        mirror=mirror,
         track=track,
+        features=features,
         shifted_views=shifted_views,
+        policy_kind=policy_kind,
     )
-    x, a = _training_set(*_cases(demo, views, features), memory, mirror, features)
     rng = np.random.default_rng(ga_seed)
     if policy_kind == "elman-sigmoid":
-        _check_sequence(views)
         result = evolve_elman(x, a, ga, rng, episodes=_episodes(demo, mirror))
     else:
         result = evolve(x, a, ga, rng)
@@ -319,22 +322,23 @@ def learn_baseline(
     ``shifted_views`` as for :func:`learn_paper`). ``policy_kind`` ``"elman-sigmoid"``: BC
     trains an Elman network by backpropagation through time
     (:func:`~lfd_track.learning.elman.fit_bc_elman`; CMA-ES does not train this kind)."""
-    summary, demo, library, views = _demonstrate(
+    if policy_kind == "elman-sigmoid" and not isinstance(learner, BCConfig):
+        raise ValueError("an Elman network is trained by the GA or by backprop, not CMA-ES")
+    summary, demo, library, views, (x, a) = _offline_cases(
         rep_dir,
         demo_seed=demo_seed,
         preset=preset,
         human=human,
         memory=memory,
+        mirror=mirror,
         track=track,
+        features=features,
         shifted_views=shifted_views,
+        policy_kind=policy_kind,
     )
     trainer = learner_for(learner)
-    x, a = _training_set(*_cases(demo, views, features), memory, mirror, features)
     rng = np.random.default_rng(ga_seed)
     if policy_kind == "elman-sigmoid":
-        if not isinstance(learner, BCConfig):
-            raise ValueError("an Elman network is trained by the GA or by backprop, not CMA-ES")
-        _check_sequence(views)
         result = fit_bc_elman(x, a, learner, rng, episodes=_episodes(demo, mirror))
     else:
         result = trainer.fit(x, a, rng)
@@ -361,6 +365,45 @@ def learn_baseline(
     )
 
 
+def _offline_cases(
+    rep_dir: Path,
+    *,
+    demo_seed: int,
+    preset: str | Preset,
+    human: HumanConfig,
+    memory: MemoryConfig | None,
+    mirror: bool,
+    track: str,
+    features: str,
+    shifted_views: bool,
+    policy_kind: str,
+) -> tuple[
+    DemonstrationSummary,
+    Demonstration,
+    RoadLibrary,
+    ViewCases | None,
+    tuple[np.ndarray, np.ndarray],
+]:
+    """Record the demonstration (with its views if ``shifted_views``) and make what an offline
+    learner fits from it: (summary, cases, library, views, (inputs, commands))."""
+    if policy_kind == "elman-sigmoid" and shifted_views:
+        # An Elman network learns from cases in the order they were driven: views have none.
+        raise ValueError(
+            "shifted views have no place in a driven sequence: not with an Elman network"
+        )
+    summary, demo, library, views = _demonstrate(
+        rep_dir,
+        demo_seed=demo_seed,
+        preset=preset,
+        human=human,
+        memory=memory,
+        track=track,
+        shifted_views=shifted_views,
+    )
+    cases = _training_set(*_cases(demo, views, features), memory, mirror, features)
+    return summary, demo, library, views, cases
+
+
 def _cases(
     demo: Demonstration, views: ViewCases | None, features: str
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -372,14 +415,6 @@ def _cases(
         np.concatenate([x, views.policy_inputs(features)]),
         np.concatenate([np.asarray(a, dtype=np.int64), views.commands]),
     )
-
-
-def _check_sequence(views: ViewCases | None) -> None:
-    """An Elman network learns from cases in the order they were driven: views have none."""
-    if views is not None:
-        raise ValueError(
-            "shifted views have no place in a driven sequence: not with an Elman network"
-        )
 
 
 def _views_record(views: ViewCases | None) -> dict[str, Any]:

@@ -37,6 +37,7 @@ from ..teaching.observers import CallbackObserver, TrajectoryObserver
 from ..world.track import load_track
 from .dagger import DaggerConfig, learn_dagger
 from .methods import (
+    ELMAN_METHODS,
     METHODS,
     VIEW_METHODS,
     HGDaggerConfig,
@@ -165,7 +166,7 @@ class BenchmarkConfig:
             raise ValueError(
                 f"unknown policy_kind '{self.policy_kind}' (choose from {', '.join(POLICY_KINDS)})"
             )
-        if self.policy_kind == "elman-sigmoid" and self.method not in ("paper", "bc"):
+        if self.policy_kind == "elman-sigmoid" and self.method not in ELMAN_METHODS:
             raise ValueError(
                 "policy_kind 'elman-sigmoid' is trained by the methods paper (the GA) and bc"
                 f" (backprop through time), not '{self.method}'"

@@ -59,7 +59,11 @@ def sequence_fitness(
     """Algorithm 3 for every Elman network, each run over the episodes in order; (P,) float64,
     lower is better (see :func:`~lfd_track.learning.fitness.imitation_fitness` for the rule)."""
     outputs = elman_sequence(weights, inputs, bias=bias, starts=starts)  # (P, N, 3)
-    a = np.asarray(actions, dtype=np.intp)
+    return _outputs_fitness(outputs, np.asarray(actions, dtype=np.intp), threshold)
+
+
+def _outputs_fitness(outputs: np.ndarray, a: np.ndarray, threshold: float) -> np.ndarray:
+    """Algorithm 3 of P networks' outputs (P, N, 3) on the commands ``a`` (N,); (P,) float64."""
     n = a.shape[0]
     winning = outputs[:, np.arange(n), a]  # (P, N)
     others = outputs[:, np.arange(n)[:, None], _OTHERS[a]]  # (P, N, 2)
@@ -215,7 +219,7 @@ def fit_bc_elman(
             weights, x, a, case_weights, starts, config.temperature, config.weight_decay
         )
         if epoch:  # the outputs of the weights after the previous epoch
-            history[epoch - 1] = _fitness_of(out, a, config.threshold)
+            history[epoch - 1] = _outputs_fitness(out[None], a, config.threshold)[0]
         weights, m, v = adam_step(weights, grad, m, v, epoch + 1, config)
     history[-1] = sequence_fitness(weights[None], x, a, starts, config.threshold, bias=config.bias)[
         0
@@ -227,12 +231,3 @@ def fit_bc_elman(
         learner="bc",
         config=config.to_dict(),
     )
-
-
-def _fitness_of(outputs: np.ndarray, actions: np.ndarray, threshold: float) -> float:
-    """Algorithm 3 of one network's outputs (N, 3) (as :func:`sequence_fitness` scores them)."""
-    n = actions.shape[0]
-    winning = outputs[np.arange(n), actions]
-    diff = winning[:, None] - outputs[np.arange(n)[:, None], _OTHERS[actions]]
-    score = np.where(diff >= threshold, 0.5, 0.5 * diff / threshold).sum(axis=1)
-    return float(1.0 - (score @ _category_weights(actions)) / 3.0)
