@@ -230,6 +230,8 @@ def write_benchmark_outputs(
     results["method"] = config.method
     # Versions and BLAS kernel this run was computed with (files written before have none).
     results["environment"] = environment()
+    # How the camera rendered its frames (files written before have none: they used "bilinear").
+    results["renderer"] = {"texture_filter": load_preset(config.preset).camera.texture_filter}
     results["human_effort"] = {
         "repetitions": [dict(r.effort, repetition=r.index) for r in reps],
         "total": {
@@ -301,4 +303,24 @@ def write_report_from_results(out: str | Path, results: dict[str, Any]) -> Path:
         notes.append(f"the human's turn-arounds were `{turnarounds}`")
     if notes:
         extra.insert(0, f"**Beyond the paper's pipeline**: {'; '.join(notes)}.\n")
+    extra.append(renderer_line(results))
     return write_report(out, results, extra_sections=extra)
+
+
+#: The texture filter of every run whose results.json predates the ``renderer`` field.
+FILTER_BEFORE_RECORDING = "bilinear"
+
+
+def renderer_of(results: dict[str, Any]) -> str:
+    """The camera's texture filter a results.json dict was made with (``"bilinear"`` for a file
+    written before runs recorded it, when that was the only filter runs used)."""
+    renderer = results.get("renderer") or {}
+    return str(renderer.get("texture_filter", FILTER_BEFORE_RECORDING))
+
+
+def renderer_line(results: dict[str, Any]) -> str:
+    """The report's line on how the camera rendered the frames of this run."""
+    line = f"**Renderer**: the camera sampled the ground texture with the `{renderer_of(results)}` filter"
+    if "renderer" not in results:
+        line += " (the file predates the `renderer` field; every run before it used this filter)"
+    return line + ' (`envs/README.md`, "Texture filter").\n'

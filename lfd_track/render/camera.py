@@ -84,14 +84,15 @@ class CameraConfig:
     principal_shift_px: float = 0.0
     """Principal point's distance above the image centre [px]: > 0 makes the frame the lower part
     of the lens's picture (an off-centre crop). ``vfov_deg`` is the field of the centred frame."""
-    texture_filter: str = "bilinear"
-    """How a pixel samples the ground texture. ``"bilinear"``: the 4 texels nearest the point the
-    pixel centre sees, however much floor the pixel covers (towards the top of the frame one pixel
-    covers about 1.5 × 9 texels of the paper's 2 mm texture, so fine carpet and felt texture
-    alias). ``"mipmap"``: bilinear from a pre-filtered, halved copy of the texture (a mip level)
-    whose texels are about as large as the pixel's floor footprint: the level is
-    round(½·log2(footprint area in texels)), fixed per band of image rows (on a flat floor the
-    footprint depends on the row), which is the averaging a real lens and sensor pixel do."""
+    texture_filter: str = "mipmap"
+    """How a pixel samples the ground texture. ``"mipmap"`` (the default): bilinear from a
+    pre-filtered, halved copy of the texture (a mip level) whose texels are about as large as the
+    pixel's floor footprint: the level is round(½·log2(footprint area in texels)), fixed per band
+    of image rows (on a flat floor the footprint depends on the row), which is the averaging a
+    real lens and sensor pixel do. ``"bilinear"`` (the default until results started recording
+    their renderer, ``results.json``'s ``renderer`` field; results without it used it): the 4 texels nearest the point the pixel centre sees, however much
+    floor the pixel covers (towards the top of the frame one pixel covers about 1.5 × 9 texels
+    of the paper's 2 mm texture, so fine carpet and felt texture alias)."""
 
     @property
     def is_ideal_pinhole(self) -> bool:
