@@ -16,6 +16,7 @@ from lfd_track.render.texture import GroundTexture
 
 MPP = 0.002
 MIPMAP = CameraConfig(texture_filter="mipmap")
+BILINEAR = CameraConfig(texture_filter="bilinear")
 
 
 def synthetic_ground(rgba: np.ndarray, x0: float = -0.5, y0: float = 1.5) -> GroundTexture:
@@ -53,7 +54,7 @@ def test_bands_cover_the_frame_and_coarsen_towards_the_top():
     # The top row's pixel covers about 10.5 texels (level 2: 16), the bottom row's about 0.1.
     area = CameraModel(MIPMAP).row_footprint_area_m2() / MPP**2
     assert area[0] == pytest.approx(10.5, rel=0.05) and area[-1] == pytest.approx(0.105, rel=0.05)
-    assert CameraRenderer(CameraConfig()).mip_bands(MPP) == ((0, 480, 0),)
+    assert CameraRenderer(BILINEAR).mip_bands(MPP) == ((0, 480, 0),)
 
 
 def test_mip_bands_rounds_half_log2_of_the_area():
@@ -74,7 +75,7 @@ def test_mipmap_keeps_the_camera_geometry(distance_m):
     model = CameraModel(MIPMAP)
     xs = floor_x_of_rows(model)
     expected = int(np.argmin(np.abs(xs - (-0.5 + (col - 0.5) * MPP))))
-    for config in (CameraConfig(), MIPMAP):
+    for config in (BILINEAR, MIPMAP):
         raw = CameraRenderer(config)._warp_pinhole(ground, np.zeros(3))
         profile = raw[:, 320, 0].astype(float)
         row = int(np.argmin(np.abs(profile - 127.5)))
@@ -96,14 +97,14 @@ def test_mipmap_is_closer_than_bilinear_to_what_a_pixel_averages():
     rgba[..., :3] = rng.integers(40, 216, size=(h, w, 1), dtype=np.uint8)
     ground = synthetic_ground(rgba)
     pose = np.array([0.0, 0.0, 0.3])
-    big = dataclasses.replace(CameraConfig(), width_px=2560, height_px=1920)
+    big = dataclasses.replace(BILINEAR, width_px=2560, height_px=1920)
     reference = cv2.resize(
         CameraRenderer(big)._warp_pinhole(ground, pose)[..., 0].astype(np.float32),
         (640, 480),
         interpolation=cv2.INTER_AREA,
     )
     errors = {}
-    for config in (CameraConfig(), MIPMAP):
+    for config in (BILINEAR, MIPMAP):
         frame = CameraRenderer(config)._warp_pinhole(ground, pose)[..., 0].astype(np.float32)
         diff = frame - reference
         errors[config.texture_filter] = (diff[:60].std(), diff[-60:].std())
@@ -139,7 +140,7 @@ def test_two_mipmap_envs_with_one_seed_render_the_same_bytes():
                 seen.append(env.reset()[0].tobytes())
         env.close()
     assert frames[0] == frames[1]
-    bilinear = gym.make("LfDTrack-v0")
+    bilinear = gym.make("LfDTrack-v0", preset="paper_bilinear")
     assert bilinear.reset(seed=11)[0].tobytes() != frames[0][0]  # the filter does change frames
     bilinear.close()
 
@@ -150,10 +151,13 @@ def test_a_distorted_lens_is_banded_too_and_its_level_0_rows_are_unchanged():
     rgba = rng.integers(0, 256, size=(int(3.0 / MPP), int(3.0 / MPP), 4), dtype=np.uint8)
     ground = synthetic_ground(rgba)
     pose = np.array([0.0, 0.0, 0.2])
-    mip = CameraRenderer(dataclasses.replace(wide, texture_filter="mipmap"))
+    mip = CameraRenderer(wide)  # the default filter, "mipmap"
+    assert wide.texture_filter == "mipmap"
     bands = mip.mip_bands(MPP)
     assert len(bands) > 1 and bands[-1][2] == 0 and bands[0][2] > 0
-    plain = CameraRenderer(wide)._remap_lens(ground, pose)
+    plain = CameraRenderer(dataclasses.replace(wide, texture_filter="bilinear"))._remap_lens(
+        ground, pose
+    )
     banded = mip._remap_lens(ground, pose)
     first_level_0 = bands[-1][0]
     np.testing.assert_array_equal(banded[first_level_0:], plain[first_level_0:])

@@ -1,7 +1,7 @@
 """Tables of the limits experiment's part 4 (DAgger with a noise-free labeller) from committed results.
 
 Reads ``results/dagger/<condition>/seed<k>/results.json`` and, for comparison, the committed
-``paper``, ``hg-dagger`` and ``bc`` rows of ``benchmarks/experiments/beyond_the_paper/results/``;
+``paper``, ``hg-dagger`` and ``bc`` rows of ``benchmarks/experiments/beyond_the_paper/results/bilinear/``;
 prints markdown: laps per loop and direction, the unseen loops pooled with 95 % Wilson intervals,
 the learning curve per round, and human effort with robot seconds per repetition. Run from the repository root:
 

@@ -215,7 +215,9 @@ ONLINE = OnlineConfig(
     mu=10, tau=50, recovery=10, evaluations=100_000, robot_budget_s=EVOLUTION_BUDGET_S
 )
 #: The paper pipeline's human effort (seed 0, 10 repetitions), for the robot-time comparison.
-PAPER_RESULTS = HERE.parent / "beyond_the_paper/results/beyond_the_paper/paper/seed0/results.json"
+PAPER_RESULTS = (
+    HERE.parent / "beyond_the_paper/results/bilinear/beyond_the_paper/paper/seed0/results.json"
+)
 
 
 def paper_learning_drive_s() -> list[float]:

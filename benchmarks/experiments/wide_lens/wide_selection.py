@@ -17,7 +17,7 @@ Protocol (fixed before any run; the testing track and the unseen tracks are neve
 
 Committed run (seed 0, 10 repetitions, 2 min on a busy 2-core machine): the candidate whose top
 row meets the floor nearest (1.96 m, close to the paper camera's 1.84 m) won with 53/60 — the
-paper camera's own training score at seed 0 (``benchmarks/experiments/paper_protocol/results/seed0/``) —
+paper camera's own training score at seed 0 (``benchmarks/experiments/paper_protocol/results/bilinear/seed0/``) —
 against 44/60 and 43/60 for the two that see further; it is the ``wide`` preset.
 
 Run: ``.venv/bin/python benchmarks/experiments/wide_lens/wide_selection.py [--repetitions 10] [--seed 0]
