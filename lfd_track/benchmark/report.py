@@ -311,16 +311,18 @@ def write_report_from_results(out: str | Path, results: dict[str, Any]) -> Path:
 FILTER_BEFORE_RECORDING = "bilinear"
 
 
-def renderer_of(results: dict[str, Any]) -> str:
-    """The camera's texture filter a results.json dict was made with (``"bilinear"`` for a file
-    written before runs recorded it, when that was the only filter runs used)."""
-    renderer = results.get("renderer") or {}
-    return str(renderer.get("texture_filter", FILTER_BEFORE_RECORDING))
-
-
 def renderer_line(results: dict[str, Any]) -> str:
-    """The report's line on how the camera rendered the frames of this run."""
-    line = f"**Renderer**: the camera sampled the ground texture with the `{renderer_of(results)}` filter"
-    if "renderer" not in results:
-        line += " (the file predates the `renderer` field; every run before it used this filter)"
-    return line + ' (`envs/README.md`, "Texture filter").\n'
+    """The report's line on how the camera rendered the frames of this run (a file written
+    before runs recorded it used ``FILTER_BEFORE_RECORDING``, then the only filter runs used)."""
+    renderer = results.get("renderer")
+    if renderer is None:
+        used = (
+            f"`{FILTER_BEFORE_RECORDING}` filter (the file predates the `renderer` field;"
+            " every run before it used this filter)"
+        )
+    else:
+        used = f"`{renderer['texture_filter']}` filter"
+    return (
+        f"**Renderer**: the camera sampled the ground texture with the {used}"
+        ' (`envs/README.md`, "Texture filter").\n'
+    )

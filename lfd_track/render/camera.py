@@ -89,10 +89,11 @@ class CameraConfig:
     pre-filtered, halved copy of the texture (a mip level) whose texels are about as large as the
     pixel's floor footprint: the level is round(½·log2(footprint area in texels)), fixed per band
     of image rows (on a flat floor the footprint depends on the row), which is the averaging a
-    real lens and sensor pixel do. ``"bilinear"`` (the default until results started recording
-    their renderer, ``results.json``'s ``renderer`` field; results without it used it): the 4 texels nearest the point the pixel centre sees, however much
-    floor the pixel covers (towards the top of the frame one pixel covers about 1.5 × 9 texels
-    of the paper's 2 mm texture, so fine carpet and felt texture alias)."""
+    real lens and sensor pixel do. ``"bilinear"`` (the default until ``results.json`` recorded
+    its ``renderer``; every file without that field used it): the 4 texels nearest the point the
+    pixel centre sees, however much floor the pixel covers (towards the top of the frame one
+    pixel covers about 1.5 × 9 texels of the paper's 2 mm texture, so fine carpet and felt
+    texture alias)."""
 
     @property
     def is_ideal_pinhole(self) -> bool:
