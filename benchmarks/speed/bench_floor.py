@@ -228,6 +228,45 @@ def floor_ms(pieces: dict[str, float]) -> float:
     return sample + sum(pieces[k] for k in rest)
 
 
+#: The camera's image pipeline inside a render (``bench_env``'s stage names): everything the
+#: render does besides sampling the frame, and none of it in the floor.
+CAMERA_EFFECTS = (
+    "exposure meter",
+    "tone curve",
+    "vignetting and white balance",
+    "sensor noise",
+    "motion blur",
+    "JPEG round trip",
+)
+
+
+def overhead(summary: dict, texture_filter: str) -> dict[str, float]:
+    """Where the closed-loop step's time over the floor goes, from the medians of ``summary``:
+    the camera's image pipeline (timed stage by stage inside the env's renders) and the rest
+    (the episode's bookkeeping, Python's glue, colder caches than the floor's pieces see).
+    Also the bounds the floor sets: the step if nothing but the floor and the camera effects
+    were left, and the env-alone rate against CarRacing-v3 at the env's own floor (sampling
+    the frame and the physics), with and without the camera effects."""
+    pieces, floor = summary["floor_pieces_ms"], summary["floor_ms"]
+    step = 1e3 / summary["steps_only_per_s"][f"closed_loop_{texture_filter}"]
+    budget = summary["env_step_budget_ms"][texture_filter]
+    camera = sum(budget.get(k, 0.0) for k in CAMERA_EFFECTS)
+    sample = min(v for k, v in pieces.items() if k.startswith("sample frame"))
+    env_floor = sample + pieces["physics step"]
+    carracing_ms = 1e3 / summary["steps_per_s"]["carracing"]
+    return {
+        "step": step,
+        "floor": floor,
+        "over_floor": step - floor,
+        "camera_effects": camera,
+        "rest": step - floor - camera,
+        "floor_and_camera_effects_per_floor": (floor + camera) / floor,
+        "env_floor": env_floor,
+        "env_floor_per_carracing": carracing_ms / env_floor,
+        "env_floor_and_camera_per_carracing": carracing_ms / (env_floor + camera),
+    }
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=2.0, help="per workload per round")
@@ -298,6 +337,7 @@ def main(argv: list[str] | None = None) -> int:
             lambda r, wl=wl: r["steps_per_s"][f"{wl}_mipmap"] / r["steps_per_s"][f"{wl}_bilinear"]
         )
     summary["ratios"] = ratios
+    summary["overhead_ms"] = {f: overhead(summary, f) for f in FILTERS}
     if args.vec_rounds > 0:
         summary["two_async_envs"] = vector_scaling(
             "mipmap", args.seconds, args.vec_rounds, args.seed
@@ -321,6 +361,14 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{k:40s} {v:5.2f}x")
     for f, budget in summary["env_step_budget_ms"].items():
         print(f"env step budget, {f}: " + ", ".join(f"{k} {v:.2f}" for k, v in budget.items()))
+    for f, o in summary["overhead_ms"].items():
+        print(
+            f"closed loop over the floor, {f}: {o['over_floor']:.2f} ms = camera effects"
+            f" {o['camera_effects']:.2f} + the rest {o['rest']:.2f}; floor + camera effects ="
+            f" {o['floor_and_camera_effects_per_floor']:.2f}x the floor; an env step at its own"
+            f" floor (sampling + physics) would run {o['env_floor_per_carracing']:.2f}x"
+            f" CarRacing-v3, with the camera effects {o['env_floor_and_camera_per_carracing']:.2f}x"
+        )
     if "two_async_envs" in summary:
         vec = summary["two_async_envs"]
         print(

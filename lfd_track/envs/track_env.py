@@ -195,7 +195,7 @@ class LfDTrackEnv(gym.Env):
         self._ground = build_ground(self.track, preset.appearance, preset.lighting, world_rng)
         self._rover = Rover(preset.rover)
         self._renderer = CameraRenderer(preset.camera, preset.sensor)
-        self._camera_model = CameraModel(preset.camera)
+        self._camera_model = self._renderer.model  # the same lens; one extrinsics cache
 
     def _tread_on_felt(self) -> tuple[bool, bool]:
         on = self.track.on_felt(self._rover.tread_points())  # (2, K)

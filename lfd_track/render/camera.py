@@ -28,6 +28,7 @@ import the other's private tables.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import cv2
@@ -277,6 +278,9 @@ class CameraModel:
         self.cx = (c.width_px - 1) / 2.0
         self.cy = (c.height_px - 1) / 2.0 - c.principal_shift_px
         self._footprint_rover: np.ndarray | None = None
+        self._rays_cache: dict[str, np.ndarray] = {}
+        self._extrinsics_key: tuple[float, float, float] | None = None
+        self._extrinsics_value: tuple[np.ndarray, np.ndarray] | None = None
         self.K = np.array(
             [[self.focal_px, 0.0, self.cx], [0.0, self.focal_px, self.cy], [0.0, 0.0, 1.0]]
         )
@@ -361,13 +365,22 @@ class CameraModel:
         return np.abs(area) / 2.0
 
     def _extrinsics(self, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """World→camera rotation (3, 3) and camera centre (3,) in world coordinates [m]."""
+        """World→camera rotation (3, 3) and camera centre (3,) in world coordinates [m].
+
+        A step asks for the same pose several times (the view, its footprint, the safe box), so
+        the last pose's answer is kept; the arrays are read-only."""
         x, y, theta = (float(v) for v in pose)
+        key = (x, y, theta)
+        if key == self._extrinsics_key and self._extrinsics_value is not None:
+            return self._extrinsics_value
         ct, st = math.cos(theta), math.sin(theta)
         world_from_rover = np.array([[ct, -st, 0.0], [st, ct, 0.0], [0.0, 0.0, 1.0]])
         R = self._R_rover @ world_from_rover.T
         off = self.config.forward_offset_m
         centre = np.array([x + off * ct, y + off * st, self.config.height_m])
+        R.flags.writeable = False
+        centre.flags.writeable = False
+        self._extrinsics_key, self._extrinsics_value = key, (R, centre)
         return R, centre
 
     def image_from_world(self, pose: np.ndarray) -> np.ndarray:
@@ -410,8 +423,20 @@ class CameraModel:
     def floor_points(self, pixels: np.ndarray, pose: np.ndarray) -> np.ndarray:
         """Pixels (N, 2) (u, v) → the floor points (N, 2) [m] they see; NaN above the horizon."""
         px = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
+        return self._floor_points_of_rays(self._rays_camera(px), pose)
+
+    def _fixed_rays(self, name: str, pixels: Callable[[], np.ndarray]) -> np.ndarray:
+        """Camera-axis rays of a pixel set that never changes (the image corners, the safe
+        box), computed on first use."""
+        rays = self._rays_cache.get(name)
+        if rays is None:
+            px = np.asarray(pixels(), dtype=np.float64).reshape(-1, 2)
+            rays = self._rays_cache[name] = self._rays_camera(px)
+        return rays
+
+    def _floor_points_of_rays(self, rays_camera: np.ndarray, pose: np.ndarray) -> np.ndarray:
         R, centre = self._extrinsics(pose)
-        rays = self._rays_camera(px) @ R  # world directions
+        rays = rays_camera @ R  # world directions
         with np.errstate(divide="ignore", invalid="ignore"):
             t = -centre[2] / rays[:, 2]
         out = centre[None, :2] + t[:, None] * rays[:, :2]
@@ -422,7 +447,6 @@ class CameraModel:
         """(N, 2) floor polygon [m] seen by the image's outer edge, from the top-left corner
         clockwise on screen. An ideal pinhole gives its four corners (TL, TR, BR, BL); a distorted
         lens bends the edges, so they are sampled (N = 4 × 24)."""
-        w, h = self.config.width_px, self.config.height_px
         if self._table is not None:
             # The camera is rigid on the rover: move the edge's floor points found once at the
             # origin instead of inverting the lens for ~100 pixels every frame.
@@ -434,8 +458,11 @@ class CameraModel:
             ct, st = math.cos(theta), math.sin(theta)
             rot = np.array([[ct, -st], [st, ct]])
             return self._footprint_rover @ rot.T + np.array([x, y])
-        corners = np.array([[-0.5, -0.5], [w - 0.5, -0.5], [w - 0.5, h - 0.5], [-0.5, h - 0.5]])
-        return self.floor_points(corners, pose)
+        return self._floor_points_of_rays(self._fixed_rays("corners", self._corner_pixels), pose)
+
+    def _corner_pixels(self) -> np.ndarray:
+        w, h = self.config.width_px, self.config.height_px
+        return np.array([[-0.5, -0.5], [w - 0.5, -0.5], [w - 0.5, h - 0.5], [-0.5, h - 0.5]])
 
     def safe_box_floor_polygon(self, pose: np.ndarray) -> np.ndarray:
         """(N, 2) floor polygon [m] of the safe box (outer pixel edges), corners TL, TR, BR, BL.
@@ -443,13 +470,16 @@ class CameraModel:
         N = 4 for an ideal pinhole (straight edges); a distorted lens bends the box's edges on
         the floor, so each edge is sampled (N = 16).
         """
+        return self._floor_points_of_rays(self._fixed_rays("safe box", self._safe_box_pixels), pose)
+
+    def _safe_box_pixels(self) -> np.ndarray:
         rows, cols = safe_box_slices()
         u0, u1 = cols.start - 0.5, cols.stop - 0.5
         v0, v1 = rows.start - 0.5, rows.stop - 0.5
         if self._table is None:
-            return self.floor_points(np.array([[u0, v0], [u1, v0], [u1, v1], [u0, v1]]), pose)
+            return np.array([[u0, v0], [u1, v0], [u1, v1], [u0, v1]])
         t = np.linspace(0.0, 1.0, 4, endpoint=False)
-        box = np.concatenate(
+        return np.concatenate(
             [
                 np.column_stack([u0 + t * (u1 - u0), np.full(4, v0)]),
                 np.column_stack([np.full(4, u1), v0 + t * (v1 - v0)]),
@@ -457,7 +487,6 @@ class CameraModel:
                 np.column_stack([np.full(4, u0), v1 - t * (v1 - v0)]),
             ]
         )
-        return self.floor_points(box, pose)
 
     def homography(self, pose: np.ndarray, ground: GroundTexture) -> np.ndarray:
         """(3, 3) homography from texel coordinates (col, row, 1) of ``ground`` to image pixels.
@@ -501,6 +530,10 @@ def mip_bands(area_m2: np.ndarray, metres_per_px: float) -> tuple[tuple[int, int
     return tuple(bands)
 
 
+#: The 256 input levels of the tone curve's table.
+_LEVELS = np.arange(256.0)
+_LEVELS.flags.writeable = False
+
 #: Fixed-point unit of the gain maps: a map value of 200 is a gain of 1 (so gains up to 1.27 fit).
 _GAIN_ONE = 200.0
 
@@ -534,6 +567,7 @@ class CameraRenderer:
         self._mipmap = self.camera.texture_filter == "mipmap"
         self._row_area_m2 = self.model.row_footprint_area_m2() if self._mipmap else None
         self._bands: dict[float, tuple[tuple[int, int, int], ...]] = {}
+        self._footprint_reach_m: float | None = None
 
     def mip_bands(self, metres_per_px: float) -> tuple[tuple[int, int, int], ...]:
         """Row bands (first row, stop row, mip level) the ``"mipmap"`` filter renders for a
@@ -591,7 +625,7 @@ class CameraRenderer:
 
     def _tone_table(self, gain: float) -> np.ndarray:
         """(256,) uint8 table: level × exposure gain, with a soft highlight shoulder."""
-        levels = np.arange(256.0) * gain
+        levels = _LEVELS * gain
         knee = 255.0 * self.sensor.highlight_knee
         span = 255.0 - knee
         if span > 0:
@@ -603,8 +637,26 @@ class CameraRenderer:
 
     def _sees_past_margin(self, ground: GroundTexture, pose: np.ndarray) -> bool:
         """Whether the view reaches further past a texture edge than the carpet margin is wide."""
-        corners = ground.to_texture(self.model.footprint(pose))
+        # The footprint is rigid on the rover, so no corner is further from the pose than its
+        # reach: while the whole circle of that reach stays short of the limit past every edge,
+        # the answer is no (the usual case, decided without projecting the corners; two texels
+        # of slack dwarf any rounding).
+        if self._footprint_reach_m is None:
+            corners = self.model.footprint(np.zeros(3))
+            self._footprint_reach_m = float(np.max(np.hypot(corners[:, 0], corners[:, 1])))
         h, w = ground.shape
+        mpp = ground.metres_per_px
+        reach = self._footprint_reach_m / mpp
+        slack = 0.9 * ground.margin_m / mpp - 2.0
+        col = (float(pose[0]) - ground.origin_xy[0]) / mpp
+        row = (ground.origin_xy[1] - float(pose[1])) / mpp
+        if (
+            min(col, row) - reach >= -slack
+            and col + reach <= w - 1 + slack
+            and row + reach <= h - 1 + slack
+        ):
+            return False
+        corners = ground.to_texture(self.model.footprint(pose))
         beyond_px = max(
             float(-corners.min()),
             float(corners[:, 0].max()) - (w - 1),
@@ -789,7 +841,7 @@ class CameraRenderer:
         # The meter reads a coarse 80 × 60 grid of samples, like a phone's AE statistics.
         means = cv2.mean(cv2.resize(raw, _METER_GRID, interpolation=cv2.INTER_NEAREST))
         luma = max(float(_LUMA @ np.array(means[:3])) * self._mean_vignette, 1e-3)
-        wanted = float(np.clip(s.exposure_target / luma, s.exposure_min_gain, s.exposure_max_gain))
+        wanted = float(min(max(s.exposure_target / luma, s.exposure_min_gain), s.exposure_max_gain))
         if self._gain is None:
             self._gain = wanted
         gain = self._frame_gain = self._gain

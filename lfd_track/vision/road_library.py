@@ -351,14 +351,14 @@ class RoadLibrary:
         self._add_selections(np.bincount(best, minlength=n_models))
 
     def _add_selections(self, per_model: np.ndarray, *, notify: bool = True) -> None:
-        k = 0
+        counts = iter(np.asarray(per_model).tolist())
         for t in self._types:
             t.comparisons += N_REGIONS
             for e in t.examples:
+                n = next(counts)
                 e.comparisons += N_REGIONS
-                e.selections += int(per_model[k])
-                t.selections += int(per_model[k])
-                k += 1
+                e.selections += n
+                t.selections += n
         if notify and self._listeners:
             counts = np.array(per_model, dtype=np.int64)
             counts.flags.writeable = False

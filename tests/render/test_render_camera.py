@@ -330,3 +330,54 @@ def test_a_far_reaching_view_past_the_texture_never_mirrors_felt(track, ground):
     assert frame.max(axis=2).min() > 5
     mean = frame.reshape(-1, 3).astype(float).mean(axis=0)
     assert mean[0] > mean[2] + 10
+
+
+@pytest.mark.parametrize("lens", ["pinhole", "fisheye"])
+def test_the_quick_margin_check_agrees_with_projecting_the_corners(ground, lens):
+    # The renderer answers "does the view reach past the carpet margin?" from the pose alone
+    # when the footprint's reach cannot get there; it must never answer differently from
+    # projecting the footprint's corners, near the edges included.
+    config = (
+        CameraConfig()
+        if lens == "pinhole"
+        else CameraConfig(lens="fisheye", distortion=(0.2, 0.0, 0.0, 0.0))
+    )
+    renderer = CameraRenderer(config)
+    h, w = ground.shape
+    rng = np.random.default_rng(5)
+    x0, y0 = ground.origin_xy
+    s = ground.metres_per_px
+    poses = np.column_stack(
+        [
+            rng.uniform(x0 - 1.0, x0 + w * s + 1.0, 3000),
+            rng.uniform(y0 - h * s - 1.0, y0 + 1.0, 3000),
+            rng.uniform(-math.pi, math.pi, 3000),
+        ]
+    )
+
+    def exact(pose):
+        corners = ground.to_texture(renderer.model.footprint(pose))
+        beyond = max(
+            float(-corners.min()),
+            float(corners[:, 0].max()) - (w - 1),
+            float(corners[:, 1].max()) - (h - 1),
+        )
+        return beyond * s > 0.9 * ground.margin_m
+
+    answers = [renderer._sees_past_margin(ground, p) for p in poses]
+    assert answers == [exact(p) for p in poses]
+    assert 0 < sum(answers) < len(answers)  # both answers occur
+
+
+def test_the_last_pose_kept_by_the_camera_never_answers_for_another_pose():
+    cam, fresh = CameraModel(), CameraModel()
+    for pose in ([1.0, 2.0, 0.3], [1.0, 2.0, 0.3], [1.0, 2.0, 0.30000000000000004], [0, 0, 0]):
+        pose = np.array(pose, dtype=float)
+        assert np.array_equal(cam.footprint(pose), CameraModel().footprint(pose))
+        assert np.array_equal(
+            cam.safe_box_floor_polygon(pose),
+            fresh.floor_points(
+                np.array([[294.5, 429.5], [344.5, 429.5], [344.5, 479.5], [294.5, 479.5]]), pose
+            ),
+        )
+        assert np.array_equal(cam.image_from_world(pose), CameraModel().image_from_world(pose))
