@@ -186,6 +186,7 @@ class LfDTrackEnv(gym.Env):
         self._trajectory: list[np.ndarray] = []
         self._steps = 0
         self._last_pose = np.zeros(3)
+        self._safe_box_on_felt = False
         self._frame: np.ndarray | None = None
         self._ended = False
 
@@ -197,13 +198,15 @@ class LfDTrackEnv(gym.Env):
         self._renderer = CameraRenderer(preset.camera, preset.sensor)
         self._camera_model = self._renderer.model  # the same lens; one extrinsics cache
 
-    def _tread_on_felt(self) -> tuple[bool, bool]:
-        on = self.track.on_felt(self._rover.tread_points())  # (2, K)
-        return bool(on[0].any()), bool(on[1].any())
-
-    def _safe_box_on_felt(self, pose: np.ndarray) -> bool:
-        polygon = self._camera_model.safe_box_floor_polygon(pose)
-        return bool(self.track.on_felt(polygon).all())
+    def _check_felt(self) -> tuple[bool, bool]:
+        """Whether each tread touches the felt at the rover's pose (returned) and whether the
+        camera's safe box lies wholly on it (kept for the info dict): one test of all points."""
+        treads = self._rover.tread_points()  # (2, K, 2)
+        k = treads.shape[1]
+        box = self._camera_model.safe_box_floor_polygon(self._last_pose)
+        on = self.track.on_felt(np.concatenate([treads.reshape(-1, 2), box]))
+        self._safe_box_on_felt = bool(on[2 * k :].all())
+        return bool(on[:k].any()), bool(on[k : 2 * k].any())
 
     def _info(self) -> dict[str, Any]:
         st = self.episode.state
@@ -218,7 +221,7 @@ class LfDTrackEnv(gym.Env):
             "failure": st.failure,
             "failed_corner": self.episode.failed_corner,
             "success": st.success,
-            "safe_box_on_felt": self._safe_box_on_felt(pose),
+            "safe_box_on_felt": self._safe_box_on_felt,
             "step": self._steps,
             "max_steps": self.max_steps,
         }
@@ -251,7 +254,7 @@ class LfDTrackEnv(gym.Env):
         self._renderer.reset(sensor_rng, new_pools=rebuild)
         self._last_pose = self._rover.pose.copy()
         self._steps = 0
-        self.episode.reset(self._last_pose, self._tread_on_felt())
+        self.episode.reset(self._last_pose, self._check_felt())
         self._trajectory = [self._last_pose[:2].copy()]
         self._frame = self._renderer.render(self._ground, self._last_pose, sensor_rng)
         self._ended = False
@@ -278,7 +281,7 @@ class LfDTrackEnv(gym.Env):
         self._rover.step(int(Command(int(action))), self._physics_rng)
         self._last_pose = self._rover.pose.copy()
         self._steps += 1
-        st = self.episode.update(self._last_pose, self._tread_on_felt())
+        st = self.episode.update(self._last_pose, self._check_felt())
         self._trajectory.append(self._last_pose[:2].copy())
         motion = self._last_pose - previous_pose
         self._frame = self._renderer.render(self._ground, self._last_pose, self._sensor_rng, motion)

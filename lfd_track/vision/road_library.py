@@ -140,6 +140,8 @@ class RoadLibrary:
         self._types: list[_RoadType] = []
         self._grid = GridHistogrammer(self.bins)
         self._cache: tuple[tuple[np.ndarray, np.ndarray], np.ndarray] | None = None
+        # Every example with its type, in model order (the columns of the similarity matrix).
+        self._flat: list[tuple[_RoadType, _Example]] | None = None
         self._listeners: list[Callable[[LibraryChange], None]] = []
 
     # ----------------------------------------------------------------------------- listeners
@@ -194,7 +196,7 @@ class RoadLibrary:
                     raise ValueError(f"evicted example {evicted_example} does not exist")
                 del examples[evicted_example]
             examples.append(_Example(model))
-        self._cache = None
+        self._cache = self._flat = None
 
     def redo_selected(self, per_model: np.ndarray) -> None:
         """Apply a recorded counter update: (n_models,) regions that selected each model."""
@@ -280,7 +282,7 @@ class RoadLibrary:
                 evicted_example = _least_used(road_type.examples)
                 del road_type.examples[evicted_example]
             road_type.examples.append(_Example(model))
-            self._cache = None
+            self._cache = self._flat = None
             outcome = LearnOutcome(
                 type_index=best_type,
                 new_type=False,
@@ -295,7 +297,7 @@ class RoadLibrary:
             evicted_type = _least_used(self._types)
             del self._types[evicted_type]
         self._types.append(_RoadType(examples=[_Example(model)]))
-        self._cache = None
+        self._cache = self._flat = None
         outcome = LearnOutcome(
             type_index=len(self._types) - 1,
             new_type=True,
@@ -351,14 +353,18 @@ class RoadLibrary:
         self._add_selections(np.bincount(best, minlength=n_models))
 
     def _add_selections(self, per_model: np.ndarray, *, notify: bool = True) -> None:
-        counts = iter(np.asarray(per_model).tolist())
         for t in self._types:
             t.comparisons += N_REGIONS
             for e in t.examples:
-                n = next(counts)
                 e.comparisons += N_REGIONS
-                e.selections += n
-                t.selections += n
+        if self._flat is None:
+            self._flat = [(t, e) for t in self._types for e in t.examples]
+        per_model = np.asarray(per_model)
+        for k in np.flatnonzero(per_model).tolist():  # the few models some region selected
+            t, e = self._flat[k]
+            n = int(per_model[k])
+            e.selections += n
+            t.selections += n
         if notify and self._listeners:
             counts = np.array(per_model, dtype=np.int64)
             counts.flags.writeable = False
