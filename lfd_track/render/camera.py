@@ -534,6 +534,9 @@ def mip_bands(area_m2: np.ndarray, metres_per_px: float) -> tuple[tuple[int, int
 _LEVELS = np.arange(256.0)
 _LEVELS.flags.writeable = False
 
+#: Texel coordinates of mip level L are level 0's times 2^-L: the scaling per level.
+_LEVEL_SCALES = tuple(np.diag([0.5**level, 0.5**level, 1.0]) for level in range(32))
+
 #: Fixed-point unit of the gain maps: a map value of 200 is a gain of 1 (so gains up to 1.27 fit).
 _GAIN_ONE = 200.0
 
@@ -630,10 +633,14 @@ class CameraRenderer:
         span = 255.0 - knee
         if span > 0:
             # Above the knee the curve bends smoothly (slope 1 at the knee) towards 255, as phone
-            # tone curves do, so bright felt keeps some gradation instead of clipping flat.
-            over = levels > knee
-            levels[over] = knee + span * -np.expm1(-(levels[over] - knee) / span)
-        return np.clip(np.rint(levels), 0, 255).astype(np.uint8)
+            # tone curves do, so bright felt keeps some gradation instead of clipping flat. The
+            # levels rise with the input (the gain is positive): those above the knee are a tail.
+            over = levels[int(np.searchsorted(levels, knee, side="right")) :]
+            over[...] = knee + span * -np.expm1(-(over - knee) / span)
+        np.rint(levels, out=levels)
+        np.maximum(levels, 0.0, out=levels)
+        np.minimum(levels, 255.0, out=levels)
+        return levels.astype(np.uint8)
 
     def _sees_past_margin(self, ground: GroundTexture, pose: np.ndarray) -> bool:
         """Whether the view reaches further past a texture edge than the carpet margin is wide."""
@@ -722,8 +729,7 @@ class CameraRenderer:
         flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
         past = self._sees_past_margin(ground, pose)
         for v0, v1, level in self.mip_bands(ground.metres_per_px):
-            scale = 0.5**level
-            m = np.diag([scale, scale, 1.0]) @ tex_from_img
+            m = _LEVEL_SCALES[level] @ tex_from_img
             m[:, 2] += m[:, 1] * v0  # band row 0 is image row v0
             size = (c.width_px, v1 - v0)
             dst = raw[v0:v1]

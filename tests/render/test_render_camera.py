@@ -381,3 +381,24 @@ def test_the_last_pose_kept_by_the_camera_never_answers_for_another_pose():
             ),
         )
         assert np.array_equal(cam.image_from_world(pose), CameraModel().image_from_world(pose))
+
+
+@pytest.mark.parametrize("knee", [0.5, 0.7, 1.0])
+def test_tone_table_is_the_stated_curve(knee):
+    # level × gain up to the knee, then a shoulder easing towards 255 (slope 1 at the knee),
+    # rounded to the nearest level.
+    renderer = CameraRenderer(sensor=SensorConfig(highlight_knee=knee))
+    k, span = 255.0 * knee, 255.0 * (1.0 - knee)
+    for gain in np.geomspace(0.4, 3.0, 97):
+        curve = [
+            v * gain
+            if span == 0 or v * gain <= k
+            else k + span * -math.expm1(-(v * gain - k) / span)
+            for v in range(256)
+        ]
+        expected = np.clip(np.rint(curve), 0, 255)
+        table = renderer._tone_table(float(gain)).astype(float)
+        # Exact, except that a level within rounding error of a half may round either way.
+        tie = np.abs(np.asarray(curve) % 1.0 - 0.5) < 1e-9
+        assert np.array_equal(table[~tie], expected[~tie]), gain
+        assert np.all(np.abs(table - expected) <= 1.0), gain
