@@ -142,6 +142,11 @@ class RoadLibrary:
         self._cache: tuple[tuple[np.ndarray, np.ndarray], np.ndarray] | None = None
         # Every example with its type, in model order (the columns of the similarity matrix).
         self._flat: list[tuple[_RoadType, _Example]] | None = None
+        # Counter updates of road-value frames not yet written into the types and examples:
+        # how many frames, and the regions each model won over them (model order). Written
+        # before anything reads the counters or changes the models.
+        self._pending_frames = 0
+        self._pending_selected: np.ndarray | None = None
         self._listeners: list[Callable[[LibraryChange], None]] = []
 
     # ----------------------------------------------------------------------------- listeners
@@ -175,6 +180,7 @@ class RoadLibrary:
         for this library (wrong index, eviction missing or not needed).
         """
         model = self._check_model(model)
+        self._write_counts()
         if joined_type is None:
             full = len(self._types) >= self.max_types
             if evicted_example is not None or full != (evicted_type is not None):
@@ -230,10 +236,12 @@ class RoadLibrary:
 
     def type_statistics(self) -> list[tuple[int, int]]:
         """``(selections, comparisons)`` of each type, in order."""
+        self._write_counts()
         return [(t.selections, t.comparisons) for t in self._types]
 
     def example_statistics(self, type_index: int) -> list[tuple[int, int]]:
         """``(selections, comparisons)`` of each example of one type, in order."""
+        self._write_counts()
         return [(e.selections, e.comparisons) for e in self._types[type_index].examples]
 
     # ----------------------------------------------------------------------------- histograms
@@ -261,6 +269,7 @@ class RoadLibrary:
         if the library is full. Learning does not change usage statistics.
         """
         model = self._check_model(model)
+        self._write_counts()
         similarity: float | None = None
         best_type: int | None = None
         if self._types:
@@ -353,22 +362,36 @@ class RoadLibrary:
         self._add_selections(np.bincount(best, minlength=n_models))
 
     def _add_selections(self, per_model: np.ndarray, *, notify: bool = True) -> None:
-        for t in self._types:
-            t.comparisons += N_REGIONS
-            for e in t.examples:
-                e.comparisons += N_REGIONS
-        if self._flat is None:
-            self._flat = [(t, e) for t in self._types for e in t.examples]
-        per_model = np.asarray(per_model)
-        for k in np.flatnonzero(per_model).tolist():  # the few models some region selected
-            t, e = self._flat[k]
-            n = int(per_model[k])
-            e.selections += n
-            t.selections += n
+        per_model = np.asarray(per_model, dtype=np.int64)
+        if self._pending_selected is None:
+            self._pending_selected = per_model.copy()
+        else:
+            self._pending_selected += per_model
+        self._pending_frames += 1
         if notify and self._listeners:
             counts = np.array(per_model, dtype=np.int64)
             counts.flags.writeable = False
             self._notify(LibrarySelected(counts))
+
+    def _write_counts(self) -> None:
+        """Add the pending frames' comparisons and selections to the types and examples."""
+        if not self._pending_frames:
+            return
+        compared = N_REGIONS * self._pending_frames
+        selected = self._pending_selected
+        self._pending_frames, self._pending_selected = 0, None
+        for t in self._types:
+            t.comparisons += compared
+            for e in t.examples:
+                e.comparisons += compared
+        if self._flat is None:
+            self._flat = [(t, e) for t in self._types for e in t.examples]
+        assert selected is not None and len(selected) == len(self._flat)
+        for k in np.flatnonzero(selected).tolist():  # the few models some region selected
+            t, e = self._flat[k]
+            n = int(selected[k])
+            e.selections += n
+            t.selections += n
 
     # ----------------------------------------------------------------------------- internals
     def _check_model(self, model: np.ndarray) -> np.ndarray:
@@ -397,6 +420,7 @@ class RoadLibrary:
         Models are float32; each value is written as the Python float of that float32, which
         reads back to the identical float32.
         """
+        self._write_counts()
         return {
             "version": LIBRARY_FORMAT_VERSION,
             "bins": self.bins,

@@ -110,6 +110,26 @@ def test_type_frequency_uses_own_comparisons_since_entry():
     assert library.learn_model(spike(8)).evicted_type == 1
 
 
+def test_counters_of_many_frames_add_up_before_they_are_read():
+    library = RoadLibrary(bins=BINS, max_types=3)
+    models = [spike(0), spike(4), spike(8)]
+    for m in models:
+        library.learn_model(m)
+    for counts in ([30, 2, 8], [0, 40, 0], [10, 0, 30]):
+        library.road_values_from_histograms(frame_of(models, counts))
+    data = library.to_dict()
+    assert [(t["selections"], t["comparisons"]) for t in data["types"]] == [
+        (40, 120),
+        (42, 120),
+        (38, 120),
+    ]
+    assert library.example_statistics(2) == [(38, 120)]
+    library.road_values_from_histograms(frame_of(models, [0, 0, 40]))
+    # type 0 is now the least used (40/160 against 42/160 and 78/160)
+    assert library.learn_model(spike(12)).evicted_type == 0
+    assert library.type_statistics() == [(42, 160), (78, 160), (0, 0)]
+
+
 def test_type_eviction_tie_goes_to_oldest():
     library = RoadLibrary(bins=BINS, max_types=3)
     models = [spike(0), spike(4), spike(8)]
