@@ -535,7 +535,7 @@ _LEVELS = np.arange(256.0)
 _LEVELS.flags.writeable = False
 
 #: Texel coordinates of mip level L are level 0's times 2^-L: the scaling per level.
-_LEVEL_SCALES = tuple(np.diag([0.5**level, 0.5**level, 1.0]) for level in range(32))
+_LEVEL_SCALES = tuple(np.diag([0.5**level, 0.5**level, 1.0]) for level in range(MAX_MIP_LEVEL + 1))
 
 #: Fixed-point unit of the gain maps: a map value of 200 is a gain of 1 (so gains up to 1.27 fit).
 _GAIN_ONE = 200.0
