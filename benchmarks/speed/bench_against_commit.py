@@ -22,7 +22,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from single_thread import load_average, machine, source_state
+from single_thread import load_average, run_facts, source_state
 
 from lfd_track.utils.atomic import atomic_write_text
 
@@ -63,16 +63,6 @@ def closed_loop_rate(tree: Path, seconds: float) -> float:
     return float(out.stdout.split()[-1])
 
 
-def commit_of(tree: Path) -> str | None:
-    try:
-        out = subprocess.run(
-            ["git", "rev-parse", "HEAD"], cwd=tree, capture_output=True, text=True, check=True
-        )
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return out.stdout.strip() or None
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--baseline", type=Path, required=True, help="older checkout's root")
@@ -111,12 +101,9 @@ def main(argv: list[str] | None = None) -> int:
         "benchmark": "closed loop against an older checkout",
         "command": "benchmarks/speed/bench_against_commit.py "
         + " ".join(sys.argv[1:] if argv is None else argv),
-        "baseline_commit": commit_of(baseline),
+        "baseline_commit": source_state(baseline)["commit"],
         "seconds_per_side": args.seconds,
-        "load_average_before": load_before,
-        "load_average_after": load_average(),
-        "machine": machine(),
-        "source": source_state(),
+        **run_facts(load_before),
         "summary": summary,
         "rounds": rounds,
     }

@@ -63,7 +63,7 @@ from bench_env import (
     time_camera_stages,
 )
 from bench_env import vector_scaling as env_vector_scaling
-from single_thread import load_average, machine, pin_one_thread, source_state
+from single_thread import load_average, pin_one_thread, run_facts
 
 import lfd_track  # noqa: F401  (registers LfDTrack-v0)
 from lfd_track.envs.presets import Preset, load_preset
@@ -346,10 +346,7 @@ def main(argv: list[str] | None = None) -> int:
         "benchmark": "floor",
         "command": "benchmarks/speed/bench_floor.py " + " ".join(sys.argv[1:] if argv is None else argv),
         "seconds_per_slot": args.seconds,
-        "load_average_before": load_before,
-        "load_average_after": load_average(),
-        "machine": machine(),
-        "source": source_state(),
+        **run_facts(load_before),
         "summary": summary,
         "rounds": rounds,
     }  # fmt: skip

@@ -37,7 +37,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 from bench_env import random_steps
-from single_thread import load_average, machine, pin_one_thread, source_state
+from single_thread import load_average, pin_one_thread, run_facts
 
 import lfd_track  # noqa: F401  (registers LfDTrack-v0)
 from lfd_track.utils.atomic import atomic_write_text
@@ -178,10 +178,7 @@ def main(argv: list[str] | None = None) -> int:
         "seconds_per_slot": args.seconds,
         "rounds": rows,
         "summary": summary,
-        "load_average_before": load_before,
-        "load_average_after": load_average(),
-        "machine": machine(),
-        "source": source_state(),
+        **run_facts(load_before),
     }
     atomic_write_text(args.out, json.dumps(result, indent=2) + "\n")
     return 0

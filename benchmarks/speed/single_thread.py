@@ -42,13 +42,14 @@ def load_average() -> list[float]:
     return [round(x, 2) for x in os.getloadavg()]
 
 
-def source_state() -> dict[str, object]:
-    """Commit of the checkout and its uncommitted package files (they are what was measured)."""
+def source_state(root: Path = REPO) -> dict[str, object]:
+    """Commit of the checkout at ``root`` (this one by default) and its uncommitted package
+    files (they are what was measured)."""
 
     def git(*args: str) -> str:
         try:
             proc = subprocess.run(
-                ["git", *args], cwd=REPO, capture_output=True, text=True, timeout=10, check=True
+                ["git", *args], cwd=root, capture_output=True, text=True, timeout=10, check=True
             )
         except (OSError, subprocess.SubprocessError):
             return ""
@@ -59,4 +60,15 @@ def source_state() -> dict[str, object]:
     return {
         "commit": git("rev-parse", "HEAD").strip() or None,
         "uncommitted": [line[3:] for line in dirty.splitlines()],
+    }
+
+
+def run_facts(load_before: list[float]) -> dict[str, Any]:
+    """What every results file records of the run: the load average before and after, the
+    machine and the source measured."""
+    return {
+        "load_average_before": load_before,
+        "load_average_after": load_average(),
+        "machine": machine(),
+        "source": source_state(),
     }

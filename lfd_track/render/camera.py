@@ -28,7 +28,6 @@ import the other's private tables.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import cv2
@@ -278,7 +277,6 @@ class CameraModel:
         self.cx = (c.width_px - 1) / 2.0
         self.cy = (c.height_px - 1) / 2.0 - c.principal_shift_px
         self._footprint_rover: np.ndarray | None = None
-        self._rays_cache: dict[str, np.ndarray] = {}
         self._extrinsics_key: tuple[float, float, float] | None = None
         self._extrinsics_value: tuple[np.ndarray, np.ndarray] | None = None
         self.K = np.array(
@@ -294,6 +292,10 @@ class CameraModel:
                 [math.cos(p), 0.0, -math.sin(p)],
             ]
         )
+        # Camera-axis rays of the pixel sets every step projects: the image corners (pinhole
+        # footprint) and the safe box.
+        self._corner_rays = self._rays_camera(self._corner_pixels())
+        self._safe_box_rays = self._rays_camera(self._safe_box_pixels())
 
     @property
     def hfov_deg(self) -> float:
@@ -425,15 +427,6 @@ class CameraModel:
         px = np.asarray(pixels, dtype=np.float64).reshape(-1, 2)
         return self._floor_points_of_rays(self._rays_camera(px), pose)
 
-    def _fixed_rays(self, name: str, pixels: Callable[[], np.ndarray]) -> np.ndarray:
-        """Camera-axis rays of a pixel set that never changes (the image corners, the safe
-        box), computed on first use."""
-        rays = self._rays_cache.get(name)
-        if rays is None:
-            px = np.asarray(pixels(), dtype=np.float64).reshape(-1, 2)
-            rays = self._rays_cache[name] = self._rays_camera(px)
-        return rays
-
     def _floor_points_of_rays(self, rays_camera: np.ndarray, pose: np.ndarray) -> np.ndarray:
         R, centre = self._extrinsics(pose)
         rays = rays_camera @ R  # world directions
@@ -458,7 +451,7 @@ class CameraModel:
             ct, st = math.cos(theta), math.sin(theta)
             rot = np.array([[ct, -st], [st, ct]])
             return self._footprint_rover @ rot.T + np.array([x, y])
-        return self._floor_points_of_rays(self._fixed_rays("corners", self._corner_pixels), pose)
+        return self._floor_points_of_rays(self._corner_rays, pose)
 
     def _corner_pixels(self) -> np.ndarray:
         w, h = self.config.width_px, self.config.height_px
@@ -470,7 +463,7 @@ class CameraModel:
         N = 4 for an ideal pinhole (straight edges); a distorted lens bends the box's edges on
         the floor, so each edge is sampled (N = 16).
         """
-        return self._floor_points_of_rays(self._fixed_rays("safe box", self._safe_box_pixels), pose)
+        return self._floor_points_of_rays(self._safe_box_rays, pose)
 
     def _safe_box_pixels(self) -> np.ndarray:
         rows, cols = safe_box_slices()
@@ -570,7 +563,9 @@ class CameraRenderer:
         self._mipmap = self.camera.texture_filter == "mipmap"
         self._row_area_m2 = self.model.row_footprint_area_m2() if self._mipmap else None
         self._bands: dict[float, tuple[tuple[int, int, int], ...]] = {}
-        self._footprint_reach_m: float | None = None
+        # How far from the rover's pose the view's footprint reaches (it is rigid on the rover).
+        corners = self.model.footprint(np.zeros(3))
+        self._footprint_reach_m = float(np.max(np.hypot(corners[:, 0], corners[:, 1])))
 
     def mip_bands(self, metres_per_px: float) -> tuple[tuple[int, int, int], ...]:
         """Row bands (first row, stop row, mip level) the ``"mipmap"`` filter renders for a
@@ -644,13 +639,9 @@ class CameraRenderer:
 
     def _sees_past_margin(self, ground: GroundTexture, pose: np.ndarray) -> bool:
         """Whether the view reaches further past a texture edge than the carpet margin is wide."""
-        # The footprint is rigid on the rover, so no corner is further from the pose than its
-        # reach: while the whole circle of that reach stays short of the limit past every edge,
-        # the answer is no (the usual case, decided without projecting the corners; two texels
-        # of slack dwarf any rounding).
-        if self._footprint_reach_m is None:
-            corners = self.model.footprint(np.zeros(3))
-            self._footprint_reach_m = float(np.max(np.hypot(corners[:, 0], corners[:, 1])))
+        # No corner is further from the pose than the footprint's reach: while the whole circle
+        # of that reach stays short of the limit past every edge, the answer is no (the usual
+        # case, decided without projecting the corners; two texels of slack dwarf any rounding).
         h, w = ground.shape
         mpp = ground.metres_per_px
         reach = self._footprint_reach_m / mpp

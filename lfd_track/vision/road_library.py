@@ -140,8 +140,6 @@ class RoadLibrary:
         self._types: list[_RoadType] = []
         self._grid = GridHistogrammer(self.bins)
         self._cache: tuple[tuple[np.ndarray, np.ndarray], np.ndarray] | None = None
-        # Every example with its type, in model order (the columns of the similarity matrix).
-        self._flat: list[tuple[_RoadType, _Example]] | None = None
         # Counter updates of road-value frames not yet written into the types and examples:
         # how many frames, and the regions each model won over them (model order). Written
         # before anything reads the counters or changes the models.
@@ -202,7 +200,7 @@ class RoadLibrary:
                     raise ValueError(f"evicted example {evicted_example} does not exist")
                 del examples[evicted_example]
             examples.append(_Example(model))
-        self._cache = self._flat = None
+        self._cache = None
 
     def redo_selected(self, per_model: np.ndarray) -> None:
         """Apply a recorded counter update: (n_models,) regions that selected each model."""
@@ -291,7 +289,7 @@ class RoadLibrary:
                 evicted_example = _least_used(road_type.examples)
                 del road_type.examples[evicted_example]
             road_type.examples.append(_Example(model))
-            self._cache = self._flat = None
+            self._cache = None
             outcome = LearnOutcome(
                 type_index=best_type,
                 new_type=False,
@@ -306,7 +304,7 @@ class RoadLibrary:
             evicted_type = _least_used(self._types)
             del self._types[evicted_type]
         self._types.append(_RoadType(examples=[_Example(model)]))
-        self._cache = self._flat = None
+        self._cache = None
         outcome = LearnOutcome(
             type_index=len(self._types) - 1,
             new_type=True,
@@ -380,18 +378,15 @@ class RoadLibrary:
         compared = N_REGIONS * self._pending_frames
         selected = self._pending_selected
         self._pending_frames, self._pending_selected = 0, None
+        assert selected is not None
+        counts = iter(selected.tolist())  # model order: type by type, example by example
         for t in self._types:
             t.comparisons += compared
             for e in t.examples:
+                n = next(counts)
                 e.comparisons += compared
-        if self._flat is None:
-            self._flat = [(t, e) for t in self._types for e in t.examples]
-        assert selected is not None and len(selected) == len(self._flat)
-        for k in np.flatnonzero(selected).tolist():  # the few models some region selected
-            t, e = self._flat[k]
-            n = int(selected[k])
-            e.selections += n
-            t.selections += n
+                e.selections += n
+                t.selections += n
 
     # ----------------------------------------------------------------------------- internals
     def _check_model(self, model: np.ndarray) -> np.ndarray:
