@@ -1,0 +1,394 @@
+"""Memory settings: one frozen config class per memory kind, chosen by ``kind``.
+
+What each kind computes is described in :mod:`lfd_track.policy.memory`; this module holds what a
+user sets. :data:`MEMORY_CONFIGS` maps each kind to its class (:class:`NoMemory`,
+:class:`LastBendConfig`, :class:`PreviousCommandConfig`, :class:`FreshFeltConfig`), all
+subclasses of :class:`MemoryConfig`; :func:`memory_config` builds one from a table (a study's
+``[conditions.memory]``, a controller file's ``memory``, the command line's flags, the teaching
+station's settings), refusing unknown keys and values out of bounds in one line.
+
+Every setting is a field declared with :func:`setting`: its default, its one-line description
+with units and its bounds (``low``/``high`` or ``choices``) sit together, and every reader takes
+them from there: the checks here, the command line's flags and their help
+(:func:`lfd_track.cli.types.add_map_arguments`) and the study files. Adding a knob to a kind is
+one field here (and the code in :mod:`lfd_track.policy.memory` that reads it).
+
+The shipped ``fresh_felt`` defaults are the goal's chosen map (round 17: blank bearing
+``"last"``, bearing over +-30 deg, the rover's own strip by 0.15 m links with regions touching in
+the picture, looking to 1.0 m while blank with the distance over ``reach_m``, fresh felt faded
+over 0.3 m), so ``kind = "fresh_felt"`` alone is that map. :meth:`FreshFeltConfig.plain` is the
+map with every option off (the first rounds' map).
+
+Files written before these defaults (controller schemas 1-4, study files without
+``[study] schema``, ``results.json`` schema 1, recordings) stored a memory table that left out
+each ``fresh_felt`` option that was off and meant the defaults of the time;
+:func:`memory_table_from_v1` turns such a table into a full current one, and
+:meth:`MemoryConfig.to_dict` always writes every setting, so nothing written from now on depends
+on a default.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+import typing
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..core.frame import N_REGIONS
+
+#: Where the ``fresh_felt`` map's ``strip_link_m`` strip starts (``strip_from``).
+STRIP_STARTS = ("axle", "nearest")
+#: The ``fresh_felt`` bearing input's widest range [deg]: the whole circle.
+FULL_BEARING_RANGE_DEG = 180.0
+#: What the ``fresh_felt`` bearing input says while no fresh felt is left (``blank_bearing``).
+BLANK_BEARINGS = ("centre", "last")
+#: What the ``fresh_felt`` distance input is measured against when ``blank_reach_m`` looked
+#: further (``blank_distance``).
+BLANK_DISTANCES = ("blank_reach", "reach")
+
+
+def setting(
+    default: Any,
+    doc: str,
+    *,
+    low: float | None = None,
+    high: float | None = None,
+    low_open: bool = False,
+    choices: tuple[str, ...] | None = None,
+) -> Any:
+    """A memory setting: a dataclass field with its ``default``, its one-line ``doc`` (units
+    first, as ``[m]``) and its bounds: ``low`` <= value <= ``high`` (``low`` < value with
+    ``low_open``) for numbers, one of ``choices`` for strings."""
+    bounds = {"doc": doc, "low": low, "high": high, "low_open": low_open, "choices": choices}
+    return dataclasses.field(default=default, metadata=bounds)
+
+
+@dataclass(frozen=True)
+class SettingSpec:
+    """What :func:`setting` declared for one field (read by the checks, the CLI and the docs)."""
+
+    name: str
+    """The field's name (the table key)."""
+    type: type
+    """``int``, ``float``, ``bool`` or ``str``."""
+    default: Any
+    """The shipped default."""
+    doc: str
+    """One line: units and meaning."""
+    low: float | None = None
+    """Smallest value (numbers; None: unbounded)."""
+    high: float | None = None
+    """Largest value (numbers; None: unbounded)."""
+    low_open: bool = False
+    """``low`` itself is refused."""
+    choices: tuple[str, ...] | None = None
+    """The values a string may take."""
+
+    def problem(self, value: Any) -> str | None:
+        """Why ``value`` is refused (``"must be ..."``), or None if it is good."""
+        if self.type is bool:
+            return None if isinstance(value, bool) else f"must be true or false, got {value!r}"
+        if self.type is str:
+            if self.choices is not None and value not in self.choices:
+                return f"must be one of {', '.join(self.choices)}, got {value!r}"
+            return None if isinstance(value, str) else f"must be a string, got {value!r}"
+        if self.type is int and (isinstance(value, bool) or not isinstance(value, int)):
+            return f"must be an integer, got {value!r}"
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            return f"must be a number, got {value!r}"
+        low, high = self.low, self.high
+        inside = math.isfinite(value)
+        if low is not None:
+            inside = inside and (value > low if self.low_open else value >= low)
+        if high is not None:
+            inside = inside and value <= high
+        if inside:
+            return None
+        what = "an integer" if self.type is int else "a finite number"
+        parts = [] if low is None else [f"{'>' if self.low_open else '>='} {low:g}"]
+        parts += [] if high is None else [f"<= {high:g}"]
+        return f"must be {what} {' and '.join(parts)}, got {value!r}"
+
+
+@dataclass(frozen=True)
+class MemoryConfig:
+    """Which memory inputs the policy gets: the base of the kinds' settings (TOML table
+    ``[memory]`` of a study condition; :func:`memory_config` picks the kind's class)."""
+
+    settings_name: ClassVar[str] = "memory"
+    kind: ClassVar[str] = ""
+    """The kind's name (:data:`MEMORY_KINDS`)."""
+    n_inputs: ClassVar[int] = 0
+    """Inputs the memory adds after the per-region inputs (the 40 road values)."""
+
+    def __post_init__(self) -> None:
+        if type(self) is MemoryConfig:
+            raise TypeError(
+                "MemoryConfig is the base of the memory kinds' settings: use"
+                " memory_config({'kind': ...}) or a kind's class (NoMemory(), FreshFeltConfig() ...)"
+            )
+        for spec in setting_specs(type(self)):
+            value = getattr(self, spec.name)
+            problem = spec.problem(value)
+            if problem:
+                raise ValueError(f"memory {spec.name} {problem}")
+            if spec.type is float:  # an integer from a file is stored as the number it means
+                object.__setattr__(self, spec.name, float(value))
+        self._check()
+
+    def _check(self) -> None:
+        """Checks across settings (each setting's own bounds are checked already)."""
+
+    def to_dict(self) -> dict[str, Any]:
+        """Every setting, with ``kind`` first (JSON- and TOML-friendly; nothing left out)."""
+        return {"kind": self.kind, **dataclasses.asdict(self)}
+
+    @classmethod
+    def from_dict(cls, data: Any) -> MemoryConfig:
+        """Settings as stored in a file (:meth:`to_dict`; a table written before every setting
+        was stored is read as it was meant, through :func:`memory_table_from_v1`). Unknown keys
+        or bad values raise ``ValueError``."""
+        config = memory_config(memory_table_from_v1(data))
+        if cls is not MemoryConfig and not isinstance(config, cls):
+            raise ValueError(f"memory settings of kind {config.kind!r} are not {cls.__name__}")
+        return config
+
+    @property
+    def policy_inputs(self) -> int:
+        """Inputs of a network with this memory: the 40 road values plus :attr:`n_inputs`."""
+        return N_REGIONS + self.n_inputs
+
+    def mirror(self, inputs: np.ndarray) -> np.ndarray:
+        """Memory inputs (N, m) as they would be in a world flipped left to right."""
+        return np.array(inputs, dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class NoMemory(MemoryConfig):
+    """``kind = "none"``: no memory inputs (the paper's 40)."""
+
+    kind: ClassVar[str] = "none"
+    n_inputs: ClassVar[int] = 0
+
+
+@dataclass(frozen=True)
+class LastBendConfig(MemoryConfig):
+    """``kind = "last_bend"``: one input, which way the robot last turned by a whole bend."""
+
+    kind: ClassVar[str] = "last_bend"
+    n_inputs: ClassVar[int] = 1
+
+    bend_pivots: int = setting(
+        2,
+        "[pivots] net pivots one way that make a bend (kept: the hand-written rule's latch,"
+        " RoadRuleConfig.bend_pivots, sets it)",
+        low=1,
+        high=1000,
+    )
+
+    def mirror(self, inputs: np.ndarray) -> np.ndarray:
+        # a left bend becomes a right one and back; "unknown" (0.5) stays
+        return 1.0 - np.asarray(inputs, dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class PreviousCommandConfig(MemoryConfig):
+    """``kind = "previous_command"``: the one-hot of the command executed at the previous step."""
+
+    kind: ClassVar[str] = "previous_command"
+    n_inputs: ClassVar[int] = 3
+
+    def mirror(self, inputs: np.ndarray) -> np.ndarray:
+        # the previous left becomes a right and back
+        return np.asarray(inputs, dtype=np.float64)[:, [0, 2, 1]]
+
+
+@dataclass(frozen=True)
+class FreshFeltConfig(MemoryConfig):
+    """``kind = "fresh_felt"``: the dead-reckoned map of felt not yet driven along (three inputs:
+    bearing, amount, distance). The defaults are the goal's chosen map (round 17)."""
+
+    kind: ClassVar[str] = "fresh_felt"
+    n_inputs: ClassVar[int] = 3
+
+    path_radius_m: float = setting(
+        0.35,
+        "[m] felt this close to a place the rover has been counts as visited",
+        low=0.0,
+        high=2.0,
+    )
+    reach_m: float = setting(
+        0.6,
+        "[m] fresh felt counts up to this distance from the rover's axle",
+        low=0.0,
+        high=5.0,
+        low_open=True,
+    )
+    blank_bearing: str = setting(
+        "last",
+        "the bearing input while no fresh felt is left: centre (0.5) or last (the bearing the"
+        " fresh felt last had)",
+        choices=BLANK_BEARINGS,
+    )
+    bearing_range_deg: float = setting(
+        30.0,
+        "[deg] the bearing the bearing input maps to 1 (left) and 0 (right), bearings beyond it"
+        " clipped (180: the whole circle)",
+        low=1.0,
+        high=FULL_BEARING_RANGE_DEG,
+    )
+    strip_link_m: float = setting(
+        0.15,
+        "[m] only felt connected along felt to the rover's own strip, by links of at most this"
+        " length, is fresh (0: off, any felt may be)",
+        low=0.0,
+        high=1.0,
+    )
+    strip_from: str = setting(
+        "axle",
+        "with strip_link_m: the rover's strip starts at the felt within 0.3 m of the axle (axle)"
+        " or also at the felt nearest it (nearest; kept: round 14's study sets it, where it lost)",
+        choices=STRIP_STARTS,
+    )
+    strip_picture_links: bool = setting(
+        True,
+        "with strip_link_m: felt regions that touch in one frame's 8 x 5 grid are linked too",
+    )
+    blank_reach_m: float = setting(
+        1.0,
+        "[m] while nothing is fresh within reach_m, look again up to this far (0: off; else"
+        " above reach_m)",
+        low=0.0,
+        high=5.0,
+    )
+    blank_distance: str = setting(
+        "reach",
+        "with blank_reach_m: the distance input of felt found further, over blank_reach (so 1 is"
+        " blank_reach_m away) or over reach (clipped to 1)",
+        choices=BLANK_DISTANCES,
+    )
+    visited_fade_m: float = setting(
+        0.3,
+        "[m] fresh felt weighs from 0 at path_radius_m from the rover's path up to full this much"
+        " further (0: off, full beyond path_radius_m)",
+        low=0.0,
+        high=2.0,
+    )
+
+    def _check(self) -> None:
+        if self.blank_reach_m and self.blank_reach_m <= self.reach_m:
+            raise ValueError(
+                f"memory blank_reach_m must be 0 (off) or above reach_m, got {self.blank_reach_m!r}"
+            )
+
+    @classmethod
+    def plain(cls, **changes: Any) -> FreshFeltConfig:
+        """The map with every option off (the first rounds' map, and the hand-written rule's):
+        blank bearing centre, the whole circle, no strip, no looking further, no fade; then
+        ``changes``."""
+        return cls(**{**_PLAIN_MAP, **changes})
+
+    def mirror(self, inputs: np.ndarray) -> np.ndarray:
+        # the bearing changes side; amount and distance do not
+        out = np.array(inputs, dtype=np.float64)
+        out[:, 0] = 1.0 - out[:, 0]
+        return out
+
+
+#: Each memory kind's settings class: the one place a kind is registered.
+MEMORY_CONFIGS: dict[str, type[MemoryConfig]] = {
+    cls.kind: cls for cls in (NoMemory, LastBendConfig, PreviousCommandConfig, FreshFeltConfig)
+}
+MEMORY_KINDS = tuple(MEMORY_CONFIGS)
+"""The memory kinds, in the order the docs list them."""
+
+#: ``fresh_felt`` options off: the map of the first rounds (see :meth:`FreshFeltConfig.plain`).
+_PLAIN_MAP: dict[str, Any] = {
+    "blank_bearing": "centre",
+    "bearing_range_deg": FULL_BEARING_RANGE_DEG,
+    "strip_link_m": 0.0,
+    "strip_from": "axle",
+    "strip_picture_links": False,
+    "blank_reach_m": 0.0,
+    "blank_distance": "blank_reach",
+    "visited_fade_m": 0.0,
+}
+#: What a memory table written before every setting was stored meant by a missing key: the
+#: defaults of the time (each ``fresh_felt`` option off) ...
+_V1_DEFAULTS: dict[str, Any] = {"bend_pivots": 2, "path_radius_m": 0.35, "reach_m": 0.6}
+_V1_DEFAULTS.update(_PLAIN_MAP)
+#: ... and the settings removed since (no committed study set them), with the only value each
+#: one keeps: the map's constants in :mod:`lfd_track.policy.memory`.
+REMOVED_SETTINGS: dict[str, Any] = {
+    "frames": 25,
+    "carpet": 0.3,
+    "felt": 0.5,
+    "step_m": 0.10,
+    "pivot_deg": 22.9,
+    "path_places": "every_command",
+}
+
+
+@functools.cache
+def setting_specs(cls: type[MemoryConfig]) -> tuple[SettingSpec, ...]:
+    """The settings of a kind's class, in field order, as :func:`setting` declared them."""
+    hints = typing.get_type_hints(cls)
+    return tuple(
+        SettingSpec(name=f.name, type=hints[f.name], default=f.default, **f.metadata)
+        for f in dataclasses.fields(cls)
+    )
+
+
+def memory_config(table: Mapping[str, Any]) -> MemoryConfig:
+    """The settings of ``table['kind']`` (default ``"none"``) from the other keys of ``table``
+    (missing keys: the shipped defaults). An unknown kind or key or a value out of bounds raises
+    ``ValueError`` naming it."""
+    if not isinstance(table, Mapping):
+        raise ValueError(f"memory settings must be a table, got {type(table).__name__}")
+    kind = table.get("kind", "none")
+    cls = MEMORY_CONFIGS.get(kind) if isinstance(kind, str) else None
+    if cls is None:
+        raise ValueError(f"memory kind must be one of {', '.join(MEMORY_KINDS)}, got {kind!r}")
+    names = {spec.name for spec in setting_specs(cls)}
+    unknown = sorted(set(table) - names - {"kind"})
+    if unknown:
+        known = f" (its settings: {', '.join(sorted(names))})" if names else ""
+        raise ValueError(f"unknown memory setting '{unknown[0]}' for kind {kind!r}{known}")
+    return cls(**{k: v for k, v in table.items() if k != "kind"})
+
+
+def memory_table_from_v1(table: Mapping[str, Any]) -> dict[str, Any]:
+    """A memory table as written before every setting was stored (``MemoryConfig.to_dict`` of
+    controller schemas 1-4, ``results.json`` schema 1, study files without ``[study] schema``:
+    each ``fresh_felt`` option left out while off) as a full table of today's settings with
+    the same meaning.
+
+    Missing keys take the defaults of the time (every option off); settings of another kind,
+    which had no effect, are dropped; a setting removed since must hold the only value it keeps
+    (:data:`REMOVED_SETTINGS`, else ``ValueError``). A full table comes back unchanged. Values are
+    not checked here (:func:`memory_config` does).
+    """
+    if not isinstance(table, Mapping):
+        raise ValueError(f"memory settings must be a table, got {type(table).__name__}")
+    kind = table.get("kind", "none")
+    cls = MEMORY_CONFIGS.get(kind) if isinstance(kind, str) else None
+    if cls is None:
+        raise ValueError(f"memory kind must be one of {', '.join(MEMORY_KINDS)}, got {kind!r}")
+    names = [spec.name for spec in setting_specs(cls)]
+    old = {**_V1_DEFAULTS, **REMOVED_SETTINGS}
+    unknown = sorted(set(table) - set(old) - {"kind"})
+    if unknown:
+        raise ValueError(f"unknown memory setting '{unknown[0]}'")
+    if kind == "fresh_felt":
+        for name, value in REMOVED_SETTINGS.items():
+            if name in table and table[name] != value:
+                raise ValueError(
+                    f"memory {name} = {table[name]!r} is no longer supported (the map's {name}"
+                    f" is {value!r})"
+                )
+    return {"kind": kind, **{name: table.get(name, _V1_DEFAULTS[name]) for name in names}}
