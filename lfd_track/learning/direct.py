@@ -27,7 +27,7 @@ track the way it was facing, or, within ``end_margin_m`` of an end of an open tr
 into it (the turn-round a person makes at the end).
 
 Robot time is every executed command times the env's control period, as ``learning_drive_s`` is
-counted for the learning-from-demonstration methods (:mod:`lfd_track.benchmark.methods`).
+counted for the learning-from-demonstration methods (:mod:`lfd_track.methods`).
 """
 
 from __future__ import annotations
@@ -190,8 +190,10 @@ def direct_evolution(
 
 # ------------------------------------------------------------------------------------ (μ+1)
 @dataclass(frozen=True)
-class OnlineConfig:
-    """(μ+1)-ONLINE settings."""
+class MuPlusOneConfig:
+    """Settings of (μ+1)-ONLINE, :func:`mu_plus_one_online` (evolution on one robot without a
+    human; the ``online`` learning-from-demonstration method has its own settings,
+    :class:`lfd_track.methods.online.OnlineConfig`)."""
 
     mu: int = 10
     tau: int = 50
@@ -231,7 +233,7 @@ class OnlineConfig:
             check_positive("robot_budget_s", self.robot_budget_s)
 
 
-def adapt_sigma(sigma: float, success: bool, config: OnlineConfig) -> float:
+def adapt_sigma(sigma: float, success: bool, config: MuPlusOneConfig) -> float:
     """Mutation step after a child: ``sigma_min`` if it got in, else doubled up to ``sigma_max``."""
     return config.sigma_min if success else min(2.0 * sigma, config.sigma_max)
 
@@ -264,7 +266,7 @@ class OnlineState:
     reevaluations: int = 0
 
 
-def online_init(config: OnlineConfig, rng: np.random.Generator) -> OnlineState:
+def online_init(config: MuPlusOneConfig, rng: np.random.Generator) -> OnlineState:
     w = n_weights(False)
     population = rng.uniform(-config.init_range, config.init_range, size=(config.mu, w))
     return OnlineState(
@@ -275,7 +277,7 @@ def online_init(config: OnlineConfig, rng: np.random.Generator) -> OnlineState:
     )
 
 
-def online_ask(state: OnlineState, config: OnlineConfig, rng: np.random.Generator) -> Candidate:
+def online_ask(state: OnlineState, config: MuPlusOneConfig, rng: np.random.Generator) -> Candidate:
     """What the robot evaluates next: the first member not yet evaluated, else a re-evaluation
     (probability ``reevaluation``, a member drawn uniformly) or a new child."""
     pending = np.flatnonzero(state.evaluated == 0)
@@ -292,7 +294,7 @@ def online_ask(state: OnlineState, config: OnlineConfig, rng: np.random.Generato
 
 
 def online_tell(
-    state: OnlineState, candidate: Candidate, fitness: float, config: OnlineConfig
+    state: OnlineState, candidate: Candidate, fitness: float, config: MuPlusOneConfig
 ) -> bool:
     """Record ``candidate``'s measured ``fitness`` (in place); True if a child got in.
 
@@ -436,7 +438,7 @@ class OnlineResult:
 
 def mu_plus_one_online(
     library: RoadLibrary,
-    config: OnlineConfig,
+    config: MuPlusOneConfig,
     seed: int,
     *,
     preset: str = "paper",

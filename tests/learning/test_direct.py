@@ -14,8 +14,8 @@ from lfd_track.envs.track_env import LfDTrackEnv
 from lfd_track.learning.direct import (
     Candidate,
     DirectConfig,
+    MuPlusOneConfig,
     OnboardRobot,
-    OnlineConfig,
     RoadDriver,
     adapt_sigma,
     combine_fitness,
@@ -48,7 +48,7 @@ def always(command: int) -> np.ndarray:
 
 # ------------------------------------------------------------------------------ sigma, fitness
 def test_sigma_is_reset_on_success_and_doubled_up_to_the_cap_on_failure():
-    config = OnlineConfig(sigma_min=0.1, sigma_max=0.5)
+    config = MuPlusOneConfig(sigma_min=0.1, sigma_max=0.5)
     assert adapt_sigma(0.4, True, config) == 0.1
     assert adapt_sigma(0.1, False, config) == pytest.approx(0.2)
     assert adapt_sigma(0.2, False, config) == pytest.approx(0.4)
@@ -63,15 +63,15 @@ def test_a_reevaluated_fitness_is_the_mean_of_old_and_new():
 
 def test_bad_settings_are_refused():
     with pytest.raises(ValueError, match="sigma_max"):
-        OnlineConfig(sigma_min=1.0, sigma_max=0.5)
+        MuPlusOneConfig(sigma_min=1.0, sigma_max=0.5)
     with pytest.raises(ValueError, match="reevaluation"):
-        OnlineConfig(reevaluation=1.5)
+        MuPlusOneConfig(reevaluation=1.5)
     with pytest.raises(ValueError, match="population_size"):
         DirectConfig(population_size=1)
 
 
 # ------------------------------------------------------------------------------ ask / tell
-def _evaluated(config: OnlineConfig, fitness: list[float]) -> object:
+def _evaluated(config: MuPlusOneConfig, fitness: list[float]) -> object:
     state = online_init(config, np.random.default_rng(0))
     state.fitness[:] = fitness
     state.evaluated[:] = 1
@@ -79,7 +79,7 @@ def _evaluated(config: OnlineConfig, fitness: list[float]) -> object:
 
 
 def test_every_member_is_evaluated_once_before_anything_else():
-    config = OnlineConfig(mu=3, reevaluation=1.0)
+    config = MuPlusOneConfig(mu=3, reevaluation=1.0)
     state = online_init(config, np.random.default_rng(0))
     for i in range(3):
         candidate = online_ask(state, config, np.random.default_rng(1))
@@ -90,10 +90,10 @@ def test_every_member_is_evaluated_once_before_anything_else():
 
 
 def test_reevaluation_probability_decides_between_reevaluating_and_breeding():
-    state = _evaluated(OnlineConfig(mu=4), [1.0, 2.0, 3.0, 4.0])
+    state = _evaluated(MuPlusOneConfig(mu=4), [1.0, 2.0, 3.0, 4.0])
     kinds = {
         p: [
-            online_ask(state, OnlineConfig(mu=4, reevaluation=p), np.random.default_rng(s)).kind
+            online_ask(state, MuPlusOneConfig(mu=4, reevaluation=p), np.random.default_rng(s)).kind
             for s in range(50)
         ]
         for p in (0.0, 0.3, 1.0)
@@ -104,7 +104,7 @@ def test_reevaluation_probability_decides_between_reevaluating_and_breeding():
 
 
 def test_reevaluation_averages_and_counts():
-    config = OnlineConfig(mu=3)
+    config = MuPlusOneConfig(mu=3)
     state = _evaluated(config, [1.0, 2.0, 3.0])
     genome = state.population[1].copy()
     assert not online_tell(state, Candidate("reevaluate", 1, genome), 0.0, config)
@@ -115,7 +115,7 @@ def test_reevaluation_averages_and_counts():
 
 
 def test_a_better_child_replaces_the_worst_and_resets_sigma():
-    config = OnlineConfig(mu=3, sigma_min=0.1, sigma_max=1.6)
+    config = MuPlusOneConfig(mu=3, sigma_min=0.1, sigma_max=1.6)
     state = _evaluated(config, [2.0, 0.5, 3.0])
     state.sigma = 0.8
     child = np.full(state.population.shape[1], 7.0)
@@ -127,7 +127,7 @@ def test_a_better_child_replaces_the_worst_and_resets_sigma():
 
 
 def test_a_child_no_better_than_the_worst_is_dropped_and_sigma_doubles():
-    config = OnlineConfig(mu=3, sigma_min=0.1, sigma_max=1.6)
+    config = MuPlusOneConfig(mu=3, sigma_min=0.1, sigma_max=1.6)
     state = _evaluated(config, [2.0, 0.5, 3.0])
     before = state.population.copy()
     for sigma_after in (0.2, 0.4):
@@ -140,7 +140,7 @@ def test_a_child_no_better_than_the_worst_is_dropped_and_sigma_doubles():
 
 
 def test_children_are_the_same_for_the_same_seed_and_mutated_by_sigma():
-    config = OnlineConfig(mu=4, reevaluation=0.0)
+    config = MuPlusOneConfig(mu=4, reevaluation=0.0)
     state = _evaluated(config, [1.0, 2.0, 3.0, 4.0])
     a = online_ask(state, config, np.random.default_rng(5))
     b = online_ask(state, config, np.random.default_rng(5))
@@ -197,7 +197,7 @@ def test_put_back_faces_the_way_the_rover_faced_or_back_into_the_track_at_an_end
 
 
 def test_online_evolution_counts_robot_time_stops_at_its_budget_and_repeats_per_seed(library):
-    config = OnlineConfig(
+    config = MuPlusOneConfig(
         mu=2, tau=3, recovery=1, evaluations=100, reevaluation=0.5, robot_budget_s=6.0
     )
     runs = [mu_plus_one_online(library, config, seed=2) for _ in range(2)]

@@ -48,7 +48,7 @@ from lfd_track.demo.demonstrator import run_demonstration
 from lfd_track.envs.track_env import LfDTrackEnv
 from lfd_track.learning.direct import (
     DirectConfig,
-    OnlineConfig,
+    MuPlusOneConfig,
     direct_evolution,
     mu_plus_one_online,
 )
@@ -211,7 +211,7 @@ def run_network(job: tuple[str, list[float], str, bool, str, int, int]) -> dict[
 #: Robot-time budget of each evolution run [s] and the settings fixed before running (README).
 EVOLUTION_BUDGET_S = 4_000.0
 DIRECT = DirectConfig(population_size=10, generations=25, robot_budget_s=EVOLUTION_BUDGET_S)
-ONLINE = OnlineConfig(
+ONLINE = MuPlusOneConfig(
     mu=10, tau=50, recovery=10, evaluations=100_000, robot_budget_s=EVOLUTION_BUDGET_S
 )
 #: The paper pipeline's human effort (seed 0, 10 repetitions), for the robot-time comparison.
