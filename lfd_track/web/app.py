@@ -7,29 +7,19 @@ Routes (every one behind :class:`AccessGuard`):
 - ``GET /api/status`` — the session's status as JSON (see :data:`.contract.STATUS_FIELDS`);
 - ``WS /ws`` — commands and heartbeats in, frames and status out.
 
-WebSocket protocol. The page sends JSON text messages ``{"type": ...}``:
-
-==================  =============================================================================
-``claim``           take control if no other page holds it, or its holder's lease ran out (every
-                    page claims on connect, so the first one gets control)
-``heartbeat``       the controlling page is alive (every 250 ms; 1 s without one stops the robot)
-``press``           ``{"command": "forward"|"left"|"right"}``: run it now and while held
-``release``         the command button was let go
-``stop``            stop at once (any page may stop the robot, watching or controlling)
-``pause-learning``  ``{"paused": true|false}``
-``takeover``        let the policy drive (``--online``)
-==================  =============================================================================
-
-The server sends binary messages ``b"C" + JPEG`` (camera view with the road-value overlay) at
-``fps`` and ``b"T" + JPEG`` (the simulator's top-down view) when it changed, and text messages
-``{"type": "status", ...}`` (the session's status plus ``role``: ``"controller"`` or
-``"watcher"``, ``control_free``, ``clients``) and ``{"type": "error", "message": ...}``.
-Only the controlling page's commands move the robot; the others watch.
+WebSocket protocol (defined once in :mod:`.contract`, which the page reads too): the page sends
+JSON text messages ``{"type": ...}`` of the :class:`~.contract.ClientMessage` types; the server
+sends binary messages, a :class:`~.contract.ViewTag` byte and a JPEG (the camera view at ``fps``,
+the simulator's top-down view when it changed), and JSON text messages of the
+:class:`~.contract.ServerMessage` types (``status``, with the page's ``role``, and ``error``).
+The page gets :func:`~.contract.page_contract` inline (a JSON data block filled in by ``GET /``),
+so its script holds no second copy of the types. Only the controlling page's commands move the
+robot; the others watch.
 
 Hostile pages. Every page shares the one event loop, so each message is answered and then the
 loop is handed on (no page can hold it); a page may send :data:`MESSAGE_BURST` messages at once
 and :data:`MESSAGE_RATE` a second after that, or it is closed with code 1008 (the page itself
-sends a heartbeat every 250 ms and a press and release per button); at most :data:`MAX_PAGES`
+sends a heartbeat every :data:`~.contract.HEARTBEAT_S` and a press and release per button); at most :data:`MAX_PAGES`
 pages are open at once (more are refused with HTTP 503). A ``stop`` runs in a thread of its own
 (:class:`StopLine`), never behind other pages' work. Messages longer than
 :data:`MAX_MESSAGE_CHARS`, nested too deeply, binary or not JSON objects get an error reply.
@@ -53,7 +43,14 @@ from typing import Any
 from urllib.parse import parse_qs, urlsplit
 
 from ..utils.extras import needs_extra
-from .contract import COMMAND_NAMES, TeachingSession
+from .contract import (
+    COMMAND_NAMES,
+    ClientMessage,
+    ServerMessage,
+    TeachingSession,
+    ViewTag,
+    page_contract,
+)
 from .defaults import DEFAULT_FPS
 
 with needs_extra("web"):
@@ -365,6 +362,8 @@ def create_app(
     page_template = (static / "index.html").read_text(encoding="utf-8")
     period_s = 1.0 / fps
     token_query = f"?token={token}" if token else ""
+    # JSON in a data block of the page: "<" escaped, so no text in it can end the block.
+    contract_json = json.dumps(page_contract()).replace("<", "\\u003c")
     too_many = f"too many messages: at most {message_burst} at once, {message_rate or 0:g} a second"
 
     async def index(request: Request) -> Response:
@@ -373,6 +372,7 @@ def create_app(
             .replace("__QUERY__", html.escape(token_query, quote=True))
             .replace("__BACKEND__", html.escape(session.backend))
             .replace("__ONLINE__", "true" if session.online else "false")
+            .replace("__CONTRACT__", contract_json)
         )
         return HTMLResponse(page, headers=_SECURITY_HEADERS)
 
@@ -396,13 +396,15 @@ def create_app(
             while True:
                 view = session.latest_view()
                 if view is not None:
-                    await websocket.send_bytes(b"C" + view.camera_jpeg)
+                    await websocket.send_bytes(ViewTag.CAMERA + view.camera_jpeg)
                     if view.topdown_jpeg is not None and view.seq != top_seq:
-                        await websocket.send_bytes(b"T" + view.topdown_jpeg)
+                        await websocket.send_bytes(ViewTag.TOPDOWN + view.topdown_jpeg)
                         top_seq = view.seq
                 status = _json_status(session)
                 control = desk.snapshot(client, bool(status.get("lease_alive", True)))
-                await websocket.send_text(json.dumps({"type": "status", **status, **control}))
+                await websocket.send_text(
+                    json.dumps({"type": ServerMessage.STATUS, **status, **control})
+                )
                 await asyncio.sleep(period_s)  # the stream's pace, not a wait for anything
         except (WebSocketDisconnect, RuntimeError, OSError):
             return  # the page went away; the receiving side cleans up
@@ -413,26 +415,26 @@ def create_app(
         On the event loop: each of these only sets state under the session's locks.
         """
         kind = message.get("type")
-        if kind == "claim":
+        if kind == ClientMessage.CLAIM:
             return None if desk.claim(client) else "another page controls the robot"
         if not desk.is_controller(client):
             return "watching only: another page controls the robot"
-        if kind == "heartbeat":
+        if kind == ClientMessage.HEARTBEAT:
             session.heartbeat()
-        elif kind == "press":
+        elif kind == ClientMessage.PRESS:
             command = COMMAND_NAMES.get(str(message.get("command")))
             if command is None:
                 return f"unknown command {_short(message.get('command'))}"
             session.heartbeat()
             session.press(command)
-        elif kind == "release":
+        elif kind == ClientMessage.RELEASE:
             session.release()
-        elif kind == "pause-learning":
+        elif kind == ClientMessage.PAUSE_LEARNING:
             paused = message.get("paused")
             if not isinstance(paused, bool):
                 return f'"paused" must be true or false, got {_short(paused)}'
             session.set_learning_paused(paused)
-        elif kind == "takeover":
+        elif kind == ClientMessage.TAKEOVER:
             session.take_over()
         else:
             return f"unknown message type {_short(kind)}"
@@ -444,7 +446,7 @@ def create_app(
         if message is None:
             return error
         try:
-            if message.get("type") == "stop":
+            if message.get("type") == ClientMessage.STOP:
                 # Any page may stop the robot, and a stop never queues behind other work.
                 await stop_line.stop("stop button")
                 return None
@@ -477,7 +479,9 @@ def create_app(
                     break
                 error = await respond(client, received)
                 if error is not None:
-                    await websocket.send_text(json.dumps({"type": "error", "message": error}))
+                    await websocket.send_text(
+                        json.dumps({"type": ServerMessage.ERROR, "message": error})
+                    )
                 # Hand the loop on: a message answered at once never yields by itself, so a
                 # page sending without pause would hold every other page (and its stop) up.
                 await asyncio.sleep(0)

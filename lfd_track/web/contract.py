@@ -4,6 +4,11 @@ The app knows nothing of robots, libraries or learners: it forwards what the con
 asks for to a :class:`TeachingSession` and streams what the session publishes (a :class:`View`
 and a status dict). The session holds the *lease* (:class:`Lease`): commands move the robot only
 while the controlling page keeps sending heartbeats.
+
+The WebSocket's message types (:class:`ClientMessage`, :class:`ServerMessage`, :class:`ViewTag`)
+and the heartbeat period are defined here once: the app dispatches on them and the page reads
+them from :func:`page_contract`, which the server writes into the page (``static/app.js`` has no
+copy of them).
 """
 
 from __future__ import annotations
@@ -12,6 +17,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from enum import Enum, StrEnum
 from typing import Any, Protocol
 
 from ..core.commands import Command
@@ -32,6 +38,66 @@ STATUS_FIELDS = (
     "agreement",
 )
 """Fields ``GET /api/status`` always returns (more may follow)."""
+
+HEARTBEAT_S = 0.25
+"""[s] the controlling page sends a heartbeat this often (four per :data:`LEASE_S`)."""
+
+
+class ClientMessage(StrEnum):
+    """The ``type`` of the JSON text messages ``{"type": ...}`` a page sends.
+
+    ==================  =========================================================================
+    ``claim``           take control if no other page holds it, or its holder's lease ran out
+                        (every page claims on connect, so the first one gets control)
+    ``heartbeat``       the controlling page is alive (every :data:`HEARTBEAT_S`; :data:`LEASE_S`
+                        without one stops the robot)
+    ``press``           ``{"command": "forward"|"left"|"right"}``: run it now and while held
+    ``release``         the command button was let go
+    ``stop``            stop at once (any page may stop the robot, watching or controlling)
+    ``pause-learning``  ``{"paused": true|false}``
+    ``takeover``        let the policy drive (``--online``)
+    ==================  =========================================================================
+    """
+
+    CLAIM = "claim"
+    HEARTBEAT = "heartbeat"
+    PRESS = "press"
+    RELEASE = "release"
+    STOP = "stop"
+    PAUSE_LEARNING = "pause-learning"
+    TAKEOVER = "takeover"
+
+
+class ServerMessage(StrEnum):
+    """The ``type`` of the JSON text messages the server sends a page.
+
+    ``status``: the session's status (:data:`STATUS_FIELDS` and more) plus ``role``
+    (``"controller"`` or ``"watcher"``), ``control_free`` and ``clients``; ``error``:
+    ``{"message": ...}``, why the page's last message was refused.
+    """
+
+    STATUS = "status"
+    ERROR = "error"
+
+
+class ViewTag(bytes, Enum):
+    """The first byte of the server's binary messages, a JPEG after it: the camera view (with
+    the road-value overlay) at the page's frame rate, or the simulator's top-down view when it
+    changed."""
+
+    CAMERA = b"C"
+    TOPDOWN = b"T"
+
+
+def page_contract() -> dict[str, Any]:
+    """What the page needs of this protocol, JSON-ready: message types by member name (the
+    page's script refers to them by name), view tags as byte values, the heartbeat period."""
+    return {
+        "to_server": {member.name: member.value for member in ClientMessage},
+        "to_page": {member.name: member.value for member in ServerMessage},
+        "view_tags": {member.name: member.value[0] for member in ViewTag},
+        "heartbeat_ms": round(HEARTBEAT_S * 1000),
+    }
 
 
 @dataclass(frozen=True)

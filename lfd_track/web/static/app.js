@@ -1,11 +1,24 @@
 // lfd-track teach: the page side of the WebSocket protocol (see lfd_track/web/app.py).
+// The message types and the heartbeat period come from the server (lfd_track/web/contract.py,
+// written into the page as the "lfd-contract" data block); this script has no copy of them.
 "use strict";
 (function () {
   const meta = (name) => document.querySelector(`meta[name="${name}"]`).content;
   const token = meta("lfd-token");
   const query = token ? `?token=${encodeURIComponent(token)}` : "";
   const online = meta("lfd-online") === "true";
-  const HEARTBEAT_MS = 250;  // the server stops the robot after 1 s without one
+  const contract = JSON.parse(document.getElementById("lfd-contract").textContent);
+  // A name the contract lacks (renamed on the server's side only) fails loudly, not as undefined.
+  const strict = (table, what) => new Proxy(Object.freeze(table), {
+    get(target, name) {
+      if (!(name in target)) throw new Error(`the station's contract has no ${what} ${String(name)}`);
+      return target[name];
+    },
+  });
+  const TO_SERVER = strict(contract.to_server, "message type");
+  const TO_PAGE = strict(contract.to_page, "message type");
+  const VIEW = strict(contract.view_tags, "view tag");
+  const HEARTBEAT_MS = contract.heartbeat_ms;  // the server stops the robot after 1 s without one
   const $ = (id) => document.getElementById(id);
   const camera = $("camera"), topdown = $("topdown");
   const driveButtons = [...document.querySelectorAll("[data-command]")];
@@ -90,31 +103,31 @@
     ws.onmessage = (event) => {
       if (typeof event.data !== "string") {
         const bytes = new Uint8Array(event.data);
-        if (bytes[0] === 67) { show(camera, bytes.subarray(1)); lfd.frames += 1; }  // "C"
-        else if (bytes[0] === 84) { show(topdown, bytes.subarray(1)); topdown.hidden = false; }  // "T"
+        if (bytes[0] === VIEW.CAMERA) { show(camera, bytes.subarray(1)); lfd.frames += 1; }
+        else if (bytes[0] === VIEW.TOPDOWN) { show(topdown, bytes.subarray(1)); topdown.hidden = false; }
         return;
       }
       const data = JSON.parse(event.data);
-      if (data.type === "status") render(data);
-      else if (data.type === "error") { lfd.errors.push(data.message); message(data.message); }
+      if (data.type === TO_PAGE.STATUS) render(data);
+      else if (data.type === TO_PAGE.ERROR) { lfd.errors.push(data.message); message(data.message); }
     };
   }
 
-  setInterval(() => { if (lfd.role === "controller") send({ type: "heartbeat" }); }, HEARTBEAT_MS);
+  setInterval(() => { if (lfd.role === "controller") send({ type: TO_SERVER.HEARTBEAT }); }, HEARTBEAT_MS);
 
   function press(command) {
     if (lfd.role !== "controller") return;
     pressed = command;
     driveButtons.forEach((b) => b.classList.toggle("active", b.dataset.command === command));
-    send({ type: "press", command });
+    send({ type: TO_SERVER.PRESS, command });
   }
   function release() {
     if (pressed === null) return;
     pressed = null;
     driveButtons.forEach((b) => b.classList.remove("active"));
-    send({ type: "release" });
+    send({ type: TO_SERVER.RELEASE });
   }
-  function stop() { release(); send({ type: "stop" }); }
+  function stop() { release(); send({ type: TO_SERVER.STOP }); }
 
   driveButtons.forEach((b) => {
     b.addEventListener("pointerdown", (e) => { e.preventDefault(); press(b.dataset.command); });
@@ -123,9 +136,9 @@
   });
   stopButton.addEventListener("click", stop);
   pauseButton.addEventListener("click", () =>
-    send({ type: "pause-learning", paused: pauseButton.getAttribute("aria-pressed") !== "true" }));
-  takeoverButton.addEventListener("click", () => send({ type: "takeover" }));
-  $("claim").addEventListener("click", () => send({ type: "claim" }));
+    send({ type: TO_SERVER.PAUSE_LEARNING, paused: pauseButton.getAttribute("aria-pressed") !== "true" }));
+  takeoverButton.addEventListener("click", () => send({ type: TO_SERVER.TAKEOVER }));
+  $("claim").addEventListener("click", () => send({ type: TO_SERVER.CLAIM }));
 
   const KEYS = { ArrowUp: "forward", ArrowLeft: "left", ArrowRight: "right" };
   document.addEventListener("keydown", (e) => {
