@@ -26,9 +26,10 @@ from typing import Any
 
 import numpy as np
 
+from ..core.camera_model import CameraConfig
 from ..core.config import dataclass_from_table, read_toml
 from ..errors import FileFormatError
-from ..render.camera import CameraConfig, SensorConfig
+from ..render.camera import SensorConfig
 from ..render.texture import AppearanceConfig, LightingConfig
 from ..utils.data import resolve_data_file
 from ..world.episode import EpisodeRules

@@ -11,8 +11,9 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.envs.registration import EnvSpec
 
+from ..core.camera_model import CameraModel
 from ..core.commands import Command
-from ..render.camera import CameraModel, CameraRenderer
+from ..render.camera import CameraRenderer
 from ..render.texture import MAX_TEXTURE_BYTES, GroundTexture, build_ground
 from ..render.topdown import draw_topdown
 from ..world.episode import EpisodeTracker, reference_step_count

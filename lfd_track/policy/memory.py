@@ -381,7 +381,7 @@ _STRIP_WINDOW_M = 1.2
 def region_floor_points() -> np.ndarray:
     """(40, 2) float64 floor points [m] (x ahead, y left of the rover's axle) that the centres
     of the 40 regions see with the paper preset's camera (0.31 m high, pitched 30° down)."""
-    from ..render.camera import CameraModel  # the camera's geometry, not its renderer
+    from ..core.camera_model import CameraModel  # the camera's geometry, not its renderer
 
     # Pixel centres: a pixel's index is its centre, so a region spanning columns x0..x1-1 is
     # centred on (x0 + x1 - 1) / 2 (the image's centre column is 319.5).

@@ -61,7 +61,7 @@ def test_record_time_values_come_from_the_stored_histograms(default_demo):
 
 
 def test_learning_happened_only_with_the_safe_box_on_the_felt(default_demo):
-    from lfd_track.render.camera import CameraModel
+    from lfd_track.core.camera_model import CameraModel
     from lfd_track.world.track import load_track
 
     _, demo = default_demo

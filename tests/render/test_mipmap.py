@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 import lfd_track  # noqa: F401  (registers LfDTrack-v0)
+from lfd_track.core.camera_model import CameraConfig, CameraModel
 from lfd_track.envs.presets import load_preset
-from lfd_track.render.camera import CameraConfig, CameraModel, CameraRenderer, mip_bands
+from lfd_track.render.camera import CameraRenderer, mip_bands
 from lfd_track.render.texture import GroundTexture
 
 MPP = 0.002

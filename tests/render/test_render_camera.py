@@ -7,14 +7,9 @@ import math
 import numpy as np
 import pytest
 
+from lfd_track.core.camera_model import CameraConfig, CameraModel, safe_box_floor_polygon
 from lfd_track.core.frame import safe_box_slices
-from lfd_track.render.camera import (
-    CameraConfig,
-    CameraModel,
-    CameraRenderer,
-    SensorConfig,
-    safe_box_floor_polygon,
-)
+from lfd_track.render.camera import CameraRenderer, SensorConfig
 from lfd_track.render.texture import AppearanceConfig, LightingConfig, build_ground
 from lfd_track.world.track import load_track
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from lfd_track.render.camera import CameraModel
+from lfd_track.core.camera_model import CameraModel
 from lfd_track.render.topdown import (
     CARPET_RGB,
     FELT_RGB,

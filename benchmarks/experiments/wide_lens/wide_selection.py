@@ -39,6 +39,7 @@ from typing import Any
 import numpy as np
 
 from lfd_track.benchmark.runner import repetition_seeds, run_trial
+from lfd_track.core.camera_model import CameraConfig, CameraModel
 from lfd_track.dataset import load_demonstration
 from lfd_track.demo.demonstrator import HumanConfig, run_demonstration
 from lfd_track.envs.presets import Preset, load_preset
@@ -46,7 +47,6 @@ from lfd_track.envs.track_env import LfDTrackEnv
 from lfd_track.learning.fitness import training_accuracy
 from lfd_track.learning.ga import GAConfig, evolve
 from lfd_track.policy.controller import Controller
-from lfd_track.render.camera import CameraConfig, CameraModel
 from lfd_track.vision.road_library import RoadLibrary
 
 RESULTS = Path(__file__).resolve().parent / "results" / "wide_selection.json"
