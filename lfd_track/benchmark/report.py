@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..envs.presets import load_preset
+from ..policy.features import DEFAULT_FEATURES
 from ..utils.provenance import environment
 from ..viz.plot_data import fitness_table, trajectories_table, write_picture
 from ..viz.plots import (
@@ -265,7 +266,8 @@ def write_benchmark_outputs(
 
 
 def write_report_from_results(out: str | Path, results: dict[str, Any]) -> Path:
-    """Write ``out/report.md`` from a results.json dict (no re-run needed to redraw it)."""
+    """Write ``out/report.md`` from a results.json dict in the current schema (no re-run needed
+    to redraw it; a file is read by :func:`~lfd_track.benchmark.schema.read_results`)."""
     extra = [demonstration_section(results)]
     if results.get("human_effort"):
         extra.append(effort_section(results))
@@ -278,11 +280,13 @@ def write_report_from_results(out: str | Path, results: dict[str, Any]) -> Path:
             "**Careless demonstrator**: the road library kept learning while the safe box was off the felt.\n",
         )
     notes = []
-    if config.get("features"):
-        notes.append(f"the network reads the per-region features `{config['features']}`")
-    if config.get("memory", {}).get("kind") == "previous_command":
+    features = config.get("features", DEFAULT_FEATURES)
+    if features != DEFAULT_FEATURES:
+        notes.append(f"the network reads the per-region features `{features}`")
+    memory_kind = config.get("memory", {}).get("kind", "none")
+    if memory_kind == "previous_command":
         notes.append("the network also reads the command it executed the step before")
-    elif config.get("memory"):
+    elif memory_kind != "none":
         notes.append(
             f"the network also reads memory inputs ({config['memory']['kind']},"
             f" {config['memory']['bend_pivots']} pivots make a bend)"

@@ -36,10 +36,27 @@ from .paper import (
     TRIAL_COUNT_KEYS,
     paper_results,
 )
+from .schema import RESULTS_SCHEMA
 
-RESULTS_SCHEMA = 1
 FAILURE_KINDS = ("reversed", "off_track", "timeout")
 """Why a trial ended unsuccessfully: the paper's two failures, plus the step budget running out."""
+OUTCOME_FIELDS: dict[str, tuple[type, ...]] = {
+    "track": (str,),
+    "direction": (str,),
+    "corner_order": (list,),
+    "corners_reached": (list,),
+    "corners_negotiated": (list,),
+    "failure": (str, type(None)),
+    "success": (bool,),
+    "repetition": (int,),
+    "trial": (int,),
+    "steps": (int,),
+}
+"""Every field of a trial outcome in results.json and its JSON type (lists hold corner labels;
+``failure`` is one of :data:`FAILURE_KINDS` or null): what :meth:`TrialOutcome.to_dict` writes
+and :meth:`TrialOutcome.from_dict` reads back."""
+MAX_COUNT = 2**53
+"""Largest count (steps, trials, commands ...) a results.json may hold: exact as a float."""
 LOOP_DIRECTIONS = ("cw", "ccw")
 """Directions of a loop track (the testing track's and those of extra test loops)."""
 _FLOAT_DECIMALS = 6  # results.json precision: byte-stable and far below any meaningful difference
@@ -110,35 +127,39 @@ class TrialOutcome:
         return self.corner_order[k]
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-friendly dict of every field but the trajectory."""
-        return {
-            "track": self.track,
-            "direction": self.direction,
-            "corner_order": list(self.corner_order),
-            "corners_reached": list(self.corners_reached),
-            "corners_negotiated": list(self.corners_negotiated),
-            "failure": self.failure,
-            "success": bool(self.success),
-            "repetition": int(self.repetition),
-            "trial": int(self.trial),
-            "steps": int(self.steps),
-        }
+        """JSON-friendly dict of every field of :data:`OUTCOME_FIELDS` (not the trajectory)."""
+        data = {name: getattr(self, name) for name in OUTCOME_FIELDS}
+        for name in ("corner_order", "corners_reached", "corners_negotiated"):
+            data[name] = list(data[name])
+        data["success"] = bool(self.success)
+        for name in ("repetition", "trial", "steps"):
+            data[name] = int(data[name])
+        return data
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> TrialOutcome:
-        """Inverse of :meth:`to_dict` (raises ValueError on inconsistent data)."""
-        return cls(
-            track=data["track"],
-            direction=data["direction"],
-            corner_order=tuple(data["corner_order"]),
-            corners_reached=tuple(data["corners_reached"]),
-            corners_negotiated=tuple(data["corners_negotiated"]),
-            failure=data["failure"],
-            success=bool(data["success"]),
-            repetition=int(data["repetition"]),
-            trial=int(data["trial"]),
-            steps=int(data["steps"]),
-        )
+    def from_dict(cls, data: Any, where: str = "trial outcome") -> TrialOutcome:
+        """Inverse of :meth:`to_dict`: every field of :data:`OUTCOME_FIELDS` with its JSON type
+        (counts from 0 to :data:`MAX_COUNT`), consistent by the rules of this class.
+
+        Raises ``ValueError`` in one line starting with ``where`` (how the caller names it).
+        """
+        if not isinstance(data, Mapping):
+            raise ValueError(f"{where} must be an object, got {type(data).__name__}")
+        for key, types in OUTCOME_FIELDS.items():
+            if key not in data:
+                raise ValueError(f"{where}: missing '{key}'")
+            value = data[key]
+            if not isinstance(value, types) or (bool not in types and isinstance(value, bool)):
+                kinds = " or ".join("null" if t is type(None) else t.__name__ for t in types)
+                raise ValueError(f"{where}: '{key}' must be {kinds}, got {type(value).__name__}")
+            if isinstance(value, list) and not all(isinstance(v, str) for v in value):
+                raise ValueError(f"{where}: '{key}' must list corner labels (strings)")
+            if types == (int,) and not 0 <= value <= MAX_COUNT:
+                raise ValueError(f"{where}: '{key}' must be an integer from 0 to {MAX_COUNT}")
+        try:
+            return cls(**{key: data[key] for key in OUTCOME_FIELDS})
+        except ValueError as exc:
+            raise ValueError(f"{where}: {str(exc).splitlines()[0]}") from None
 
 
 # --------------------------------------------------------------------------- counting

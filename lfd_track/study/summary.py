@@ -23,31 +23,25 @@ import numpy as np
 
 from ..benchmark.paper import TRACK_RESULT_KEYS
 from ..benchmark.runner import config_dict, trial_directions
-from ..benchmark.tables import TrialOutcome, results_json_text
+from ..benchmark.tables import MAX_COUNT, TrialOutcome, results_json_text
 from ..utils.atomic import atomic_write_text
 from ..utils.provenance import environment
+from .schema import STUDY_SCHEMA
 from .spec import Job, Study
 from .stats import controller_interval, rate_summary
 
-STUDY_SCHEMA = 1
 PAPER_TRACKS = tuple(TRACK_RESULT_KEYS)
 """The paper's two tracks ("training", "testing"); any other track scored is an unseen track."""
-
-
-def _charged_corner(outcome: Mapping[str, Any]) -> str | None:
-    """The corner a failed trial is charged to: the first it did not negotiate."""
-    if outcome["success"]:
-        return None
-    order, negotiated = outcome["corner_order"], outcome["corners_negotiated"]
-    return None if len(negotiated) >= len(order) else str(order[len(negotiated)])
 
 
 def human_commands(results: Mapping[str, Any]) -> int:
     """Commands the (scripted) human gave in one job, demonstrations and corrections together.
 
-    Taken from the results' human-effort totals where the benchmark reports them; otherwise (the
-    paper method, which only demonstrates) every demonstration command counts: the recorded
-    cases plus the library-only commands at the start of each demonstration.
+    ``results`` is a job's results.json in the current schema
+    (:func:`~lfd_track.benchmark.schema.migrate_results`). Taken from its human-effort totals
+    (``human_effort.total.commands``); a run from before the benchmark reported them (the paper
+    method, which only demonstrates) counts every demonstration command: the recorded cases plus
+    the library-only commands at the start of each demonstration.
     """
     reported = _reported_commands(results)
     if reported is not None:
@@ -75,22 +69,6 @@ def human_effort(results: Mapping[str, Any]) -> dict[str, float]:
     return out
 
 
-MAX_COUNT = 2**53
-"""Largest count (commands, cases, steps, ...) a job's results may hold: exact as a float."""
-_OUTCOME_TYPES: dict[str, tuple[type, ...]] = {
-    "track": (str,),
-    "direction": (str,),
-    "corner_order": (list,),
-    "corners_reached": (list,),
-    "corners_negotiated": (list,),
-    "failure": (str, type(None)),
-    "success": (bool,),
-    "repetition": (int,),
-    "trial": (int,),
-    "steps": (int,),
-}
-
-
 def check_job_results(
     results: Mapping[str, Any],
     repetitions: int,
@@ -100,11 +78,12 @@ def check_job_results(
     """Raise ``ValueError`` (one line) unless ``results`` holds, with the right types, every
     field this module reads from a job's results.json.
 
-    That is: ``outcomes``, a list of trial outcomes (every field of
-    :class:`~lfd_track.benchmark.tables.TrialOutcome`, consistent, ``repetition`` below
+    ``results`` is in the current schema (:func:`~lfd_track.benchmark.schema.migrate_results`).
+    That is: ``outcomes``, a list of trial outcomes (each as
+    :meth:`~lfd_track.benchmark.tables.TrialOutcome.from_dict` reads it, ``repetition`` below
     ``repetitions``; given ``trials_per_direction`` and ``test_tracks``, exactly the job's
     trials: each direction it drives, repetition and trial once); if present,
-    ``timing_s.wall``, ``training_accuracy`` and the ``human_effort``/``human`` totals as finite
+    ``timing_s.wall``, ``training_accuracy`` and the ``human_effort`` totals as finite
     numbers (counts as integers 0 to :data:`MAX_COUNT`); and, for a job that reports no command
     count, ``demonstrations`` with integer ``cases``.
     """
@@ -127,23 +106,17 @@ def check_job_results(
         raise ValueError("'training_accuracy' must be a list of numbers")
     for index, a in enumerate(accuracy):
         _number(a, f"training_accuracy[{index}]")
-    for key in ("human_effort", "human"):
-        if key not in results:
-            continue
-        effort = results[key]
-        if not isinstance(effort, Mapping):
-            raise ValueError(f"'{key}' must be an object")
-        total = effort.get("total", effort)
-        if not isinstance(total, Mapping):
-            raise ValueError(f"'{key}.total' must be an object")
-        name = f"{key}.total" if "total" in effort else key
-        if "commands" in total:
-            _count(total["commands"], f"{name}.commands")
-        for effort_key in EFFORT_KEYS:
-            if effort_key in total:
-                _number(total[effort_key], f"{name}.{effort_key}")
-    if "human_commands" in results:
-        _count(results["human_commands"], "human_commands")
+    effort = results.get("human_effort", {})
+    if not isinstance(effort, Mapping):
+        raise ValueError("'human_effort' must be an object")
+    total = effort.get("total", {})
+    if not isinstance(total, Mapping):
+        raise ValueError("'human_effort.total' must be an object")
+    if "commands" in total:
+        _count(total["commands"], "human_effort.total.commands")
+    for key in EFFORT_KEYS:
+        if key in total:
+            _number(total[key], f"human_effort.total.{key}")
     if _reported_commands(results) is None:  # counted from the demonstrations
         demos = results.get("demonstrations")
         if not isinstance(demos, list):
@@ -155,28 +128,12 @@ def check_job_results(
 
 
 def _check_outcome(o: Any, where: str, repetitions: int) -> None:
-    if not isinstance(o, Mapping):
-        raise ValueError(f"{where} must be an object, got {type(o).__name__}")
-    for key, types in _OUTCOME_TYPES.items():
-        if key not in o:
-            raise ValueError(f"{where}: missing '{key}'")
-        value = o[key]
-        if not isinstance(value, types) or (bool not in types and isinstance(value, bool)):
-            kinds = " or ".join("null" if t is type(None) else t.__name__ for t in types)
-            raise ValueError(f"{where}: '{key}' must be {kinds}, got {type(value).__name__}")
-        if isinstance(value, list) and not all(isinstance(v, str) for v in value):
-            raise ValueError(f"{where}: '{key}' must list corner labels (strings)")
-    for key in ("repetition", "trial", "steps"):
-        _count(o[key], f"{where}: '{key}'", quoted=False)
+    TrialOutcome.from_dict(o, where)  # fields, types and consistency: the benchmark's definition
     if o["repetition"] >= repetitions:
         raise ValueError(
             f"{where}: 'repetition' must be below the job's {repetitions} repetition(s), "
             f"got {o['repetition']}"
         )
-    try:
-        TrialOutcome.from_dict(o)  # the benchmark's own consistency rules
-    except ValueError as exc:
-        raise ValueError(f"{where}: {str(exc).splitlines()[0]}") from None
 
 
 def _check_trials(
@@ -226,25 +183,19 @@ def _number(value: Any, name: str) -> None:
         raise ValueError(f"'{name}' must be a finite number from 0 to {MAX_COUNT}")
 
 
-def _count(value: Any, name: str, *, quoted: bool = True) -> None:
+def _count(value: Any, name: str) -> None:
     """``value`` must be an integer from 0 to :data:`MAX_COUNT`."""
-    label = f"'{name}'" if quoted else name
     if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= MAX_COUNT:
         shown = type(value).__name__ if not isinstance(value, int) else "a number out of range"
-        raise ValueError(f"{label} must be an integer from 0 to {MAX_COUNT}, got {shown}")
+        raise ValueError(f"'{name}' must be an integer from 0 to {MAX_COUNT}, got {shown}")
 
 
 def _reported_commands(results: Mapping[str, Any]) -> int | None:
     """The job's human commands where its results report them (see :func:`human_commands`)."""
-    for key in ("human_effort", "human"):
-        effort = results.get(key)
-        if isinstance(effort, Mapping):
-            total = effort.get("total", effort)
-            if isinstance(total, Mapping) and isinstance(total.get("commands"), int):
-                return int(total["commands"])
-    if isinstance(results.get("human_commands"), int):
-        return int(results["human_commands"])
-    return None
+    effort = results.get("human_effort")
+    total = effort.get("total") if isinstance(effort, Mapping) else None
+    commands = total.get("commands") if isinstance(total, Mapping) else None
+    return commands if isinstance(commands, int) and not isinstance(commands, bool) else None
 
 
 def _track_counts(outcomes: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, Any]]:
@@ -258,7 +209,7 @@ def _track_counts(outcomes: Sequence[Mapping[str, Any]]) -> dict[str, dict[str, 
         t["successes"] += bool(o["success"])
         for label in o["corner_order"]:
             t["corners"].setdefault(str(label), 0)
-        corner = _charged_corner(o)
+        corner = TrialOutcome.from_dict(o).charged_corner
         if corner is not None:
             t["corners"][corner] += 1
         if o["failure"] is not None:

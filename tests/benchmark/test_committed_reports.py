@@ -1,13 +1,14 @@
-"""The committed example reports are what the current code draws from their results.json."""
+"""The committed example reports are what the current code draws from their results.json,
+read (and migrated from older schemas) as every reader reads it."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import pytest
 
 from lfd_track.benchmark.report import write_report_from_results
+from lfd_track.benchmark.schema import read_results
 
 # Every results folder of the lab notebook (benchmarks/experiments/<question>/.../results/).
 RESULTS = Path(__file__).resolve().parents[2] / "benchmarks" / "experiments"
@@ -25,6 +26,6 @@ def test_there_are_committed_runs():
 
 @pytest.mark.parametrize("folder", FOLDERS)
 def test_committed_report_matches_its_results(folder, tmp_path):
-    results = json.loads((RESULTS / folder / "results.json").read_text(encoding="utf-8"))
+    results = read_results(RESULTS / folder / "results.json")
     written = write_report_from_results(tmp_path, results).read_text(encoding="utf-8")
     assert written == (RESULTS / folder / "report.md").read_text(encoding="utf-8")

@@ -18,6 +18,7 @@ from lfd_track.benchmark import (
     write_results_json,
 )
 from lfd_track.benchmark.paper import CORNER_ORDER, DIRECTIONS, TRACK_RESULT_KEYS
+from lfd_track.benchmark.schema import RESULTS_SCHEMA
 
 CW = ("3", "2", "1", "4")
 
@@ -67,7 +68,11 @@ def _corner(reached, failures, physical, reversed_=0, off_track=0, timeout=0):
 
 def test_scripted_outcomes_give_the_expected_tables() -> None:
     results = build_results(_scripted(), repetitions=2, seed=7, timing_s={"total": 1.5})
-    assert results["schema"] == 1 and results["repetitions"] == 2 and results["seed"] == 7
+    assert (
+        results["schema"] == RESULTS_SCHEMA == 2
+        and results["repetitions"] == 2
+        and results["seed"] == 7
+    )
     assert results["testing_track"]["cw"] == {
         "laps": 5,
         "successes": 1,

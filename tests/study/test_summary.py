@@ -19,7 +19,7 @@ from lfd_track.study.summary import (
 def outcome(track, success, negotiated, order=("1", "2", "3", "4"), failure="reversed"):
     return {
         "track": track,
-        "direction": "ccw",
+        "direction": "direction_1" if track == "training" else "ccw",
         "corner_order": list(order),
         "corners_reached": list(negotiated),
         "corners_negotiated": list(negotiated),

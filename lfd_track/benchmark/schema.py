@@ -1,0 +1,153 @@
+"""results.json versions: the current schema and one migration function per step from older ones.
+
+Every reader of a results.json goes through :func:`read_results` (a file) or
+:func:`migrate_results` (a dict already parsed), and reads the current schema only; the writer
+(:func:`~lfd_track.benchmark.tables.build_results` and ``runner.config_dict``) always writes the
+current schema in full.
+
+Schema history:
+
+* **1** — the ``config`` section left out every setting that was at the value it had before the
+  setting existed, so that a run without it stored exactly what it stored before (human
+  ``steers_by``, ``picture_turn_deg`` and ``clear_memory_per_leg``; the ``dagger`` table of the
+  other methods; ``memory`` without memory, and the ``fresh_felt`` options that were off;
+  ``mirror``, ``shifted_views``, ``policy_kind``, ``demo_track``, ``features``; the human's
+  ``turnarounds`` before it existed). The human's command count was read from
+  ``human_effort.total.commands``, from the first layout ``effort`` (``human_commands``) or,
+  by the study summary, from ``human`` or ``human_commands``.
+* **2** — ``config`` holds every setting; the command count is ``human_effort.total.commands``
+  wherever the run reported one (a run from before the benchmark reported the human's effort has
+  no ``human_effort``: its commands are its demonstrations', see
+  :func:`lfd_track.study.summary.human_commands`).
+"""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+from typing import Any
+
+from ..policy.memory_config import memory_table_from_v1
+from ..utils.migrate import Step, migrate, read_versioned
+
+RESULTS_SCHEMA = 2
+"""Schema of the results.json this version writes (``len(RESULTS_STEPS) + 1``)."""
+MAX_RESULTS_BYTES = 1 << 28
+"""Largest results.json read (a 10-repetition benchmark writes about 100 kB)."""
+
+# What a schema-1 file meant by each setting it left out: the value the setting had before it
+# existed (or, for a setting that only one method or one steering reads, the default it had,
+# since the others never read it). Spelled out here, not read from today's defaults, which may
+# change without changing what an old file meant.
+_V1_CONFIG = {
+    "mirror": False,
+    "shifted_views": False,
+    "policy_kind": "mlp-sigmoid",
+    "demo_track": "training",
+    "features": "road_values",
+}
+_V1_HUMAN = {
+    "turnarounds": "alternate",
+    "steers_by": "centreline",
+    "picture_turn_deg": 20.0,
+    "clear_memory_per_leg": False,
+}
+_V1_INTERVENTION = {
+    "heading_error_deg": 35.0,
+    "tread_overhang_m": 0.03,
+    "progress_drop_m": 0.1,
+    "stall_commands": 8,
+    "stall_progress_m": 0.05,
+}
+_V1_DAGGER = {
+    "window": 10,
+    "threshold": 0.9,
+    "intervention": _V1_INTERVENTION,
+    "rounds": 3,
+    "learner": "ga",
+    "hidden": 5,
+    "label_noise": False,
+}
+
+
+def _filled(table: Any, meant: dict[str, Any]) -> Any:
+    """``table`` with every key of ``meant`` it lacks (a table that is not a dict is left as it
+    is, for the reader's own checks to name)."""
+    if not isinstance(table, dict):
+        return table
+    return {**copy.deepcopy(meant), **table}
+
+
+def memory_v1_to_v2(memory: Any) -> dict[str, Any]:
+    """A schema-1 ``memory`` table (``None`` when the file had none: no memory) as a full
+    table of today's settings with the same meaning (``ValueError`` if it cannot have one)."""
+    return memory_table_from_v1({"kind": "none"} if memory is None else memory)
+
+
+def config_v1_to_v2(config: Any) -> Any:
+    """A schema-1 ``config`` section with every setting it left out, at what it meant then.
+
+    Also the conditions' ``config`` of a schema-1 study.json (which have no seed or repetitions).
+    """
+    if not isinstance(config, dict):
+        return config
+    out = _filled(config, _V1_CONFIG)
+    out["human"] = _filled(out.get("human", {}), _V1_HUMAN)
+    out["dagger"] = _filled(out.get("dagger", {}), _V1_DAGGER)
+    out["memory"] = memory_v1_to_v2(out.get("memory"))
+    return out
+
+
+def _effort_v1_to_v2(data: dict[str, Any]) -> None:
+    """The human's command count as ``human_effort.total.commands``, whichever way schema 1
+    spelled it (``human_effort`` itself is left for the reader's checks)."""
+    if "human_effort" in data:
+        return
+    effort = data.pop("effort", None)
+    if isinstance(effort, dict):  # the first layout: "human_commands" where "commands" is now
+        records = effort.get("repetitions")
+        for record in [effort.get("total"), *(records if isinstance(records, list) else [])]:
+            if isinstance(record, dict) and "human_commands" in record:
+                record["commands"] = record.pop("human_commands")
+        data["human_effort"] = effort
+        return
+    human = data.get("human")
+    if isinstance(human, dict):
+        total = human.get("total", human)
+        if isinstance(total, dict) and "commands" in total:
+            data["human_effort"] = {"total": dict(total)}
+            del data["human"]
+            return
+    if "human_commands" in data:
+        data["human_effort"] = {"total": {"commands": data.pop("human_commands")}}
+
+
+def results_v1_to_v2(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 1 -> 2: every setting in ``config``; the command count in one place."""
+    if "config" in data:
+        data["config"] = config_v1_to_v2(data["config"])
+    _effort_v1_to_v2(data)
+    data["schema"] = 2
+    return data
+
+
+RESULTS_STEPS: tuple[Step, ...] = (results_v1_to_v2,)
+"""Step k turns a schema-k results dict into schema k + 1."""
+
+
+def migrate_results(data: dict[str, Any], source: object) -> dict[str, Any]:
+    """A results.json dict (parsed from ``source``) in the current schema; ``data`` is kept.
+
+    Raises :class:`~lfd_track.errors.FileFormatError` naming ``source`` if its schema is not an
+    integer from 1 or is newer than :data:`RESULTS_SCHEMA`.
+    """
+    return migrate(data, source, what="results", steps=RESULTS_STEPS)
+
+
+def read_results(path: str | Path, max_bytes: int = MAX_RESULTS_BYTES) -> dict[str, Any]:
+    """The results.json at ``path``, parsed and migrated to the current schema.
+
+    An unreadable file, one that is not a JSON object, or one of a newer schema raises
+    :class:`~lfd_track.errors.FileFormatError` in one line naming it.
+    """
+    return read_versioned(path, what="results", steps=RESULTS_STEPS, max_bytes=max_bytes)

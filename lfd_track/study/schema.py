@@ -1,0 +1,54 @@
+"""study.json versions: the current schema and one migration function per step from older ones.
+
+A study writes study.json (this schema), study.md, study.png and study.csv (views of study.json,
+redrawn from it), and for each job the benchmark's results.json (its own schema,
+:mod:`lfd_track.benchmark.schema`) and report.md. Every reader of a study.json goes through
+:func:`read_study_results` or :func:`migrate_study`.
+
+Schema history:
+
+* **1** — each condition's ``config`` left out the settings a results.json of schema 1 left out.
+* **2** — each condition's ``config`` holds every setting (as results.json schema 2).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from ..benchmark.schema import config_v1_to_v2
+from ..utils.migrate import Step, migrate, read_versioned
+
+STUDY_SCHEMA = 2
+"""Schema of the study.json this version writes (``len(STUDY_STEPS) + 1``)."""
+MAX_STUDY_BYTES = 1 << 28
+"""Largest study.json read."""
+
+
+def study_v1_to_v2(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 1 -> 2: every setting in each condition's ``config``."""
+    conditions = data.get("conditions")
+    for condition in conditions if isinstance(conditions, list) else []:
+        if isinstance(condition, dict) and "config" in condition:
+            condition["config"] = config_v1_to_v2(condition["config"])
+    data["schema"] = 2
+    return data
+
+
+STUDY_STEPS: tuple[Step, ...] = (study_v1_to_v2,)
+"""Step k turns a schema-k study.json dict into schema k + 1."""
+
+
+def migrate_study(data: dict[str, Any], source: object) -> dict[str, Any]:
+    """A study.json dict (parsed from ``source``) in the current schema; ``data`` is kept.
+
+    Raises :class:`~lfd_track.errors.FileFormatError` naming ``source`` if its schema is not an
+    integer from 1 or is newer than :data:`STUDY_SCHEMA`.
+    """
+    return migrate(data, source, what="study", steps=STUDY_STEPS)
+
+
+def read_study_results(path: str | Path, max_bytes: int = MAX_STUDY_BYTES) -> dict[str, Any]:
+    """The study.json at ``path``, parsed and migrated to the current schema (errors in one
+    line naming the file)."""
+    return read_versioned(path, what="study", steps=STUDY_STEPS, max_bytes=max_bytes)
