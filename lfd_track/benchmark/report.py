@@ -287,9 +287,11 @@ def write_report_from_results(out: str | Path, results: dict[str, Any]) -> Path:
     if memory_kind == "previous_command":
         notes.append("the network also reads the command it executed the step before")
     elif memory_kind != "none":
+        # Only last_bend has bend_pivots; the line keeps the words it always had, where the
+        # other kinds showed the setting's default, 2.
+        pivots = config["memory"].get("bend_pivots", 2)
         notes.append(
-            f"the network also reads memory inputs ({config['memory']['kind']},"
-            f" {config['memory']['bend_pivots']} pivots make a bend)"
+            f"the network also reads memory inputs ({memory_kind}, {pivots} pivots make a bend)"
         )
     if config.get("mirror"):
         notes.append("it learned from its cases and their mirror images")
