@@ -16,10 +16,10 @@ prints, per condition, failures / arrivals in each class, pooled over the condit
 from __future__ import annotations
 
 import argparse
-import json
 from collections import Counter
 from pathlib import Path
 
+from lfd_track.benchmark.schema import read_results
 from lfd_track.world.track import load_track
 
 CLASSES = ("first", "same", "other")
@@ -73,7 +73,7 @@ def main(argv: list[str] | None = None) -> int:
         failures: Counter = Counter()
         arrivals: Counter = Counter()
         for results in sorted(folder.glob("seed*/results.json")):
-            outcomes = json.loads(results.read_text(encoding="utf-8"))["outcomes"]
+            outcomes = read_results(results)["outcomes"]
             f, a = classify(outcomes, set(args.track) if args.track else None)
             failures += f
             arrivals += a

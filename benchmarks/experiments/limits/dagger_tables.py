@@ -10,10 +10,10 @@ the learning curve per round, and human effort with robot seconds per repetition
 
 from __future__ import annotations
 
-import json
 import sys
 from pathlib import Path
 
+from lfd_track.benchmark.schema import read_results
 from lfd_track.study.stats import wilson_interval
 
 HERE = Path(__file__).resolve().parent
@@ -26,7 +26,7 @@ UNSEEN = ("notch", "bolt", "step")
 
 
 def _jobs(folder: Path) -> list[dict]:
-    return [json.loads(p.read_text()) for p in sorted(folder.glob("seed*/results.json"))]
+    return [read_results(p) for p in sorted(folder.glob("seed*/results.json"))]
 
 
 def _laps(jobs: list[dict], track: str, direction: str | None = None) -> tuple[int, int]:
