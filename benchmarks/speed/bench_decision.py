@@ -31,7 +31,7 @@ from single_thread import load_average, machine, pin_one_thread, source_state
 from lfd_track.policy.controller import Controller
 from lfd_track.policy.elman import N_CONTEXT
 from lfd_track.policy.features import colour_features
-from lfd_track.policy.memory import MemoryConfig, policy_inputs
+from lfd_track.policy.memory import FreshFeltConfig, memory_config, policy_inputs
 from lfd_track.policy.mlp import mlp_forward, n_weights
 from lfd_track.utils.atomic import atomic_write_text
 from lfd_track.vision.synthetic import patch_library, synthetic_frames
@@ -58,8 +58,7 @@ def controllers(library, rng: np.random.Generator) -> dict[str, Controller]:
     out = {}
     for features, kind, policy in KINDS:
         if kind == "fresh_felt+strip":  # the goal's chosen map (round 17)
-            memory = MemoryConfig(
-                kind="fresh_felt",
+            memory = FreshFeltConfig.plain(
                 strip_link_m=0.15,
                 blank_bearing="last",
                 bearing_range_deg=30.0,
@@ -69,9 +68,9 @@ def controllers(library, rng: np.random.Generator) -> dict[str, Controller]:
                 strip_picture_links=True,
             )
         elif kind == "fresh_felt+strip+blank_reach":  # ... looking to 1 m while blank
-            memory = MemoryConfig(kind="fresh_felt", strip_link_m=0.15, blank_reach_m=1.0)
+            memory = FreshFeltConfig.plain(strip_link_m=0.15, blank_reach_m=1.0)
         else:
-            memory = None if kind == "none" else MemoryConfig(kind=kind)
+            memory = None if kind == "none" else memory_config({"kind": kind})
         n = policy_inputs(memory, features) + (N_CONTEXT if policy == "elman-sigmoid" else 0)
         weights = rng.uniform(-1, 1, n_weights(False, n))
         out[f"{policy} / {features} / {kind}"] = Controller(

@@ -30,7 +30,7 @@ from ..learning.ga import GAConfig
 from ..learning.result import check_int
 from ..policy.controller import POLICY_KINDS, Controller
 from ..policy.features import DEFAULT_FEATURES, check_features
-from ..policy.memory import MemoryConfig
+from ..policy.memory import MemoryConfig, NoMemory
 from ..teaching.arbiter import Arbiter
 from ..teaching.loop import Step, TeachingLoop
 from ..teaching.observers import CallbackObserver, TrajectoryObserver
@@ -120,7 +120,7 @@ class BenchmarkConfig:
     # Settings of method "dagger" (its learner's own settings are ``ga`` or ``bc`` above).
     dagger: DaggerConfig = DaggerConfig()
     test_tracks: tuple[str, ...] = ("testing",)  # loops (names or paths) lapped both ways
-    memory: MemoryConfig = MemoryConfig()  # memory inputs of the policy (none: the paper's 40)
+    memory: MemoryConfig = NoMemory()  # memory inputs of the policy (none: the paper's 40)
     mirror: bool = False  # learn from the cases and their mirror images (learning/mirror.py)
     # Learn also from the shifted and turned views of every case (demo/views.py): methods
     # "paper", "bc" and "cma-es", which learn after one simulated demonstration.

@@ -16,13 +16,13 @@ from ..benchmark.dagger import DAGGER_LEARNERS, DaggerConfig
 from ..benchmark.methods import METHODS
 from ..demo.demonstrator import HumanConfig
 from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
-from ..policy.memory import MEMORY_KINDS, MemoryConfig
+from ..policy.memory import MEMORY_KINDS
 from ..policy.mlp import MAX_HIDDEN, N_HIDDEN
 from ..teaching.scripted import STEERING, TURNAROUND_RULES
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output, shown_path
 from ..utils.signals import Terminated, interrupted_exit_code, raise_terminated
 from ..utils.staging import staged_output
-from .types import EXIT_OK, EXIT_USAGE, add_map_arguments, map_settings, whole_number_in
+from .types import EXIT_OK, EXIT_USAGE, add_map_arguments, memory_from_args, whole_number_in
 
 
 def _cores() -> int:
@@ -220,7 +220,7 @@ def run(args: argparse.Namespace) -> int:
             keep_learning=args.keep_learning,
             method=args.method,
             test_tracks=("testing", *args.test_track),
-            memory=MemoryConfig(kind=args.memory, **map_settings(args)),
+            memory=memory_from_args(args),
             mirror=args.mirror,
             shifted_views=args.shifted_views,
             policy_kind=args.policy_kind,

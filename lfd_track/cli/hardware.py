@@ -21,7 +21,7 @@ from typing import Any
 
 from ..errors import LfdTrackError
 from ..policy.controller import Controller
-from ..policy.memory import MEMORY_KINDS, MemoryConfig
+from ..policy.memory import MEMORY_KINDS, memory_config
 from ..teaching import Arbiter, TeachingLoop
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output
 from ..utils.signals import EXIT_INTERRUPTED, stop_signals_interrupt
@@ -241,7 +241,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
                 bins=args.bins,
                 library_only=args.library_only,
                 metadata=meta,
-                memory=MemoryConfig(kind=args.memory),
+                memory=memory_config({"kind": args.memory}),
             ) as recorder,
         ):
             print(

@@ -17,7 +17,7 @@ from ..policy.memory import MEMORY_KINDS
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output
 from ..utils.signals import stop_signals_interrupt
 from ..web.defaults import DEFAULT_FPS, DEFAULT_HOST, DEFAULT_PORT
-from .types import EXIT_OK, add_map_arguments, float_in, map_settings, port, share
+from .types import EXIT_OK, add_map_arguments, float_in, memory_from_args, port, share
 from .types import non_negative_int as _count
 from .types import positive_int as _positive_int
 
@@ -35,6 +35,10 @@ def teach_config(args: argparse.Namespace) -> Any:
 
     if args.features == "none" and args.memory == "none":
         raise LfdTrackError("--features none reads the memory inputs alone: give --memory")
+    try:
+        memory = memory_from_args(args)
+    except ValueError as exc:
+        raise LfdTrackError(str(exc)) from None
     return TeachConfig(
         out=Path(args.out),
         backend=args.backend,
@@ -51,8 +55,7 @@ def teach_config(args: argparse.Namespace) -> Any:
             threshold=args.takeover_threshold,
         ),
         population_size=args.population,
-        memory=args.memory,
-        map_settings=map_settings(args),
+        memory=memory,
         features=args.features,
         ga_bias=args.ga_bias,
         mutation_delta=args.mutation_delta,

@@ -100,94 +100,71 @@ def float_in(low: float, high: float) -> Callable[[str], float]:
     return parse
 
 
-#: The ``MemoryConfig`` fields :func:`add_map_arguments` offers.
-_MAP_SETTINGS = (
-    "blank_bearing",
-    "bearing_range_deg",
-    "strip_link_m",
-    "blank_reach_m",
-    "visited_fade_m",
-    "blank_distance",
-    "strip_picture_links",
-    "path_places",
-)
+def _setting_flag(name: str) -> str:
+    """The command-line flag of a memory setting: its name, less its unit, with dashes
+    (``strip_link_m`` -> ``--strip-link``)."""
+    for unit in ("_m", "_deg"):
+        if name.endswith(unit):
+            name = name[: -len(unit)]
+    return "--" + name.replace("_", "-")
+
+
+def _setting_type(spec: Any) -> Callable[[str], Any]:
+    """An argparse type checking a number against the bounds its setting declares (the
+    setting's own check, so a flag and a study file refuse the same values)."""
+    parse_number = _whole_number if spec.type is int else _number
+
+    def parse(text: str) -> Any:
+        value = parse_number(text)
+        problem = spec.problem(value)
+        if problem:
+            raise argparse.ArgumentTypeError(problem)
+        return value
+
+    return parse
 
 
 def add_map_arguments(parser: argparse.ArgumentParser) -> None:
-    """The ``fresh_felt`` map's options a command line offers (``MemoryConfig``'s fields of
-    the same names; :func:`map_settings` reads them back)."""
-    from ..policy.memory import (
-        BLANK_BEARINGS,
-        BLANK_DISTANCES,
-        FULL_BEARING_RANGE_DEG,
-        PATH_PLACES,
-    )
+    """One flag per setting of the ``fresh_felt`` map
+    (:class:`~lfd_track.policy.memory_config.FreshFeltConfig`: its name less its unit, its bounds,
+    its help line); a flag not given leaves the class's default. :func:`memory_from_args` reads
+    them back."""
+    from ..policy.memory_config import FreshFeltConfig, setting_specs
 
-    parser.add_argument(
-        "--blank-bearing",
-        choices=BLANK_BEARINGS,
-        default="centre",
-        help="with --memory fresh_felt: the bearing input while no fresh felt is left: centre"
-        " (0.5, default) or last (the side the fresh felt last lay on)",
-    )
-    parser.add_argument(
-        "--bearing-range",
-        dest="bearing_range_deg",
-        type=float_in(1.0, FULL_BEARING_RANGE_DEG),
-        default=FULL_BEARING_RANGE_DEG,
-        metavar="DEG",
-        help="with --memory fresh_felt: the bearing the bearing input maps to 1 and 0, bearings"
-        " beyond it clipped (default 180, the whole circle; the goal's chosen policy: 30)",
-    )
-    # Options of a length in metres, off (0) unless given: flag, MemoryConfig field, range, help.
-    for flag, dest, low, high, text in (
-        (
-            "--strip-link", "strip_link_m", 0.01, 1.0,
-            "only felt connected along felt to the rover's own strip, by links of at most M"
-            " metres, is fresh (default off; the goal's chosen policy: 0.15)",
-        ),
-        (
-            "--blank-reach", "blank_reach_m", 0.1, 5.0,
-            "while nothing is fresh within reach (0.6 m), look again up to M metres (default"
-            " off; the goal's chosen policy: 1.0)",
-        ),
-        (
-            "--visited-fade", "visited_fade_m", 0.01, 2.0,
-            "fresh felt weighs from 0 at the path radius up to full M metres beyond it (default"
-            " off; the goal's chosen policy: 0.3)",
-        ),
-    ):  # fmt: skip
-        parser.add_argument(
-            flag,
-            dest=dest,
-            type=float_in(low, high),
-            default=0.0,
-            metavar="M",
-            help=f"with --memory fresh_felt: {text}",
-        )
-    parser.add_argument(
-        "--blank-distance",
-        choices=BLANK_DISTANCES,
-        default="blank_reach",
-        help="with --blank-reach: the distance input of felt found further, over the blank reach"
-        " (default) or over the reach, clipped to 1 (the goal's chosen policy: reach)",
-    )
-    parser.add_argument(
-        "--strip-picture-links",
-        action="store_true",
-        help="with --strip-link: felt regions that touch in one frame's grid are linked too"
-        " (the goal's chosen policy)",
-    )
-    parser.add_argument(
-        "--path-places",
-        choices=PATH_PLACES,
-        default="every_command",
-        help="with --memory fresh_felt: which commands leave a place on the map's path:"
-        " every_command (default) or forward (pivots on the spot do not)",
-    )
+    for spec in setting_specs(FreshFeltConfig):
+        shown = spec.default if spec.type is str else str(spec.default).lower()
+        options: dict[str, Any] = {
+            "dest": spec.name,
+            "default": None,
+            "help": f"with --memory fresh_felt: {spec.doc} (default {shown})",
+        }
+        if spec.type is bool:
+            options["action"] = argparse.BooleanOptionalAction
+        elif spec.choices is not None:
+            options["choices"] = spec.choices
+        else:
+            options["type"] = _setting_type(spec)
+            options["metavar"] = "DEG" if spec.name.endswith("_deg") else "M"
+        parser.add_argument(_setting_flag(spec.name), **options)
 
 
 def map_settings(args: argparse.Namespace) -> dict[str, Any]:
-    """The ``MemoryConfig`` keyword arguments of the options :func:`add_map_arguments` added
-    (each option's destination is the field's name)."""
-    return {name: getattr(args, name) for name in _MAP_SETTINGS}
+    """The ``fresh_felt`` settings given on the command line (the flags of
+    :func:`add_map_arguments`; each flag's destination is the setting's name)."""
+    from ..policy.memory_config import FreshFeltConfig, setting_specs
+
+    given = ((spec.name, getattr(args, spec.name, None)) for spec in setting_specs(FreshFeltConfig))
+    return {name: value for name, value in given if value is not None}
+
+
+def memory_from_args(args: argparse.Namespace) -> Any:
+    """The :class:`~lfd_track.policy.memory_config.MemoryConfig` of ``--memory`` and the map's
+    flags. ``ValueError`` (one line) for a map flag without ``--memory fresh_felt`` or settings
+    that do not go together."""
+    from ..policy.memory_config import memory_config
+
+    settings = map_settings(args)
+    if settings and args.memory != "fresh_felt":
+        flag = _setting_flag(next(iter(settings)))
+        raise ValueError(f"{flag} is a setting of the fresh_felt map: give --memory fresh_felt")
+    return memory_config({"kind": args.memory, **settings})

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..policy.features import DEFAULT_FEATURES, frame_inputs, mirror_frame_inputs
-from ..policy.memory import MemoryConfig, policy_inputs
+from ..policy.memory import MemoryConfig, NoMemory, policy_inputs
 
 #: Command each command becomes in a mirror: forward stays, left and right swap.
 MIRRORED_COMMAND = np.array([0, 2, 1], dtype=np.intp)
@@ -39,7 +39,7 @@ def mirror_cases(
     """
     x = np.asarray(inputs, dtype=np.float64)
     a = np.asarray(actions, dtype=np.intp)
-    memory = memory or MemoryConfig()
+    memory = memory or NoMemory()
     n_inputs = policy_inputs(memory, features)
     if x.ndim != 2 or x.shape[1] != n_inputs:
         extra = "" if features == DEFAULT_FEATURES else f" and features {features!r}"

@@ -3,35 +3,35 @@
 ``act(frame)`` runs the paper's autonomous loop for one frame: road values (Algorithm 2) → MLP →
 the command with the largest output (an exact tie keeps the previous command).
 
-The file (schema 2) is one JSON object with the keys ``format``, ``schema_version``,
-``policy_kind`` (``"mlp-sigmoid"``: the 40-5-3 sigmoid network, the only kind today),
+The file (schema 5) is one JSON object with the keys ``format``, ``schema_version``,
+``policy_kind`` (``"mlp-sigmoid"``: the 40-5-3 sigmoid network, or ``"elman-sigmoid"``),
 ``layer_sizes``, ``bias``, ``weights``, ``road_library``, ``learner`` (what trained it: ``"ga"``,
 ``"bc"``, ``"cma-es"``, ... or null), ``learner_config`` (the learner's settings as a JSON object,
-or null), ``seed``, ``fitness_history``, ``learn`` and ``checksum``: the SHA-256 (hex) of the
-canonical JSON (sorted keys, no spaces, UTF-8) of every other key, so a changed digit anywhere is
-refused (unless the number still parses to the very same value, which changes nothing). Schema 1 files (wave 1: ``ga_config`` instead of ``learner``/``learner_config``, no
-``policy_kind`` or checksum) still load as ``learner="ga"``.
+or null), ``seed``, ``fitness_history``, ``learn``, ``features`` (the per-region feature set's
+name, :mod:`lfd_track.policy.features`), ``memory`` (every memory setting,
+:meth:`~lfd_track.policy.memory_config.MemoryConfig.to_dict`, or null) and ``checksum``: the
+SHA-256 (hex) of the canonical JSON (sorted keys, no spaces, UTF-8) of every other key, so a
+changed digit anywhere is refused (unless the number still parses to the very same value, which
+changes nothing). ``layer_sizes`` is ``[f + m, h, 3]``: f per-region inputs (40 road values, 160
+with colour, 0 with the features ``"none"``, which need a memory), m memory inputs, h hidden
+nodes.
 
-A controller whose network also reads memory inputs (:mod:`lfd_track.policy.memory`) is saved
-as schema 3: the schema 2 keys plus ``memory`` (the memory settings), with ``layer_sizes``
-``[40 + m, 5, 3]``. A controller without memory is still written as schema 2.
-
-A controller whose network reads more per-region features than the road values
-(:mod:`lfd_track.policy.features`, e.g. ``"road_values+colour"``: 160 inputs) is saved as
-schema 4: the schema 2 keys plus ``features`` (the feature set's name) and ``memory`` (the memory
-settings, or null), with ``layer_sizes`` ``[160 + m, 5, 3]``; with the features ``"none"`` the
-network reads its memory inputs alone (``[m, 5, 3]``; a memory is required). Every controller
-that reads only road values is written as before (schema 2 or 3), byte for byte.
+Older files are read through one migration per schema step (:data:`MIGRATIONS`), each turning a
+file of schema k into one of schema k + 1: schema 1 (the first release: ``ga_config`` instead of
+``learner``/``learner_config``, no ``policy_kind`` or checksum) gains ``learner="ga"``; schema
+2 (no memory) gains ``memory: null``; schema 3 (memory, road values) gains ``features:
+"road_values"``; schema 4's memory table, which left out each ``fresh_felt`` option that was
+off, becomes the full table with the same meaning
+(:func:`~lfd_track.policy.memory_config.memory_table_from_v1`). The checksum of a file of
+schema 2 or later is checked before it is migrated.
 
 Policy kind ``"elman-sigmoid"`` (:mod:`lfd_track.policy.elman`) is an Elman network: its 5
 previous hidden activations are 5 more inputs after all the others, so its ``layer_sizes`` are
-``[n + 5, 5, 3]`` and its weights the MLP layout of ``n + 5`` inputs; it is written in whichever
-schema its inputs need (2, 3 or 4), the kind saying how to run it.
+``[n + 5, 5, 3]`` and its weights the MLP layout of ``n + 5`` inputs.
 
 A network with another hidden width than the paper's 5 (``hidden``, e.g. 40-20-3 fitted by
-backprop) says so in ``layer_sizes`` (``[40, 20, 3]``); every file with 5 hidden nodes is the same
-as before the width could change, and older files load and drive as they did. An Elman network
-has the paper's 5 hidden nodes.
+backprop) says so in ``layer_sizes`` (``[40, 20, 3]``); older files load and drive as they did.
+An Elman network has the paper's 5 hidden nodes.
 
 A policy does not import its trainer: the GA appears here only as a type for ``from_evolution``.
 """
@@ -41,7 +41,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -58,6 +58,7 @@ from ..vision.road_library import RoadLibrary
 from .elman import N_CONTEXT, ElmanCommander, ElmanState
 from .features import DEFAULT_FEATURES, FEATURE_SETS, check_features
 from .memory import MemoryConfig, policy_inputs
+from .memory_config import memory_table_from_v1
 from .mlp import (
     MAX_HIDDEN,
     N_HIDDEN,
@@ -73,9 +74,8 @@ if TYPE_CHECKING:
     from ..learning.ga import EvolutionResult
 
 CONTROLLER_FORMAT = "lfd-track-controller"
-CONTROLLER_SCHEMA_VERSION = 2
-CONTROLLER_SCHEMA_WITH_MEMORY = 3
-CONTROLLER_SCHEMA_WITH_FEATURES = 4
+CONTROLLER_SCHEMA = 5
+"""Schema every controller file is written in (older ones are migrated on reading)."""
 POLICY_KINDS = ("mlp-sigmoid", "elman-sigmoid")
 """Policy kinds this version of lfd-track can run."""
 MAX_ABS_WEIGHT = 1e6
@@ -83,7 +83,7 @@ MAX_ABS_WEIGHT = 1e6
 most 1 and a layer has at most 40 inputs), so larger values only come from a damaged file."""
 MAX_FILE_BYTES = 256 << 20
 """Largest controller file read (a 100-model library at 256 bins is a few MB)."""
-_KEYS = (
+_KEYS_V2 = (
     "format",
     "schema_version",
     "policy_kind",
@@ -98,8 +98,6 @@ _KEYS = (
     "learn",
     "checksum",
 )
-_KEYS_V3 = (*_KEYS[:-1], "memory", "checksum")
-_KEYS_V4 = (*_KEYS[:-1], "features", "memory", "checksum")
 _KEYS_V1 = (
     "format",
     "schema_version",
@@ -112,6 +110,75 @@ _KEYS_V1 = (
     "fitness_history",
     "learn",
 )
+#: The keys of a controller file of each schema (exactly these).
+SCHEMA_KEYS: dict[int, tuple[str, ...]] = {
+    1: _KEYS_V1,
+    2: _KEYS_V2,
+    3: (*_KEYS_V2[:-1], "memory", "checksum"),
+    4: (*_KEYS_V2[:-1], "features", "memory", "checksum"),
+    5: (*_KEYS_V2[:-1], "features", "memory", "checksum"),
+}
+
+
+def _from_schema1(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 1 -> 2: the first release's GA settings become the learner's."""
+    out = {k: v for k, v in data.items() if k != "ga_config"}
+    out.update(policy_kind="mlp-sigmoid", learner="ga", learner_config=data["ga_config"])
+    return out
+
+
+def _from_schema2(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 2 -> 3: a controller without memory stores null as its memory."""
+    return {**data, "memory": None}
+
+
+def _from_schema3(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 3 -> 4: the network reads the road values (named)."""
+    return {**data, "features": DEFAULT_FEATURES}
+
+
+def _from_schema4(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 4 -> 5: the memory table with every setting (options left out meant off)."""
+    memory = data["memory"]
+    return {**data, "memory": None if memory is None else memory_table_from_v1(memory)}
+
+
+#: One migration per schema step: ``MIGRATIONS[k]`` turns the contents of a schema-k file into
+#: those of a schema k + 1 file meaning the same controller.
+MIGRATIONS: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {
+    1: _from_schema1,
+    2: _from_schema2,
+    3: _from_schema3,
+    4: _from_schema4,
+}
+
+
+def migrate(data: dict[str, Any]) -> dict[str, Any]:
+    """The contents of a controller file of any schema this build reads, as schema
+    :data:`CONTROLLER_SCHEMA` (its keys checked, the checksum of schema 2 on verified first)."""
+    version = data.get("schema_version")
+    if isinstance(version, bool) or version not in SCHEMA_KEYS:
+        raise ValueError(
+            f"schema version {version!r} is not supported"
+            f" (this version of lfd-track reads {', '.join(map(str, SCHEMA_KEYS))})"
+        )
+    keys = SCHEMA_KEYS[version]
+    for key in keys:
+        if key not in data:
+            raise ValueError(f"missing key '{key}'")
+    unknown = sorted(set(data) - set(keys))
+    if unknown:
+        raise ValueError(f"unknown key '{unknown[0]}'")
+    if version >= 2:
+        stored = data["checksum"]
+        if not isinstance(stored, str) or stored != checksum(data):
+            raise ValueError("checksum mismatch: the file was changed or damaged after it was saved")
+    if version == 3 and data["memory"] is None:
+        raise ValueError("a schema 3 controller must name its memory kind")
+    while version < CONTROLLER_SCHEMA:
+        data = MIGRATIONS[version](data)
+        version += 1
+    return {**data, "schema_version": version}
 
 
 def checksum(contents: Mapping[str, Any]) -> str:
@@ -258,6 +325,25 @@ class Controller:
             policy_kind=policy_kind,
         )
 
+    def relabelled(self, learner: str, learner_config: Mapping[str, Any] | None) -> Controller:
+        """The same controller (every setting and weight kept), recording ``learner`` and its
+        settings ``learner_config`` instead (a method that drives a learner, e.g. ``online``
+        evolving with the GA, records itself)."""
+        return type(self)(
+            self.library,
+            self.weights,
+            bias=self.bias,
+            learner=learner,
+            learner_config=learner_config,
+            seed=self.seed,
+            fitness_history=self.fitness_history,
+            learn=self.learn,
+            memory=self.memory,
+            features=self.features,
+            policy_kind=self.policy_kind,
+            hidden=self.hidden,
+        )
+
     @property
     def _context(self) -> int:
         return N_CONTEXT if self.policy_kind == "elman-sigmoid" else 0
@@ -338,16 +424,11 @@ class Controller:
 
     # ------------------------------------------------------------------------------- files
     def to_dict(self) -> dict[str, Any]:
-        """JSON-friendly contents of the controller file (schema 2, 3 with memory inputs, 4
-        with more features than the road values; checksum included)."""
-        version = (
-            CONTROLLER_SCHEMA_VERSION if self.memory is None else CONTROLLER_SCHEMA_WITH_MEMORY
-        )
-        if self.features != DEFAULT_FEATURES:
-            version = CONTROLLER_SCHEMA_WITH_FEATURES
+        """JSON-friendly contents of the controller file (schema :data:`CONTROLLER_SCHEMA`, every
+        setting written; checksum included)."""
         contents: dict[str, Any] = {
             "format": CONTROLLER_FORMAT,
-            "schema_version": version,
+            "schema_version": CONTROLLER_SCHEMA,
             "policy_kind": self.policy_kind,
             "layer_sizes": list(layer_sizes(self.n_inputs + self._context, self.hidden)),
             "bias": self.bias,
@@ -358,12 +439,9 @@ class Controller:
             "seed": self.seed,
             "fitness_history": self.fitness_history,
             "learn": self.learn,
+            "features": self.features,
+            "memory": None if self.memory is None else self.memory.to_dict(),
         }
-        if version == CONTROLLER_SCHEMA_WITH_FEATURES:
-            contents["features"] = self.features
-            contents["memory"] = None if self.memory is None else self.memory.to_dict()
-        elif self.memory is not None:
-            contents["memory"] = self.memory.to_dict()
         contents["checksum"] = checksum(contents)
         return contents
 
@@ -400,75 +478,35 @@ class Controller:
             raise ValueError("top level must be a JSON object")
         if data.get("format") != CONTROLLER_FORMAT:
             raise ValueError(f"not a controller file ('format' must be '{CONTROLLER_FORMAT}')")
-        version = data.get("schema_version")
-        readable = (
-            1,
-            CONTROLLER_SCHEMA_VERSION,
-            CONTROLLER_SCHEMA_WITH_MEMORY,
-            CONTROLLER_SCHEMA_WITH_FEATURES,
-        )
-        if isinstance(version, bool) or version not in readable:
+        data = migrate(data)
+        kind = data["policy_kind"]
+        if kind not in POLICY_KINDS:
             raise ValueError(
-                f"schema version {version!r} is not supported"
-                f" (this version of lfd-track reads {', '.join(map(str, readable))})"
+                f"policy kind {kind!r} is not supported (this lfd-track runs"
+                f" {', '.join(POLICY_KINDS)})"
             )
-        keys = {
-            1: _KEYS_V1,
-            CONTROLLER_SCHEMA_VERSION: _KEYS,
-            CONTROLLER_SCHEMA_WITH_MEMORY: _KEYS_V3,
-        }.get(version, _KEYS_V4)
-        for key in keys:
-            if key not in data:
-                raise ValueError(f"missing key '{key}'")
-        unknown = sorted(set(data) - set(keys))
-        if unknown:
-            raise ValueError(f"unknown key '{unknown[0]}'")
-        if version >= CONTROLLER_SCHEMA_VERSION:
-            stored = data["checksum"]
-            if not isinstance(stored, str) or stored != checksum(data):
-                raise ValueError(
-                    "checksum mismatch: the file was changed or damaged after it was saved"
-                )
-            kind = data["policy_kind"]
-            if kind not in POLICY_KINDS:
-                raise ValueError(
-                    f"policy kind {kind!r} is not supported (this lfd-track runs"
-                    f" {', '.join(POLICY_KINDS)})"
-                )
-            learner, learner_config = data["learner"], data["learner_config"]
-        else:
-            kind = "mlp-sigmoid"
-            learner, learner_config = "ga", data["ga_config"]
+        learner, learner_config = data["learner"], data["learner_config"]
         memory = None
-        if version == CONTROLLER_SCHEMA_WITH_MEMORY:
+        if data["memory"] is not None:
             memory = MemoryConfig.from_dict(data["memory"])
             if memory.kind == "none":
-                raise ValueError("a schema 3 controller must name its memory kind")
-        features = DEFAULT_FEATURES
-        if version == CONTROLLER_SCHEMA_WITH_FEATURES:
-            features = data["features"]
-            if not isinstance(features, str) or features not in FEATURE_SETS:
-                raise ValueError(
-                    f"features {features!r} are not supported (this lfd-track reads"
-                    f" {', '.join(FEATURE_SETS)})"
-                )
-            if features == DEFAULT_FEATURES:
-                raise ValueError("a schema 4 controller must name features beyond the road values")
-            if data["memory"] is not None:
-                memory = MemoryConfig.from_dict(data["memory"])
-                if memory.kind == "none":
-                    raise ValueError("a controller without memory stores null as its memory")
-            if features == "none" and memory is None:
-                raise ValueError(
-                    "features 'none' leave the network only its memory inputs: it needs a memory"
-                )
+                raise ValueError("a controller without memory stores null as its memory")
+        features = data["features"]
+        if not isinstance(features, str) or features not in FEATURE_SETS:
+            raise ValueError(
+                f"features {features!r} are not supported (this lfd-track reads"
+                f" {', '.join(FEATURE_SETS)})"
+            )
+        if features == "none" and memory is None:
+            raise ValueError(
+                "features 'none' leave the network only its memory inputs: it needs a memory"
+            )
         context = N_CONTEXT if kind == "elman-sigmoid" else 0
         expected = list(layer_sizes(policy_inputs(memory, features) + context))
         sizes = data["layer_sizes"]
         hidden = N_HIDDEN
         if (
-            version >= CONTROLLER_SCHEMA_VERSION
-            and context == 0
+            context == 0
             and isinstance(sizes, list)
             and len(sizes) == 3
             and isinstance(sizes[1], int)

@@ -32,30 +32,31 @@ such runs, and reading the training accuracy with that baseline in mind, are the
   left; with ``bearing_range_deg`` r below 180, ``(1 + bearing / r) / 2`` clipped to [0, 1], so
   that a network whose weights stay small can still tell 20° from straight ahead), how much of
   it there is, and how far its centre lies. Each frame's 40 road values are
-  placed on the floor where their regions' centres look (the camera's geometry), and every
-  executed command moves the map by the rover's nominal motion for it (forward ``step_m``, a
-  pivot ``pivot_deg``). Felt within ``path_radius_m`` of a place the rover has been is *visited*
-  (the strip it came along); what is left within ``reach_m`` ahead of its axle is *fresh*. At a
-  sharp corner the next strip leaves the picture before the rover can turn, but the stub of it
-  seen on the way in stays on the map, on the side it went, and the strip behind never counts.
-  While no fresh felt is left the bearing input is 0.5, or with ``blank_bearing = "last"`` the
-  bearing the fresh felt last had (which way it went: the side to pivot to at a blank corner).
-  Two options change what counts as fresh (both off by default, so earlier files read the same
-  map): ``strip_link_m`` keeps only the felt connected *along felt* to the felt the rover stands
-  on — a chain of felt points each within ``strip_link_m`` of the next, at most
-  :data:`_STRIP_HOPS` links from felt within :data:`_STRIP_SEED_M` of the axle — so that where
-  two strips pass within reach of each other across carpet, the one the rover is not on does not
-  pull it off its own; ``blank_reach_m`` looks again up to that distance while nothing is fresh
-  within ``reach_m``, for a sharp corner whose outgoing strip lies within ``path_radius_m`` of the
-  incoming one for its first half metre.
-  Three more (off by default): ``blank_distance = "reach"`` measures the distance input of felt
-  found by looking further against ``reach_m`` (clipped to 1), so the input means what it means
-  when the map did not look further; ``visited_fade_m`` lets a fresh point's weight rise
-  linearly from 0 at ``path_radius_m`` from the rover's path to 1 that much further, so of two
-  fresh patches in reach the one further from where the rover came from pulls harder (at the
-  vertex of a 135° corner, the outgoing strip away from the incoming one, not the corner's tip);
-  ``path_places = "forward"`` leaves a place on the path only for a forward command, so pivoting
-  on the spot does not push the strip behind out of the path's 40 places.
+  placed on the floor where their regions' centres look (the camera's geometry; the last
+  :data:`MAP_FRAMES` frames are kept), and every executed command moves the map by the rover's
+  nominal motion for it (forward :data:`STEP_M`, a pivot :data:`PIVOT_DEG`). Felt within
+  ``path_radius_m`` of a place the rover has been is *visited* (the strip it came along); what is
+  left within ``reach_m`` ahead of its axle is *fresh*. At a sharp corner the next strip leaves
+  the picture before the rover can turn, but the stub of it seen on the way in stays on the map,
+  on the side it went, and the strip behind never counts. While no fresh felt is left the bearing
+  input is 0.5, or with ``blank_bearing = "last"`` the bearing the fresh felt last had (which way
+  it went: the side to pivot to at a blank corner). ``strip_link_m`` keeps only the felt
+  connected *along felt* to the felt the rover stands on — a chain of felt points each within
+  ``strip_link_m`` of the next, at most :data:`_STRIP_HOPS` links from felt within
+  :data:`_STRIP_SEED_M` of the axle (``strip_picture_links``: regions touching in one frame's
+  grid are linked too) — so that where two strips pass within reach of each other across
+  carpet, the one the rover is not on does not pull it off its own; ``blank_reach_m`` looks
+  again up to that distance while nothing is fresh within ``reach_m``, for a sharp corner whose
+  outgoing strip lies within ``path_radius_m`` of the incoming one for its first half metre
+  (``blank_distance = "reach"`` measures the distance input of felt found so against
+  ``reach_m``, clipped to 1, so the input means what it means when the map did not look
+  further); ``visited_fade_m`` lets a fresh point's weight rise linearly from 0 at
+  ``path_radius_m`` from the rover's path to 1 that much further, so of two fresh patches in
+  reach the one further from where the rover came from pulls harder (at the vertex of a 135°
+  corner, the outgoing strip away from the incoming one, not the corner's tip).
+  The settings, their bounds and their defaults (the goal's chosen map: every option above on)
+  are :class:`~lfd_track.policy.memory_config.FreshFeltConfig`'s;
+  :meth:`~lfd_track.policy.memory_config.FreshFeltConfig.plain` is the map with them off.
   The map knows nothing the robot could not: its own commands and what its camera saw.
 
 The input is computed from *executed* commands, whoever gave them (the human demonstrating or
@@ -68,220 +69,70 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass
-from typing import Any, ClassVar
 
 import numpy as np
 
 from ..core.commands import Command
-from ..core.config import DictConfig
 from ..core.frame import GRID_COLUMNS, GRID_ROWS, N_REGIONS, region_bounds
 from .features import frame_inputs
+from .memory_config import (
+    BLANK_BEARINGS,
+    BLANK_DISTANCES,
+    FULL_BEARING_RANGE_DEG,
+    MEMORY_CONFIGS,
+    MEMORY_KINDS,
+    STRIP_STARTS,
+    FreshFeltConfig,
+    LastBendConfig,
+    MemoryConfig,
+    NoMemory,
+    PreviousCommandConfig,
+    memory_config,
+    memory_table_from_v1,
+)
 
-MEMORY_KINDS = ("none", "last_bend", "previous_command", "fresh_felt")
-#: ``fresh_felt`` settings, written to a controller file only with that kind (so the files of the
-#: other kinds are as they were before it existed).
-_MAP_FIELDS = ("frames", "path_radius_m", "reach_m", "carpet", "felt", "step_m", "pivot_deg")
-#: ``fresh_felt`` options written to a controller file only when set (not 0).
-_OPTIONAL_MAP_FIELDS = ("strip_link_m", "blank_reach_m", "visited_fade_m")
-#: Where the ``fresh_felt`` map's ``strip_link_m`` strip starts (``strip_from``).
-STRIP_STARTS = ("axle", "nearest")
-#: The ``fresh_felt`` bearing input's range [deg] when it is not set: the whole circle.
-FULL_BEARING_RANGE_DEG = 180.0
-#: What the ``fresh_felt`` bearing input says while no fresh felt is left (``blank_bearing``).
-BLANK_BEARINGS = ("centre", "last")
-#: Which commands leave a place on the ``fresh_felt`` map's path (``path_places``).
-PATH_PLACES = ("every_command", "forward")
-#: What the ``fresh_felt`` distance input is measured against when ``blank_reach_m`` looked
-#: further (``blank_distance``).
-BLANK_DISTANCES = ("blank_reach", "reach")
+__all__ = [
+    "BLANK_BEARINGS",
+    "BLANK_DISTANCES",
+    "FULL_BEARING_RANGE_DEG",
+    "MEMORY_CONFIGS",
+    "MEMORY_KINDS",
+    "STRIP_STARTS",
+    "UNKNOWN_SIDE",
+    "FreshFeltConfig",
+    "FreshFeltMemory",
+    "LastBendConfig",
+    "MemoryConfig",
+    "NoMemory",
+    "PreviousCommandConfig",
+    "PreviousCommandMemory",
+    "TurnMemory",
+    "fresh_bearing_rad",
+    "memory_config",
+    "memory_for",
+    "memory_table_from_v1",
+    "policy_inputs",
+    "region_floor_points",
+]
+
 #: Value of the ``last_bend`` input before the first bend of an episode.
 UNKNOWN_SIDE = 0.5
-
-
-@dataclass(frozen=True)
-class MemoryConfig(DictConfig):
-    """Which memory inputs the policy gets (TOML table ``[memory]`` of a study condition)."""
-
-    settings_name: ClassVar[str] = "memory"
-
-    kind: str = "none"
-    """One of :data:`MEMORY_KINDS`."""
-    bend_pivots: int = 2
-    """Net pivots one way that make a bend (``last_bend``)."""
-    frames: int = 25
-    """``fresh_felt``: frames the map remembers (the path is remembered for 40 commands)."""
-    path_radius_m: float = 0.35
-    """[m] ``fresh_felt``: felt this close to a place the rover has been counts as visited
-    (the default, with ``reach_m``, is the limits experiment's choice on validation loops)."""
-    reach_m: float = 0.6
-    """[m] ``fresh_felt``: fresh felt counts up to this distance from the rover's axle."""
-    carpet: float = 0.3
-    """``fresh_felt``: road value at or below which a region counts as carpet (felt level 0)."""
-    felt: float = 0.5
-    """``fresh_felt``: road value at or above which a region counts as felt (felt level 1)."""
-    step_m: float = 0.10
-    """[m] ``fresh_felt``: the rover's nominal advance per forward command (paper preset)."""
-    pivot_deg: float = 22.9
-    """[deg] ``fresh_felt``: the rover's nominal turn per pivot command (paper preset)."""
-    blank_bearing: str = "centre"
-    """``fresh_felt``: the bearing input while no fresh felt is left: ``"centre"`` (0.5, as
-    when nothing was ever seen) or ``"last"`` (the bearing the fresh felt last had, so the policy
-    still knows which side it went; amount and distance stay 0). Written to a controller file
-    only when it is ``"last"``."""
-    bearing_range_deg: float = FULL_BEARING_RANGE_DEG
-    """[deg] ``fresh_felt``: the bearing that the bearing input maps to 1 (left) and 0 (right);
-    bearings beyond it are clipped. 180 (the whole circle, the default) keeps every bearing
-    apart; a narrower range spreads the bearings that decide a turn over more of [0, 1]. Written
-    to a controller file only when it is not 180."""
-
-    strip_link_m: float = 0.0
-    """[m] ``fresh_felt``: fresh felt must be connected along felt to the felt the rover stands
-    on, by links of at most this length (0: off, any felt may be fresh). Written to a controller
-    file only when set."""
-    blank_reach_m: float = 0.0
-    """[m] ``fresh_felt``: while nothing is fresh within ``reach_m``, look again up to this far
-    (0: off; else above ``reach_m``). Written to a controller file only when set."""
-    strip_from: str = "axle"
-    """``fresh_felt`` with ``strip_link_m``: where the rover's strip starts: ``"axle"`` (felt
-    within 0.3 m of the axle) or ``"nearest"`` (also the felt nearest the axle, wherever it
-    lies, and what lies within ``strip_link_m`` of that distance: a rover that drifted off its
-    strip still has one). Written to a controller file only when ``"nearest"``."""
-    visited_fade_m: float = 0.0
-    """[m] ``fresh_felt``: felt counts as fresh in full only this far beyond ``path_radius_m``
-    from every place the rover has been; in between its weight rises linearly from 0 (0: off,
-    felt beyond ``path_radius_m`` counts in full). Of two fresh patches, the one further from
-    where the rover came from then weighs more. Written to a controller file only when set."""
-    path_places: str = "every_command"
-    """``fresh_felt``: which executed commands leave a place on the path the map remembers (the
-    last 40 places): ``"every_command"`` (a pivot on the spot leaves its place again, so 40
-    commands of pivoting at a blank corner forget the strip the rover came along) or
-    ``"forward"`` (only a forward command leaves one: the path is the last 4 m driven, however
-    long the rover pivots). Written to a controller file only when ``"forward"``."""
-    blank_distance: str = "blank_reach"
-    """``fresh_felt`` with ``blank_reach_m``: the distance input when the map looked further
-    because nothing was fresh within ``reach_m``: the distance over ``"blank_reach"`` (so 1 is
-    ``blank_reach_m`` away) or over ``"reach"`` (clipped to 1: felt found further reads as
-    felt at the edge of ``reach_m``, the same meaning as when the map did not look further).
-    Written to a controller file only when ``"reach"``."""
-
-    strip_picture_links: bool = False
-    """``fresh_felt`` with ``strip_link_m``: felt regions that touch in one frame's 8 x 5 grid
-    (side or corner) are linked too, however far apart their centres lie on the floor. The
-    regions tile the picture, so touching regions see touching floor; but the floor points of
-    the far rows lie 0.25-0.5 m apart, further than a strip link, so without this a strip seen
-    only beyond about 0.55 m (the way on at the vertex of a sharp corner, seen while pivoting)
-    is never linked to the rover's own. Written to a controller file only when set."""
-
-    def to_dict(self) -> dict[str, Any]:
-        data = super().to_dict()
-        for name in _OPTIONAL_MAP_FIELDS:
-            if self.kind != "fresh_felt" or not getattr(self, name):
-                del data[name]
-        if self.kind != "fresh_felt":
-            for name in _MAP_FIELDS:
-                del data[name]
-        if self.kind != "fresh_felt" or self.blank_bearing == "centre":
-            del data["blank_bearing"]
-        if self.kind != "fresh_felt" or self.bearing_range_deg == FULL_BEARING_RANGE_DEG:
-            del data["bearing_range_deg"]
-        if self.kind != "fresh_felt" or self.strip_from == "axle":
-            del data["strip_from"]
-        if self.kind != "fresh_felt" or self.path_places == "every_command":
-            del data["path_places"]
-        if self.kind != "fresh_felt" or self.blank_distance == "blank_reach":
-            del data["blank_distance"]
-        if self.kind != "fresh_felt" or not self.strip_picture_links:
-            del data["strip_picture_links"]
-        return data
-
-    def __post_init__(self) -> None:
-        if self.kind not in MEMORY_KINDS:
-            raise ValueError(
-                f"memory kind must be one of {', '.join(MEMORY_KINDS)}, got {self.kind!r}"
-            )
-        if isinstance(self.bend_pivots, bool) or not isinstance(self.bend_pivots, int):
-            raise ValueError(f"memory bend_pivots must be an integer, got {self.bend_pivots!r}")
-        if self.bend_pivots < 1:
-            raise ValueError(f"memory bend_pivots must be >= 1, got {self.bend_pivots}")
-        if isinstance(self.frames, bool) or not isinstance(self.frames, int) or self.frames < 1:
-            raise ValueError(f"memory frames must be an integer >= 1, got {self.frames!r}")
-        for name in (
-            "path_radius_m",
-            "reach_m",
-            "step_m",
-            "pivot_deg",
-            "carpet",
-            "felt",
-            *_OPTIONAL_MAP_FIELDS,
-        ):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise ValueError(f"memory {name} must be a number, got {value!r}")
-            if not math.isfinite(value) or value < 0:
-                raise ValueError(f"memory {name} must be a finite number >= 0, got {value!r}")
-        if self.strip_from not in STRIP_STARTS:
-            raise ValueError(
-                f"memory strip_from must be one of {', '.join(STRIP_STARTS)},"
-                f" got {self.strip_from!r}"
-            )
-        if self.path_places not in PATH_PLACES:
-            raise ValueError(
-                f"memory path_places must be one of {', '.join(PATH_PLACES)},"
-                f" got {self.path_places!r}"
-            )
-        if self.blank_distance not in BLANK_DISTANCES:
-            raise ValueError(
-                f"memory blank_distance must be one of {', '.join(BLANK_DISTANCES)},"
-                f" got {self.blank_distance!r}"
-            )
-        if not isinstance(self.strip_picture_links, bool):
-            raise ValueError(
-                f"memory strip_picture_links must be true or false, got {self.strip_picture_links!r}"
-            )
-        if self.blank_bearing not in BLANK_BEARINGS:
-            raise ValueError(
-                f"memory blank_bearing must be one of {', '.join(BLANK_BEARINGS)},"
-                f" got {self.blank_bearing!r}"
-            )
-        r = self.bearing_range_deg
-        if isinstance(r, bool) or not isinstance(r, (int, float)) or not 0.0 < r <= 180.0:
-            raise ValueError(f"memory bearing_range_deg must be a number in (0, 180], got {r!r}")
-        if not self.carpet < self.felt <= 1.0:
-            raise ValueError("memory needs carpet < felt <= 1")
-        if self.reach_m <= 0:
-            raise ValueError(f"memory reach_m must be > 0, got {self.reach_m!r}")
-        if self.blank_reach_m and self.blank_reach_m <= self.reach_m:
-            raise ValueError(
-                f"memory blank_reach_m must be 0 (off) or above reach_m, got {self.blank_reach_m!r}"
-            )
-
-    @property
-    def n_inputs(self) -> int:
-        """Inputs the memory adds after the per-region inputs (the 40 road values)."""
-        return {"none": 0, "last_bend": 1, "previous_command": 3, "fresh_felt": 3}[self.kind]
-
-    @property
-    def policy_inputs(self) -> int:
-        """Inputs of a network with this memory: the 40 road values plus :attr:`n_inputs`."""
-        return N_REGIONS + self.n_inputs
-
-    def mirror(self, inputs: np.ndarray) -> np.ndarray:
-        """Memory inputs (N, m) as they would be in a world flipped left to right."""
-        x = np.asarray(inputs, dtype=np.float64)
-        if self.kind == "previous_command":  # the previous left becomes a right and back
-            return x[:, [0, 2, 1]]
-        if self.kind == "fresh_felt":  # the bearing changes side; amount and distance do not
-            out = x.copy()
-            out[:, 0] = 1.0 - out[:, 0]
-            return out
-        return x.copy() if self.kind == "none" else 1.0 - x
+#: ``fresh_felt``: frames the map remembers (the path is remembered for 40 commands).
+MAP_FRAMES = 25
+#: ``fresh_felt``: road value at or below which a region counts as carpet (felt level 0).
+CARPET_LEVEL = 0.3
+#: ``fresh_felt``: road value at or above which a region counts as felt (felt level 1).
+FELT_LEVEL = 0.5
+#: [m] ``fresh_felt``: the rover's nominal advance per forward command (paper preset).
+STEP_M = 0.10
+#: [deg] ``fresh_felt``: the rover's nominal turn per pivot command (paper preset).
+PIVOT_DEG = 22.9
 
 
 class TurnMemory:
     """The ``last_bend`` latch over executed commands (see the module docstring)."""
 
-    def __init__(self, config: MemoryConfig) -> None:
+    def __init__(self, config: LastBendConfig) -> None:
         if config.kind != "last_bend":
             raise ValueError(f"TurnMemory implements 'last_bend', not {config.kind!r}")
         self.config = config
@@ -329,7 +180,7 @@ class TurnMemory:
 class PreviousCommandMemory:
     """The ``previous_command`` feedback: the one-hot of the last executed command."""
 
-    def __init__(self, config: MemoryConfig) -> None:
+    def __init__(self, config: PreviousCommandConfig) -> None:
         if config.kind != "previous_command":
             raise ValueError(
                 f"PreviousCommandMemory implements 'previous_command', not {config.kind!r}"
@@ -405,12 +256,12 @@ class FreshFeltMemory:
     """The ``fresh_felt`` map (see the module docstring): felt seen lately, less where the
     rover has been, as (bearing, amount, distance) of what is left."""
 
-    def __init__(self, config: MemoryConfig) -> None:
+    def __init__(self, config: FreshFeltConfig) -> None:
         if config.kind != "fresh_felt":
             raise ValueError(f"FreshFeltMemory implements 'fresh_felt', not {config.kind!r}")
         self.config = config
         self._region_points = region_floor_points()
-        angle = math.radians(config.pivot_deg)
+        angle = math.radians(PIVOT_DEG)
         self._cos, self._sin = math.cos(angle), math.sin(angle)
         self.reset()
 
@@ -425,7 +276,7 @@ class FreshFeltMemory:
         """``points`` (N, 2) in the rover frame after it executed ``command`` (element by
         element, so the same bits on every processor)."""
         if command == Command.FORWARD:
-            return points - np.array([self.config.step_m, 0.0])
+            return points - np.array([STEP_M, 0.0])
         # A pivot turns the rover by +-angle: the map turns the other way.
         sin = -self._sin if command == Command.LEFT else self._sin
         x, y = points[:, 0], points[:, 1]
@@ -436,9 +287,7 @@ class FreshFeltMemory:
         cmd = int(command)
         if cmd not in (0, 1, 2):
             raise ValueError(f"command must be 0, 1 or 2, got {command!r}")
-        path = self._path
-        if cmd == Command.FORWARD or self.config.path_places == "every_command":
-            path = np.vstack([path, np.zeros((1, 2))])[-_PATH_COMMANDS:]
+        path = np.vstack([self._path, np.zeros((1, 2))])[-_PATH_COMMANDS:]
         self._points = self._moved(self._points, cmd)
         self._path = self._moved(path, cmd)
 
@@ -450,7 +299,7 @@ class FreshFeltMemory:
         if cmd not in (0, 1, 2):
             raise ValueError(f"command must be 0, 1 or 2, got {command!r}")
         if cmd == Command.FORWARD:
-            back = np.array([self.config.step_m, 0.0])
+            back = np.array([STEP_M, 0.0])
             self._points, self._path = self._points + back, self._path + back
             return
         undo = Command.RIGHT if cmd == Command.LEFT else Command.LEFT
@@ -461,8 +310,8 @@ class FreshFeltMemory:
         """Add a frame's road values (40,) to the map and compute the inputs."""
         cfg = self.config
         v = np.asarray(values, dtype=np.float64).reshape(N_REGIONS)
-        felt = np.clip((v - cfg.carpet) / (cfg.felt - cfg.carpet), 0.0, 1.0)
-        keep = cfg.frames * N_REGIONS
+        felt = np.clip((v - CARPET_LEVEL) / (FELT_LEVEL - CARPET_LEVEL), 0.0, 1.0)
+        keep = MAP_FRAMES * N_REGIONS
         self._points = np.vstack([self._points, self._region_points])[-keep:]
         self._felt = np.concatenate([self._felt, felt])[-keep:]
         points = self._points
@@ -627,17 +476,17 @@ def _with_picture_links(
 def policy_inputs(config: MemoryConfig | None, features: str = "road_values") -> int:
     """Inputs of a network with memory ``config`` (None: no memory) reading the per-region
     ``features`` (:mod:`lfd_track.policy.features`; default the paper's 40 road values)."""
-    return frame_inputs(features) + (config or MemoryConfig()).n_inputs
+    return frame_inputs(features) + (config or NoMemory()).n_inputs
 
 
 def memory_for(
     config: MemoryConfig | None,
 ) -> TurnMemory | PreviousCommandMemory | FreshFeltMemory | None:
     """The memory part for ``config`` (None for no memory)."""
-    if config is None or config.kind == "none":
-        return None
-    if config.kind == "previous_command":
+    if isinstance(config, PreviousCommandConfig):
         return PreviousCommandMemory(config)
-    if config.kind == "fresh_felt":
+    if isinstance(config, FreshFeltConfig):
         return FreshFeltMemory(config)
-    return TurnMemory(config)
+    if isinstance(config, LastBendConfig):
+        return TurnMemory(config)
+    return None

@@ -109,10 +109,10 @@ class SettingSpec:
             inside = inside and value <= high
         if inside:
             return None
-        what = "an integer" if self.type is int else "a finite number"
-        parts = [] if low is None else [f"{'>' if self.low_open else '>='} {low:g}"]
-        parts += [] if high is None else [f"<= {high:g}"]
-        return f"must be {what} {' and '.join(parts)}, got {value!r}"
+        parts = [] if self.type is int else ["a finite number"]
+        parts += [] if low is None else [f"{'>' if self.low_open else '>='} {low:g}"]
+        parts += [] if high is None else [f"{'and ' if low is not None else ''}<= {high:g}"]
+        return f"must be {' '.join(parts)}, got {value!r}"
 
 
 @dataclass(frozen=True)

@@ -3,6 +3,7 @@
 A study file looks like::
 
     [study]
+    schema = 2                       # the file's schema (absent: 1, see below)
     name = "beyond_the_paper"        # optional, default: the file name
     description = "..."              # optional
     seeds = [0, 1, 2]                # benchmark seeds, the same for every condition
@@ -25,6 +26,15 @@ A condition's keys (after ``[defaults]`` are merged in, table by table) are ``na
 are tables of their config's fields. Every (condition, seed) pair is one job: one run of the
 paper protocol, ``BenchmarkConfig(seed=seed, repetitions=repetitions, ...)``.
 
+A condition's ``[memory]`` table names its ``kind`` and that kind's settings
+(:mod:`lfd_track.policy.memory_config`; settings not named take the shipped defaults: for
+``fresh_felt`` the goal's chosen map). A file without ``[study] schema`` is schema 1, written when
+every ``fresh_felt`` option was off unless named: each condition's memory table (after
+``[defaults]`` is merged in) is read through
+:func:`~lfd_track.policy.memory_config.memory_table_from_v1`, so the file means what it meant
+(:data:`STUDY_MIGRATIONS`, one function per schema step). The human's settings did not change
+meaning between the schemas.
+
 Anything wrong in the file (unknown key, wrong type, unknown method, preset or track, duplicate
 name, a number out of bounds) raises :class:`~lfd_track.errors.FileFormatError`: one line naming
 the file and the problem, before any job runs or any folder is made.
@@ -36,7 +46,8 @@ file is loaded, and those configs bound their integer settings (``BenchmarkConfi
 ``GAConfig`` and the learners' configs state their limits). The integer settings whose configs
 set no upper bound are bounded here, by :data:`SETTING_LIMITS`: ``human.max_commands`` 1 to
 1,000,000, ``human.library_only_commands`` ≤ 100,000, ``human.legs`` ≤ 1,000,
-``intervention.stall_commands`` ≤ 10,000, ``memory.bend_pivots`` ≤ 1,000; any other integer
+``intervention.stall_commands`` ≤ 10,000 (the memory settings' bounds are their classes'); any
+other integer
 setting without a bound of its own by :data:`OTHER_SETTING_LIMIT` (10**9), and all of them are
 at least 0. Nested tables (``[conditions.online.intervention]``) are checked key by key too.
 
@@ -57,9 +68,10 @@ from ..benchmark.runner import BenchmarkConfig, check_tracks
 from ..core.config import dataclass_from_table, read_toml
 from ..errors import FileFormatError, LfdTrackError
 from ..learning.result import shown_int
+from ..policy.memory_config import memory_config, memory_table_from_v1
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._+-]{0,63}$")
-_STUDY_KEYS = {"name", "description", "seeds", "repetitions"}
+_STUDY_KEYS = {"schema", "name", "description", "seeds", "repetitions"}
 _TOP_KEYS = {"study", "defaults", "conditions"}
 _SET_BY_STUDY = {"seed", "repetitions"}
 # Benchmark settings a study may name before this build's BenchmarkConfig has them.
@@ -73,7 +85,6 @@ SETTING_LIMITS: dict[str, int] = {
     "human.max_commands": 1_000_000,
     "online.intervention.stall_commands": 10_000,
     "hg_dagger.intervention.stall_commands": 10_000,
-    "memory.bend_pivots": 1_000,
 }
 """Largest value of the integer settings whose configs set no bound (dotted: table.key); the
 others are bounded by their configs, which are built (and so checked) first."""
@@ -81,6 +92,23 @@ OTHER_SETTING_LIMIT = 10**9
 """Largest value of an integer setting missing from :data:`SETTING_LIMITS`."""
 SETTING_MINIMUMS: dict[str, int] = {"human.max_commands": 1}
 """Smallest value of an integer setting where its config does not check it (else 0)."""
+STUDY_SCHEMA_VERSION = 2
+"""Schema of a study file that names none is 1; this build reads 1 and 2."""
+
+
+def _condition_from_schema1(table: dict[str, Any]) -> dict[str, Any]:
+    """Schema 1 -> 2 of one condition's table (``[defaults]`` merged in): its memory table, whose
+    ``fresh_felt`` options not named were off, as the full table meaning the same map."""
+    if not isinstance(table.get("memory"), dict):
+        return table
+    return {**table, "memory": memory_table_from_v1(table["memory"])}
+
+
+STUDY_MIGRATIONS: dict[int, typing.Callable[[dict[str, Any]], dict[str, Any]]] = {
+    1: _condition_from_schema1,
+}
+"""One migration per schema step: ``STUDY_MIGRATIONS[k]`` turns a condition's table of a schema-k
+file into one of schema k + 1 meaning the same condition."""
 
 
 @dataclass(frozen=True)
@@ -160,6 +188,13 @@ def load_study(path: str | Path, *, check_names: bool = True) -> Study:
     unknown = sorted(set(study) - _STUDY_KEYS)
     if unknown:
         raise FileFormatError(path, f"unknown key 'study.{unknown[0]}'")
+    schema = study.get("schema", 1)
+    if isinstance(schema, bool) or schema not in range(1, STUDY_SCHEMA_VERSION + 1):
+        raise FileFormatError(
+            path,
+            f"'study.schema' must be one of 1..{STUDY_SCHEMA_VERSION} (this build's), got"
+            f" {_show(schema)}",
+        )
     name = study.get("name", path.stem)
     description = study.get("description", "")
     if not isinstance(name, str) or not _NAME.match(name):
@@ -205,7 +240,13 @@ def load_study(path: str | Path, *, check_names: bool = True) -> Study:
     for index, table in enumerate(tables):
         if not isinstance(table, dict):
             raise FileFormatError(path, f"condition {index + 1} must be a table")
-        condition = _condition(_merge(defaults, table), index, path, check_names)
+        merged = _merge(defaults, table)
+        try:
+            for step in range(schema, STUDY_SCHEMA_VERSION):
+                merged = STUDY_MIGRATIONS[step](merged)
+        except ValueError as exc:
+            raise FileFormatError(path, f"condition {index + 1}: {exc}") from None
+        condition = _condition(merged, index, path, check_names)
         if any(c.name == condition.name for c in conditions):
             raise FileFormatError(path, f"two conditions are named '{condition.name}'")
         conditions.append(condition)
@@ -255,7 +296,12 @@ def _condition(table: dict[str, Any], index: int, path: Path, check_names: bool)
         if key not in fields:
             raise FileFormatError(path, f"{where}: unknown key '{key}'")
         kind = hints[key]
-        if dataclasses.is_dataclass(kind):
+        if key == "memory":  # one class per memory kind: the kind picks it
+            try:
+                settings[key] = memory_config(value)
+            except ValueError as exc:
+                raise FileFormatError(path, f"[{name}.memory] {exc}") from None
+        elif dataclasses.is_dataclass(kind):
             settings[key] = _settings_from_table(kind, value, f"{name}.{key}", path)
         else:
             settings[key] = value

@@ -37,7 +37,13 @@ import numpy as np
 
 from ..core.commands import Command
 from ..core.frame import GRID_COLUMNS, GRID_ROWS, N_REGIONS
-from ..policy.memory import UNKNOWN_SIDE, MemoryConfig, fresh_bearing_rad
+from ..policy.memory import (
+    UNKNOWN_SIDE,
+    FreshFeltConfig,
+    LastBendConfig,
+    MemoryConfig,
+    fresh_bearing_rad,
+)
 
 _COLUMN_X = np.arange(GRID_COLUMNS, dtype=np.float64) - (GRID_COLUMNS - 1) / 2.0
 
@@ -62,7 +68,7 @@ class RoadRuleConfig:
     """Pivot direction on a blank view with no evidence either way (and, latched, before any
     bend)."""
     bend_pivots: int = 2
-    """Net pivots one way that make a bend (the latch; as ``MemoryConfig.bend_pivots``)."""
+    """Net pivots one way that make a bend (the latch; as ``LastBendConfig.bend_pivots``)."""
     seen_latch: bool = False
     """Pivot toward the side the felt was last seen on when the view is blank (a one-bit
     memory the rule keeps: the sign of the last non-blank frame's aim). Not with ``latch``."""
@@ -83,7 +89,7 @@ class RoadRuleConfig:
     @property
     def memory(self) -> MemoryConfig | None:
         """The memory the perception must supply (the latch), or None."""
-        return MemoryConfig(kind="last_bend", bend_pivots=self.bend_pivots) if self.latch else None
+        return LastBendConfig(bend_pivots=self.bend_pivots) if self.latch else None
 
 
 @dataclass
@@ -141,8 +147,9 @@ class FreshFeltRuleConfig:
     turn_deg: float = 20.0
     """[deg] bearing of the fresh felt beyond which the rule pivots toward it (the default
     and the memory's defaults are the limits experiment's choice, part 2c)."""
-    memory: MemoryConfig = field(default_factory=lambda: MemoryConfig(kind="fresh_felt"))
-    """The map's settings (kind ``fresh_felt``)."""
+    memory: MemoryConfig = field(default_factory=FreshFeltConfig.plain)
+    """The map's settings (kind ``fresh_felt``; default the map with every option off, as the
+    limits experiment tuned the rule on)."""
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.turn_deg < 180.0:

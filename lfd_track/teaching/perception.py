@@ -26,7 +26,7 @@ import numpy as np
 
 from ..core.commands import Command
 from ..policy.features import DEFAULT_FEATURES, check_features, colour_features
-from ..policy.memory import MemoryConfig, memory_for, policy_inputs
+from ..policy.memory import MemoryConfig, NoMemory, memory_for, policy_inputs
 from ..vision.road_library import RoadLibrary
 
 LEARNING_RULES = ("careful", "paused", "frozen", "always")
@@ -80,7 +80,7 @@ class Perception:
     ) -> None:
         self.library = library
         self.rule = rule
-        self.memory_config = memory or MemoryConfig()
+        self.memory_config = memory or NoMemory()
         self.features = check_features(features)
         if features == "none" and not self.memory_config.n_inputs:
             raise ValueError(

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -27,7 +27,7 @@ from ..benchmark.methods import OnlineConfig
 from ..core.commands import Command
 from ..dataset import DemonstrationWriter
 from ..dataset.recording import RecordingTarget, ReplacingWriter
-from ..policy.memory import MemoryConfig
+from ..policy.memory import MemoryConfig, NoMemory
 from ..teaching.arbiter import Arbiter
 from ..teaching.commanders import PolicyCommander
 from ..teaching.loop import Step, TeachingLoop
@@ -70,11 +70,9 @@ class TeachConfig:
     the intervention settings are the benchmark's only."""
     population_size: int = 40
     """GA population of the online learner (the paper's 40)."""
-    memory: str = "none"
-    """Memory inputs recorded with every case (a :data:`~lfd_track.policy.memory.MEMORY_KINDS`)."""
-    map_settings: Mapping[str, Any] = field(default_factory=dict)
-    """With ``memory = "fresh_felt"``: the map's settings, as ``MemoryConfig`` keyword arguments
-    (``blank_bearing``, ``strip_link_m`` ...; the defaults where absent)."""
+    memory: MemoryConfig = field(default_factory=NoMemory)
+    """Memory inputs recorded with every case, and their settings (one of the kinds'
+    classes of :mod:`lfd_track.policy.memory_config`)."""
     features: str = "road_values"
     """Per-region inputs of the online policy (:data:`~lfd_track.policy.features.FEATURE_SETS`;
     ``"none"``: the memory inputs alone)."""
@@ -499,7 +497,7 @@ def open_session(config: TeachConfig) -> LoopSession:
         perception = Perception(
             RoadLibrary(),
             "careful",
-            _memory_config(config),
+            config.memory,
             config.features,
         )
         writer = target.writer(metadata, perception, fsync=True, overwrite=config.force)
@@ -565,13 +563,6 @@ def open_session(config: TeachConfig) -> LoopSession:
         if not target.replacing:
             out.unlink(missing_ok=True)  # nothing was taught: leave no empty recording behind
         raise
-
-
-def _memory_config(config: TeachConfig) -> MemoryConfig:
-    """The memory settings the session records (and its online policy reads)."""
-    if config.memory != "fresh_felt":
-        return MemoryConfig(kind=config.memory)
-    return MemoryConfig(kind="fresh_felt", **config.map_settings)
 
 
 def _online_parts(config: TeachConfig, n_inputs: int) -> tuple[PolicyCommander, Any]:

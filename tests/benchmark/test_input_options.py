@@ -23,10 +23,10 @@ from lfd_track.learning.cmaes import CMAESConfig
 from lfd_track.learning.ga import GAConfig
 from lfd_track.policy.controller import Controller
 from lfd_track.policy.elman import elman_sequence
-from lfd_track.policy.memory import MemoryConfig
+from lfd_track.policy.memory import FreshFeltConfig, PreviousCommandConfig
 
 COLOUR = "road_values+colour"
-PREVIOUS = MemoryConfig(kind="previous_command")
+PREVIOUS = PreviousCommandConfig()
 
 
 def _seeds() -> tuple[int, int]:
@@ -67,7 +67,7 @@ def test_hg_dagger_learns_and_drives_with_colour_and_the_previous_command(tmp_pa
     assert main([*args, "--features", COLOUR, "--out", str(out)]) == 0
     evolved = Controller.load(out)
     assert evolved.features == COLOUR and evolved.memory == PREVIOUS
-    assert evolved.to_dict()["schema_version"] == 4
+    assert evolved.to_dict()["schema_version"] == 5
 
 
 def test_bc_learns_the_colour_features_and_the_run_records_them(tmp_path):
@@ -95,7 +95,7 @@ def test_dagger_learns_and_drives_a_network_that_reads_its_memory_alone(tmp_path
     from lfd_track.benchmark.dagger import DaggerConfig, learn_dagger
 
     demo_seed, ga_seed = _seeds()
-    narrow = MemoryConfig(kind="fresh_felt", blank_bearing="last", bearing_range_deg=30.0)
+    narrow = FreshFeltConfig.plain(blank_bearing="last", bearing_range_deg=30.0)
     learned = learn_dagger(
         tmp_path,
         demo_seed=demo_seed,

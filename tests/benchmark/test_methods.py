@@ -259,10 +259,10 @@ def test_hg_dagger_with_memory_keeps_it_in_every_file(tmp_path):
     memory settings (the demonstration, which holds the road library, evolves on its own)."""
     from lfd_track.cli import main
     from lfd_track.policy.controller import Controller
-    from lfd_track.policy.memory import MemoryConfig
+    from lfd_track.policy.memory import LastBendConfig
 
     demo_seed, ga_seed, _ = _seeds(0)
-    memory = MemoryConfig(kind="last_bend")
+    memory = LastBendConfig()
     learned = learn_hg_dagger(
         tmp_path,
         demo_seed=demo_seed,

@@ -401,10 +401,10 @@ def test_without_the_minari_extra_the_commands_name_it_in_one_line(tmp_path, blo
 
 
 def test_memory_inputs_travel_with_the_cases(sample, tmp_path):
-    from lfd_track.policy.memory import MemoryConfig
+    from lfd_track.policy.memory import LastBendConfig
 
     demo = load_demonstration(sample[0])
-    settings = MemoryConfig(kind="last_bend")
+    settings = LastBendConfig()
     memory = np.random.default_rng(0).choice([0.0, 0.5, 1.0], size=(demo.n_cases, 1))
     with_memory = dataclasses.replace(
         demo, memory=memory, metadata=dict(demo.metadata, memory=settings.to_dict())

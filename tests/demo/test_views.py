@@ -21,12 +21,10 @@ from lfd_track.demo.views import VIEW_LABELS, ViewCases, pose_before
 from lfd_track.envs.presets import load_preset
 from lfd_track.envs.track_env import LfDTrackEnv
 from lfd_track.learning.bc import BCConfig
-from lfd_track.policy.memory import FreshFeltMemory, MemoryConfig, memory_for
+from lfd_track.policy.memory import FreshFeltConfig, FreshFeltMemory, memory_config, memory_for
 from lfd_track.teaching.scripted import HumanConfig
 
-MAP = MemoryConfig(
-    kind="fresh_felt", blank_bearing="last", bearing_range_deg=30.0, strip_link_m=0.15
-)
+MAP = FreshFeltConfig.plain(blank_bearing="last", bearing_range_deg=30.0, strip_link_m=0.15)
 PICTURE = HumanConfig(steers_by="picture", reaction_delay_prob=0.0, lapse_prob=0.0, legs=1)
 
 
@@ -106,7 +104,7 @@ def test_a_map_placed_one_command_before_comes_back_with_that_command(command):
 
 def test_memories_of_commands_only_do_not_move_with_the_rover():
     for kind in ("last_bend", "previous_command"):
-        memory = memory_for(MemoryConfig(kind=kind))
+        memory = memory_for(memory_config({"kind": kind}))
         for command in (1, 1, 0, 2):
             memory.note(command)
         before = memory.inputs()

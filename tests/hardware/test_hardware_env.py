@@ -494,7 +494,7 @@ def test_cli_demo_records_memory_inputs_on_the_simulated_firmware(
     from lfd_track.core.commands import Command
     from lfd_track.dataset import load_demonstration
     from lfd_track.hardware import teleop
-    from lfd_track.policy.memory import MemoryConfig
+    from lfd_track.policy.memory import LastBendConfig
 
     class Keys:
         """Forward, left, right, forward, then quit."""
@@ -522,7 +522,7 @@ def test_cli_demo_records_memory_inputs_on_the_simulated_firmware(
         )  # fmt: skip
     assert code == 0, capsys.readouterr().err
     demo = load_demonstration(out)
-    memory = MemoryConfig(kind="last_bend")
+    memory = LastBendConfig()
     assert demo.metadata["complete"]
     assert demo.commands.tolist() == [Command.FORWARD, Command.LEFT, Command.RIGHT, Command.FORWARD]
     assert demo.memory_settings() == memory

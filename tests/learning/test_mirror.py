@@ -6,10 +6,10 @@ import pytest
 from lfd_track.benchmark.runner import BenchmarkConfig, config_dict
 from lfd_track.envs.track_env import LfDTrackEnv
 from lfd_track.learning.mirror import mirror_cases, with_mirrored
-from lfd_track.policy.memory import MemoryConfig
+from lfd_track.policy.memory import LastBendConfig
 from lfd_track.vision.road_library import RoadLibrary
 
-LAST_BEND = MemoryConfig(kind="last_bend")
+LAST_BEND = LastBendConfig()
 
 
 def _frames():
@@ -57,5 +57,5 @@ def test_memory_sides_swap_and_mirroring_twice_is_the_identity():
 
 
 def test_mirroring_is_stored_only_when_asked_for():
-    assert "mirror" not in config_dict(BenchmarkConfig())
+    assert config_dict(BenchmarkConfig())["mirror"] is False  # every setting is written
     assert config_dict(BenchmarkConfig(mirror=True))["mirror"] is True

@@ -1,5 +1,6 @@
 """The ``fresh_felt`` memory: a dead-reckoned map of felt not yet driven along, and the rule on it."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -12,10 +13,15 @@ from lfd_track.envs.track_env import LfDTrackEnv
 from lfd_track.learning.mirror import mirror_cases
 from lfd_track.policy.controller import Controller
 from lfd_track.policy.memory import (
+    MAP_FRAMES,
+    PIVOT_DEG,
+    FreshFeltConfig,
     FreshFeltMemory,
+    LastBendConfig,
     MemoryConfig,
     _links,
     fresh_bearing_rad,
+    memory_config,
     memory_for,
     policy_inputs,
     region_floor_points,
@@ -24,7 +30,7 @@ from lfd_track.teaching import Arbiter, Perception, TeachingLoop
 from lfd_track.teaching.handwritten import FreshFeltRule, FreshFeltRuleConfig
 
 F, L, R = Command.FORWARD, Command.LEFT, Command.RIGHT
-FRESH = MemoryConfig(kind="fresh_felt")
+FRESH = FreshFeltConfig.plain()
 
 
 def _values(columns: set[int], rows: set[int] | None = None) -> np.ndarray:
@@ -73,11 +79,11 @@ def test_a_pivot_moves_the_remembered_felt_the_other_way_by_the_pivot_angle():
     memory.see(_values({3, 4}))
     memory.note(L)
     memory.see(_values(set()))  # the felt left the picture: the map still has it
-    assert _bearing_deg(memory.inputs()) == pytest.approx(-FRESH.pivot_deg, abs=1e-9)
+    assert _bearing_deg(memory.inputs()) == pytest.approx(-PIVOT_DEG, abs=1e-9)
     memory.note(R)
     memory.note(R)
     memory.see(_values(set()))
-    assert _bearing_deg(memory.inputs()) == pytest.approx(FRESH.pivot_deg, abs=1e-9)
+    assert _bearing_deg(memory.inputs()) == pytest.approx(PIVOT_DEG, abs=1e-9)
 
 
 def test_felt_where_the_rover_has_been_is_not_fresh():
@@ -91,7 +97,7 @@ def test_felt_where_the_rover_has_been_is_not_fresh():
 
 
 def test_felt_behind_the_axle_and_beyond_reach_does_not_count():
-    memory = FreshFeltMemory(MemoryConfig(kind="fresh_felt", reach_m=0.5))
+    memory = FreshFeltMemory(FreshFeltConfig.plain(reach_m=0.5))
     memory.see(_values({3, 4}, rows={0, 1}))  # 0.8 m and 1.3 m ahead: beyond 0.5 m
     assert memory.inputs()[1] == 0.0
     memory = FreshFeltMemory(FRESH)
@@ -103,33 +109,34 @@ def test_felt_behind_the_axle_and_beyond_reach_does_not_count():
 
 
 def test_the_map_forgets_frames_beyond_its_length_and_reset_forgets_all():
-    memory = FreshFeltMemory(MemoryConfig(kind="fresh_felt", frames=2, path_radius_m=0.0))
+    memory = FreshFeltMemory(FreshFeltConfig.plain(path_radius_m=0.0))
     memory.see(_values({0}))
-    memory.see(_values(set()))
+    for _ in range(MAP_FRAMES - 1):
+        memory.see(_values(set()))
     assert memory.inputs()[1] > 0
-    memory.see(_values(set()))  # the frame with felt is the third back: forgotten
+    memory.see(_values(set()))  # the frame with felt is one beyond the map's length: forgotten
     assert memory.inputs()[1] == 0.0
     memory.see(_values({0}))
     memory.reset()
     np.testing.assert_array_equal(memory.inputs(), [0.5, 0.0, 0.0])
 
 
-def test_settings_are_checked_and_written_only_for_this_kind():
+def test_settings_are_checked_and_written_in_full_for_this_kind():
     assert isinstance(memory_for(FRESH), FreshFeltMemory)
     assert policy_inputs(FRESH) == N_REGIONS + 3
     assert MemoryConfig.from_dict(FRESH.to_dict()) == FRESH
-    assert set(MemoryConfig(kind="last_bend").to_dict()) == {"kind", "bend_pivots"}
+    assert set(LastBendConfig().to_dict()) == {"kind", "bend_pivots"}
+    assert set(FRESH.to_dict()) == {"kind", *(f.name for f in dataclasses.fields(FreshFeltConfig))}
     for bad in (
-        {"frames": 0},
-        {"frames": 2.5},
+        {"frames": 25},  # the map's length, step and pivot are constants now
         {"reach_m": 0.0},
         {"path_radius_m": -1.0},
-        {"step_m": float("nan")},
-        {"carpet": 0.6},
-        {"pivot_deg": True},
+        {"reach_m": float("nan")},
+        {"carpet": 0.3},
+        {"bearing_range_deg": True},
     ):
         with pytest.raises(ValueError, match="memory"):
-            MemoryConfig(kind="fresh_felt", **bad)
+            memory_config({"kind": "fresh_felt", **bad})
 
 
 def test_mirroring_swaps_the_bearing_side_and_keeps_amount_and_distance():
@@ -152,7 +159,7 @@ def test_the_rule_turns_toward_fresh_felt_and_keeps_turning_when_there_is_none()
     rule.reset()
     assert rule.act(np.array([0.5, 0.0, 0.0])) == L
     with pytest.raises(ValueError, match="fresh_felt"):
-        FreshFeltRuleConfig(memory=MemoryConfig(kind="last_bend"))
+        FreshFeltRuleConfig(memory=LastBendConfig())
 
 
 def test_perception_feeds_each_frame_to_the_map_and_the_loop_moves_it():
@@ -181,7 +188,7 @@ def test_a_controller_with_this_memory_saves_loads_and_drives_the_same(tmp_path)
 
 
 def test_blank_bearing_last_keeps_the_side_of_the_last_fresh_felt():
-    last = FreshFeltMemory(MemoryConfig(kind="fresh_felt", blank_bearing="last"))
+    last = FreshFeltMemory(FreshFeltConfig.plain(blank_bearing="last"))
     centre = FreshFeltMemory(FRESH)
     for memory in (last, centre):
         memory.see(_values({7}, rows={4}))  # felt just ahead, on the right
@@ -198,15 +205,15 @@ def test_blank_bearing_last_keeps_the_side_of_the_last_fresh_felt():
 
 def test_blank_bearing_is_checked_and_written_only_when_last():
     with pytest.raises(ValueError, match="memory blank_bearing must be one of centre, last"):
-        MemoryConfig(kind="fresh_felt", blank_bearing="left")
-    assert "blank_bearing" not in FRESH.to_dict()  # fresh_felt files as before the option
-    last = MemoryConfig(kind="fresh_felt", blank_bearing="last")
+        FreshFeltConfig.plain(blank_bearing="left")
+    assert FRESH.to_dict()["blank_bearing"] == "centre"  # every setting is written
+    last = FreshFeltConfig.plain(blank_bearing="last")
     assert last.to_dict()["blank_bearing"] == "last"
     assert MemoryConfig.from_dict(last.to_dict()) == last
 
 
 def test_a_narrower_bearing_range_spreads_and_clips_the_bearing_input():
-    narrow = MemoryConfig(kind="fresh_felt", bearing_range_deg=30.0)
+    narrow = FreshFeltConfig.plain(bearing_range_deg=30.0)
     wide_memory, narrow_memory = FreshFeltMemory(FRESH), FreshFeltMemory(narrow)
     for memory in (wide_memory, narrow_memory):
         memory.see(_values({2}, rows={3, 4}))  # felt a little left of ahead
@@ -223,7 +230,7 @@ def test_a_narrower_bearing_range_spreads_and_clips_the_bearing_input():
 
 
 def test_the_rule_reads_the_bearing_with_its_maps_range():
-    narrow = MemoryConfig(kind="fresh_felt", bearing_range_deg=30.0)
+    narrow = FreshFeltConfig.plain(bearing_range_deg=30.0)
     rule = FreshFeltRule(FreshFeltRuleConfig(turn_deg=20.0, memory=narrow))
     # 15 deg left: 0.75 in a +-30 deg range (0.54 in the full circle's); 25 deg right: 0.083.
     assert rule.act(np.array([0.5 + 15 / 60, 0.5, 0.5])) == F
@@ -236,9 +243,9 @@ def test_the_rule_reads_the_bearing_with_its_maps_range():
 def test_bearing_range_is_checked_and_written_only_when_narrower():
     for bad in (0.0, -10.0, 190.0, True, "30"):
         with pytest.raises(ValueError, match="memory bearing_range_deg"):
-            MemoryConfig(kind="fresh_felt", bearing_range_deg=bad)
-    assert "bearing_range_deg" not in FRESH.to_dict()  # files as before the option
-    narrow = MemoryConfig(kind="fresh_felt", bearing_range_deg=30.0)
+            FreshFeltConfig.plain(bearing_range_deg=bad)
+    assert FRESH.to_dict()["bearing_range_deg"] == 180.0  # every setting is written
+    narrow = FreshFeltConfig.plain(bearing_range_deg=30.0)
     assert narrow.to_dict()["bearing_range_deg"] == 30.0
     assert MemoryConfig.from_dict(narrow.to_dict()) == narrow
 
@@ -248,14 +255,14 @@ def test_strip_link_keeps_only_the_felt_connected_to_the_rovers_own_strip():
     the left (column 0): without the option the patch pulls the bearing left; with links of
     0.15 m it is not on the rover's strip and the bearing is straight ahead."""
     values = _values({3, 4}, rows={3, 4}) + _values({0}, rows={3})
-    plain = FreshFeltMemory(MemoryConfig(kind="fresh_felt"))
-    strip = FreshFeltMemory(MemoryConfig(kind="fresh_felt", strip_link_m=0.15))
+    plain = FreshFeltMemory(FreshFeltConfig.plain())
+    strip = FreshFeltMemory(FreshFeltConfig.plain(strip_link_m=0.15))
     plain.see(values)
     strip.see(values)
     assert _bearing_deg(plain.inputs()) > 5.0
     assert abs(_bearing_deg(strip.inputs())) < 1e-6
     assert strip.inputs()[1] < plain.inputs()[1]
-    lonely = FreshFeltMemory(MemoryConfig(kind="fresh_felt", strip_link_m=0.15))
+    lonely = FreshFeltMemory(FreshFeltConfig.plain(strip_link_m=0.15))
     lonely.see(_values({0}, rows={3}))  # felt, but none under the rover: no strip, nothing fresh
     np.testing.assert_array_equal(lonely.inputs(), [0.5, 0.0, 0.0])
 
@@ -284,7 +291,7 @@ def test_strip_links_from_the_grid_are_every_pair_a_full_table_links(seed):
 def test_blank_reach_looks_further_only_while_nothing_is_fresh_near():
     far_only = _values({3, 4}, rows={1})  # felt 0.79 m ahead: beyond reach_m (0.6)
     plain = FreshFeltMemory(FRESH)
-    wide = FreshFeltMemory(MemoryConfig(kind="fresh_felt", blank_reach_m=1.0))
+    wide = FreshFeltMemory(FreshFeltConfig.plain(blank_reach_m=1.0))
     plain.see(far_only)
     wide.see(far_only)
     np.testing.assert_array_equal(plain.inputs(), [0.5, 0.0, 0.0])
@@ -300,61 +307,49 @@ def test_blank_reach_looks_further_only_while_nothing_is_fresh_near():
 
 
 def test_strip_and_blank_reach_are_checked_and_written_only_when_set():
-    assert "strip_link_m" not in FRESH.to_dict() and "blank_reach_m" not in FRESH.to_dict()
-    both = MemoryConfig(kind="fresh_felt", strip_link_m=0.15, blank_reach_m=1.0)
+    assert FRESH.to_dict()["strip_link_m"] == 0.0 and FRESH.to_dict()["blank_reach_m"] == 0.0
+    both = FreshFeltConfig.plain(strip_link_m=0.15, blank_reach_m=1.0)
     assert both.to_dict()["strip_link_m"] == 0.15 and both.to_dict()["blank_reach_m"] == 1.0
     assert MemoryConfig.from_dict(both.to_dict()) == both
-    assert "strip_link_m" not in MemoryConfig(kind="last_bend", strip_link_m=0.15).to_dict()
+    with pytest.raises(ValueError, match="unknown memory setting 'strip_link_m' for kind 'last_"):
+        memory_config({"kind": "last_bend", "strip_link_m": 0.15})
     with pytest.raises(ValueError, match="memory blank_reach_m must be 0"):
-        MemoryConfig(kind="fresh_felt", blank_reach_m=0.5)
+        FreshFeltConfig.plain(blank_reach_m=0.5)
     with pytest.raises(ValueError, match="memory strip_link_m"):
-        MemoryConfig(kind="fresh_felt", strip_link_m=-0.1)
+        FreshFeltConfig.plain(strip_link_m=-0.1)
 
 
 def test_a_strip_from_the_nearest_felt_keeps_a_rover_that_drifted_off_it_going():
     """Felt only 0.54 m ahead (row 2) and none under the rover: a strip that starts at the axle
     finds nothing fresh; one that starts from the nearest felt finds that felt, straight ahead."""
     ahead = _values({2, 3, 4, 5}, rows={2})
-    axle = FreshFeltMemory(MemoryConfig(kind="fresh_felt", strip_link_m=0.15))
-    nearest = FreshFeltMemory(
-        MemoryConfig(kind="fresh_felt", strip_link_m=0.15, strip_from="nearest")
-    )
+    axle = FreshFeltMemory(FreshFeltConfig.plain(strip_link_m=0.15))
+    nearest = FreshFeltMemory(FreshFeltConfig.plain(strip_link_m=0.15, strip_from="nearest"))
     axle.see(ahead)
     nearest.see(ahead)
     np.testing.assert_array_equal(axle.inputs(), [0.5, 0.0, 0.0])
     assert nearest.inputs()[1] > 0 and abs(_bearing_deg(nearest.inputs())) < 1e-6
     assert nearest.config.to_dict()["strip_from"] == "nearest"
-    assert "strip_from" not in axle.config.to_dict()
+    assert axle.config.to_dict()["strip_from"] == "axle"
     with pytest.raises(ValueError, match="memory strip_from must be one of axle, nearest"):
-        MemoryConfig(kind="fresh_felt", strip_from="middle")
+        FreshFeltConfig.plain(strip_from="middle")
 
 
-def test_with_forward_path_places_pivoting_does_not_push_the_path_out_of_memory():
-    """After 3 m forward, 40 pivots on the spot: every command leaves a place by default, so the
-    path is only the spot (the strip behind is fresh again); with ``path_places = "forward"`` it
-    is still the last 3 m driven."""
+def test_every_command_leaves_a_place_on_the_path():
+    """After 3 m forward, 40 pivots on the spot: every command leaves a place, so the path is
+    only the spot (the strip behind is fresh again)."""
     plain = FreshFeltMemory(FRESH)
-    forward = FreshFeltMemory(MemoryConfig(kind="fresh_felt", path_places="forward"))
-    for memory in (plain, forward):
-        for _ in range(30):
-            memory.note(F)
-        for _ in range(40):
-            memory.note(L)
+    for _ in range(30):
+        plain.note(F)
+    for _ in range(40):
+        plain.note(L)
     assert len(plain._path) == 40 and np.allclose(plain._path, 0.0)
-    assert len(forward._path) == 30
-    np.testing.assert_allclose(np.hypot(*forward._path.T)[::-1], 0.1 * np.arange(1, 31))
-    assert forward.config.to_dict()["path_places"] == "forward"
-    assert "path_places" not in FRESH.to_dict()
-    with pytest.raises(ValueError, match="memory path_places must be one of every_command, fo"):
-        MemoryConfig(kind="fresh_felt", path_places="pivots")
 
 
 def test_blank_distance_reach_reads_felt_found_further_as_at_the_edge_of_reach():
     far_only = _values({3, 4}, rows={1})  # felt 0.79 m ahead: beyond reach_m (0.6)
-    wide = FreshFeltMemory(MemoryConfig(kind="fresh_felt", blank_reach_m=1.0))
-    edge = FreshFeltMemory(
-        MemoryConfig(kind="fresh_felt", blank_reach_m=1.0, blank_distance="reach")
-    )
+    wide = FreshFeltMemory(FreshFeltConfig.plain(blank_reach_m=1.0))
+    edge = FreshFeltMemory(FreshFeltConfig.plain(blank_reach_m=1.0, blank_distance="reach"))
     wide.see(far_only)
     edge.see(far_only)
     assert wide.inputs()[2] < 1.0 and edge.inputs()[2] == 1.0  # 0.79 / 0.6, clipped
@@ -365,9 +360,9 @@ def test_blank_distance_reach_reads_felt_found_further_as_at_the_edge_of_reach()
     edge.see(near)
     np.testing.assert_array_equal(wide.inputs(), edge.inputs())
     assert edge.config.to_dict()["blank_distance"] == "reach"
-    assert "blank_distance" not in wide.config.to_dict()
+    assert wide.config.to_dict()["blank_distance"] == "blank_reach"
     with pytest.raises(ValueError, match="memory blank_distance must be one of blank_reach, r"):
-        MemoryConfig(kind="fresh_felt", blank_distance="far")
+        FreshFeltConfig.plain(blank_distance="far")
 
 
 def test_visited_fade_weighs_felt_by_how_far_it_lies_beyond_the_path_radius():
@@ -375,16 +370,16 @@ def test_visited_fade_weighs_felt_by_how_far_it_lies_beyond_the_path_radius():
     the path radius weighs less, so less fresh felt is left and its centre lies further."""
     values = _values({2, 3, 4, 5})
     hard = FreshFeltMemory(FRESH)
-    soft = FreshFeltMemory(MemoryConfig(kind="fresh_felt", visited_fade_m=0.3))
+    soft = FreshFeltMemory(FreshFeltConfig.plain(visited_fade_m=0.3))
     for memory in (hard, soft):
         memory.note(F)
         memory.see(values)
     assert 0 < soft.inputs()[1] < hard.inputs()[1]
     assert soft.inputs()[2] > hard.inputs()[2]
     assert soft.config.to_dict()["visited_fade_m"] == 0.3
-    assert "visited_fade_m" not in FRESH.to_dict()
+    assert FRESH.to_dict()["visited_fade_m"] == 0.0
     with pytest.raises(ValueError, match="memory visited_fade_m must be a finite number >= 0"):
-        MemoryConfig(kind="fresh_felt", visited_fade_m=-0.1)
+        FreshFeltConfig.plain(visited_fade_m=-0.1)
 
 
 def test_picture_links_join_the_far_rows_a_strip_link_cannot_reach():
@@ -394,10 +389,8 @@ def test_picture_links_join_the_far_rows_a_strip_link_cannot_reach():
     1.2 m within which felt is linked at all, and felt that touches nothing (a patch in the
     far left corner, across carpet) stays off."""
     values = _values({3, 4}) + _values({0}, rows={1})
-    plain = FreshFeltMemory(MemoryConfig(kind="fresh_felt", strip_link_m=0.15))
-    linked = FreshFeltMemory(
-        MemoryConfig(kind="fresh_felt", strip_link_m=0.15, strip_picture_links=True)
-    )
+    plain = FreshFeltMemory(FreshFeltConfig.plain(strip_link_m=0.15))
+    linked = FreshFeltMemory(FreshFeltConfig.plain(strip_link_m=0.15, strip_picture_links=True))
     on = {}
     for name, memory in (("plain", plain), ("linked", linked)):
         memory.see(values)
@@ -407,6 +400,6 @@ def test_picture_links_join_the_far_rows_a_strip_link_cannot_reach():
     assert on["plain"] == strip - {GRID_COLUMNS + 3, GRID_COLUMNS + 4}
     assert on["linked"] == strip
     assert linked.config.to_dict()["strip_picture_links"] is True
-    assert "strip_picture_links" not in plain.config.to_dict()
+    assert plain.config.to_dict()["strip_picture_links"] is False
     with pytest.raises(ValueError, match="memory strip_picture_links must be true or false"):
-        MemoryConfig(kind="fresh_felt", strip_picture_links=1)
+        FreshFeltConfig.plain(strip_picture_links=1)

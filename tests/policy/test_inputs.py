@@ -22,13 +22,13 @@ from lfd_track.learning.ga import GAConfig, evolve
 from lfd_track.learning.mirror import mirror_cases
 from lfd_track.policy.controller import Controller
 from lfd_track.policy.features import colour_features, frame_inputs
-from lfd_track.policy.memory import MemoryConfig, PreviousCommandMemory
+from lfd_track.policy.memory import PreviousCommandConfig, PreviousCommandMemory, memory_config
 from lfd_track.teaching.perception import Perception
 from lfd_track.vision.histograms import N_CHANNELS
 from lfd_track.vision.synthetic import patch_library, synthetic_frames
 
 COLOUR = "road_values+colour"
-PREVIOUS = MemoryConfig(kind="previous_command")
+PREVIOUS = PreviousCommandConfig()
 
 
 @pytest.fixture(scope="module")
@@ -141,7 +141,7 @@ def test_previous_command_memory_is_the_last_executed_command():
     np.testing.assert_array_equal(memory.inputs(), [0, 0, 0])
     assert PREVIOUS.n_inputs == 3
     with pytest.raises(ValueError, match="memory kind must be one of"):
-        MemoryConfig(kind="previous_output")
+        memory_config({"kind": "previous_output"})
 
 
 # ------------------------------------------------------------------ learners and the file
@@ -209,15 +209,16 @@ def test_cma_es_learns_the_colour_features(tmp_path, library):
     _check_round_trip(tmp_path, controller, x)
 
 
-def test_the_file_records_the_options_and_old_layouts_are_unchanged(tmp_path, library):
+def test_the_file_records_every_option(tmp_path, library):
     w40 = np.zeros(215)
     plain = Controller(library, w40).to_dict()
-    assert plain["schema_version"] == 2 and "features" not in plain and "memory" not in plain
+    assert plain["schema_version"] == 5 and plain["features"] == "road_values"
+    assert plain["memory"] is None
     memory = Controller(library, np.zeros(5 * 43 + 15), memory=PREVIOUS).to_dict()
-    assert memory["schema_version"] == 3 and "features" not in memory
-    assert memory["memory"]["kind"] == "previous_command"
+    assert memory["schema_version"] == 5 and memory["features"] == "road_values"
+    assert memory["memory"] == {"kind": "previous_command"}
     colour = Controller(library, np.zeros(5 * 160 + 15), features=COLOUR).to_dict()
-    assert colour["schema_version"] == 4
+    assert colour["schema_version"] == 5
     assert colour["features"] == COLOUR and colour["memory"] is None
     assert colour["layer_sizes"] == [160, 5, 3]
     both = Controller(library, np.zeros(5 * 163 + 15), features=COLOUR, memory=PREVIOUS)
@@ -227,21 +228,21 @@ def test_the_file_records_the_options_and_old_layouts_are_unchanged(tmp_path, li
     with pytest.raises(ValueError, match="features must be one of"):
         Controller(library, w40, features="colour")
     alone = Controller(library, np.zeros(5 * 3 + 15), features="none", memory=PREVIOUS).to_dict()
-    assert alone["schema_version"] == 4 and alone["features"] == "none"
+    assert alone["schema_version"] == 5 and alone["features"] == "none"
     assert alone["layer_sizes"] == [3, 5, 3] and alone["memory"]["kind"] == "previous_command"
     with pytest.raises(ValueError, match="features 'none' .* needs a memory"):
         Controller(library, np.zeros(15), features="none")
 
 
-def test_a_damaged_schema_4_file_is_refused_in_one_line(tmp_path, library):
+def test_a_damaged_file_is_refused_in_one_line(tmp_path, library):
     from lfd_track.errors import FileFormatError
     from lfd_track.policy.controller import checksum
 
     good = Controller(library, np.zeros(5 * 160 + 15), features=COLOUR).to_dict()
     for change, message in [
         ({"features": "road_values+depth"}, "features 'road_values+depth' are not supported"),
-        ({"features": "road_values"}, "must name features beyond the road values"),
-        ({"memory": {"kind": "none", "bend_pivots": 2}}, "stores null as its memory"),
+        ({"memory": {"kind": "none"}}, "stores null as its memory"),
+        ({"memory": {"kind": "last_bend", "bend_pivots": 0}}, "memory bend_pivots must be an"),
         ({"layer_sizes": [40, 5, 3]}, "expected [160, 5, 3]"),
         ({"features": "none", "layer_sizes": [0, 5, 3]}, "it needs a memory"),
     ]:
@@ -331,7 +332,7 @@ name = "paper"
     assert colour.config.features == "road_values+colour"
     assert colour.config.memory == PREVIOUS
     assert config_dict(colour.config)["features"] == "road_values+colour"
-    assert "features" not in config_dict(paper.config)  # results of older runs stay as they were
+    assert config_dict(paper.config)["features"] == "road_values"  # every setting is written
     path.write_text(base.replace('"road_values+colour"', '"colours"'))
     with pytest.raises(FileFormatError, match="features must be one of"):
         load_study(path, check_names=False)

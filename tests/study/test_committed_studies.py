@@ -4,10 +4,13 @@ only rewrites the summary)."""
 
 from __future__ import annotations
 
+import dataclasses
+import json
 from pathlib import Path
 
 import pytest
 
+from lfd_track.policy.memory_config import REMOVED_SETTINGS
 from lfd_track.study.run import load_finished
 from lfd_track.study.spec import load_study
 
@@ -43,3 +46,30 @@ def test_committed_study_loads_and_its_results_are_complete(study_file, monkeypa
     assert (out / "study.json").is_file() and (out / "study.md").is_file()
     jobs = load_finished(study, out)
     assert len(jobs) == len(study.conditions) * len(study.seeds)
+
+
+# What the code before study schema 2 made of each condition's memory and human settings (every
+# field; tests/data/committed_studies_v1_settings.json, written by that code from these files).
+_V1 = json.loads((REPO / "tests" / "data" / "committed_studies_v1_settings.json").read_text())
+
+
+def test_every_committed_study_keeps_its_memory_and_human_settings(monkeypatch):
+    """Schema-1 files (no ``[study] schema``) are migrated on reading, and files rewritten since
+    against the new defaults (``chosen.toml``) say the same: every condition's map is the one it
+    was, with the settings removed since at the only value they keep."""
+    monkeypatch.chdir(REPO)
+    seen = set()
+    for study_file in STUDIES:
+        study = load_study(study_file, check_names=False)
+        for condition in study.conditions:
+            key = f"{study.name}/{condition.name}"
+            memory_index, human_index = _V1["conditions"][key]
+            old = _V1["memory"][memory_index]
+            memory = condition.config.memory
+            fields = [f.name for f in dataclasses.fields(memory)]
+            assert memory.to_dict() == {"kind": old["kind"], **{f: old[f] for f in fields}}, key
+            if memory.kind == "fresh_felt":
+                assert {k: old[k] for k in REMOVED_SETTINGS} == REMOVED_SETTINGS, key
+            assert dataclasses.asdict(condition.config.human) == _V1["human"][human_index], key
+            seen.add(key)
+    assert seen == set(_V1["conditions"])  # every condition of every committed study

@@ -15,17 +15,17 @@ from lfd_track.learning.cmaes import CMAESConfig, fit_cmaes
 from lfd_track.learning.fitness import imitation_fitness, population_outputs
 from lfd_track.learning.ga import GAConfig, evolve
 from lfd_track.policy.controller import Controller
-from lfd_track.policy.memory import UNKNOWN_SIDE, MemoryConfig, TurnMemory
+from lfd_track.policy.memory import UNKNOWN_SIDE, LastBendConfig, MemoryConfig, TurnMemory
 from lfd_track.policy.mlp import mlp_forward, n_weights
 from lfd_track.teaching import Arbiter, Perception, QueueCommander, TeachingLoop
 from lfd_track.teaching.observers import CaseBuffer
 
 F, L, R = Command.FORWARD, Command.LEFT, Command.RIGHT
-LAST_BEND = MemoryConfig(kind="last_bend")
+LAST_BEND = LastBendConfig()
 
 
 def _side_after(commands, bend_pivots=2):
-    memory = TurnMemory(MemoryConfig(kind="last_bend", bend_pivots=bend_pivots))
+    memory = TurnMemory(LastBendConfig(bend_pivots=bend_pivots))
     sides = []
     for c in commands:
         memory.note(c)
@@ -204,13 +204,13 @@ def _memory_controller(weights=None):
     return Controller(_library(), w, memory=LAST_BEND, learner="ga")
 
 
-def test_a_memory_controller_saves_as_schema_3_and_loads(tmp_path):
+def test_a_memory_controller_saves_its_memory_and_loads(tmp_path):
     rng = np.random.default_rng(5)
     controller = _memory_controller(rng.uniform(-1, 1, 220))
     path = tmp_path / "c.json"
     controller.save(path)
     data = json.loads(path.read_text())
-    assert data["schema_version"] == 3 and data["layer_sizes"] == [41, 5, 3]
+    assert data["schema_version"] == 5 and data["layer_sizes"] == [41, 5, 3]
     assert data["memory"] == {"kind": "last_bend", "bend_pivots": 2}
     loaded = Controller.load(path)
     assert loaded.memory == LAST_BEND and loaded.n_inputs == 41
@@ -271,7 +271,7 @@ def test_runs_without_memory_store_the_settings_they_stored_before():
     """Resuming a study finished before memory inputs existed must find the same settings."""
     from lfd_track.benchmark.runner import BenchmarkConfig, config_dict
 
-    assert "memory" not in config_dict(BenchmarkConfig())
+    assert config_dict(BenchmarkConfig())["memory"] == {"kind": "none"}  # every setting written
     assert config_dict(BenchmarkConfig(memory=LAST_BEND))["memory"] == LAST_BEND.to_dict()
 
 

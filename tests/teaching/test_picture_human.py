@@ -9,12 +9,12 @@ from lfd_track.benchmark.runner import BenchmarkConfig, config_dict
 from lfd_track.core.commands import Command
 from lfd_track.dataset import load_demonstration
 from lfd_track.demo.demonstrator import protocol_human, run_demonstration
-from lfd_track.policy.memory import MemoryConfig
+from lfd_track.policy.memory import FreshFeltConfig, PreviousCommandConfig
 from lfd_track.teaching.handwritten import FreshFeltRule, FreshFeltRuleConfig
 from lfd_track.teaching.scripted import HumanConfig
 from lfd_track.teaching.types import Moment
 
-FRESH = MemoryConfig(kind="fresh_felt")
+FRESH = FreshFeltConfig.plain()
 NOISE_FREE = {"reaction_delay_prob": 0.0, "lapse_prob": 0.0}
 
 
@@ -88,7 +88,7 @@ def test_the_picture_human_needs_the_map_inputs():
             "training",
             HumanConfig(steers_by="picture"),
             np.random.default_rng(0),
-            memory=MemoryConfig(kind="previous_command"),
+            memory=PreviousCommandConfig(),
         )
 
 
@@ -99,7 +99,8 @@ def test_settings_are_checked_and_stored_only_when_used():
     with pytest.raises(ValueError, match="set memory kind 'fresh_felt'"):
         BenchmarkConfig(human=HumanConfig(steers_by="picture"))
     plain = config_dict(BenchmarkConfig())
-    assert not {"steers_by", "picture_turn_deg", "clear_memory_per_leg"} & set(plain["human"])
+    assert plain["human"]["steers_by"] == "centreline"  # every setting is written
+    assert plain["human"]["clear_memory_per_leg"] is False
     picture = config_dict(BenchmarkConfig(human=HumanConfig(steers_by="picture"), memory=FRESH))
     assert picture["human"]["steers_by"] == "picture"
     assert picture["human"]["picture_turn_deg"] == 20.0
@@ -129,7 +130,7 @@ def test_the_picture_human_reads_the_policys_map_whatever_its_bearing_range(tmp_
     human reads the bearing with the map's range, so every command is the same, and only the
     bearing input differs (spread six times, clipped beyond 30 deg)."""
     human = HumanConfig(steers_by="picture", **NOISE_FREE)
-    narrow = MemoryConfig(kind="fresh_felt", bearing_range_deg=30.0)
+    narrow = FreshFeltConfig.plain(bearing_range_deg=30.0)
     demos = []
     for name, memory in (("wide", FRESH), ("narrow", narrow)):
         out = tmp_path / f"{name}.lfdemo"

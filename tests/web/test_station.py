@@ -370,13 +370,11 @@ def test_online_teaching_with_the_fresh_felt_map_learns_from_its_three_inputs(op
     """``--online --memory fresh_felt --blank-bearing last`` (round 10's chosen inputs): every
     case carries the map's bearing, amount and distance, and the GA evolves networks that read
     them (43 inputs, 230 weights)."""
-    from lfd_track.policy.memory import MemoryConfig
+    from lfd_track.policy.memory import FreshFeltConfig
 
     memory = ["--memory", "fresh_felt", "--blank-bearing", "last"]
     demo = _teach_online(open_station, memory, ["forward", "forward", "left", "forward"], 230)
-    assert (
-        demo.metadata["memory"] == MemoryConfig(kind="fresh_felt", blank_bearing="last").to_dict()
-    )
+    assert demo.metadata["memory"] == FreshFeltConfig(blank_bearing="last").to_dict()
     assert demo.memory.shape == (4, 3)
     assert ((demo.memory >= 0) & (demo.memory <= 1)).all()
     assert demo.memory[:, 1].max() > 0  # the felt ahead of the start is on the map
@@ -386,7 +384,7 @@ def test_online_teaching_of_the_goals_chosen_policy_kind_reads_the_map_alone(ope
     """``--online --features none`` with the map (bearing over +-30 deg) and a GA with biases:
     the policy the goal chose (a 3-5-3 network on the map, 38 weights with biases) is what the
     GA evolves while the person teaches, and the recording keeps the map's settings."""
-    from lfd_track.policy.memory import MemoryConfig
+    from lfd_track.policy.memory import FreshFeltConfig
 
     flags = [
         "--memory", "fresh_felt", "--blank-bearing", "last", "--bearing-range", "30",
@@ -395,8 +393,7 @@ def test_online_teaching_of_the_goals_chosen_policy_kind_reads_the_map_alone(ope
         "--mutation-delta", "0.5",
     ]  # fmt: skip
     demo = _teach_online(open_station, flags, ["forward", "forward", "left", "forward"], 38)
-    expected = MemoryConfig(
-        kind="fresh_felt",
+    expected = FreshFeltConfig(
         blank_bearing="last",
         bearing_range_deg=30.0,
         strip_link_m=0.15,

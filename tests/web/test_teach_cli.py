@@ -129,14 +129,14 @@ def test_ctrl_c_keeps_what_was_taught_for_evolve(tmp_path: Path, capsys, stop_si
 def test_memory_inputs_are_recorded_and_evolve_into_a_memory_controller(tmp_path: Path) -> None:
     """``--memory last_bend``: each case carries the side of the last bend before it."""
     from lfd_track.policy.controller import Controller
-    from lfd_track.policy.memory import MemoryConfig
+    from lfd_track.policy.memory import LastBendConfig
 
     out = tmp_path / "taught.lfdemo"
     commands = ["left", "left", "forward", "right", "right", "forward"]
     _, stderr, returncode = teach_and_stop(["--out", str(out), "--memory", "last_bend"], commands)
     assert returncode == 0, stderr
     demo = load_demonstration(out)
-    assert demo.metadata["memory"] == MemoryConfig(kind="last_bend").to_dict()
+    assert demo.metadata["memory"] == LastBendConfig().to_dict()
     assert demo.memory[:, 0].tolist() == [0.5, 0.5, 1.0, 1.0, 1.0, 0.0]
     controller = tmp_path / "controller.json"
     assert main(["evolve", str(out), "--generations", "3", "--out", str(controller)]) == 0

@@ -52,7 +52,7 @@ from lfd_track.learning.direct import (
     direct_evolution,
     mu_plus_one_online,
 )
-from lfd_track.policy.memory import MemoryConfig
+from lfd_track.policy.memory import FreshFeltConfig, MemoryConfig
 from lfd_track.teaching.arbiter import Arbiter
 from lfd_track.teaching.commanders import PolicyCommander
 from lfd_track.teaching.handwritten import (
@@ -178,7 +178,7 @@ def fresh_rule_config(config: dict[str, Any]) -> FreshFeltRuleConfig:
     """The fresh-felt rule of a grid point: ``turn_deg`` and the map's settings."""
     memory = {k: v for k, v in config.items() if k != "turn_deg"}
     return FreshFeltRuleConfig(
-        turn_deg=config.get("turn_deg", 15.0), memory=MemoryConfig(kind="fresh_felt", **memory)
+        turn_deg=config.get("turn_deg", 15.0), memory=FreshFeltConfig.plain(**memory)
     )
 
 

@@ -34,7 +34,7 @@ from lfd_track.benchmark.runner import (
 from lfd_track.demo.demonstrator import HumanConfig
 from lfd_track.envs.track_env import LfDTrackEnv
 from lfd_track.policy.controller import Controller
-from lfd_track.policy.memory import MEMORY_KINDS, MemoryConfig
+from lfd_track.policy.memory import MEMORY_KINDS, memory_config
 from lfd_track.teaching.scripted import TURNAROUND_RULES
 
 COMMAND_NAMES = ("F", "L", "R")
@@ -73,7 +73,7 @@ def main(argv: list[str] | None = None) -> int:
         preset=args.preset,
         method=args.method,
         human=HumanConfig(turnarounds=args.turnarounds),
-        memory=MemoryConfig(kind=args.memory),
+        memory=memory_config({"kind": args.memory}),
         mirror=args.mirror,
         test_tracks=tracks,
     )
