@@ -9,10 +9,13 @@ given seed whatever the number of workers.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
+import functools
 import os
 import time
-from collections.abc import Callable, Collection
+import typing
+from collections.abc import Callable, Collection, Mapping
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -20,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from ..core.config import config_from_dict
 from ..demo.demonstrator import HumanConfig
 from ..envs.presets import load_preset
 from ..envs.track_env import LfDTrackEnv
@@ -28,6 +32,17 @@ from ..learning.bc import BCConfig
 from ..learning.cmaes import CMAESConfig
 from ..learning.ga import GAConfig
 from ..learning.result import check_int
+from ..methods import (
+    DaggerConfig,
+    HGDaggerConfig,
+    Learned,
+    Method,
+    MethodContext,
+    OnlineConfig,
+    get_method,
+    method_of_table,
+    methods,
+)
 from ..policy.controller import POLICY_KINDS, Controller
 from ..policy.features import DEFAULT_FEATURES, check_features
 from ..policy.memory import MemoryConfig, NoMemory
@@ -35,19 +50,6 @@ from ..teaching.arbiter import Arbiter
 from ..teaching.loop import Step, TeachingLoop
 from ..teaching.observers import CallbackObserver, TrajectoryObserver
 from ..world.track import load_track
-from .dagger import DaggerConfig, learn_dagger
-from .methods import (
-    ELMAN_METHODS,
-    METHODS,
-    VIEW_METHODS,
-    HGDaggerConfig,
-    Learned,
-    OnlineConfig,
-    learn_baseline,
-    learn_hg_dagger,
-    learn_online,
-    learn_paper,
-)
 from .tables import TrialOutcome
 
 __all__ = [
@@ -56,7 +58,6 @@ __all__ = [
     "MAX_SEED",
     "MAX_TRIALS_PER_DIRECTION",
     "MAX_WORKERS",
-    "METHODS",
     "BenchmarkConfig",
     "RepetitionResult",
     "check_demo_track",
@@ -71,6 +72,7 @@ __all__ = [
     "run_repetition",
     "run_trial",
     "run_trials",
+    "settings_arguments",
     "trial_worlds",
     "trial_directions",
 ]
@@ -103,6 +105,11 @@ class BenchmarkConfig:
     ``repetitions`` 1..10 000, ``trials_per_direction`` 1..1000, ``seed`` 0..2**32-1; the
     learners' settings have their own (``GAConfig``: population and tournament size
     1..100 000, generations 1..1 000 000; see each config class).
+
+    ``method`` is the name of a registered method (:mod:`lfd_track.methods`); its entry says
+    which options it takes (``shifted_views``, ``policy_kind``) and where its settings are: the
+    built-in methods' in the fields ``online``, ``hg_dagger``, ``bc``, ``cmaes`` and ``dagger``,
+    any other's in ``method_settings`` under its table name (:meth:`settings_of` reads either).
     """
 
     repetitions: int = 10  # fresh demonstration + evolution each (the paper's totals: 10)
@@ -112,7 +119,7 @@ class BenchmarkConfig:
     human: HumanConfig = HumanConfig()
     ga: GAConfig = GAConfig()
     keep_learning: bool = False  # let the road library keep learning during autonomous runs
-    method: str = "paper"  # how the controller is learned: one of methods.METHODS
+    method: str = "paper"  # how the controller is learned: a registered method's name
     online: OnlineConfig = OnlineConfig()  # settings of method "online"
     hg_dagger: HGDaggerConfig = HGDaggerConfig()  # settings of method "hg-dagger"
     bc: BCConfig = BCConfig()  # settings of method "bc" (backprop on the same network)
@@ -136,6 +143,9 @@ class BenchmarkConfig:
     # The open track the human demonstrates on (and HG-DAgger's rounds drive); the paper's
     # training track by default. Trials still run the paper's training track both ways.
     demo_track: str = "training"
+    # Settings of methods registered beyond the built-in ones, by table name (an entry equal to
+    # the method's defaults is dropped: a missing table means the defaults).
+    method_settings: dict[str, Any] = field(default_factory=dict, hash=False)
 
     def __post_init__(self) -> None:
         if isinstance(self.test_tracks, str) or not all(
@@ -147,8 +157,8 @@ class BenchmarkConfig:
         object.__setattr__(self, "test_tracks", tuple(self.test_tracks))
         if not isinstance(self.demo_track, str) or not self.demo_track:
             raise ValueError("demo_track must be a track name or path")
-        if self.method not in METHODS:
-            raise ValueError(f"unknown method '{self.method}' (choose from {', '.join(METHODS)})")
+        method = get_method(self.method)  # an unknown name is refused, naming the known ones
+        self._check_method_settings(method)
         check_int("repetitions", self.repetitions, 1, MAX_REPETITIONS)
         check_int("trials_per_direction", self.trials_per_direction, 1, MAX_TRIALS_PER_DIRECTION)
         check_int("seed", self.seed, 0, MAX_SEED)
@@ -157,19 +167,21 @@ class BenchmarkConfig:
             raise ValueError(
                 "human steers_by 'picture' reads the fresh_felt map: set memory kind 'fresh_felt'"
             )
-        if self.shifted_views and self.method not in VIEW_METHODS:
+        if self.shifted_views and not method.takes_views:
             raise ValueError(
-                f"shifted_views applies to the methods {', '.join(VIEW_METHODS)} (one simulated"
+                "shifted_views applies to the methods"
+                f" {', '.join(m.name for m in methods() if m.takes_views)} (one simulated"
                 f" demonstration, then learning), not '{self.method}'"
             )
         if self.policy_kind not in POLICY_KINDS:
             raise ValueError(
                 f"unknown policy_kind '{self.policy_kind}' (choose from {', '.join(POLICY_KINDS)})"
             )
-        if self.policy_kind == "elman-sigmoid" and self.method not in ELMAN_METHODS:
+        if self.policy_kind not in method.policy_kinds:
+            trainers = [m.name for m in methods() if self.policy_kind in m.policy_kinds]
             raise ValueError(
-                "policy_kind 'elman-sigmoid' is trained by the methods paper (the GA) and bc"
-                f" (backprop through time), not '{self.method}'"
+                f"policy_kind '{self.policy_kind}' is trained by the methods"
+                f" {', '.join(trainers)}, not '{self.method}'"
             )
         if self.policy_kind == "elman-sigmoid" and self.shifted_views:
             raise ValueError(
@@ -179,6 +191,90 @@ class BenchmarkConfig:
             raise ValueError(
                 "features 'none' leave the policy only its memory inputs: set a memory kind"
             )
+
+    def _check_method_settings(self, method: Method) -> None:
+        """``method_settings`` holds only other methods' settings, each of its method's class
+        (defaults dropped); the chosen method's settings are of its class."""
+        if not isinstance(self.method_settings, Mapping):
+            raise ValueError("method_settings must map settings table names to settings")
+        fields = _field_names()
+        kept: dict[str, Any] = {}
+        for table, value in sorted(self.method_settings.items()):
+            owner = method_of_table(table)
+            if owner is None or table in fields or owner.settings is None:
+                raise ValueError(f"method_settings: '{table}' is no registered method's table")
+            if not isinstance(value, owner.settings):
+                raise ValueError(
+                    f"method_settings '{table}' must be {owner.settings.__name__} (the settings"
+                    f" of method '{owner.name}'), got {type(value).__name__}"
+                )
+            if value != owner.default_settings():
+                kept[table] = value
+        object.__setattr__(self, "method_settings", kept)
+        settings = self.settings_of(method)
+        if method.settings is not None and not isinstance(settings, method.settings):
+            raise ValueError(
+                f"method '{method.name}': its settings table '{method.table}' is a benchmark"
+                f" setting of another kind ({type(settings).__name__})"
+            )
+
+    def settings_of(self, method: Method | str | None = None) -> Any:
+        """The settings of ``method`` (default: this run's), or None if it has none."""
+        if not isinstance(method, Method):
+            method = get_method(self.method if method is None else method)
+        if method.settings is None:
+            return None
+        if method.table in _field_names():
+            return getattr(self, method.table)
+        stored = self.method_settings.get(method.table)
+        return method.default_settings() if stored is None else stored
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> BenchmarkConfig:
+        """Inverse of :func:`config_dict`: the settings as results.json stores them. Missing
+        keys and method tables take their defaults; an unknown key or a bad value raises
+        ``ValueError``."""
+        if not isinstance(data, Mapping):
+            raise ValueError("benchmark settings must be an object")
+        hints = typing.get_type_hints(cls)
+        fields = _field_names() - {"method_settings"}
+        values: dict[str, Any] = {}
+        tables: dict[str, Any] = {}
+        for key, value in data.items():
+            method = method_of_table(key)
+            if method is not None and method.settings is not None:
+                tables[key] = method.settings.from_dict(value)
+            elif key not in fields:
+                raise ValueError(f"unknown benchmark setting '{key}'")
+            elif dataclasses.is_dataclass(hints[key]):
+                kind = hints[key]
+                if callable(getattr(kind, "from_dict", None)):
+                    values[key] = kind.from_dict(value)
+                else:
+                    values[key] = config_from_dict(kind, value, key)
+            elif key == "test_tracks" and isinstance(value, list):
+                values[key] = tuple(value)
+            else:
+                values[key] = value
+        try:
+            return cls(**values, **settings_arguments(tables))
+        except TypeError as exc:
+            raise ValueError(f"benchmark settings: {exc}") from None
+
+
+@functools.cache
+def _field_names() -> frozenset[str]:
+    return frozenset(f.name for f in dataclasses.fields(BenchmarkConfig))
+
+
+def settings_arguments(tables: Mapping[str, Any]) -> dict[str, Any]:
+    """:class:`BenchmarkConfig` keyword arguments holding the method settings ``tables``
+    (table name → settings): a built-in method's as its field, any other's in
+    ``method_settings``."""
+    fields = _field_names()
+    arguments = {t: v for t, v in tables.items() if t in fields}
+    others = {t: v for t, v in tables.items() if t not in fields}
+    return {**arguments, "method_settings": others} if others else arguments
 
 
 @dataclass
@@ -381,10 +477,18 @@ def run_trials(
 
 
 def learn_repetition(
-    config: BenchmarkConfig, rep_dir: Path, *, demo_seed: int, ga_seed: int
+    config: BenchmarkConfig,
+    rep_dir: Path,
+    *,
+    demo_seed: int,
+    ga_seed: int,
+    method: Method | None = None,
 ) -> Learned:
-    """Learn one repetition's controller by ``config.method``; its files go to ``rep_dir``."""
-    common = dict(
+    """Learn one repetition's controller by ``config.method`` (its registry entry, or
+    ``method``); its files go to ``rep_dir``."""
+    method = get_method(config.method) if method is None else method
+    context = MethodContext(
+        rep_dir,
         demo_seed=demo_seed,
         ga_seed=ga_seed,
         preset=config.preset,
@@ -392,30 +496,25 @@ def learn_repetition(
         memory=config.memory,
         mirror=config.mirror,
         track=config.demo_track,
+        features=config.features,
+        shifted_views=config.shifted_views,
+        policy_kind=config.policy_kind,
+        ga=config.ga,
+        bc=config.bc,
+        cmaes=config.cmaes,
+        settings=config.settings_of(method),
     )
-    if config.features != DEFAULT_FEATURES:  # passed only when used: every method takes it
-        common["features"] = config.features
-    if config.shifted_views:
-        common["shifted_views"] = True
-    if config.policy_kind != "mlp-sigmoid":
-        common["policy_kind"] = config.policy_kind
-    if config.method == "online":
-        return learn_online(rep_dir, **common, ga=config.ga, online=config.online)
-    if config.method == "hg-dagger":
-        return learn_hg_dagger(rep_dir, **common, ga=config.ga, hg=config.hg_dagger)
-    if config.method == "dagger":
-        return learn_dagger(rep_dir, **common, ga=config.ga, bc=config.bc, dagger=config.dagger)
-    if config.method == "bc":
-        return learn_baseline(rep_dir, **common, learner=config.bc)
-    if config.method == "cma-es":
-        return learn_baseline(rep_dir, **common, learner=config.cmaes)
-    return learn_paper(rep_dir, **common, ga=config.ga)
+    return method.learn(context)
 
 
 def run_repetition(
-    index: int, seed: int, config: BenchmarkConfig, work_dir: str
+    index: int, seed: int, config: BenchmarkConfig, work_dir: str, method: Method | None = None
 ) -> RepetitionResult:
-    """Demonstrate, evolve and test once; artefacts go to ``work_dir/rep_<index>/``."""
+    """Demonstrate, evolve and test once; artefacts go to ``work_dir/rep_<index>/``.
+
+    ``method``: the registry entry of ``config.method`` (default: looked up here; a worker
+    process is given it, so a method registered outside the package runs there too when its
+    functions can be imported)."""
     import cv2
 
     cv2.setNumThreads(1)  # one repetition per core; OpenCV's own threads would only contend
@@ -425,7 +524,7 @@ def run_repetition(
     timing: dict[str, float] = {}
 
     t0 = time.perf_counter()
-    learned = learn_repetition(config, rep_dir, demo_seed=demo_seed, ga_seed=ga_seed)
+    learned = learn_repetition(config, rep_dir, demo_seed=demo_seed, ga_seed=ga_seed, method=method)
     controller = learned.controller
     controller.learn = config.keep_learning
     controller.save(rep_dir / "controller.json")
@@ -453,7 +552,7 @@ def run_repetition(
     )
 
 
-def _run_packed(args: tuple[int, int, BenchmarkConfig, str]) -> RepetitionResult:
+def _run_packed(args: tuple[int, int, BenchmarkConfig, str, Method]) -> RepetitionResult:
     return run_repetition(*args)
 
 
@@ -472,7 +571,8 @@ def run_benchmark(
     check_workers(workers)
     check_tracks(config)
     seeds = repetition_seeds(config.seed, config.repetitions)
-    jobs = [(i, s, config, str(work_dir)) for i, s in enumerate(seeds)]
+    method = get_method(config.method)
+    jobs = [(i, s, config, str(work_dir), method) for i, s in enumerate(seeds)]
     results: list[RepetitionResult] = []
     if workers == 1:
         for job in jobs:
@@ -493,35 +593,22 @@ def run_benchmark(
 
 
 def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
-    """JSON-friendly form of a benchmark config (stored in results.json)."""
-    data = dataclasses.asdict(config)
-    # A human steering by the centreline stores what it stored before "picture" existed.
-    if config.human.steers_by == "centreline":
-        del data["human"]["steers_by"], data["human"]["picture_turn_deg"]
-    if not config.human.clear_memory_per_leg:
-        del data["human"]["clear_memory_per_leg"]
-    data["online"] = config.online.to_dict()
-    data["hg_dagger"] = config.hg_dagger.to_dict()
-    data["bc"] = config.bc.to_dict()
-    data["cmaes"] = config.cmaes.to_dict()
-    # Only a dagger run stores its settings: the other methods' records are as before it existed.
-    if config.method == "dagger":
-        data["dagger"] = config.dagger.to_dict()
-    else:
-        del data["dagger"]
-    # Runs without memory or mirroring store exactly what they stored before those existed.
-    if config.memory.kind == "none":
-        del data["memory"]
-    else:
-        data["memory"] = config.memory.to_dict()
-    if not config.mirror:
-        del data["mirror"]
-    if not config.shifted_views:
-        del data["shifted_views"]
-    if config.policy_kind == "mlp-sigmoid":
-        del data["policy_kind"]
-    if config.demo_track == "training":
-        del data["demo_track"]
-    if config.features == DEFAULT_FEATURES:
-        del data["features"]
+    """JSON-friendly form of a benchmark config (stored in results.json), every setting written:
+    each field (nested settings as tables), the memory by its ``to_dict``, and the settings
+    table of every registered method that has settings (a built-in one's field, or another's
+    under its table name). :meth:`BenchmarkConfig.from_dict` reads it back."""
+    data: dict[str, Any] = {}
+    for f in dataclasses.fields(config):
+        value = getattr(config, f.name)
+        if f.name == "method_settings":
+            continue
+        if f.name == "memory":
+            data[f.name] = config.memory.to_dict()
+        elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+            data[f.name] = dataclasses.asdict(value)
+        else:
+            data[f.name] = copy.deepcopy(value)
+    for method in methods():
+        if method.settings is not None:
+            data[method.table] = config.settings_of(method).to_dict()
     return data

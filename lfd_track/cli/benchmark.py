@@ -12,12 +12,10 @@ from pathlib import Path
 from typing import Any
 
 from ..benchmark import runner
-from ..benchmark.dagger import DAGGER_LEARNERS, DaggerConfig
-from ..benchmark.methods import METHODS
 from ..demo.demonstrator import HumanConfig
+from ..methods import get_method, method_names, methods
 from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
 from ..policy.memory import MEMORY_KINDS
-from ..policy.mlp import MAX_HIDDEN, N_HIDDEN
 from ..teaching.scripted import STEERING, TURNAROUND_RULES
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output, shown_path
 from ..utils.signals import Terminated, interrupted_exit_code, raise_terminated
@@ -84,35 +82,16 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="open track (name or .toml path) the human demonstrates on, and HG-DAgger's rounds"
         " drive (default: the paper's training track, which is also scored either way)",
     )
+    described = (f"{m.name} ({m.summary})" if m.summary else m.name for m in methods())
     bench.add_argument(
         "--method",
-        choices=METHODS,
+        choices=method_names(),
         default="paper",
-        help="how each repetition learns: paper (demonstrate, then evolve), online (evolve while"
-        " demonstrating, policy takes over, human corrects), hg-dagger (rounds of runs with"
-        " interventions), bc, cma-es, dagger (rounds of runs where the human labels every"
-        " visited state, noise-free; the learner re-fitted on all cases; see --dagger-learner,"
-        " --hidden, --label-noise) (default: paper)",
+        help=f"how each repetition learns: {', '.join(described)} (default: paper)",
     )
-    bench.add_argument(
-        "--dagger-learner",
-        choices=DAGGER_LEARNERS,
-        default=None,
-        help="with --method dagger: what fits the network, the GA or backprop (default: ga)",
-    )
-    bench.add_argument(
-        "--hidden",
-        type=whole_number_in(1, MAX_HIDDEN),
-        default=None,
-        help=f"with --method dagger --dagger-learner bc: hidden nodes of the network, 1..{MAX_HIDDEN}"
-        " (default: the paper's 5)",
-    )
-    bench.add_argument(
-        "--label-noise",
-        action="store_true",
-        help="with --method dagger: the human keeps its reaction delays and lapses while"
-        " labelling (default: noise-free labels)",
-    )
+    for method in methods():  # a method's own flags
+        if method.flags is not None:
+            method.flags.add(bench)
     bench.add_argument(
         "--turnarounds",
         choices=TURNAROUND_RULES,
@@ -189,26 +168,16 @@ def run(args: argparse.Namespace) -> int:
     from ..benchmark import report
     from ..utils.progress import progress_bar
 
-    dagger_flags = [
-        flag
-        for flag, given in (
-            ("--dagger-learner", args.dagger_learner is not None),
-            ("--hidden", args.hidden is not None),
-            ("--label-noise", args.label_noise),
-        )
-        if given
-    ]
-    if dagger_flags and args.method != "dagger":
-        print(f"lfd-track benchmark: {dagger_flags[0]} needs --method dagger", file=sys.stderr)
-        return EXIT_USAGE
+    for other in methods():  # a method's own flags go with that method only
+        given = [] if other.flags is None or other.name == args.method else other.flags.given(args)
+        if given:
+            print(f"lfd-track benchmark: {given[0]} needs --method {other.name}", file=sys.stderr)
+            return EXIT_USAGE
     repetitions = 1 if args.quick and args.repetitions is None else (args.repetitions or 10)
     trials = args.trials or (1 if args.quick else 3)
     try:  # settings that do not go together (e.g. --steers-by picture without the map) refused
-        dagger = DaggerConfig(
-            learner=args.dagger_learner or "ga",
-            hidden=args.hidden or N_HIDDEN,
-            label_noise=args.label_noise,
-        )
+        method = get_method(args.method)
+        tables = {} if method.flags is None else {method.table: method.flags.settings(args)}
         config = runner.BenchmarkConfig(
             repetitions=repetitions,
             seed=args.seed,
@@ -226,7 +195,7 @@ def run(args: argparse.Namespace) -> int:
             policy_kind=args.policy_kind,
             demo_track=args.demo_track,
             features=args.features,
-            dagger=dagger,
+            **runner.settings_arguments(tables),
         )
     except ValueError as exc:
         print(f"lfd-track benchmark: {exc}", file=sys.stderr)

@@ -22,8 +22,11 @@ A study file looks like::
 
 A condition's keys (after ``[defaults]`` are merged in, table by table) are ``name``,
 ``description`` and any field of :class:`~lfd_track.benchmark.runner.BenchmarkConfig` except
-``seed`` and ``repetitions`` (which the study sets): nested settings such as ``ga`` or ``human``
-are tables of their config's fields. Every (condition, seed) pair is one job: one run of the
+``seed``, ``repetitions`` (which the study sets) and ``method_settings``: nested settings such as
+``ga`` or ``human`` are tables of their config's fields. A method's settings are the table its
+registry entry names (:mod:`lfd_track.methods`: ``[conditions.online]``,
+``[conditions.dagger]`` …), read by the settings class the entry gives, for every registered
+method, the built-in ones and any registered from outside the package. Every (condition, seed) pair is one job: one run of the
 paper protocol, ``BenchmarkConfig(seed=seed, repetitions=repetitions, ...)``.
 
 A condition's ``[memory]`` table names its ``kind`` and that kind's settings
@@ -64,10 +67,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ..benchmark.runner import BenchmarkConfig, check_tracks
+from ..benchmark.runner import BenchmarkConfig, check_tracks, settings_arguments
 from ..core.config import dataclass_from_table, read_toml
 from ..errors import FileFormatError, LfdTrackError
 from ..learning.result import shown_int
+from ..methods import method_names, method_of_table
 from ..policy.memory_config import memory_config, memory_table_from_v1
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._+-]{0,63}$")
@@ -286,6 +290,7 @@ def _condition(table: dict[str, Any], index: int, path: Path, check_names: bool)
     fields = {f.name: f for f in dataclasses.fields(BenchmarkConfig)}
     hints = typing.get_type_hints(BenchmarkConfig)
     settings: dict[str, Any] = {}
+    method_tables: dict[str, Any] = {}
     for key, value in table.items():
         if key in ("name", "description"):
             continue
@@ -293,7 +298,11 @@ def _condition(table: dict[str, Any], index: int, path: Path, check_names: bool)
             raise FileFormatError(
                 path, f"{where}: '{key}' is set by the [study] table, not per condition"
             )
-        if key not in fields:
+        method = method_of_table(key)
+        if method is not None and method.settings is not None:  # read by the registry's class
+            method_tables[key] = _settings_from_table(method.settings, value, f"{name}.{key}", path)
+            continue
+        if key not in fields or key == "method_settings":
             raise FileFormatError(path, f"{where}: unknown key '{key}'")
         kind = hints[key]
         if key == "memory":  # one class per memory kind: the kind picks it
@@ -305,6 +314,7 @@ def _condition(table: dict[str, Any], index: int, path: Path, check_names: bool)
             settings[key] = _settings_from_table(kind, value, f"{name}.{key}", path)
         else:
             settings[key] = value
+    settings.update(settings_arguments(method_tables))
     for key in ("preset", "test_tracks", "demo_track"):
         if key in settings:
             settings[key] = _relative_to(settings[key], path)
@@ -350,6 +360,9 @@ def _check_limits(config: Any, where: str, path: Path, prefix: str = "") -> None
         value = getattr(config, field.name)
         if dataclasses.is_dataclass(value) and not isinstance(value, type):
             _check_limits(value, where, path, f"{key}.")
+        elif field.name == "method_settings" and not prefix:  # other methods' settings tables
+            for table, settings in value.items():
+                _check_limits(settings, where, path, f"{table}.")
         elif isinstance(value, int) and not isinstance(value, bool) and key not in _SET_BY_STUDY:
             limit = SETTING_LIMITS.get(key, OTHER_SETTING_LIMIT)
             if value > limit:
@@ -386,16 +399,10 @@ def _relative_to(value: Any, study_path: Path) -> Any:
 
 
 # ------------------------------------------------------------------------------- name checks
-def available_methods() -> tuple[str, ...] | None:
-    """Learning methods this build's benchmark can run, or None if it only knows them by
-    validating a ``BenchmarkConfig`` (then a bad method fails when the condition is built)."""
-    from ..benchmark import runner
-
-    for attribute in ("METHODS", "METHOD_NAMES"):
-        names = getattr(runner, attribute, None)
-        if names:
-            return tuple(str(n) for n in names)
-    return None
+def available_methods() -> tuple[str, ...]:
+    """Learning methods this build's benchmark can run: the registered ones
+    (:func:`lfd_track.methods.method_names`)."""
+    return method_names()
 
 
 def check_condition_names(config: BenchmarkConfig, where: str, path: Path | str) -> None:
@@ -405,7 +412,7 @@ def check_condition_names(config: BenchmarkConfig, where: str, path: Path | str)
 
     method = getattr(config, "method", "paper")
     methods = available_methods()
-    if methods is not None and method not in methods:
+    if method not in methods:
         raise FileFormatError(
             path, f"{where}: unknown method '{method}' (this build has: {', '.join(methods)})"
         )

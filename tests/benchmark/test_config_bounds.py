@@ -8,7 +8,6 @@ import time
 
 import pytest
 
-from lfd_track.benchmark.methods import HGDaggerConfig, OnlineConfig
 from lfd_track.benchmark.runner import (
     MAX_REPETITIONS,
     MAX_SEED,
@@ -20,6 +19,7 @@ from lfd_track.benchmark.runner import (
 from lfd_track.learning.bc import BCConfig
 from lfd_track.learning.cmaes import CMAESConfig
 from lfd_track.learning.ga import GAConfig
+from lfd_track.methods import HGDaggerConfig, OnlineConfig
 
 BIG = 10**400
 

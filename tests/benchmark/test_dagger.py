@@ -7,13 +7,13 @@ import json
 import numpy as np
 import pytest
 
-from lfd_track.benchmark.dagger import DaggerConfig, labelling_human, learn_dagger
 from lfd_track.benchmark.runner import BenchmarkConfig, config_dict, repetition_seeds
 from lfd_track.core.commands import Command
 from lfd_track.dataset import load_demonstration
 from lfd_track.demo.demonstrator import HumanConfig
 from lfd_track.learning.bc import BCConfig
 from lfd_track.learning.ga import GAConfig
+from lfd_track.methods.dagger import DaggerConfig, labelling_human, learn_dagger
 from lfd_track.policy.controller import Controller
 from lfd_track.policy.mlp import n_weights
 from lfd_track.world.driver import CentrelineDriver
@@ -154,8 +154,9 @@ def test_dagger_settings_are_checked():
         DaggerConfig.from_dict({"noise": True})
 
 
-def test_only_a_dagger_run_records_dagger_settings():
-    assert "dagger" not in config_dict(BenchmarkConfig())
+def test_every_run_records_the_dagger_settings():
+    # results.json holds every setting, whichever method ran (older files are migrated on reading)
+    assert config_dict(BenchmarkConfig())["dagger"] == DaggerConfig().to_dict()
     config = BenchmarkConfig(method="dagger", dagger=DaggerConfig(learner="bc", hidden=20))
     assert config_dict(config)["dagger"]["hidden"] == 20
 

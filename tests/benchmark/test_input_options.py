@@ -8,12 +8,6 @@ import json
 import numpy as np
 import pytest
 
-from lfd_track.benchmark.methods import (
-    HGDaggerConfig,
-    learn_baseline,
-    learn_hg_dagger,
-    learn_paper,
-)
 from lfd_track.benchmark.runner import BenchmarkConfig, config_dict, repetition_seeds
 from lfd_track.cli import main
 from lfd_track.dataset import load_demonstration
@@ -21,6 +15,12 @@ from lfd_track.demo.demonstrator import HumanConfig
 from lfd_track.learning.bc import BCConfig
 from lfd_track.learning.cmaes import CMAESConfig
 from lfd_track.learning.ga import GAConfig
+from lfd_track.methods import (
+    HGDaggerConfig,
+    learn_baseline,
+    learn_hg_dagger,
+    learn_paper,
+)
 from lfd_track.policy.controller import Controller
 from lfd_track.policy.elman import elman_sequence
 from lfd_track.policy.memory import FreshFeltConfig, PreviousCommandConfig
@@ -85,14 +85,14 @@ def test_bc_learns_the_colour_features_and_the_run_records_them(tmp_path):
     assert learned.training_accuracy > 0.6
     config = BenchmarkConfig(method="bc", features=COLOUR)
     assert config_dict(config)["features"] == COLOUR
-    assert "features" not in config_dict(BenchmarkConfig())
+    assert config_dict(BenchmarkConfig())["features"] == "road_values"  # every setting written
 
 
 def test_dagger_learns_and_drives_a_network_that_reads_its_memory_alone(tmp_path, capsys):
     """Features "none": DAgger's demonstration, labels and controller hold the memory inputs
     only (the picture human's three map inputs, the bearing spread over +-30 deg), and the
     command line refuses the features without a memory in one line."""
-    from lfd_track.benchmark.dagger import DaggerConfig, learn_dagger
+    from lfd_track.methods.dagger import DaggerConfig, learn_dagger
 
     demo_seed, ga_seed = _seeds()
     narrow = FreshFeltConfig.plain(blank_bearing="last", bearing_range_deg=30.0)
@@ -163,7 +163,7 @@ def test_the_policy_kind_is_a_benchmark_option_of_the_paper_and_bc_methods():
     assert config_dict(BenchmarkConfig(policy_kind="elman-sigmoid"))["policy_kind"] == (
         "elman-sigmoid"
     )
-    assert "policy_kind" not in config_dict(BenchmarkConfig())
+    assert config_dict(BenchmarkConfig())["policy_kind"] == "mlp-sigmoid"
     BenchmarkConfig(method="bc", policy_kind="elman-sigmoid")
     for method in ("online", "hg-dagger", "dagger", "cma-es"):
         with pytest.raises(ValueError, match="trained by the methods paper"):

@@ -9,15 +9,6 @@ import numpy as np
 import pytest
 from lfd_test_support import PerturbedBLAS
 
-from lfd_track.benchmark.dagger import DaggerConfig
-from lfd_track.benchmark.methods import (
-    HGDaggerConfig,
-    OnlineConfig,
-    learn_baseline,
-    learn_hg_dagger,
-    learn_online,
-    learn_paper,
-)
 from lfd_track.benchmark.runner import (
     BenchmarkConfig,
     repetition_seeds,
@@ -29,6 +20,15 @@ from lfd_track.demo.demonstrator import HumanConfig
 from lfd_track.learning.bc import BCConfig
 from lfd_track.learning.cmaes import CMAESConfig
 from lfd_track.learning.ga import GAConfig
+from lfd_track.methods import (
+    HGDaggerConfig,
+    OnlineConfig,
+    learn_baseline,
+    learn_hg_dagger,
+    learn_online,
+    learn_paper,
+)
+from lfd_track.methods.dagger import DaggerConfig
 from lfd_track.policy.controller import Controller
 from lfd_track.vision.road_library import RoadLibrary
 
@@ -416,8 +416,8 @@ vertices = [[0.0, 0.0], [1.2, 0.0], [1.2, 1.2]]
 def test_methods_demonstrate_and_drive_on_the_demo_track(tmp_path, monkeypatch):
     """``track`` moves the demonstration (every method) and HG-DAgger's rounds off the paper's
     training track; every env the learning builds is on it."""
-    from lfd_track.benchmark import methods
     from lfd_track.demo import demonstrator
+    from lfd_track.methods import common as methods
 
     elbow = tmp_path / "elbow.toml"
     elbow.write_text(ELBOW)

@@ -29,6 +29,7 @@ reached the end of the track without the human taking over.
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
@@ -38,22 +39,26 @@ import numpy as np
 
 from ..dataset.recording import recording_writer
 from ..demo.demonstrator import HumanConfig
-from ..envs.presets import Preset
-from ..envs.track_env import LfDTrackEnv
-from ..learning.bc import BCConfig, fit_bc
+from ..learning.bc import fit_bc
 from ..learning.fitness import training_accuracy
-from ..learning.ga import GAConfig, evolve
+from ..learning.ga import evolve
 from ..learning.result import check_bool, shown_int
 from ..policy.controller import Controller
-from ..policy.features import DEFAULT_FEATURES
-from ..policy.memory import MemoryConfig
 from ..policy.mlp import MAX_HIDDEN, N_HIDDEN, check_hidden
-from ..teaching.arbiter import Arbiter
-from ..teaching.loop import LoopCounts, TeachingLoop
+from ..teaching.loop import LoopCounts
 from ..teaching.scripted import ProtocolHuman
 from ..teaching.types import Step
-from ..world.track import load_track
-from .methods import Learned, TakeoverConfig, _add, _demonstrate, _period_s, _training_set
+from .common import (
+    Learned,
+    MethodContext,
+    add_counts,
+    demonstrate,
+    demonstration_record,
+    effort_record,
+    recording_metadata,
+    training_set,
+)
+from .takeover import RoundTally, TakeoverConfig, drive_both_ways
 
 DAGGER_LEARNERS = ("ga", "bc")
 """What fits the network in ``dagger``: the paper's GA or backprop (behaviour cloning)."""
@@ -164,30 +169,16 @@ class LabelBuffer:
         return np.stack(self.values), np.asarray(self.labels, dtype=np.intp)
 
 
-def learn_dagger(
-    rep_dir: Path,
-    *,
-    demo_seed: int,
-    ga_seed: int,
-    preset: str | Preset,
-    human: HumanConfig,
-    ga: GAConfig,
-    bc: BCConfig,
-    dagger: DaggerConfig,
-    memory: MemoryConfig | None = None,
-    mirror: bool = False,
-    track: str = "training",
-    features: str = DEFAULT_FEATURES,
-) -> Learned:
+def learn(context: MethodContext) -> Learned:
     """The paper's demonstration and a first fit, then DAgger rounds with every state labelled.
 
     Round 0 is the paper's demonstration fitted with ``ga_seed`` (so with ``learner = "ga"`` its
     controller is the ``paper`` method's); later fits continue one random stream. Round r's labels
     are written to ``rep_dir/labels_r<r>.lfdemo`` (interventions as ``correction`` cases).
     """
-    summary, demo, library, _ = _demonstrate(
-        rep_dir, demo_seed=demo_seed, preset=preset, human=human, memory=memory, track=track
-    )
+    dagger: DaggerConfig = context.settings
+    ga, bc, features = context.ga, context.bc, context.features
+    summary, demo, library, _ = demonstrate(context)
     inputs = [np.asarray(demo.policy_inputs(features), dtype=np.float64)]
     actions = [np.asarray(demo.commands, dtype=np.intp)]
     fitter = ga if dagger.learner == "ga" else bc
@@ -196,7 +187,7 @@ def learn_dagger(
     fitness_mean: list[float] = []
 
     def fit(x: np.ndarray, a: np.ndarray, rng: np.random.Generator) -> Controller:
-        tx, ta = _training_set(x, a, memory, mirror, features)
+        tx, ta = training_set(context, x, a)
         if dagger.learner == "ga":
             result = evolve(tx, ta, ga, rng)
             weights, bias = result.best_weights, ga.bias
@@ -213,15 +204,15 @@ def learn_dagger(
             bias=bias,
             learner="dagger",
             learner_config=learner_config,
-            seed=ga_seed,
+            seed=context.ga_seed,
             fitness_history=best,
-            memory=memory,
+            memory=context.memory,
             features=features,
             hidden=dagger.hidden,
         )
 
-    controller = fit(inputs[0], actions[0], np.random.default_rng(ga_seed))
-    period = _period_s(preset)
+    controller = fit(inputs[0], actions[0], np.random.default_rng(context.ga_seed))
+    period = context.period_s
     curve: list[dict[str, Any]] = [
         {
             "round": 0,
@@ -231,89 +222,66 @@ def learn_dagger(
             ),
         }
     ]
-    fit_rng = np.random.default_rng([ga_seed, 1])
-    round_rng = np.random.default_rng([demo_seed, 1])
-    rounds_human = labelling_human(human, dagger.label_noise)
+    fit_rng = np.random.default_rng([context.ga_seed, 1])
+    round_rng = np.random.default_rng([context.demo_seed, 1])
+    rounds_human = labelling_human(context.human, dagger.label_noise)
     totals = LoopCounts()
     labels_total = 0
     for r in range(1, dagger.rounds + 1):
-        round_counts = LoopCounts()
-        reasons: dict[str, int] = {}
-        runs: list[dict[str, Any]] = []
+        tally = RoundTally()
         human_rng = np.random.default_rng(int(round_rng.integers(2**62)))
-        path = rep_dir / f"labels_r{r}.lfdemo"
-        metadata = {
-            "kind": "simulated",
-            "method": "dagger",
-            "round": r,
-            "bins": library.bins,
-            "label_noise": dagger.label_noise,
-        }
         with recording_writer(
-            path,
-            metadata,
+            context.rep_dir / f"labels_r{r}.lfdemo",
+            recording_metadata("dagger", library, round=r, label_noise=dagger.label_noise),
             controller.perception("frozen"),
             fsync=False,
             overwrite=True,
             log_library=False,  # the library is the demonstration's, frozen: nothing to log
         ) as w:
             buffer = LabelBuffer(controller.n_inputs, w, round=r)
-            for reverse in (False, True):
-                env = LfDTrackEnv(track=track, reverse=reverse, preset=preset)
-                legs = (env.track, load_track(track, reverse=not reverse))
-                person = ProtocolHuman(
-                    legs,
-                    rounds_human,
-                    human_rng,
-                    intervention=dagger.intervention,
-                    rover=env.preset.rover,
-                    label_all=True,
-                    memory=memory,
-                )
+
+            def observers(person: ProtocolHuman, buffer: LabelBuffer = buffer) -> list[Any]:
                 buffer.person = person
-                loop = TeachingLoop(
-                    env,
-                    controller.perception("frozen"),
-                    Arbiter(
-                        "takeover",
-                        window=dagger.window,
-                        threshold=dagger.threshold,
-                        initial_driver="policy",
+                return [buffer]
+
+            runs = [
+                {
+                    "reverse": reverse,
+                    "commands": loop.counts.steps,
+                    "corrections": loop.counts.corrections,
+                    "unaided": loop.counts.corrections == 0 and bool(loop.info.get("success")),
+                }
+                for reverse, (loop, _) in zip(
+                    (False, True),
+                    drive_both_ways(
+                        context,
+                        controller,
+                        rounds_human,
+                        dagger,
+                        (human_rng, round_rng),
+                        observers,
+                        tally,
+                        label_all=True,
                     ),
-                    human=person,
-                    policy=controller.commander(),
-                    observers=[buffer],
+                    strict=True,
                 )
-                loop.reset(seed=int(round_rng.integers(2**62)))
-                loop.run()
-                _add(round_counts, loop.counts)
-                for why, n in person.interventions.items():
-                    reasons[why] = reasons.get(why, 0) + n
-                runs.append(
-                    {
-                        "reverse": reverse,
-                        "commands": loop.counts.steps,
-                        "corrections": loop.counts.corrections,
-                        "unaided": loop.counts.corrections == 0 and bool(loop.info.get("success")),
-                    }
-                )
-                env.close()
+            ]
             w.close({"round": r, "cases": len(buffer.labels)})
-        _add(totals, round_counts)
+        add_counts(totals, tally.counts)
         x, a = buffer.arrays()
         labels_total += len(a)
         inputs.append(x)
         actions.append(a)
         all_x, all_a = np.concatenate(inputs), np.concatenate(actions)
-        policy_steps = round_counts.policy_commands
+        policy_steps = tally.counts.policy_commands
         controller = fit(all_x, all_a, fit_rng)
         curve.append(
             {
                 "round": r,
                 "labels": int(len(a)),
                 "cases": int(len(all_a)),
-                "corrections": round_counts.corrections,
-                "interventions": reasons,
+                "corrections": tally.counts.corrections,
+                "interventions": tally.reasons,
                 "label_agreement": round(buffer.agreed / policy_steps, 6) if policy_steps else None,
                 "unaided_runs": sum(run["unaided"] for run in runs),
                 "runs": runs,
@@ -324,31 +292,76 @@ def learn_dagger(
             }
         )
     all_x, all_a = np.concatenate(inputs), np.concatenate(actions)
-    demo_period = round(summary.commands * period, 6)
-    effort = {
-        "commands": summary.commands + labels_total,
-        "corrections": totals.corrections,
-        "takeovers": totals.takeovers,
-        "learning_drive_s": round(demo_period + totals.steps * period, 6),
-        "autonomous_drive_s": round(totals.policy_commands * period, 6),
-        "labels": labels_total,
-    }
     return Learned(
         controller=controller,
-        demo={
-            "cases": int(len(all_a)),
-            "counts": summary.counts,
-            "turnarounds": list(summary.turnarounds),
-            "library_models": summary.library_models,
-            "library_types": summary.library_types,
-            "learned_off_felt": summary.learned_off_felt,
-            "learner": dagger.learner,
-            "hidden": dagger.hidden,
-            "label_noise": dagger.label_noise,
-            "rounds": curve,
-        },
+        demo=demonstration_record(
+            summary,
+            cases=int(len(all_a)),
+            learner=dagger.learner,
+            hidden=dagger.hidden,
+            label_noise=dagger.label_noise,
+            rounds=curve,
+        ),
         fitness_best=fitness_best,
         fitness_mean=fitness_mean,
         training_accuracy=training_accuracy(controller.weights, all_x, all_a, hidden=dagger.hidden),
-        effort=effort,
+        effort=effort_record(
+            period,
+            demonstration_commands=summary.commands,
+            counts=totals,
+            human_commands=labels_total,
+            labels=labels_total,
+        ),
+    )
+
+
+def learn_dagger(rep_dir: str | Path, *, dagger: DaggerConfig, **context: Any) -> Learned:
+    """:func:`learn` with the settings ``dagger`` and the context's fields as keywords
+    (:class:`~lfd_track.methods.common.MethodContext`; the learner's settings are ``ga`` or
+    ``bc``)."""
+    return learn(MethodContext(Path(rep_dir), settings=dagger, **context))
+
+
+# ------------------------------------------------------------------------------- command line
+def add_flags(parser: argparse.ArgumentParser) -> None:
+    """The ``dagger`` flags of ``lfd-track benchmark``."""
+    from ..cli.types import whole_number_in
+
+    parser.add_argument(
+        "--dagger-learner",
+        choices=DAGGER_LEARNERS,
+        default=None,
+        help="with --method dagger: what fits the network, the GA or backprop (default: ga)",
+    )
+    parser.add_argument(
+        "--hidden",
+        type=whole_number_in(1, MAX_HIDDEN),
+        default=None,
+        help=f"with --method dagger --dagger-learner bc: hidden nodes of the network, 1..{MAX_HIDDEN}"
+        " (default: the paper's 5)",
+    )
+    parser.add_argument(
+        "--label-noise",
+        action="store_true",
+        help="with --method dagger: the human keeps its reaction delays and lapses while"
+        " labelling (default: noise-free labels)",
+    )
+
+
+def flags_given(args: argparse.Namespace) -> list[str]:
+    """The ``dagger`` flags given on the command line."""
+    given = (
+        ("--dagger-learner", args.dagger_learner is not None),
+        ("--hidden", args.hidden is not None),
+        ("--label-noise", args.label_noise),
+    )
+    return [flag for flag, on in given if on]
+
+
+def settings_from_flags(args: argparse.Namespace) -> DaggerConfig:
+    """The ``dagger`` settings of the command line's flags."""
+    return DaggerConfig(
+        learner=args.dagger_learner or "ga",
+        hidden=args.hidden or N_HIDDEN,
+        label_noise=args.label_noise,
     )

@@ -1,0 +1,199 @@
+"""What every learning method shares: the context it learns in, what it returns, and the records
+every method writes the same way (human effort, recording metadata, the demonstration's summary).
+
+A method is a function ``learn(context: MethodContext) -> Learned``. The context holds what the
+benchmark decides for a repetition (its seeds, preset, human, the policy's inputs, the track to
+demonstrate on, the learners' settings) and the method's own settings; the method records what
+it needs under ``context.rep_dir`` and returns the controller with its records.
+
+Human effort (``Learned.effort``), counted the same way for every method (:func:`effort_record`):
+
+* ``commands`` — commands the human gave (demonstration, library-only ones included, and
+  corrections / interventions; for ``dagger`` every label, executed or not);
+* ``corrections`` — times the human took control back from a driving policy;
+* ``takeovers`` — times the policy took control;
+* ``learning_drive_s`` — simulated seconds the robot drove while learning (whoever drove);
+* ``autonomous_drive_s`` — of those, the seconds the policy drove.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..dataset import Demonstration, load_demonstration
+from ..demo.demonstrator import DemonstrationSummary, HumanConfig, run_demonstration
+from ..demo.views import ViewCases
+from ..envs.presets import Preset, load_preset
+from ..envs.track_env import LfDTrackEnv
+from ..learning.bc import BCConfig
+from ..learning.cmaes import CMAESConfig
+from ..learning.ga import GAConfig
+from ..learning.mirror import with_mirrored
+from ..policy.controller import Controller
+from ..policy.features import DEFAULT_FEATURES
+from ..policy.memory import MemoryConfig
+from ..teaching.loop import LoopCounts
+from ..vision.road_library import RoadLibrary
+
+
+@dataclass(frozen=True)
+class MethodContext:
+    """Everything a method learns from in one repetition (one object, so a method's signature
+    does not change when the benchmark gains an option)."""
+
+    rep_dir: Path
+    """Folder of the repetition's files (demonstration, rounds' recordings)."""
+    demo_seed: int
+    """Seed of the demonstration: the human's random stream and the env's."""
+    ga_seed: int
+    """Seed of the learner's random stream (GA, backprop or CMA-ES)."""
+    preset: str | Preset = "paper"
+    """Environment preset of every drive."""
+    human: HumanConfig = field(default_factory=HumanConfig)
+    """The scripted human (demonstration protocol and traits)."""
+    memory: MemoryConfig | None = None
+    """Memory inputs of the policy (None or kind ``"none"``: the paper's road values alone)."""
+    mirror: bool = False
+    """Learn from the cases and their mirror images (:mod:`lfd_track.learning.mirror`)."""
+    track: str = "training"
+    """Open track the human demonstrates on (and rounds of runs drive)."""
+    features: str = DEFAULT_FEATURES
+    """Per-region inputs of the policy (:mod:`lfd_track.policy.features`)."""
+    shifted_views: bool = False
+    """Learn also from the shifted and turned views of every case (:mod:`lfd_track.demo.views`);
+    only methods registered with ``takes_views`` receive True."""
+    policy_kind: str = "mlp-sigmoid"
+    """The network to learn; a method receives only kinds it registered in ``policy_kinds``."""
+    ga: GAConfig = field(default_factory=GAConfig)
+    """The GA's settings (methods that evolve)."""
+    bc: BCConfig = field(default_factory=BCConfig)
+    """Backprop's settings (methods that fit by behaviour cloning)."""
+    cmaes: CMAESConfig = field(default_factory=CMAESConfig)
+    """CMA-ES's settings."""
+    settings: Any = None
+    """The method's own settings (an instance of its registered settings class, or None)."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "rep_dir", Path(self.rep_dir))
+
+    @property
+    def period_s(self) -> float:
+        """Seconds one command is held (the preset's control period)."""
+        return period_s(self.preset)
+
+
+@dataclass
+class Learned:
+    """What the learning part of a repetition produced."""
+
+    controller: Controller
+    demo: dict[str, Any]
+    """Demonstration summary (cases, counts, library …) for results.json."""
+    fitness_best: list[float]
+    fitness_mean: list[float]
+    training_accuracy: float
+    effort: dict[str, Any]
+    """Human effort and robot driving during learning (see the module docstring)."""
+
+
+def period_s(preset: str | Preset) -> float:
+    """Seconds one command is held under ``preset``."""
+    p = preset if isinstance(preset, Preset) else load_preset(preset)
+    return float(p.rover.control_period_s)
+
+
+def effort_record(
+    period_s: float,
+    *,
+    demonstration_commands: int = 0,
+    counts: LoopCounts | None = None,
+    human_commands: int | None = None,
+    **extra: Any,
+) -> dict[str, Any]:
+    """The effort fields of results.json (``period_s``: one command [s]).
+
+    ``demonstration_commands``: commands of a demonstration the human drove alone (every one a
+    human command and robot driving); ``counts``: what a teaching loop counted after it (the
+    online demonstration, or rounds of runs), whose human commands are ``counts.human_commands``
+    unless ``human_commands`` says otherwise (DAgger's labels, executed or not). ``extra``
+    fields follow the five common ones.
+    """
+    counts = LoopCounts() if counts is None else counts
+    human = counts.human_commands if human_commands is None else human_commands
+    demonstration_s = round(demonstration_commands * period_s, 6)
+    return {
+        "commands": demonstration_commands + human,
+        "corrections": counts.corrections,
+        "takeovers": counts.takeovers,
+        "learning_drive_s": round(demonstration_s + counts.steps * period_s, 6),
+        "autonomous_drive_s": round(counts.policy_commands * period_s, 6),
+        **extra,
+    }
+
+
+def recording_metadata(method: str, library: RoadLibrary, **fields: Any) -> dict[str, Any]:
+    """The header of a recording a method writes itself (``recording_writer``'s ``metadata``):
+    simulated, the method's name, ``fields`` and the library's bins."""
+    return {"kind": "simulated", "method": method, **fields, "bins": library.bins}
+
+
+def add_counts(total: LoopCounts, part: LoopCounts) -> None:
+    """Add the loop counts ``part`` to ``total``."""
+    for f in dataclasses.fields(LoopCounts):
+        setattr(total, f.name, getattr(total, f.name) + getattr(part, f.name))
+
+
+def track_env(context: MethodContext, *, reverse: bool = False, **options: Any) -> LfDTrackEnv:
+    """The simulated world of the method's drives: ``context.track`` under its preset."""
+    return LfDTrackEnv(track=context.track, reverse=reverse, preset=context.preset, **options)
+
+
+def demonstrate(
+    context: MethodContext, *, shifted_views: bool = False
+) -> tuple[DemonstrationSummary, Demonstration, RoadLibrary, ViewCases | None]:
+    """Record the paper's demonstration on ``context.track`` in ``context.rep_dir``; (summary,
+    cases, library, views): the shifted and turned views of every case with ``shifted_views``,
+    else None."""
+    views = ViewCases() if shifted_views else None
+    demo_path = context.rep_dir / "demonstration.lfdemo"
+    summary = run_demonstration(
+        demo_path,
+        seed=context.demo_seed,
+        track=context.track,
+        preset=context.preset,
+        human=context.human,
+        fsync=False,
+        overwrite=True,
+        memory=context.memory,
+        views=views,
+    )
+    demo = load_demonstration(demo_path)
+    return summary, demo, RoadLibrary.from_dict(demo.metadata["road_library"]), views
+
+
+def demonstration_record(summary: DemonstrationSummary, **extra: Any) -> dict[str, Any]:
+    """What results.json records of a demonstration (cases, counts, turn-arounds, library),
+    followed by ``extra``."""
+    return {
+        "cases": summary.n_cases,
+        "counts": summary.counts,
+        "turnarounds": list(summary.turnarounds),
+        "library_models": summary.library_models,
+        "library_types": summary.library_types,
+        "learned_off_felt": summary.learned_off_felt,
+        **extra,
+    }
+
+
+def training_set(
+    context: MethodContext, inputs: np.ndarray, actions: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """What a learner fits: the cases, followed by their mirror images with ``context.mirror``."""
+    if not context.mirror:
+        return inputs, actions
+    return with_mirrored(inputs, actions, context.memory, context.features)

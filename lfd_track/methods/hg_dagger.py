@@ -1,0 +1,144 @@
+"""The ``hg-dagger`` method: the paper's demonstration and GA, then ``rounds`` rounds of
+autonomous runs on the demonstration track (one each way) with the human intervening by the
+intervention rule; the interventions of every round are aggregated and the GA re-run on all
+cases after each round."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..dataset import load_demonstration
+from ..dataset.recording import recording_writer
+from ..learning.fitness import training_accuracy
+from ..learning.ga import evolve
+from ..policy.controller import Controller
+from ..teaching.loop import LoopCounts
+from ..teaching.observers import CaseBuffer, Recorder
+from . import paper
+from .common import (
+    Learned,
+    MethodContext,
+    add_counts,
+    effort_record,
+    recording_metadata,
+    training_set,
+)
+from .takeover import RoundTally, TakeoverConfig, drive_both_ways
+
+
+@dataclass(frozen=True)
+class HGDaggerConfig(TakeoverConfig):
+    """Settings of the ``hg-dagger`` method (rounds of autonomous runs with interventions; after
+    an intervention the policy drives again once it agreed on the last ``window``)."""
+
+    settings_name = "hg-dagger"
+
+    rounds: int = 3
+    """R: rounds of autonomous runs, each followed by re-evolving on all cases (1..1000)."""
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        self._check_count("rounds", 1_000)
+
+
+def learn(context: MethodContext) -> Learned:
+    """The paper's demonstration and GA, then rounds of runs with interventions and re-evolving.
+
+    Each round drives the current controller once each way on ``context.track`` (library
+    frozen) with the scripted human watching; intervention cases of round r are written to
+    ``rep_dir/interventions_r<r>.lfdemo`` and added to the training set before the GA runs again
+    (same settings, continuing the GA's random stream).
+    """
+    hg: HGDaggerConfig = context.settings
+    ga, features, rep_dir = context.ga, context.features, context.rep_dir
+    first = paper.learn(context)
+    demo = load_demonstration(rep_dir / "demonstration.lfdemo")
+    inputs = [np.asarray(demo.policy_inputs(features), dtype=np.float64)]
+    actions = [np.asarray(demo.commands, dtype=np.intp)]
+    controller = first.controller
+    library = controller.library
+    ga_rng = np.random.default_rng([context.ga_seed, 1])
+    round_rng = np.random.default_rng([context.demo_seed, 1])
+    rounds_human = dataclasses.replace(context.human, legs=1, library_only_commands=0)
+    totals = LoopCounts()
+    per_round: list[dict[str, Any]] = []
+    fitness_best, fitness_mean = list(first.fitness_best), list(first.fitness_mean)
+    period = context.period_s
+    for r in range(1, hg.rounds + 1):
+        buffer = CaseBuffer(controller.n_inputs)
+        tally = RoundTally()
+        human_rng = np.random.default_rng(int(round_rng.integers(2**62)))
+        with recording_writer(
+            rep_dir / f"interventions_r{r}.lfdemo",
+            recording_metadata("hg-dagger", library, round=r),
+            controller.perception("frozen"),
+            fsync=False,
+            overwrite=True,
+            log_library=False,  # the library is the demonstration's, frozen: nothing to log
+        ) as w:
+
+            def observers(
+                person: Any, w: Any = w, r: int = r, buffer: CaseBuffer = buffer
+            ) -> list[Any]:
+                return [
+                    buffer,
+                    Recorder(
+                        w,
+                        lambda s: {
+                            "pose": s.moment.pose,
+                            "progress_m": person.progress_m,
+                            "phase": "correction" if s.decision.correction else "intervention",
+                            "step": s.moment.step,
+                        },
+                        round=r,
+                        source="correction",
+                    ),
+                ]
+
+            drive_both_ways(
+                context, controller, rounds_human, hg, (human_rng, round_rng), observers, tally
+            )
+            w.close({"round": r, "cases": len(buffer.commands)})
+        add_counts(totals, tally.counts)
+        x, a = buffer.arrays()
+        inputs.append(x)
+        actions.append(a)
+        all_x, all_a = np.concatenate(inputs), np.concatenate(actions)
+        result = evolve(*training_set(context, all_x, all_a), ga, ga_rng)
+        evolved = Controller.from_evolution(
+            library, result, seed=context.ga_seed, memory=context.memory, features=features
+        )
+        controller = evolved.relabelled("hg-dagger", {**hg.to_dict(), "ga": ga.to_dict()})
+        fitness_best += result.best_history.tolist()
+        fitness_mean += result.mean_history.tolist()
+        per_round.append(
+            {
+                "round": r,
+                "intervention_cases": int(len(a)),
+                "corrections": tally.counts.corrections,
+                "interventions": tally.reasons,
+                "autonomous_drive_s": round(tally.counts.policy_commands * period, 6),
+            }
+        )
+    all_x, all_a = np.concatenate(inputs), np.concatenate(actions)
+    return Learned(
+        controller=controller,
+        demo=dict(first.demo, rounds=per_round, cases=int(len(all_a))),
+        fitness_best=fitness_best,
+        fitness_mean=fitness_mean,
+        training_accuracy=training_accuracy(controller.weights, all_x, all_a),
+        effort=effort_record(
+            period, demonstration_commands=first.effort["commands"], counts=totals
+        ),
+    )
+
+
+def learn_hg_dagger(rep_dir: str | Path, *, hg: HGDaggerConfig, **context: Any) -> Learned:
+    """:func:`learn` with the settings ``hg`` and the context's fields as keywords
+    (:class:`~lfd_track.methods.common.MethodContext`)."""
+    return learn(MethodContext(Path(rep_dir), settings=hg, **context))
