@@ -10,8 +10,8 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from ..benchmark.methods import OnlineConfig
 from ..errors import LfdTrackError
+from ..methods.online import OnlineConfig
 from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
 from ..policy.memory import MEMORY_KINDS
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output

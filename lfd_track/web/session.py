@@ -23,10 +23,10 @@ from typing import Any
 
 import numpy as np
 
-from ..benchmark.methods import OnlineConfig
 from ..core.commands import Command
 from ..dataset import DemonstrationWriter
 from ..dataset.recording import RecordingTarget, ReplacingWriter
+from ..methods.online import OnlineConfig
 from ..policy.memory import MemoryConfig, NoMemory
 from ..teaching.arbiter import Arbiter
 from ..teaching.commanders import PolicyCommander

@@ -22,7 +22,6 @@ from typing import Any
 
 import numpy as np
 
-from lfd_track.benchmark.methods import METHODS
 from lfd_track.benchmark.runner import (
     BenchmarkConfig,
     repetition_seeds,
@@ -33,6 +32,7 @@ from lfd_track.benchmark.runner import (
 )
 from lfd_track.demo.demonstrator import HumanConfig
 from lfd_track.envs.track_env import LfDTrackEnv
+from lfd_track.methods import method_names
 from lfd_track.policy.controller import Controller
 from lfd_track.policy.memory import MEMORY_KINDS, memory_config
 from lfd_track.teaching.scripted import TURNAROUND_RULES
@@ -42,7 +42,7 @@ COMMAND_NAMES = ("F", "L", "R")
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--method", choices=METHODS, default="paper")
+    parser.add_argument("--method", choices=method_names(), default="paper")
     parser.add_argument("--preset", default="paper")
     parser.add_argument("--memory", choices=MEMORY_KINDS, default="none")
     parser.add_argument("--turnarounds", choices=TURNAROUND_RULES, default="alternate")
