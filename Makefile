@@ -47,3 +47,4 @@ test: setup-test
 lint: setup-test
 	$(BIN)/ruff check lfd_track tests benchmarks scripts examples
 	$(BIN)/ruff format --check lfd_track tests benchmarks scripts examples
+	$(BIN)/mypy

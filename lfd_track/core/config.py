@@ -49,14 +49,14 @@ def _check_value(value: Any, annotation: Any, where: str, path: Path | str) -> A
     if origin is tuple:
         if not isinstance(value, (list, tuple)):
             raise FileFormatError(path, f"'{where}' must be a list, got {value!r}")
-        args = typing.get_args(annotation)
-        if len(args) == 2 and args[1] is Ellipsis:
-            return tuple(_check_value(v, args[0], where, path) for v in value)
-        if len(args) != len(value):
+        entries = typing.get_args(annotation)
+        if len(entries) == 2 and entries[1] is Ellipsis:
+            return tuple(_check_value(v, entries[0], where, path) for v in value)
+        if len(entries) != len(value):
             raise FileFormatError(
-                path, f"'{where}' must have {len(args)} entries, got {len(value)}"
+                path, f"'{where}' must have {len(entries)} entries, got {len(value)}"
             )
-        return tuple(_check_value(v, a, where, path) for v, a in zip(value, args, strict=True))
+        return tuple(_check_value(v, a, where, path) for v, a in zip(value, entries, strict=True))
     return value
 
 

@@ -419,7 +419,7 @@ def _assemble(
         torn_tail_bytes=torn,
         library_log=replay is not None,
     )
-    arrays = {
+    arrays: dict[str, np.ndarray] = {
         "commands": commands,
         "road_values": (
             np.stack([c[6] for c in cases]).astype(np.float64)

@@ -29,7 +29,8 @@ def step_env(env: gym.Env, pending_reset: bool, action: Any, mode: AutoresetMode
     else:
         if mode == AutoresetMode.DISABLED:
             assert not pending_reset, "autoreset is disabled: reset the env before stepping it"
-        obs, reward, terminated, truncated, info = env.step(action)
+        obs, step_reward, terminated, truncated, info = env.step(action)
+        reward = float(step_reward)
         if mode == AutoresetMode.SAME_STEP and (terminated or truncated):
             final = {"final_obs": obs, "final_info": info}
             obs, info = env.reset()
@@ -40,7 +41,9 @@ def expand_seeds(seed: int | Sequence[int | None] | None, num_envs: int) -> list
     """``SyncVectorEnv.reset``'s seeds: None for all, ``seed + i``, or a list of ``num_envs``."""
     if seed is None:
         seeds: list[int | None] = [None] * num_envs
-    elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool):
+    elif isinstance(seed, bool):
+        raise TypeError(f"seed must be an integer or a list of seeds, got {seed!r}")
+    elif isinstance(seed, (int, np.integer)):
         seeds = [int(seed) + i for i in range(num_envs)]
     else:
         seeds = list(seed)

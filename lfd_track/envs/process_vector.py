@@ -92,7 +92,7 @@ class _Block:
             raise RuntimeError(f"env {first}'s frames are {shape}, the batch's {frames.shape[1:]}")
         self.pending = [False] * len(self.envs)  # episode ended: reset on the next step
 
-    def step(self, actions: Sequence[Any]) -> list[tuple]:
+    def step(self, actions: Sequence[Any]) -> list[list[Any]]:
         out = []
         for k, env in enumerate(self.envs):
             obs, *rest = step_env(env, self.pending[k], actions[k], self.mode)
@@ -267,7 +267,9 @@ class ProcessVectorEnv(VectorEnv):
                 parent, child = ctx.Pipe()
                 fns = [env_fns[i] for i in block]
                 args = (fns, block.start, self._buffer, batch_shape, dtype.str)
-                process = ctx.Process(
+                # typeshed types get_context(name) as BaseContext, which lacks the Process that
+                # every concrete context (fork, spawn, forkserver) has.
+                process = ctx.Process(  # type: ignore[attr-defined]
                     target=_worker,
                     args=(*args, self.autoreset_mode, self.spin_s, child),
                     daemon=True,

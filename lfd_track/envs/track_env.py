@@ -202,6 +202,7 @@ class LfDTrackEnv(gym.Env):
     def _check_felt(self) -> tuple[bool, bool]:
         """Whether each tread touches the felt at the rover's pose (returned) and whether the
         camera's safe box lies wholly on it (kept for the info dict): one test of all points."""
+        assert self._rover is not None and self._camera_model is not None  # built by reset()
         treads = self._rover.tread_points()  # (2, K, 2)
         k = treads.shape[1]
         box = self._camera_model.safe_box_floor_polygon(self._last_pose)
@@ -240,6 +241,7 @@ class LfDTrackEnv(gym.Env):
         if rebuild:
             self.preset = self.base_preset.sample(world_rng)
             self._build_world(world_rng)
+        assert self._ground is not None and self._rover is not None and self._renderer is not None
         self._physics_rng, self._sensor_rng = physics_rng, sensor_rng
         pose = self.episode.start_pose()
         if start is not None:
@@ -264,7 +266,13 @@ class LfDTrackEnv(gym.Env):
         return self._frame, self._info()
 
     def step(self, action: int) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        if self._rover is None:
+        if (
+            self._rover is None
+            or self._renderer is None
+            or self._ground is None
+            or self._physics_rng is None
+            or self._sensor_rng is None
+        ):
             raise RuntimeError("call reset() before step()")
         if self._ended and not self.continue_after_end:
             raise RuntimeError(
@@ -368,13 +376,15 @@ class LfDTrackEnv(gym.Env):
         """The camera frame a rover standing still at ``pose`` (x, y, theta) would see now, in
         this world with the camera's current exposure, without moving the rover or touching the
         episode's random streams (white balance and noise are drawn from ``rng``)."""
-        if self._rover is None or self._renderer is None:
+        if self._rover is None or self._renderer is None or self._ground is None:
             raise RuntimeError("call reset() before view_from()")
         return self._renderer.view(self._ground, np.asarray(pose, dtype=np.float64), rng)
 
     def camera_footprint(self, pose: np.ndarray) -> np.ndarray:
         """(N, 2) floor polygon [m] the camera sees from ``pose`` (x, y, theta); N = 4 for an
         ideal pinhole, more for a distorted lens (``CameraModel.footprint``)."""
+        if self._camera_model is None:
+            raise RuntimeError("call reset() before camera_footprint()")
         return self._camera_model.footprint(np.asarray(pose, dtype=np.float64))
 
 

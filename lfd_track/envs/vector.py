@@ -77,7 +77,8 @@ class ThreadedVectorEnv(SyncVectorEnv):
             raise ValueError(f"expected {self.num_envs} actions, got {len(per_env)}")
         results = list(self._pool.map(self._step_one, range(self.num_envs), per_env))
         for i, result in enumerate(results):
-            self._env_obs[i] = result[0]
+            # gymnasium builds SyncVectorEnv._env_obs as [None, ...], so mypy infers list[None].
+            self._env_obs[i] = result[0]  # type: ignore[call-overload]
         infos = gather_step(self, enumerate(result[1:] for result in results))
         self._autoreset_envs = np.logical_or(self._terminations, self._truncations)
         return step_return(self, infos)

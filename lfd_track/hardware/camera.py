@@ -27,6 +27,7 @@ import time
 import urllib.error
 import urllib.request
 from abc import ABC, abstractmethod
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -120,10 +121,11 @@ class _LatestFrameSource(FrameSource):
     def open(self) -> None:
         if self._thread is not None:
             return
-        if self._reader_alive():
+        old = self._old_thread
+        if old is not None and old.is_alive():
             # A reader from before close() still finishing a blocking read: it owns the stream
             # until it returns (at most the read/open timeout).
-            self._old_thread.join()
+            old.join()
         self._stop = threading.Event()
         self._connect()
         self._frame_time = time.monotonic()  # the timeout clock starts at open
@@ -145,9 +147,6 @@ class _LatestFrameSource(FrameSource):
             self._old_thread = thread
         with self._cond:
             self._cond.notify_all()
-
-    def _reader_alive(self) -> bool:
-        return self._old_thread is not None and self._old_thread.is_alive()
 
     def read(self, timeout_s: float = 1.0) -> np.ndarray:
         if self._thread is None:
@@ -393,11 +392,11 @@ class _Watched:
     sock: socket.socket
 
     def __init__(self, *args: Any, deadline: _Deadline, **kwargs: Any) -> None:
-        super().__init__(*args, **kwargs)  # type: ignore[call-arg]
+        super().__init__(*args, **kwargs)
         self._deadline = deadline
 
     def connect(self) -> None:
-        super().connect()  # type: ignore[misc]
+        super().connect()  # type: ignore[misc]  # the connection class after the mixin has it
         self._deadline.watch(self.sock)
 
 
@@ -415,7 +414,7 @@ class _WatchedHTTPHandler(urllib.request.HTTPHandler):
         self._deadline = deadline
 
     def http_open(self, req: urllib.request.Request) -> http.client.HTTPResponse:
-        return self.do_open(_WatchedHTTPConnection, req, deadline=self._deadline)
+        return self.do_open(partial(_WatchedHTTPConnection, deadline=self._deadline), req)
 
 
 class _WatchedHTTPSHandler(urllib.request.HTTPSHandler):
@@ -424,8 +423,10 @@ class _WatchedHTTPSHandler(urllib.request.HTTPSHandler):
         self._deadline = deadline
 
     def https_open(self, req: urllib.request.Request) -> http.client.HTTPResponse:
+        # As urllib's own https_open does: the handler's SSL context (not in typeshed).
+        context = self._context  # type: ignore[attr-defined]
         return self.do_open(
-            _WatchedHTTPSConnection, req, context=self._context, deadline=self._deadline
+            partial(_WatchedHTTPSConnection, deadline=self._deadline), req, context=context
         )
 
 

@@ -8,7 +8,7 @@ passed in, so the same seed gives the same bytes.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -279,8 +279,9 @@ def rescore_cases(state: GAState, cases: Cases, config: GAConfig) -> GAState:
     )
 
 
-def ga_result(state: GAState, config: GAConfig, rng_state: dict[str, Any]) -> EvolutionResult:
-    """The :class:`EvolutionResult` of a state (``rng_state``: the generator's starting state)."""
+def ga_result(state: GAState, config: GAConfig, rng_state: Mapping[str, Any]) -> EvolutionResult:
+    """The :class:`EvolutionResult` of a state (``rng_state``: the generator's starting state,
+    as ``rng.bit_generator.state`` gives it)."""
     return EvolutionResult(
         best_weights=np.array(state.best_weights),
         best_fitness=state.best_fitness,
@@ -288,7 +289,7 @@ def ga_result(state: GAState, config: GAConfig, rng_state: dict[str, Any]) -> Ev
         best_history=np.array(state.best_history, dtype=np.float64),
         mean_history=np.array(state.mean_history, dtype=np.float64),
         config=config,
-        rng_state=rng_state,
+        rng_state=dict(rng_state),
     )
 
 

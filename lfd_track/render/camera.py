@@ -118,6 +118,15 @@ def mip_bands(area_m2: np.ndarray, metres_per_px: float) -> tuple[tuple[int, int
     return tuple(bands)
 
 
+def _remap(
+    src: np.ndarray, texel_xy: np.ndarray, border: int, dst: np.ndarray | None = None
+) -> np.ndarray:
+    """``cv2.remap`` of ``src`` with bilinear sampling at the (H, W, 2) float32 texel coordinates
+    (col, row) ``texel_xy``, into ``dst`` when given."""
+    # OpenCV takes one two-channel map with map2=None; its stubs mark map2 as required.
+    return cv2.remap(src, texel_xy, None, cv2.INTER_LINEAR, dst=dst, borderMode=border)  # type: ignore[call-overload]
+
+
 #: The 256 input levels of the tone curve's table.
 _LEVELS = np.arange(256.0)
 _LEVELS.flags.writeable = False
@@ -347,18 +356,9 @@ class CameraRenderer:
             band = maps[v0:v1] * np.float32(0.5**level) if level else maps[v0:v1]
             dst = raw[v0:v1]
             if past:
-                cv2.remap(
-                    ground.carpet_band_at(level),
-                    band,
-                    None,
-                    cv2.INTER_LINEAR,
-                    dst=dst,
-                    borderMode=cv2.BORDER_REFLECT,
-                )
+                _remap(ground.carpet_band_at(level), band, cv2.BORDER_REFLECT, dst=dst)
             border = cv2.BORDER_TRANSPARENT if past else cv2.BORDER_REFLECT
-            out = cv2.remap(
-                ground.mip_level(level), band, None, cv2.INTER_LINEAR, dst=dst, borderMode=border
-            )
+            out = _remap(ground.mip_level(level), band, border, dst=dst)
             if out is not dst and not np.shares_memory(out, dst):
                 dst[...] = out
         return raw
@@ -375,19 +375,10 @@ class CameraRenderer:
         if self._mipmap:
             return self._remap_bands(ground, maps, self._sees_past_margin(ground, pose))
         if self._sees_past_margin(ground, pose):
-            raw = cv2.remap(
-                ground.carpet_band, maps, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT
-            )
-            cv2.remap(
-                ground.rgba,
-                maps,
-                None,
-                cv2.INTER_LINEAR,
-                dst=raw,
-                borderMode=cv2.BORDER_TRANSPARENT,
-            )
+            raw = _remap(ground.carpet_band, maps, cv2.BORDER_REFLECT)
+            _remap(ground.rgba, maps, cv2.BORDER_TRANSPARENT, dst=raw)
             return raw
-        return cv2.remap(ground.rgba, maps, None, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT)
+        return _remap(ground.rgba, maps, cv2.BORDER_REFLECT)
 
     def view(self, ground: GroundTexture, pose: np.ndarray, rng: np.random.Generator) -> np.ndarray:
         """A still frame from another ``pose`` taken as the last frame was (its exposure, the
@@ -462,6 +453,7 @@ class CameraRenderer:
                 np.ascontiguousarray(frame[..., ::-1]),
                 [cv2.IMWRITE_JPEG_QUALITY, s.jpeg_quality],
             )
-            if ok:
-                frame = np.ascontiguousarray(cv2.imdecode(buf, cv2.IMREAD_COLOR)[..., ::-1])
+            decoded = cv2.imdecode(buf, cv2.IMREAD_COLOR) if ok else None
+            if decoded is not None:
+                frame = np.ascontiguousarray(decoded[..., ::-1])
         return frame

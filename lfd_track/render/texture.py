@@ -260,7 +260,7 @@ def _value_noise(rng: np.random.Generator, shape: tuple[int, int], cell_px: floa
     cell = max(cell_px, 1.0)
     gh, gw = max(int(round(h / cell)), 2), max(int(round(w / cell)), 2)
     coarse = rng.standard_normal((gh, gw), dtype=np.float32)
-    out = cv2.resize(coarse, (w, h), interpolation=cv2.INTER_CUBIC)
+    out: np.ndarray = cv2.resize(coarse, (w, h), interpolation=cv2.INTER_CUBIC)
     # Interpolation lowers the std of white noise (to about 0.6 for large cells); restore ≈ 1.
     out *= np.float32(1.0 / max(float(out[::7, ::7].std()), 1e-6))
     return out
@@ -351,7 +351,7 @@ def build_ground(
         row = (origin[1] - poly[:, 1]) / mpp
         pts = np.rint(np.stack([col, row], axis=1) * (1 << shift)).astype(np.int32)
         cv2.fillPoly(mask, [pts], 255, lineType=cv2.LINE_8, shift=shift)
-    coverage = mask.astype(np.float32)
+    coverage: np.ndarray = mask.astype(np.float32)
     coverage *= np.float32(1.0 / 255.0)
     fuzz_px = appearance.edge_fuzz_m / mpp
     if fuzz_px > 0.25:
@@ -366,7 +366,7 @@ def build_ground(
     # Carpet: loops (blobs about one loop wide) with fine fibre grain, slow wear patches.
     pile_px = appearance.carpet_pile_scale_m / mpp
     k_pile = appearance.carpet_pile_strength
-    carpet_shade = cv2.addWeighted(
+    carpet_shade: np.ndarray = cv2.addWeighted(
         _value_noise(rng, shape, pile_px), 0.75 * k_pile, fine, 0.45 * k_pile, 1.0
     )
     carpet_shade = cv2.addWeighted(
@@ -379,7 +379,7 @@ def build_ground(
         cv2.blur(fine, (fibre_px, 1)), cv2.blur(np.ascontiguousarray(fine[::-1]), (1, fibre_px))
     )
     k_fibre = appearance.felt_fibre_strength
-    felt_shade = cv2.addWeighted(
+    felt_shade: np.ndarray = cv2.addWeighted(
         streaks,
         0.6 * k_fibre * math.sqrt(fibre_px),
         cv2.GaussianBlur(fine, (0, 0), 0.7),
@@ -398,7 +398,7 @@ def build_ground(
     )
     # Texel (c, r) sits at coarse position (c, r) * mpp / step: an exact affine upsampling.
     inv_scale = mpp / light_step
-    light_full = cv2.warpAffine(
+    light_full: np.ndarray = cv2.warpAffine(
         light,
         np.array([[inv_scale, 0.0, 0.0], [0.0, inv_scale, 0.0]]),
         (w, h),

@@ -199,7 +199,8 @@ def draw_trajectories(
     view = TopDownView(track, size_px, margin_m)
     img = view.blank(track, labels)
     for path, colour in zip(trajectories, colours, strict=True):
-        col = tuple(int(c) for c in colour)
+        red, green, blue = (int(c) for c in colour)
+        col = (red, green, blue)
         view.draw_path(img, path, col, thickness)
         pts = np.asarray(path, dtype=np.float64).reshape(-1, 2)
         pts = pts[np.all(np.isfinite(pts), axis=1)]

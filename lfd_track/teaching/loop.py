@@ -126,7 +126,7 @@ class TeachingLoop:
         if self.arbiter.driving == "human":
             claim = getattr(self.human, "claim", None)
             if claim is not None and not claim():
-                return self._waiting()
+                return self._waiting(self.frame)
         reset = getattr(self.human, "memory_reset", None)
         if reset is not None and reset():  # the human's script starts a leg afresh
             self.perception.start_episode()
@@ -163,10 +163,10 @@ class TeachingLoop:
             observer.observe(step)
         return step
 
-    def _waiting(self) -> Step:
+    def _waiting(self, frame: np.ndarray) -> Step:
         """A step where nobody commands and nothing is perceived (the human has no input)."""
         none = Decision(None, None)
-        moment = Moment(self._episode_steps, self.frame, np.zeros(0), self.info, "human")
+        moment = Moment(self._episode_steps, frame, np.zeros(0), self.info, "human")
         percept = Percept(np.zeros(0), np.zeros(0, dtype=np.float32), False, None)
         return Step(moment, percept, None, None, none, is_case=False)
 

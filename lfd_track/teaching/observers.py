@@ -54,13 +54,15 @@ class Recorder:
     def observe(self, step: Step) -> None:
         if not step.is_case:
             return
+        command = step.command
+        assert command is not None  # a teaching case is a step the human commanded
         source = self.source or ("correction" if step.decision.correction else "demonstration")
         fields: dict[str, Any] = {"source": source, "round": self.round}
         fields.update(self.annotate(step))
         if len(step.percept.memory):
             fields.setdefault("memory", step.percept.memory)
         self.writer.append(
-            int(step.command),
+            int(command),
             step.percept.values,
             step.percept.histograms,
             learned=step.percept.learned,
@@ -82,9 +84,11 @@ class CaseBuffer:
         pass
 
     def observe(self, step: Step) -> None:
+        command = step.command
         if step.is_case:
+            assert command is not None  # a teaching case is a step the human commanded
             self.values.append(np.asarray(step.percept.inputs, dtype=np.float64))
-            self.commands.append(int(step.command))
+            self.commands.append(int(command))
             self.corrections.append(step.decision.correction)
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray]:

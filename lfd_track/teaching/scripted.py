@@ -65,7 +65,8 @@ class HumanConfig:
     # "toward_last_bend" (turn the way the leg's last bend turned: where the felt came from; on
     # the training track that is right, left, right, ..., i.e. alternating from the right) or
     # "toward_next_bend" (turn the way the next leg's first bend turns: where the felt goes; on
-    # the training track that is left, right, left, ...).
+    # the training track that is left, right, left, ...; kept because the limits experiment's
+    # human_models.toml sets it, where it lapped no more than the default).
     # The other human-model options of a study are the traits above: dead_band_deg,
     # lookahead_m, reaction_delay_prob and lapse_prob (0 and 0: a noise-free human).
     turnarounds: str = "alternate"
@@ -76,12 +77,17 @@ class HumanConfig:
     # the fresh-felt rule, lfd_track.teaching.handwritten.FreshFeltRule, on the policy's
     # fresh_felt map inputs, pivoting beyond picture_turn_deg; needs memory kind fresh_felt).
     # The human traits (reaction delay, lapses, rate limit), the library-only start, the stops
-    # and turn-arounds and the rule for intervening are the same for both.
+    # and turn-arounds and the rule for intervening are the same for both ("picture" is the
+    # chosen configuration's human, chosen.toml).
     steers_by: str = "centreline"
-    picture_turn_deg: float = 20.0  # [deg] "picture": the rule's turn threshold
+    # [deg] "picture": the rule's turn threshold (kept because the goal's round 17 study,
+    # selection_round17.toml, sets 15 for a candidate that lost to the default 20).
+    picture_turn_deg: float = 20.0
     # Start the policy's memory afresh at each leg after a turn-around, as at an episode's start
     # (for the fresh_felt map: the strip ahead is the one just driven, which would not count as
-    # fresh, and a picture-steering human would pivot round looking for fresh felt).
+    # fresh, and a picture-steering human would pivot round looking for fresh felt). Kept
+    # because the goal's round 3 study, selection_round3.toml, sets it (it halved what the
+    # learners lapped; no later round uses it).
     clear_memory_per_leg: bool = False
 
     def __post_init__(self) -> None:
@@ -341,6 +347,7 @@ class ProtocolHuman:
                 if self.progress_m < leg_track.length_m - self.config.stop_before_end_m:
                     return
                 self._start_turnaround(pose)
+            assert self._back is not None  # set when the leg's drive ended
             driver, back_progress = self._back
             error = driver.heading_error(pose, back_progress)
             if self._turns < 40 and abs(error) > self._dead_band:
@@ -360,29 +367,33 @@ class ProtocolHuman:
         if self.done:
             return None
         pose = moment.pose
-        watching = moment.driving == "policy" and self.watcher is not None
+        assert pose is not None  # _advance has read the same info["pose"]
+        watcher = self.watcher if moment.driving == "policy" else None
+        watching = watcher is not None
         if self._state == "drive":
+            driver, tracker = self._driver, self._tracker
+            assert driver is not None and tracker is not None  # _advance started this leg
             self.phase = PHASE_DRIVE if self._past_library_only else PHASE_LIBRARY_ONLY
             # What the human makes of the picture: every frame, driving or watching.
             seen = self._look(moment)
-            if watching:
+            if watcher is not None:
                 self._watched.append(self.progress_m)
-                why = self.watcher.reason(
+                why = watcher.reason(
                     self.legs[self.leg % 2],
-                    self._driver,
-                    self._tracker,
+                    driver,
+                    tracker,
                     self._max_progress,
                     pose,
                 )
-                if why is None and self.watcher.stalled(self._watched):
+                if why is None and watcher.stalled(self._watched):
                     why = "stall"
                 if why is None:
                     if self.label_all:
-                        self.label = self.person.decide(self._driver, pose, self.progress_m, seen)
+                        self.label = self.person.decide(driver, pose, self.progress_m, seen)
                     return None
                 self.interventions[why] += 1
             self._watched.clear()
-            self.label = self.person.decide(self._driver, pose, self.progress_m, seen)
+            self.label = self.person.decide(driver, pose, self.progress_m, seen)
             return self.label
         self._turns += 1
         self.phase = PHASE_TURNAROUND

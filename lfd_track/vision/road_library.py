@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -90,7 +90,7 @@ class _RoadType:
     comparisons: int = 0
 
 
-def _least_used(items: list[_Example] | list[_RoadType]) -> int:
+def _least_used(items: Sequence[_Example | _RoadType]) -> int:
     """Index of the least-used item: compared ones first, lowest frequency, then the oldest."""
 
     def key(indexed: tuple[int, _Example | _RoadType]) -> tuple[bool, float, int]:
@@ -120,7 +120,7 @@ class RoadLibrary:
         max_examples: int = 10,
     ) -> None:
         self.bins = check_bins(bins)
-        threshold = similarity_threshold
+        threshold: object = similarity_threshold  # checked as whatever the caller passed
         if isinstance(threshold, bool | np.bool_) or not isinstance(threshold, numbers.Real):
             raise ValueError(f"similarity_threshold must be a number in [-1, 1], got {threshold!r}")
         try:
@@ -129,7 +129,7 @@ class RoadLibrary:
             raise ValueError(
                 "similarity_threshold must be in [-1, 1], got a huge integer"
             ) from None
-        if not finite or not -1.0 <= threshold <= 1.0:
+        if not finite or not -1.0 <= float(threshold) <= 1.0:
             raise ValueError(f"similarity_threshold must be in [-1, 1], got {threshold}")
         for name, value in (("max_types", max_types), ("max_examples", max_examples)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:

@@ -291,7 +291,7 @@ def legend_strip(width: int, extra: Sequence[str] = ()) -> np.ndarray:
         255,
         np.uint8,
     )
-    for i, (colour, name) in enumerate(rows[: len(OUTCOMES)]):
+    for i, (colour, name) in enumerate(OUTCOMES.values()):  # the first rows
         x = 10 + (i % 2) * (width // 2)
         y = 24 + 22 * (i // 2)
         cv2.line(img, (x, y - 5), (x + 28, y - 5), colour, 3)
