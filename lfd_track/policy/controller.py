@@ -172,7 +172,9 @@ def migrate(data: dict[str, Any]) -> dict[str, Any]:
     if version >= 2:
         stored = data["checksum"]
         if not isinstance(stored, str) or stored != checksum(data):
-            raise ValueError("checksum mismatch: the file was changed or damaged after it was saved")
+            raise ValueError(
+                "checksum mismatch: the file was changed or damaged after it was saved"
+            )
     if version == 3 and data["memory"] is None:
         raise ValueError("a schema 3 controller must name its memory kind")
     while version < CONTROLLER_SCHEMA:

@@ -334,9 +334,13 @@ REMOVED_SETTINGS: dict[str, Any] = {
 }
 
 
-@functools.cache
 def setting_specs(cls: type[MemoryConfig]) -> tuple[SettingSpec, ...]:
     """The settings of a kind's class, in field order, as :func:`setting` declared them."""
+    return _setting_specs(typing.cast(Any, cls))  # a dataclass's class is hashable
+
+
+@functools.cache
+def _setting_specs(cls: Any) -> tuple[SettingSpec, ...]:
     hints = typing.get_type_hints(cls)
     return tuple(
         SettingSpec(name=f.name, type=hints[f.name], default=f.default, **f.metadata)
