@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from ..benchmark.runner import config_dict, run_benchmark
+from ..benchmark.schema import migrate_results
 from ..benchmark.tables import results_json_text
 from ..errors import FileFormatError, first_line
 from ..utils.atomic import atomic_write_bytes
@@ -91,6 +92,8 @@ def finished_results(out: Path, job: Job) -> dict[str, Any] | None:
         raise FileFormatError(path, f"unreadable results (too large for memory); {rerun}") from None
     except ValueError as exc:  # not JSON, or an integer of thousands of digits
         raise FileFormatError(path, f"unreadable results ({first_line(exc)}); {rerun}") from None
+    if isinstance(results, dict):
+        results = migrate_results(results, path)  # an older schema is read as the current one
     if not isinstance(results, dict) or results.get("config") != expected_config(job):
         raise FileFormatError(
             path,

@@ -1,0 +1,58 @@
+"""study.json schemas: a study writes the current one; every committed study.json reads as it,
+each condition's settings whole; a newer one fails in one line naming the file."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from study_helpers import TINY_STUDY, write_study
+
+from lfd_track.benchmark.runner import BenchmarkConfig, config_dict
+from lfd_track.benchmark.tables import results_json_text
+from lfd_track.errors import FileFormatError
+from lfd_track.study.schema import STUDY_SCHEMA, migrate_study, read_study_results
+from lfd_track.study.spec import load_study
+from lfd_track.study.summary import build_study_results
+
+REPO = Path(__file__).resolve().parents[2]
+COMMITTED = sorted(str(p.relative_to(REPO)) for p in (REPO / "benchmarks").rglob("study.json"))
+
+
+def _stored(value):
+    return json.loads(results_json_text({"x": value}))["x"]
+
+
+@pytest.mark.parametrize("path", COMMITTED)
+def test_a_committed_study_json_reads_as_the_current_schema(path):
+    summary = read_study_results(REPO / path)
+    assert summary["schema"] == STUDY_SCHEMA == 2
+    for condition in summary["conditions"]:
+        # A condition stores its settings without the job's seed and repetitions.
+        config = {**condition["config"], "seed": 0, "repetitions": condition["repetitions"]}
+        again = _stored(config_dict(BenchmarkConfig.from_dict(config)))
+        assert {k: v for k, v in again.items() if k not in ("seed", "repetitions")} == (
+            condition["config"]
+        )
+
+
+def test_a_study_writes_the_current_schema_with_every_setting(tmp_path):
+    study = load_study(write_study(tmp_path, TINY_STUDY))
+    summary = _stored(build_study_results(study, []))
+    assert summary["schema"] == STUDY_SCHEMA
+    assert migrate_study(summary, "study.json") is summary
+    (condition,) = summary["conditions"]
+    full = _stored(config_dict(study.conditions[0].config))
+    assert condition["config"] == {
+        k: v for k, v in full.items() if k not in ("seed", "repetitions")
+    }
+
+
+def test_a_newer_study_json_fails_in_one_line_naming_the_file(tmp_path):
+    path = tmp_path / "study.json"
+    path.write_text(json.dumps({"schema": STUDY_SCHEMA + 1, "conditions": []}))
+    with pytest.raises(FileFormatError) as exc:
+        read_study_results(path)
+    assert str(exc.value).startswith(f"{path}: study schema {STUDY_SCHEMA + 1} is newer")
+    assert "\n" not in str(exc.value)
