@@ -147,14 +147,14 @@ class FreshFeltRuleConfig:
     turn_deg: float = 20.0
     """[deg] bearing of the fresh felt beyond which the rule pivots toward it (the default
     and the memory's defaults are the limits experiment's choice, part 2c)."""
-    memory: MemoryConfig = field(default_factory=FreshFeltConfig.plain)
+    memory: FreshFeltConfig = field(default_factory=FreshFeltConfig.plain)
     """The map's settings (kind ``fresh_felt``; default the map with every option off, as the
     limits experiment tuned the rule on)."""
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.turn_deg < 180.0:
             raise ValueError("turn_deg must lie in [0, 180)")
-        if self.memory.kind != "fresh_felt":
+        if not isinstance(self.memory, FreshFeltConfig):
             raise ValueError("a fresh-felt rule needs memory kind 'fresh_felt'")
         if self.turn_deg >= self.memory.bearing_range_deg:
             raise ValueError("turn_deg must lie below the memory's bearing_range_deg")

@@ -158,7 +158,7 @@ class Perception:
         histograms = self.library.region_histograms(frame)
         values = self.library.road_values_from_histograms(histograms, update_statistics=False)
         memory = np.zeros(0)
-        if self._memory is not None:
+        if self._memory_before is not None:  # set with the memory, None without one
             placed = copy.copy(self._memory_before)
             placed.place_before(before)
             placed.see(values)

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.commands import Command
-from ..policy.memory import MemoryConfig
+from ..policy.memory import FreshFeltConfig, MemoryConfig
 from ..world.driver import CentrelineDriver, DriverConfig
 from ..world.rover import RoverConfig
 from ..world.track import ProgressTracker, Track
@@ -298,14 +298,14 @@ class ProtocolHuman:
                 "human steers_by 'picture' reads the fresh_felt map: the policy needs memory"
                 " kind 'fresh_felt'"
             )
-        picture_map = (
-            {"memory": memory} if memory is not None and memory.kind == "fresh_felt" else {}
-        )
-        self._picture = (
-            FreshFeltRule(FreshFeltRuleConfig(turn_deg=config.picture_turn_deg, **picture_map))
-            if config.steers_by == "picture"
-            else None
-        )
+        self._picture: FreshFeltRule | None = None
+        if config.steers_by == "picture":
+            turn_deg = config.picture_turn_deg
+            self._picture = FreshFeltRule(
+                FreshFeltRuleConfig(turn_deg=turn_deg, memory=memory)
+                if isinstance(memory, FreshFeltConfig)
+                else FreshFeltRuleConfig(turn_deg=turn_deg)
+            )
         self._clear_memory = False
 
     @property
