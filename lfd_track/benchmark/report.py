@@ -3,7 +3,6 @@ picture with its numbers beside it: trajectories.csv, fitness.csv)."""
 
 from __future__ import annotations
 
-import json
 import statistics
 from pathlib import Path
 from typing import Any
@@ -26,6 +25,7 @@ from ..world.track import load_track
 from .paper import DIRECTION_TITLES
 from .paper import DIRECTIONS as TABLE_DIRECTIONS
 from .runner import DIRECTIONS, BenchmarkConfig, RepetitionResult, config_dict
+from .schema import read_results
 from .tables import (
     TrialOutcome,
     build_results,
@@ -260,7 +260,7 @@ def write_benchmark_outputs(
 
     path = write_results_json(out / "results.json", results)
     # The report is drawn from the file as written, so re-rendering it later gives the same text.
-    stored = json.loads(path.read_text(encoding="utf-8"))
+    stored = read_results(path)
     write_report_from_results(out, stored)
     return format_tables(stored)
 
