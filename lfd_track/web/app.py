@@ -35,7 +35,7 @@ import json
 import secrets
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from importlib import resources
@@ -316,7 +316,7 @@ def _json_status(session: TeachingSession) -> dict[str, Any]:
     return {"backend": session.backend, "online": session.online, **session.status()}
 
 
-def parse_message(received: dict[str, Any]) -> tuple[dict[str, Any] | None, str | None]:
+def parse_message(received: Mapping[str, Any]) -> tuple[dict[str, Any] | None, str | None]:
     """A received WebSocket message as ``(message, None)``, or ``(None, error text)``."""
     text = received.get("text")
     if text is None:
@@ -440,7 +440,7 @@ def create_app(
             return f"unknown message type {_short(kind)}"
         return None
 
-    async def respond(client: _Client, received: dict[str, Any]) -> str | None:
+    async def respond(client: _Client, received: Mapping[str, Any]) -> str | None:
         """Carry out one received message; returns an error text for the page, or None."""
         message, error = parse_message(received)
         if message is None:

@@ -94,14 +94,14 @@ class Guard:
     def __init__(self, limit: int, header_timeout_s: float) -> None:
         self.limit = limit
         self.header_timeout_s = header_timeout_s
-        self.open: set[asyncio.BaseTransport] = set()
+        self.open: set[asyncio.Transport] = set()
         self.waiting: dict[Connection, None] = {}  # oldest first
         self.by_address: dict[tuple[_Address | None, _Address | None], Connection] = {}
         self.refused = Throttled()
         self.out_of_files = Throttled()
-        self._closing: set[asyncio.BaseTransport] = set()
+        self._closing: set[asyncio.Transport] = set()
 
-    def admit(self, transport: asyncio.BaseTransport) -> bool:
+    def admit(self, transport: asyncio.Transport) -> bool:
         """Count a new connection in; False when it must be refused."""
         if len(self.open) >= self.limit:
             if not self.waiting:
@@ -241,7 +241,7 @@ class Connection(asyncio.Protocol):
     # ---------------------------------------------------------------- the transport's side
     def connection_made(self, transport: asyncio.BaseTransport) -> None:
         self.transport = transport  # type: ignore[assignment]
-        if not self._guard.admit(transport):
+        if not self._guard.admit(self.transport):
             self.transport.write(_REFUSAL)
             self.transport.close()
             return
@@ -267,7 +267,7 @@ class Connection(asyncio.Protocol):
     def eof_received(self) -> bool | None:
         if self.inner is None or self._inner_lost:
             return None
-        return self.inner.eof_received()  # type: ignore[no-any-return]
+        return self.inner.eof_received()
 
     def pause_writing(self) -> None:
         if self._stalled is None:
@@ -460,7 +460,7 @@ class Pipe(asyncio.Transport):
         self._connection.switch_to(protocol)
 
     def get_protocol(self) -> asyncio.BaseProtocol:
-        return self._connection.inner  # type: ignore[no-any-return]
+        return self._connection.inner
 
     def is_reading(self) -> bool:
         return not self._connection._inner_paused
@@ -503,7 +503,7 @@ class GuardedLoop(asyncio.SelectorEventLoop):
         super().__init__()
         self._guard = guard
 
-    async def create_server(  # type: ignore[override]
+    async def create_server(
         self, protocol_factory: Callable[[], Any], *args: Any, **kwargs: Any
     ) -> asyncio.Server:
         guard = self._guard
