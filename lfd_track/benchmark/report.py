@@ -287,8 +287,8 @@ def write_report_from_results(out: str | Path, results: dict[str, Any]) -> Path:
     if memory_kind == "previous_command":
         notes.append("the network also reads the command it executed the step before")
     elif memory_kind != "none":
-        # Only last_bend has bend_pivots; the line keeps the words it always had, where the
-        # other kinds showed the setting's default, 2.
+        # A bend is 2 pivots (the constant BEND_PIVOTS; files written before it was one held
+        # bend_pivots = 2): the line keeps the words it always had.
         pivots = config["memory"].get("bend_pivots", 2)
         notes.append(
             f"the network also reads memory inputs ({memory_kind}, {pivots} pivots make a bend)"

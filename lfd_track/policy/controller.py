@@ -16,7 +16,8 @@ changes nothing). ``layer_sizes`` is ``[f + m, h, 3]``: f per-region inputs (40 
 with colour, 0 with the features ``"none"``, which need a memory), m memory inputs, h hidden
 nodes.
 
-Older files are read through one migration per schema step (:data:`MIGRATIONS`), each turning a
+Older files are read through one migration per schema step
+(:data:`~lfd_track.policy.controller_schema.MIGRATIONS`), each turning a
 file of schema k into one of schema k + 1: schema 1 (the first release: ``ga_config`` instead of
 ``learner``/``learner_config``, no ``policy_kind`` or checksum) gains ``learner="ga"``; schema
 2 (no memory) gains ``memory: null``; schema 3 (memory, road values) gains ``features:
@@ -38,10 +39,9 @@ A policy does not import its trainer: the GA appears here only as a type for ``f
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -55,10 +55,10 @@ from ..utils.files import NonFiniteNumber as _NonFiniteError
 from ..utils.files import read_regular_text
 from ..utils.files import reject_constant as _reject_constant
 from ..vision.road_library import RoadLibrary
+from .controller_schema import CONTROLLER_SCHEMA, checksum, migrate
 from .elman import N_CONTEXT, ElmanCommander, ElmanState
 from .features import DEFAULT_FEATURES, FEATURE_SETS, check_features
 from .memory import MemoryConfig, policy_inputs
-from .memory_config import memory_table_from_v1
 from .mlp import (
     MAX_HIDDEN,
     N_HIDDEN,
@@ -74,8 +74,6 @@ if TYPE_CHECKING:
     from ..learning.ga import EvolutionResult
 
 CONTROLLER_FORMAT = "lfd-track-controller"
-CONTROLLER_SCHEMA = 5
-"""Schema every controller file is written in (older ones are migrated on reading)."""
 POLICY_KINDS = ("mlp-sigmoid", "elman-sigmoid")
 """Policy kinds this version of lfd-track can run."""
 MAX_ABS_WEIGHT = 1e6
@@ -83,111 +81,6 @@ MAX_ABS_WEIGHT = 1e6
 most 1 and a layer has at most 40 inputs), so larger values only come from a damaged file."""
 MAX_FILE_BYTES = 256 << 20
 """Largest controller file read (a 100-model library at 256 bins is a few MB)."""
-_KEYS_V2 = (
-    "format",
-    "schema_version",
-    "policy_kind",
-    "layer_sizes",
-    "bias",
-    "weights",
-    "road_library",
-    "learner",
-    "learner_config",
-    "seed",
-    "fitness_history",
-    "learn",
-    "checksum",
-)
-_KEYS_V1 = (
-    "format",
-    "schema_version",
-    "layer_sizes",
-    "bias",
-    "weights",
-    "road_library",
-    "ga_config",
-    "seed",
-    "fitness_history",
-    "learn",
-)
-#: The keys of a controller file of each schema (exactly these).
-SCHEMA_KEYS: dict[int, tuple[str, ...]] = {
-    1: _KEYS_V1,
-    2: _KEYS_V2,
-    3: (*_KEYS_V2[:-1], "memory", "checksum"),
-    4: (*_KEYS_V2[:-1], "features", "memory", "checksum"),
-    5: (*_KEYS_V2[:-1], "features", "memory", "checksum"),
-}
-
-
-def _from_schema1(data: dict[str, Any]) -> dict[str, Any]:
-    """Schema 1 -> 2: the first release's GA settings become the learner's."""
-    out = {k: v for k, v in data.items() if k != "ga_config"}
-    out.update(policy_kind="mlp-sigmoid", learner="ga", learner_config=data["ga_config"])
-    return out
-
-
-def _from_schema2(data: dict[str, Any]) -> dict[str, Any]:
-    """Schema 2 -> 3: a controller without memory stores null as its memory."""
-    return {**data, "memory": None}
-
-
-def _from_schema3(data: dict[str, Any]) -> dict[str, Any]:
-    """Schema 3 -> 4: the network reads the road values (named)."""
-    return {**data, "features": DEFAULT_FEATURES}
-
-
-def _from_schema4(data: dict[str, Any]) -> dict[str, Any]:
-    """Schema 4 -> 5: the memory table with every setting (options left out meant off)."""
-    memory = data["memory"]
-    return {**data, "memory": None if memory is None else memory_table_from_v1(memory)}
-
-
-#: One migration per schema step: ``MIGRATIONS[k]`` turns the contents of a schema-k file into
-#: those of a schema k + 1 file meaning the same controller.
-MIGRATIONS: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {
-    1: _from_schema1,
-    2: _from_schema2,
-    3: _from_schema3,
-    4: _from_schema4,
-}
-
-
-def migrate(data: dict[str, Any]) -> dict[str, Any]:
-    """The contents of a controller file of any schema this build reads, as schema
-    :data:`CONTROLLER_SCHEMA` (its keys checked, the checksum of schema 2 on verified first)."""
-    version = data.get("schema_version")
-    if isinstance(version, bool) or version not in SCHEMA_KEYS:
-        raise ValueError(
-            f"schema version {version!r} is not supported"
-            f" (this version of lfd-track reads {', '.join(map(str, SCHEMA_KEYS))})"
-        )
-    keys = SCHEMA_KEYS[version]
-    for key in keys:
-        if key not in data:
-            raise ValueError(f"missing key '{key}'")
-    unknown = sorted(set(data) - set(keys))
-    if unknown:
-        raise ValueError(f"unknown key '{unknown[0]}'")
-    if version >= 2:
-        stored = data["checksum"]
-        if not isinstance(stored, str) or stored != checksum(data):
-            raise ValueError(
-                "checksum mismatch: the file was changed or damaged after it was saved"
-            )
-    if version == 3 and data["memory"] is None:
-        raise ValueError("a schema 3 controller must name its memory kind")
-    while version < CONTROLLER_SCHEMA:
-        data = MIGRATIONS[version](data)
-        version += 1
-    return {**data, "schema_version": version}
-
-
-def checksum(contents: Mapping[str, Any]) -> str:
-    """SHA-256 hex of the canonical JSON of every key of ``contents`` except ``checksum``."""
-    body = {k: v for k, v in contents.items() if k != "checksum"}
-    text = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
 class Controller:

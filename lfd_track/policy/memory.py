@@ -7,7 +7,7 @@ memory input carries that one fact forward from the commands the robot executed:
 
 * ``"none"`` — no memory (the paper's 40 inputs);
 * ``"last_bend"`` — one input saying which way the robot last turned by a whole bend: 1 after a
-  left bend, 0 after a right bend, 0.5 before any. A *bend* is ``bend_pivots`` more pivots one way
+  left bend, 0 after a right bend, 0.5 before any. A *bend* is :data:`BEND_PIVOTS` (2) more pivots one way
   than the other since the last extreme of the running count (left +1, right -1; forward
   commands count nothing), so a wobble of one pivot left and one right changes nothing while
   two pivots the same way (45° with the paper's 23° pivots, the training track's gentlest bend)
@@ -117,6 +117,8 @@ __all__ = [
 
 #: Value of the ``last_bend`` input before the first bend of an episode.
 UNKNOWN_SIDE = 0.5
+#: ``last_bend``: net pivots one way that make a bend (45° with the paper's pivots).
+BEND_PIVOTS = 2
 #: ``fresh_felt``: frames the map remembers (the path is remembered for 40 commands).
 MAP_FRAMES = 25
 #: ``fresh_felt``: road value at or below which a region counts as carpet (felt level 0).
@@ -157,7 +159,7 @@ class TurnMemory:
             return
         self._high = max(self._high, self._count)
         self._low = min(self._low, self._count)
-        k = self.config.bend_pivots
+        k = BEND_PIVOTS
         if self._count - self._low >= k:
             self.side = 1.0
             self._high = self._low = self._count

@@ -178,18 +178,11 @@ class NoMemory(MemoryConfig):
 
 @dataclass(frozen=True)
 class LastBendConfig(MemoryConfig):
-    """``kind = "last_bend"``: one input, which way the robot last turned by a whole bend."""
+    """``kind = "last_bend"``: one input, which way the robot last turned by a whole bend (2 net
+    pivots one way, :data:`lfd_track.policy.memory.BEND_PIVOTS`). No settings."""
 
     kind: ClassVar[str] = "last_bend"
     n_inputs: ClassVar[int] = 1
-
-    bend_pivots: int = setting(
-        2,
-        "[pivots] net pivots one way that make a bend (kept: the hand-written rule's latch,"
-        " RoadRuleConfig.bend_pivots, sets it)",
-        low=1,
-        high=1000,
-    )
 
     def mirror(self, inputs: np.ndarray) -> np.ndarray:
         # a left bend becomes a right one and back; "unknown" (0.5) stays
@@ -320,17 +313,19 @@ _PLAIN_MAP: dict[str, Any] = {
 }
 #: What a memory table written before every setting was stored meant by a missing key: the
 #: defaults of the time (each ``fresh_felt`` option off) ...
-_V1_DEFAULTS: dict[str, Any] = {"bend_pivots": 2, "path_radius_m": 0.35, "reach_m": 0.6}
-_V1_DEFAULTS.update(_PLAIN_MAP)
-#: ... and the settings removed since (no committed study set them), with the only value each
-#: one keeps: the map's constants in :mod:`lfd_track.policy.memory`.
-REMOVED_SETTINGS: dict[str, Any] = {
-    "frames": 25,
-    "carpet": 0.3,
-    "felt": 0.5,
-    "step_m": 0.10,
-    "pivot_deg": 22.9,
-    "path_places": "every_command",
+_V1_DEFAULTS: dict[str, Any] = {"path_radius_m": 0.35, "reach_m": 0.6, **_PLAIN_MAP}
+#: ... and, per kind, the settings removed since (no committed study set them), with the only
+#: value each one keeps: the constants in :mod:`lfd_track.policy.memory`.
+REMOVED_SETTINGS: dict[str, dict[str, Any]] = {
+    "last_bend": {"bend_pivots": 2},
+    "fresh_felt": {
+        "frames": 25,
+        "carpet": 0.3,
+        "felt": 0.5,
+        "step_m": 0.10,
+        "pivot_deg": 22.9,
+        "path_places": "every_command",
+    },
 }
 
 
@@ -384,15 +379,14 @@ def memory_table_from_v1(table: Mapping[str, Any]) -> dict[str, Any]:
     if cls is None:
         raise ValueError(f"memory kind must be one of {', '.join(MEMORY_KINDS)}, got {kind!r}")
     names = [spec.name for spec in setting_specs(cls)]
-    old = {**_V1_DEFAULTS, **REMOVED_SETTINGS}
-    unknown = sorted(set(table) - set(old) - {"kind"})
+    old = set(_V1_DEFAULTS).union(*REMOVED_SETTINGS.values())
+    unknown = sorted(set(table) - old - {"kind"})
     if unknown:
         raise ValueError(f"unknown memory setting '{unknown[0]}'")
-    if kind == "fresh_felt":
-        for name, value in REMOVED_SETTINGS.items():
-            if name in table and table[name] != value:
-                raise ValueError(
-                    f"memory {name} = {table[name]!r} is no longer supported (the map's {name}"
-                    f" is {value!r})"
-                )
+    for name, value in REMOVED_SETTINGS.get(kind, {}).items():
+        if name in table and table[name] != value:
+            raise ValueError(
+                f"memory {name} = {table[name]!r} is no longer supported (kind {kind!r} has"
+                f" {name} = {value!r})"
+            )
     return {"kind": kind, **{name: table.get(name, _V1_DEFAULTS[name]) for name in names}}

@@ -67,8 +67,6 @@ class RoadRuleConfig:
     default_turn: str = "left"
     """Pivot direction on a blank view with no evidence either way (and, latched, before any
     bend)."""
-    bend_pivots: int = 2
-    """Net pivots one way that make a bend (the latch; as ``LastBendConfig.bend_pivots``)."""
     seen_latch: bool = False
     """Pivot toward the side the felt was last seen on when the view is blank (a one-bit
     memory the rule keeps: the sign of the last non-blank frame's aim). Not with ``latch``."""
@@ -89,7 +87,7 @@ class RoadRuleConfig:
     @property
     def memory(self) -> MemoryConfig | None:
         """The memory the perception must supply (the latch), or None."""
-        return LastBendConfig(bend_pivots=self.bend_pivots) if self.latch else None
+        return LastBendConfig() if self.latch else None
 
 
 @dataclass

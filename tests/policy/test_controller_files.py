@@ -14,7 +14,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from lfd_track.policy.controller import CONTROLLER_SCHEMA, MIGRATIONS, Controller, migrate
+from lfd_track.policy.controller import Controller
+from lfd_track.policy.controller_schema import CONTROLLER_SCHEMA, MIGRATIONS, migrate
 from lfd_track.policy.memory import memory_for
 
 REPO = Path(__file__).resolve().parents[2]

@@ -242,7 +242,7 @@ def test_a_damaged_file_is_refused_in_one_line(tmp_path, library):
     for change, message in [
         ({"features": "road_values+depth"}, "features 'road_values+depth' are not supported"),
         ({"memory": {"kind": "none"}}, "stores null as its memory"),
-        ({"memory": {"kind": "last_bend", "bend_pivots": 0}}, "memory bend_pivots must be an"),
+        ({"memory": {"kind": "last_bend", "bend_pivots": 0}}, "memory bend_pivots = 0 is no"),
         ({"layer_sizes": [40, 5, 3]}, "expected [160, 5, 3]"),
         ({"features": "none", "layer_sizes": [0, 5, 3]}, "it needs a memory"),
     ]:

@@ -76,7 +76,7 @@ def test_every_setting_has_a_one_line_description_and_units_where_it_has_any():
         ({"kind": "fresh_felt", "reach_m": 0.0}, "memory reach_m must be a finite number > 0"),
         ({"kind": "fresh_felt", "strip_picture_links": 1}, "must be true or false, got 1"),
         ({"kind": "fresh_felt", "blank_bearing": "left"}, "must be one of centre, last"),
-        ({"kind": "last_bend", "bend_pivots": 1.5}, "memory bend_pivots must be an integer"),
+        ({"kind": "last_bend", "bend_pivots": 2}, "unknown memory setting 'bend_pivots' for kind"),
     ],
 )
 def test_unknown_keys_and_bad_values_are_refused_in_one_line(table, message):
@@ -205,7 +205,7 @@ def test_kind_fresh_felt_alone_is_the_chosen_configurations_map(tmp_path):
 
 def test_a_v1_memory_table_becomes_the_full_table_with_the_same_meaning():
     """As the old ``to_dict`` wrote them: options left out while off, constants always there."""
-    constants = {"bend_pivots": 2, **REMOVED_SETTINGS}
+    constants = {"bend_pivots": 2, **REMOVED_SETTINGS["fresh_felt"]}
     v1 = {"kind": "fresh_felt", **constants, "path_radius_m": 0.3, "reach_m": 0.8}
     assert (
         memory_table_from_v1(v1) == FreshFeltConfig.plain(path_radius_m=0.3, reach_m=0.8).to_dict()
@@ -223,10 +223,9 @@ def test_a_v1_memory_table_becomes_the_full_table_with_the_same_meaning():
         "strip_picture_links": True,
     }
     assert memory_table_from_v1(chosen) == FreshFeltConfig().to_dict()
-    assert memory_table_from_v1({"kind": "last_bend", "bend_pivots": 3}) == {
-        "kind": "last_bend",
-        "bend_pivots": 3,
-    }
+    assert memory_table_from_v1({"kind": "last_bend", "bend_pivots": 2}) == {"kind": "last_bend"}
+    with pytest.raises(ValueError, match="memory bend_pivots = 3 is no longer supported"):
+        memory_table_from_v1({"kind": "last_bend", "bend_pivots": 3})
     assert memory_table_from_v1({"kind": "none", "bend_pivots": 2}) == {"kind": "none"}
     assert memory_table_from_v1({"kind": "previous_command", "bend_pivots": 2}) == {
         "kind": "previous_command"

@@ -68,8 +68,8 @@ def test_every_committed_study_keeps_its_memory_and_human_settings(monkeypatch):
             memory = condition.config.memory
             fields = [f.name for f in dataclasses.fields(memory)]
             assert memory.to_dict() == {"kind": old["kind"], **{f: old[f] for f in fields}}, key
-            if memory.kind == "fresh_felt":
-                assert {k: old[k] for k in REMOVED_SETTINGS} == REMOVED_SETTINGS, key
+            removed = REMOVED_SETTINGS.get(memory.kind, {})
+            assert {k: old[k] for k in removed} == removed, key
             assert dataclasses.asdict(condition.config.human) == _V1["human"][human_index], key
             seen.add(key)
     assert seen == set(_V1["conditions"])  # every condition of every committed study

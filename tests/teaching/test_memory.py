@@ -24,8 +24,8 @@ F, L, R = Command.FORWARD, Command.LEFT, Command.RIGHT
 LAST_BEND = LastBendConfig()
 
 
-def _side_after(commands, bend_pivots=2):
-    memory = TurnMemory(LastBendConfig(bend_pivots=bend_pivots))
+def _side_after(commands):
+    memory = TurnMemory(LastBendConfig())
     sides = []
     for c in commands:
         memory.note(c)
@@ -51,7 +51,7 @@ def test_the_side_flips_on_a_bend_back_however_long_the_turn_before():
     assert sides[9] == 1.0  # one pivot back is not yet a bend
     assert sides[11] == 0.0  # two are
     assert sides[-1] == 0.0  # a single correction after it does not flip it back
-    assert _side_after([L, L, L], bend_pivots=3) == [UNKNOWN_SIDE, UNKNOWN_SIDE, 1.0]
+    assert _side_after([L, L]) == [UNKNOWN_SIDE, 1.0]  # a bend is two pivots
 
 
 def test_reset_forgets_the_side():
@@ -67,8 +67,7 @@ def test_reset_forgets_the_side():
     ("settings", "message"),
     [
         ({"kind": "last_turns"}, "memory kind must be one of"),
-        ({"kind": "last_bend", "bend_pivots": 0}, "bend_pivots must be >= 1"),
-        ({"kind": "last_bend", "bend_pivots": 1.5}, "bend_pivots must be an integer"),
+        ({"kind": "last_bend", "bend_pivots": 3}, "memory bend_pivots = 3 is no longer supp"),
         ({"kind": "last_bend", "pivots": 2}, "unknown memory setting 'pivots'"),
     ],
 )
@@ -211,13 +210,13 @@ def test_a_memory_controller_saves_its_memory_and_loads(tmp_path):
     controller.save(path)
     data = json.loads(path.read_text())
     assert data["schema_version"] == 5 and data["layer_sizes"] == [41, 5, 3]
-    assert data["memory"] == {"kind": "last_bend", "bend_pivots": 2}
+    assert data["memory"] == {"kind": "last_bend"}
     loaded = Controller.load(path)
     assert loaded.memory == LAST_BEND and loaded.n_inputs == 41
     np.testing.assert_array_equal(loaded.weights, controller.weights)
     assert loaded.perception().n_inputs == 41
 
-    data["memory"] = {"kind": "none", "bend_pivots": 2}
+    data["memory"] = {"kind": "none"}
     path.write_text(json.dumps(data))
     with pytest.raises(FileFormatError, match="checksum mismatch"):
         Controller.load(path)

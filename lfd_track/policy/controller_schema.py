@@ -1,0 +1,125 @@
+"""The controller file's schemas: the keys of each, and one migration per schema step.
+
+A file of schema k is turned into one of schema k + 1 meaning the same controller by
+``MIGRATIONS[k]`` (:func:`migrate` runs them up to :data:`CONTROLLER_SCHEMA`, after checking the
+file's keys and, from schema 2 on, its checksum); :mod:`lfd_track.policy.controller` reads the
+result. What each schema added is in that module's docstring.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from .features import DEFAULT_FEATURES
+from .memory_config import memory_table_from_v1
+
+CONTROLLER_SCHEMA = 5
+"""Schema every controller file is written in (older ones are migrated on reading)."""
+_KEYS_V2 = (
+    "format",
+    "schema_version",
+    "policy_kind",
+    "layer_sizes",
+    "bias",
+    "weights",
+    "road_library",
+    "learner",
+    "learner_config",
+    "seed",
+    "fitness_history",
+    "learn",
+    "checksum",
+)
+_KEYS_V1 = (
+    "format",
+    "schema_version",
+    "layer_sizes",
+    "bias",
+    "weights",
+    "road_library",
+    "ga_config",
+    "seed",
+    "fitness_history",
+    "learn",
+)
+#: The keys of a controller file of each schema (exactly these).
+SCHEMA_KEYS: dict[int, tuple[str, ...]] = {
+    1: _KEYS_V1,
+    2: _KEYS_V2,
+    3: (*_KEYS_V2[:-1], "memory", "checksum"),
+    4: (*_KEYS_V2[:-1], "features", "memory", "checksum"),
+    5: (*_KEYS_V2[:-1], "features", "memory", "checksum"),
+}
+
+
+def _from_schema1(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 1 -> 2: the first release's GA settings become the learner's."""
+    out = {k: v for k, v in data.items() if k != "ga_config"}
+    out.update(policy_kind="mlp-sigmoid", learner="ga", learner_config=data["ga_config"])
+    return out
+
+
+def _from_schema2(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 2 -> 3: a controller without memory stores null as its memory."""
+    return {**data, "memory": None}
+
+
+def _from_schema3(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 3 -> 4: the network reads the road values (named)."""
+    return {**data, "features": DEFAULT_FEATURES}
+
+
+def _from_schema4(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 4 -> 5: the memory table with every setting (options left out meant off)."""
+    memory = data["memory"]
+    return {**data, "memory": None if memory is None else memory_table_from_v1(memory)}
+
+
+#: One migration per schema step: ``MIGRATIONS[k]`` turns the contents of a schema-k file into
+#: those of a schema k + 1 file meaning the same controller.
+MIGRATIONS: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {
+    1: _from_schema1,
+    2: _from_schema2,
+    3: _from_schema3,
+    4: _from_schema4,
+}
+
+
+def migrate(data: dict[str, Any]) -> dict[str, Any]:
+    """The contents of a controller file of any schema this build reads, as schema
+    :data:`CONTROLLER_SCHEMA` (its keys checked, the checksum of schema 2 on verified first)."""
+    version = data.get("schema_version")
+    if isinstance(version, bool) or version not in SCHEMA_KEYS:
+        raise ValueError(
+            f"schema version {version!r} is not supported"
+            f" (this version of lfd-track reads {', '.join(map(str, SCHEMA_KEYS))})"
+        )
+    keys = SCHEMA_KEYS[version]
+    for key in keys:
+        if key not in data:
+            raise ValueError(f"missing key '{key}'")
+    unknown = sorted(set(data) - set(keys))
+    if unknown:
+        raise ValueError(f"unknown key '{unknown[0]}'")
+    if version >= 2:
+        stored = data["checksum"]
+        if not isinstance(stored, str) or stored != checksum(data):
+            raise ValueError(
+                "checksum mismatch: the file was changed or damaged after it was saved"
+            )
+    if version == 3 and data["memory"] is None:
+        raise ValueError("a schema 3 controller must name its memory kind")
+    while version < CONTROLLER_SCHEMA:
+        data = MIGRATIONS[version](data)
+        version += 1
+    return {**data, "schema_version": version}
+
+
+def checksum(contents: Mapping[str, Any]) -> str:
+    """SHA-256 hex of the canonical JSON of every key of ``contents`` except ``checksum``."""
+    body = {k: v for k, v in contents.items() if k != "checksum"}
+    text = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return hashlib.sha256(text.encode("utf-8")).hexdigest()
