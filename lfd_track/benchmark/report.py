@@ -163,7 +163,11 @@ def trajectories_picture(
                     title=f"{track_name.capitalize()} track, "
                     f"{DIRECTION_TITLES[direction].lower()}{where}",
                     track=track,
-                    runs=[TrackRun(o.trajectory, o.success, o.failure) for o in chosen],
+                    runs=[
+                        TrackRun(o.trajectory, o.success, o.failure)
+                        for o in chosen
+                        if o.trajectory is not None  # always: chosen are the runs with one
+                    ],
                     finish_m=EpisodeTracker(track, rules).goal_progress_m,
                     start_pose=EpisodeTracker(track, rules).start_pose(),
                 )

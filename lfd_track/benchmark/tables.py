@@ -154,7 +154,7 @@ class TrialOutcome:
                 raise ValueError(f"{where}: '{key}' must be {kinds}, got {type(value).__name__}")
             if isinstance(value, list) and not all(isinstance(v, str) for v in value):
                 raise ValueError(f"{where}: '{key}' must list corner labels (strings)")
-            if types == (int,) and not 0 <= value <= MAX_COUNT:
+            if isinstance(value, int) and types == (int,) and not 0 <= value <= MAX_COUNT:
                 raise ValueError(f"{where}: '{key}' must be an integer from 0 to {MAX_COUNT}")
         try:
             return cls(**{key: data[key] for key in OUTCOME_FIELDS})

@@ -68,10 +68,10 @@ def controller_interval(
     counts = [(k, n) for k, n in counts if n > 0]
     if not counts:
         return None
-    k = np.array([c[0] for c in counts], dtype=np.float64)
-    n = np.array([c[1] for c in counts], dtype=np.float64)
+    successes = np.array([c[0] for c in counts], dtype=np.float64)
+    trials = np.array([c[1] for c in counts], dtype=np.float64)
     rng = np.random.default_rng(BOOTSTRAP_SEED)
     pick = rng.integers(len(counts), size=(resamples, len(counts)))
-    rates = k[pick].sum(axis=1) / n[pick].sum(axis=1)
+    rates = successes[pick].sum(axis=1) / trials[pick].sum(axis=1)
     low, high = np.percentile(rates, [2.5, 97.5])
     return [float(low), float(high)]
