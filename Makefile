@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 # Exact versions of everything the setup targets install (pip, the build backend and every
 # transitive dependency); pyproject.toml keeps open ranges for library users. `make lock` writes
-# it anew; tests/test_lock.py fails when it no longer satisfies pyproject.toml.
+# it anew; tests/package/test_lock.py fails when it no longer satisfies pyproject.toml.
 LOCK := requirements.lock
 LOCK_EXTRAS := test,bench
 # PIP_BUILD_CONSTRAINT: the isolated build of the package takes the locked hatchling too.

@@ -19,6 +19,11 @@ import pytest
 if TYPE_CHECKING:
     from lfd_track.vision.road_library import RoadLibrary
 
+#: The tests folder, the repository it belongs to, and the committed test files (``tests/data``).
+TESTS = Path(__file__).resolve().parent
+REPO = TESTS.parent
+TEST_DATA = TESTS / "data"
+
 
 def unavailable(message: str) -> None:
     """Skip the test for a missing tool, except under CI=true, where a missing tool fails it."""
@@ -193,7 +198,7 @@ def wheel_in_fresh_venv(root: Path, timeout_s: float) -> tuple[Path, Path, Path]
     import subprocess
     import venv
 
-    repo = Path(__file__).resolve().parents[1]
+    repo = REPO
     subprocess.run(
         [sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "--no-index",
          "--quiet", "-w", str(root / "wheel"), str(repo)],

@@ -7,11 +7,10 @@ helper gets it under a public name from the module that owns it.
 from __future__ import annotations
 
 import ast
-from pathlib import Path
 
 import pytest
+from lfd_test_support import REPO
 
-REPO = Path(__file__).resolve().parents[1]
 SCRIPTS = sorted(
     str(p.relative_to(REPO))
     for folder in ("benchmarks", "scripts")

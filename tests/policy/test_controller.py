@@ -1,8 +1,8 @@
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
+from lfd_test_support import TEST_DATA
 
 from lfd_track.errors import FileFormatError
 from lfd_track.learning.ga import GAConfig, evolve
@@ -177,7 +177,7 @@ def test_a_file_written_by_the_first_release_loads_and_drives_the_same():
     """A real schema-1 file (tests/data/), not a new file with keys removed."""
     import cv2
 
-    data_dir = Path(__file__).parent / "data"
+    data_dir = TEST_DATA
     controller = Controller.load(data_dir / "schema1_controller.json")
     expected = json.loads((data_dir / "schema1_controller_expected.json").read_text())
     assert controller.learner == "ga" and controller.learner_config["generations"] == 5

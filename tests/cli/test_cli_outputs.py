@@ -11,14 +11,14 @@ import sys
 from pathlib import Path
 
 import pytest
-from lfd_test_support import interrupt_demo_after
+from lfd_test_support import REPO, TEST_DATA, interrupt_demo_after
 
 from lfd_track.cli import EXIT_INTERRUPTED, EXIT_TERMINATED, main
 from lfd_track.dataset import load_demonstration
 from lfd_track.demo import demonstrator
 from lfd_track.viz.video import DriveVideo
 
-DATA = Path(__file__).parent / "data"
+DATA = TEST_DATA
 
 
 @pytest.fixture
@@ -280,9 +280,6 @@ def test_demo_below_a_file_says_the_parent_is_not_a_folder(tmp_path, capsys):
 
 
 # --------------------------------------------------------------- outputs replace regular files only
-REPO = Path(__file__).resolve().parent.parent
-
-
 def _special(kind: str, path: Path) -> None:
     """Make ``path`` a FIFO, a symbolic link to a regular file, or a dangling symbolic link."""
     if kind == "fifo":

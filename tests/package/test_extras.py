@@ -12,10 +12,10 @@ import sys
 from pathlib import Path
 
 import pytest
+from lfd_test_support import REPO
 
 from lfd_track.utils.extras import EXTRAS, MissingExtraError, install_line, needs_extra
 
-REPO = Path(__file__).resolve().parents[1]
 ALL_EXTRA_MODULES = sorted({m for _, modules in EXTRAS.values() for m in modules})
 
 CHILD = r"""

@@ -12,13 +12,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from lfd_test_support import REPO, TEST_DATA
 from study.study_helpers import job_results, write_study
 
 from lfd_track.cli import EXIT_INTERRUPTED, main
 from lfd_track.viz.plot_data import data_path, read_table
 
-REPO = Path(__file__).resolve().parents[1]
-DATA = Path(__file__).parent / "data"
+DATA = TEST_DATA
 
 
 def _one_line(err: str) -> str:

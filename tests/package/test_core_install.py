@@ -28,7 +28,6 @@ from lfd_track.utils.extras import EXTRAS
 
 pytestmark = pytest.mark.slow
 
-REPO = Path(__file__).resolve().parents[1]
 TIMEOUT_S = 300  # failure guard only
 
 

@@ -10,11 +10,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from lfd_test_support import REPO
 
 from lfd_track.envs.presets import BOUNDS, SECTIONS, load_preset
 from lfd_track.errors import FileFormatError
 
-README = Path(__file__).resolve().parents[1] / "envs" / "README.md"
+README = REPO / "envs" / "README.md"
 
 
 def _numeric_fields():

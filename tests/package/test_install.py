@@ -20,9 +20,7 @@ import zipfile
 from pathlib import Path
 
 import pytest
-from lfd_test_support import unavailable
-
-REPO = Path(__file__).resolve().parents[1]
+from lfd_test_support import REPO, unavailable
 
 DATA_FILES = (
     "lfd_track/_data/tracks/testing.toml",

@@ -7,10 +7,10 @@ reported as skipped.
 from __future__ import annotations
 
 import warnings
-from pathlib import Path
 
 import gymnasium as gym
 import pytest
+from lfd_test_support import TEST_DATA
 
 import lfd_track  # noqa: F401  (registers LfDTrack-v0)
 from lfd_track.envs.track_env import LfDTrackEnv
@@ -19,7 +19,7 @@ from lfd_track.policy.controller import Controller
 
 env_checker = pytest.importorskip("stable_baselines3.common.env_checker")
 
-CONTROLLER = Path(__file__).parent / "data" / "schema1_controller.json"
+CONTROLLER = TEST_DATA / "schema1_controller.json"
 
 
 def _check(env: gym.Env) -> list[str]:

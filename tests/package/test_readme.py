@@ -13,17 +13,17 @@ import shlex
 from pathlib import Path
 
 import pytest
+from lfd_test_support import REPO
 
 from lfd_track.cli import build_parser
 
-ROOT = Path(__file__).resolve().parents[1]
-README = ROOT / "README.md"
-PAGES = [README, *sorted((ROOT / "docs").glob("*.md"))]
+README = REPO / "README.md"
+PAGES = [README, *sorted((REPO / "docs").glob("*.md"))]
 FENCE = re.compile(r"^```(\w*)\n(.*?)^```", re.M | re.S)
 
 
 def _name(page: Path) -> str:
-    return str(page.relative_to(ROOT))
+    return str(page.relative_to(REPO))
 
 
 def _blocks(language: str) -> list[tuple[str, int, str]]:
@@ -93,7 +93,7 @@ def test_shell_block_commands_parse_and_name_existing_files(page, index, block):
         for word in words:
             # Files of the repository named by a command (scripts, study files): they must exist.
             if re.match(r"^(benchmarks|scripts|tracks|envs|hardware)/\S+\.(py|toml)$", word):
-                assert (ROOT / word).is_file(), f"{page}: {word} does not exist"
+                assert (REPO / word).is_file(), f"{page}: {word} does not exist"
 
 
 LINK = re.compile(r"\]\(([^)\s]+)\)|<img [^>]*src=\"([^\"]+)\"")

@@ -8,15 +8,14 @@ from __future__ import annotations
 
 import re
 import tomllib
-from pathlib import Path
 
 import pytest
+from lfd_test_support import REPO
 from packaging.requirements import InvalidRequirement, Requirement
 from packaging.utils import canonicalize_name
 from packaging.version import Version
 
-ROOT = Path(__file__).resolve().parents[1]
-LOCK = ROOT / "requirements.lock"
+LOCK = REPO / "requirements.lock"
 
 
 def read_lock(text: str) -> dict[str, Version]:
@@ -77,11 +76,11 @@ def unsatisfied(pyproject: dict, extras: set[str], pins: dict[str, Version]) -> 
 
 
 def _pyproject() -> dict:
-    return tomllib.loads((ROOT / "pyproject.toml").read_text(encoding="utf-8"))
+    return tomllib.loads((REPO / "pyproject.toml").read_text(encoding="utf-8"))
 
 
 def _makefile() -> str:
-    return (ROOT / "Makefile").read_text(encoding="utf-8")
+    return (REPO / "Makefile").read_text(encoding="utf-8")
 
 
 def test_the_lock_pins_every_requirement_the_makefile_installs_within_its_range():
