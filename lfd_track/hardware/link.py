@@ -26,10 +26,10 @@ reply, or more than ``max_corrupt_replies`` undecodable replies in a row) raises
 (1.2: and its boot count) at any time; the boot frame carries them too (and whether the board
 booted with its e-stop latched, as it does after a watchdog or brown-out reset).
 
-Why one module of about 680 lines: :class:`RobotLink` is one lock-guarded state machine (the
-lease, the keep-alive thread, the boot count, the reply matching) whose safety rules hold only
-together; the value types beside it (:class:`Ack`, :class:`BoardVersion`, :class:`LinkStats`)
-are small, and the wire format itself is :mod:`.wire`.
+:class:`RobotLink` is one lock-guarded state machine (the lease, the keep-alive thread, the boot
+count, the reply matching) whose safety rules hold only together, so it stays in one module; the
+value types of its answers (:class:`Ack`, :class:`BoardVersion`, :class:`LinkStats`,
+:class:`LinkError`) are :mod:`.replies` (imported from here too), the wire format :mod:`.wire`.
 """
 
 from __future__ import annotations
@@ -41,125 +41,38 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..core.commands import Command
-from ..errors import LfdTrackError
 from ..utils.extras import needs_extra
 from . import wire
+from .replies import (
+    ESTOPPED,
+    FLAG_ESTOP,
+    FLAG_LEASE_EXPIRED,
+    FLAG_REPLIES_DROPPED,
+    STOP,
+    Ack,
+    BoardVersion,
+    LinkError,
+    LinkStats,
+    boot_count_of,
+    drive_letter,
+)
 from .wire import DEFAULT_BAUD, Frame, FrameError, FrameParser
 
 with needs_extra("hardware"):
     import serial
 
-STOP = "S"
-ESTOPPED = "X"  # ack state while the board's e-stop is latched
-FLAG_ESTOP = 1  # ack flags are a decimal bitfield
-FLAG_LEASE_EXPIRED = 2  # the watchdog stopped the motors since the last accepted drive frame
-FLAG_REPLIES_DROPPED = 4  # the board dropped replies (its transmit buffer was full) since
-# its last ack (firmware 1.1 and later)
-
-
-class LinkError(LfdTrackError):
-    """The serial link to the robot board failed or was lost."""
-
-
-@dataclass(frozen=True)
-class Ack:
-    """The board's answer to one request: what it actually did, not what was asked.
-
-    ``state`` is the motor state the board reports (``F``/``L``/``R``/``S``, or ``X`` while its
-    e-stop is latched); ``flags`` is its decimal bitfield (``FLAG_ESTOP``, ``FLAG_LEASE_EXPIRED``).
-    A request the board refused (a NAK) has ``rejected`` set to the reason and ``state`` set to
-    the last state the board reported (``X`` when refused for an e-stop). ``info`` holds any
-    further fields of the ack (the version query's firmware version and reset cause).
-    """
-
-    seq: int
-    requested: str  # what the host sent: a drive letter, or the frame type for other requests
-    state: str
-    flags: str = ""
-    rejected: str | None = None
-    rtt_ms: float = 0.0  # round-trip time [ms]
-    info: tuple[str, ...] = ()
-
-    @property
-    def accepted(self) -> bool:
-        """True if the board acknowledged the request (no NAK)."""
-        return self.rejected is None
-
-    @property
-    def moving(self) -> bool:
-        """True if the board reports its motors running."""
-        return self.state in ("F", "L", "R")
-
-    def _flag(self, bit: int) -> bool:
-        return self.flags.isdigit() and bool(int(self.flags) & bit)
-
-    @property
-    def estopped(self) -> bool:
-        """True if the board's e-stop is latched."""
-        return self.state == ESTOPPED or self._flag(FLAG_ESTOP) or self.rejected == "ESTOP"
-
-    @property
-    def lease_expired(self) -> bool:
-        """True if the board's watchdog stopped the motors since its last accepted drive."""
-        return self._flag(FLAG_LEASE_EXPIRED)
-
-    @property
-    def replies_dropped(self) -> bool:
-        """True if the board dropped replies since its last ack (it was sent frames too fast)."""
-        return self._flag(FLAG_REPLIES_DROPPED)
-
-
-@dataclass(frozen=True)
-class BoardVersion:
-    """The answer to a version query: firmware version, why the board last reset, its ack."""
-
-    version: str
-    reset_cause: str  # a key of ``wire.RESET_CAUSES`` (``WDT``, ``PWR``, ...)
-    ack: Ack
-    boot_count: int | None = None  # firmware 1.2 and later
-
-    @property
-    def reset_cause_text(self) -> str:
-        """The reset cause in words (``hardware watchdog``, ``power-on``, ...)."""
-        return wire.RESET_CAUSES.get(self.reset_cause, f"unknown ({self.reset_cause})")
-
-
-@dataclass
-class LinkStats:
-    """Counters of one link (read them through ``RobotLink.stats()``, which returns a copy)."""
-
-    sent: int = 0  # request frames written
-    acks: int = 0  # valid acks received for the request waited on
-    naks: int = 0  # requests the board refused
-    missed: int = 0  # requests with no valid reply before the ack timeout
-    corrupt: int = 0  # reply lines that failed to decode (bad CRC, bad framing, too long)
-    stale: int = 0  # valid replies for an older sequence number
-    consecutive_failures: int = 0  # requests in a row without a valid reply
-    watchdog_stops: int = 0  # ``$W`` frames: the board's watchdog stopped the motors
-    boots: int = 0  # ``$B`` frames: the board (re)started
-    keepalives: int = 0  # drive frames re-sent by the keep-alive thread
-    rtt_ms: float = 0.0  # round-trip time of the last acknowledged request [ms]
-    max_rtt_ms: float = 0.0  # worst round-trip time seen [ms]
-
-    def as_dict(self) -> dict[str, Any]:
-        """Plain dict copy (for ``info["link"]``)."""
-        return dict(self.__dict__)
-
-
-def _letter(command: Command | int | str) -> str:
-    if isinstance(command, str):
-        letter = command.upper()
-        if letter not in wire.DRIVE_ARGS:
-            raise ValueError(f"drive command must be one of F, L, R, S, got {command!r}")
-        return letter
-    return Command(int(command)).letter
-
-
-def _boot_count(fields: tuple[str, ...]) -> int | None:
-    """The boot count in ``fields[0]`` if there is a valid one (firmware 1.2 and later)."""
-    if fields and fields[0].isdigit() and len(fields[0]) <= 5 and int(fields[0]) < 65536:
-        return int(fields[0])
-    return None
+__all__ = [
+    "ESTOPPED",
+    "FLAG_ESTOP",
+    "FLAG_LEASE_EXPIRED",
+    "FLAG_REPLIES_DROPPED",
+    "STOP",
+    "Ack",
+    "BoardVersion",
+    "LinkError",
+    "LinkStats",
+    "RobotLink",
+]
 
 
 @dataclass
@@ -345,7 +258,7 @@ class RobotLink:
         ``lease_s=0`` sends the frame once and leaves the stop to the board's watchdog (used by
         the watchdog self-test). Raises ``LinkError`` on link loss.
         """
-        letter = _letter(command)
+        letter = drive_letter(command)
         self._raise_if_failed()
         # With the link held, so that a boot frame read by a keep-alive exchange in progress
         # ends the old lease before this one is set, never this one.
@@ -387,7 +300,7 @@ class RobotLink:
         if not ack.accepted or len(ack.info) < 2:
             return None
         self.firmware_version, self.reset_cause = ack.info[0], ack.info[1]
-        count = _boot_count(ack.info[2:3])
+        count = boot_count_of(ack.info[2:3])
         if count is not None:
             self.boot_count = count
         return BoardVersion(ack.info[0], ack.info[1], ack, count)
@@ -547,7 +460,7 @@ class RobotLink:
                         self._stats.boots += 1
                         self._state = STOP  # a fresh board has its motors off
                         self._end_lease()  # and only a new drive request may start them
-                        count = _boot_count(item.args[3:4])
+                        count = boot_count_of(item.args[3:4])
                         self.boot_count = count
                         self._boot_unanswered = count is not None  # firmware 1.2 waits
                         if item.args:

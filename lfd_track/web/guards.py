@@ -156,33 +156,41 @@ class Frames:
 
     def scan(self, data: bytes) -> int | None:
         """Follow ``data``; the offset in it of a frame over the fragment limit, else None."""
-        at = 0
-        while at < len(data):
+        at, end = 0, len(data)
+        while at < end:
             if self._left:
-                step = min(self._left, len(data) - at)
+                step = min(self._left, end - at)
                 at += step
                 self._left -= step
                 if not self._left:
                     self._frame_done()
                 continue
-            take = self._header_size(self._header) - len(self._header)
-            self._header += data[at : at + take]
-            at += min(take, len(data) - at)
-            if len(self._header) < self._header_size(self._header):
-                continue
-            if self._start_frame():
-                return max(0, at - len(self._header))
-            self._header.clear()
+            if not self._header and end - at >= 6 and data[at + 1] & 0x7F < 126:
+                # The common case, a whole short header here: read it in place.
+                size = 6 if data[at + 1] & 0x80 else 2
+                if self._start_frame(data[at], data[at + 1] & 0x7F):
+                    return at
+                at += size
+            else:
+                take = self._header_size(self._header) - len(self._header)
+                self._header += data[at : at + take]
+                at += min(take, end - at)
+                if len(self._header) < self._header_size(self._header):
+                    continue
+                length = self._header[1] & 0x7F
+                if length >= 126:
+                    length = int.from_bytes(self._header[2 : 4 if length == 126 else 10], "big")
+                if self._start_frame(self._header[0], length):
+                    return max(0, at - len(self._header))
+                self._header.clear()
             if not self._left:
                 self._frame_done()
         return None
 
-    def _start_frame(self) -> bool:
-        """The header is complete: True when this frame breaks the fragment limit."""
-        fin, opcode, length = self._header[0] & 0x80, self._header[0] & 0x0F, self._header[1] & 0x7F
-        if length >= 126:
-            size = 2 if length == 126 else 8
-            length = int.from_bytes(self._header[2 : 2 + size], "big")
+    def _start_frame(self, first: int, length: int) -> bool:
+        """A frame's header is read (its first byte, its payload length): True when the frame
+        breaks the fragment limit."""
+        fin, opcode = first & 0x80, first & 0x0F
         self._left = length
         self._ends_message = False
         if opcode in (0x1, 0x2):  # text, binary: a new message

@@ -32,19 +32,25 @@ from lfd_track.web import app as station_app
 from lfd_track.web import guards as station_guards
 from lfd_track.web import server as station_server
 from lfd_track.web.app import MESSAGE_BURST, MESSAGE_RATE, StopLine, TokenBucket, create_app
-from lfd_track.web.contract import HEARTBEAT_S
+from lfd_track.web.contract import HEARTBEAT_S, LEASE_S
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[1]
 WAIT_S = 15.0  # failure guard only: every wait returns as soon as its condition holds
 STOP_BOUND_S = 0.3
-"""[s] a stop is carried out within this long of being sent, however hard other pages flood.
+"""[s of this process's CPU time] the work the station does between a stop being sent and
+carried out, however hard other pages flood.
 
-The robot's lease is 1 s; a stop must beat it by far. On the fixed server a stop waits for at
-most one message of each other page (the loop is handed on after each) plus a hop to the stop
-thread: a few milliseconds, tens on a loaded 2-core CI machine whose cores the flooders share.
-0.3 s leaves a margin of ten and more over that, and lies far below the seconds the unfixed
-server took (3.8-5.4 s in the audit)."""
+On the fixed server a stop waits for at most one message of each other page (the loop is handed
+on after each) plus a hop to the stop thread: a few milliseconds of work. 0.3 s leaves a margin
+of ten and more over that, and lies far below the seconds the unfixed server took (3.8-5.4 s in
+the audit). It is counted in the process's CPU time (server, session and test threads), not on
+the wall clock: on a machine whose cores other jobs hold, the wall clock also counts the time the
+station waited for a core, which says nothing of its fairness. The wall clock keeps the safety
+deadline, :data:`STOP_DEADLINE_S`."""
+STOP_DEADLINE_S = LEASE_S
+"""[s, wall clock] a stop is carried out within the page's lease (1 s), however hard other pages
+flood and other jobs load the machine: the lease would stop the robot then anyway."""
 
 
 def ws_url(station: Any) -> str:
@@ -140,15 +146,33 @@ def stop_flooders(procs: list[subprocess.Popen]) -> list[dict[str, Any]]:
     return reports
 
 
-def time_stop_buttons(session) -> list[float]:
-    """Wrap ``session.stop``: the returned list gets the time each stop-button stop was done."""
-    done: list[float] = []
+def _clocks() -> tuple[float, float]:
+    """(wall clock, this process's CPU time) now."""
+    return time.monotonic(), time.process_time()
+
+
+def _since(start: tuple[float, float], end: tuple[float, float]) -> tuple[float, float]:
+    return end[0] - start[0], end[1] - start[1]
+
+
+def _assert_stops_in_time(latencies: list[tuple[float, float]]) -> None:
+    """Each (wall, CPU) latency within STOP_DEADLINE_S and STOP_BOUND_S."""
+    wall, cpu = [round(w, 4) for w, _ in latencies], [round(c, 4) for _, c in latencies]
+    print(f"stop latencies: wall {wall} s, CPU {cpu} s")
+    assert max(cpu) < STOP_BOUND_S, cpu
+    assert max(wall) < STOP_DEADLINE_S, wall
+
+
+def time_stop_buttons(session) -> list[tuple[float, float]]:
+    """Wrap ``session.stop``: the returned list gets the clocks (:func:`_clocks`) when each
+    stop-button stop was done."""
+    done: list[tuple[float, float]] = []
     real_stop = session.stop
 
     def timed_stop(reason: str = "stop") -> None:
         real_stop(reason)
         if reason == "stop button":
-            done.append(time.monotonic())
+            done.append(_clocks())
 
     session.stop = timed_stop
     return done
@@ -171,10 +195,10 @@ def test_a_stop_wins_under_a_flood_from_other_pages(open_station, server_log, li
             for given in range(1, 6):
                 time.sleep(0.1)  # a stop now and then, amid the flood
                 controller.send(json.dumps({"type": "heartbeat"}))
-                sent = time.monotonic()
+                sent = _clocks()
                 controller.send(json.dumps({"type": "stop"}))
                 wait_until(lambda given=given: len(done) >= given, "the stop")
-                latencies.append(done[given - 1] - sent)
+                latencies.append(_since(sent, done[given - 1]))
             reports = stop_flooders(procs)
             # The controlling page sent little: it is still connected, and still in control.
             assert next_of(controller, "status")["role"] == "controller"
@@ -183,8 +207,8 @@ def test_a_stop_wins_under_a_flood_from_other_pages(open_station, server_log, li
             if proc.poll() is None:
                 proc.kill()
                 proc.communicate()
-    print(f"stop latencies under flood: {[round(t, 4) for t in latencies]} s", reports)
-    assert max(latencies) < STOP_BOUND_S, latencies
+    print("flooders:", reports)
+    _assert_stops_in_time(latencies)
     if limited:
         for report in reports:
             assert report["closes"], report
@@ -286,13 +310,13 @@ def test_frames_that_make_no_message_cannot_hold_up_a_stop(open_station, opcode)
             for given in range(1, 6):
                 time.sleep(0.1)
                 controller.send(json.dumps({"type": "heartbeat"}))
-                sent = time.monotonic()
+                sent = _clocks()
                 controller.send(json.dumps({"type": "stop"}))
                 wait_until(lambda given=given: len(done) >= given, "the stop")
-                latencies.append(done[given - 1] - sent)
+                latencies.append(_since(sent, done[given - 1]))
         finally:
             end_flood()
-    assert max(latencies) < STOP_BOUND_S, latencies
+    _assert_stops_in_time(latencies)
 
 
 def _closed_by_server(ws: Any, timeout_s: float = 5.0) -> Any:
