@@ -56,3 +56,25 @@ def test_a_newer_study_json_fails_in_one_line_naming_the_file(tmp_path):
         read_study_results(path)
     assert str(exc.value).startswith(f"{path}: study schema {STUDY_SCHEMA + 1} is newer")
     assert "\n" not in str(exc.value)
+
+
+def _smallest_studies(count: int) -> list[str]:
+    """The committed study folders with the fewest jobs (pooling them again is quick)."""
+    folders = [(REPO / p).parent for p in COMMITTED]
+    folders.sort(key=lambda f: (sum(1 for _ in f.rglob("results.json")), str(f)))
+    return [str(f.relative_to(REPO)) for f in folders[:count]]
+
+
+@pytest.mark.parametrize("folder", _smallest_studies(3))
+def test_a_committed_study_md_is_what_its_migrated_jobs_pool_to(folder, monkeypatch):
+    """The summary is unchanged by reading the jobs as schema 2 (every committed study.md is
+    reproduced so; three are checked here to keep the suite quick)."""
+    from lfd_track.study.run import load_finished
+    from lfd_track.study.summary import study_markdown
+
+    committed = read_study_results(REPO / folder / "study.json")
+    (source,) = (REPO / "benchmarks").rglob(f"{committed['study']}.toml")
+    monkeypatch.chdir(REPO)  # as the studies were run (paths in them are relative to the root)
+    study = load_study(source.relative_to(REPO))
+    pooled = build_study_results(study, load_finished(study, REPO / folder))
+    assert study_markdown(pooled) == (REPO / folder / "study.md").read_text(encoding="utf-8")
