@@ -78,3 +78,23 @@ def test_a_committed_study_md_is_what_its_migrated_jobs_pool_to(folder, monkeypa
     study = load_study(source.relative_to(REPO))
     pooled = build_study_results(study, load_finished(study, REPO / folder))
     assert study_markdown(pooled) == (REPO / folder / "study.md").read_text(encoding="utf-8")
+
+
+def test_a_stored_job_of_a_newer_schema_stops_the_study_in_one_line_naming_it(tmp_path):
+    from study_helpers import job_results
+
+    from lfd_track.study.jobs import RESULTS_FILE, finished_results
+
+    study = load_study(write_study(tmp_path, TINY_STUDY))
+    job = study.jobs()[0]
+    path = tmp_path / "out" / job.key / RESULTS_FILE
+    path.parent.mkdir(parents=True)
+    path.write_text(json.dumps({**job_results(job), "schema": 3}))
+    with pytest.raises(FileFormatError) as exc:
+        finished_results(tmp_path / "out", job)
+    assert str(exc.value) == (
+        f"{path}: results schema 3 is newer than this lfd-track reads (2); upgrade lfd-track to"
+        " read it"
+    )
+    path.write_text(json.dumps({**job_results(job), "schema": 1}))  # schema 1 reads as before
+    assert finished_results(tmp_path / "out", job)["schema"] == 2
