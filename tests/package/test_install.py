@@ -109,6 +109,7 @@ def test_wheel_carries_tracks_envs_and_the_cli(wheel):
     missing = [f for f in DATA_FILES if f not in names]
     assert not missing, f"wheel lacks {missing}"
     assert "lfd_track/__init__.py" in names and "lfd_track/envs/track_env.py" in names
+    assert "lfd_track/py.typed" in names  # the package's type hints ship with it (PEP 561)
     # Nothing from the checkout's other top-level folders rides along.
     assert not [n for n in names if n.startswith(("tests/", "benchmarks/", "hardware/", "tracks/"))]
     assert "lfd-track = lfd_track.cli:main" in entry_points
