@@ -4,6 +4,8 @@
 worlds, seeds and counting) on a policy that someone else wrote or trained: runs both ways on
 the training track and laps both ways on the testing track starting at corner 4, counted corner
 by corner as in the paper's Tables 2 and 3, with Wilson 95 % intervals on every success rate.
+Finding and driving a policy is :mod:`.policy_driver`'s job, the rates table and report.md
+:mod:`.evaluation_report`'s; their public names are importable from here too.
 
 A policy is one of:
 
@@ -26,30 +28,22 @@ one integer. A policy that raises or answers anything else stops the evaluation 
 
 from __future__ import annotations
 
-import importlib
-import importlib.util
-import inspect
 import json
 import os
-import sys
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from ..core.commands import Command
-from ..errors import FileFormatError, LfdTrackError, first_line
+from ..errors import LfdTrackError
 from ..learning.result import check_int
 from ..policy.controller import Controller
-from ..study.stats import rate_summary
-from ..teaching.perception import Percept, Perception
 from ..utils.provenance import environment
 from ..vision.road_library import RoadLibrary
+from .evaluation_report import ours_cell, rates_section, success_rates, write_evaluation_report
 from .paper import DIRECTION_TITLES, TRACK_RESULT_KEYS, TRIAL_COUNT_KEYS
-from .paper import DIRECTIONS as TABLE_DIRECTIONS
+from .policy_driver import PolicyDriver, PolicyError, describe_policy, load_library, load_policy
 from .runner import (
     MAX_SEED,
     MAX_TRIALS_PER_DIRECTION,
@@ -60,7 +54,7 @@ from .runner import (
     run_trials,
     trial_directions,
 )
-from .tables import LOOP_DIRECTIONS, TrialOutcome, build_results, results_json_text
+from .tables import TrialOutcome, build_results, results_json_text
 
 __all__ = [
     "DEFAULT_TRACKS",
@@ -70,251 +64,21 @@ __all__ = [
     "evaluate",
     "load_library",
     "load_policy",
+    "rates_section",
     "trial_seed",
+    "write_evaluation_report",
 ]
 
 OBSERVATIONS = ("frames", "road-values")
 """What a policy reads: the camera frame, or its 40 road values."""
 DEFAULT_TRACKS = ("training", "testing")
 """The paper's two tracks, each driven both ways."""
-_ACTIONS = "an action is 0 (forward), 1 (left) or 2 (right)"
-
-
-class PolicyError(LfdTrackError):
-    """The evaluated policy raised, or answered something that is not an action."""
 
 
 def trial_seed(seed: int) -> int:
     """The trial stream of an evaluation with ``seed``: that of the benchmark's first repetition
     with the same seed, so a controller it learned is scored on the very same worlds."""
     return repetition_streams(repetition_seeds(seed, 1)[0])[2]
-
-
-# --------------------------------------------------------------------------- loading
-
-
-def _policy_from_file(path: Path, spec: str) -> Any:
-    name = f"_lfd_track_policy_{abs(hash(str(path.resolve())))}"
-    loader = importlib.util.spec_from_file_location(name, path)
-    if loader is None or loader.loader is None:
-        raise LfdTrackError(f"policy '{spec}': cannot load {path} as a Python module")
-    module = importlib.util.module_from_spec(loader)
-    sys.modules[name] = module
-    loader.loader.exec_module(module)
-    return module
-
-
-def load_policy(spec: str | os.PathLike[str]) -> Any:
-    """The policy ``spec`` names: a controller file (``.json``), ``module:attribute`` (a module
-    on the path or in the current folder) or ``file.py:attribute``; the attribute may be
-    dotted (``agents:zoo.careful``). Raises a one-line ``LfdTrackError`` when it cannot."""
-    text = os.fspath(spec)
-    if text.endswith(".json") or (":" not in text and Path(text).is_file()):
-        return Controller.load(text)
-    module_name, sep, attribute = text.rpartition(":")
-    if not sep or not module_name or not attribute:
-        raise LfdTrackError(
-            f"policy '{text}': name a controller file (.json) or a callable as module:name"
-        )
-    try:
-        if module_name.endswith(".py"):
-            if not Path(module_name).is_file():
-                raise LfdTrackError(f"policy '{text}': no file {module_name}")
-            target: Any = _policy_from_file(Path(module_name), text)
-        else:
-            # Like `python -m`, the current folder is searched first for the module.
-            added = os.getcwd() not in sys.path
-            if added:
-                sys.path.insert(0, os.getcwd())
-            try:
-                target = importlib.import_module(module_name)
-            finally:
-                if added:
-                    sys.path.remove(os.getcwd())
-    except LfdTrackError:
-        raise
-    except Exception as exc:
-        raise LfdTrackError(
-            f"policy '{text}': importing {module_name} failed: {type(exc).__name__}:"
-            f" {first_line(exc)}"
-        ) from None
-    for part in attribute.split("."):
-        if not hasattr(target, part):
-            raise LfdTrackError(f"policy '{text}': {module_name} has no attribute '{attribute}'")
-        target = getattr(target, part)
-    return target
-
-
-def load_library(source: RoadLibrary | str | os.PathLike[str]) -> RoadLibrary:
-    """The road library to compute road values with: a :class:`RoadLibrary`, or the one stored in
-    a controller file (``.json``) or a demonstration (``.lfdemo``). An empty one is refused."""
-    if isinstance(source, RoadLibrary):
-        library = source
-        where = "library"
-    else:
-        path = Path(os.fspath(source))
-        where = str(path)
-        if path.suffix == ".json":
-            library = Controller.load(path).library
-        elif path.suffix == ".lfdemo":
-            from ..dataset import load_demonstration
-
-            try:
-                library = load_demonstration(path).road_library()
-            except FileFormatError:
-                raise
-            except ValueError as exc:
-                raise FileFormatError(path, first_line(exc)) from None
-        else:
-            raise LfdTrackError(
-                f"{where}: a road library comes from a controller file (.json) or a"
-                " demonstration (.lfdemo)"
-            )
-    if library.n_models == 0:
-        raise LfdTrackError(f"{where}: the road library is empty (every road value would be 0)")
-    return library
-
-
-def _describe(policy: Any) -> str:
-    module = getattr(policy, "__module__", None)
-    qualname = getattr(policy, "__qualname__", None)
-    if module and qualname:
-        return f"{module}:{qualname}"
-    cls = type(policy)
-    return f"{cls.__module__}:{cls.__qualname__} object"
-
-
-# --------------------------------------------------------------------------- driving
-
-
-class _FramePerception:
-    """The loop's perception for a policy that reads frames: no road library, nothing computed."""
-
-    _EMPTY = np.zeros(0)
-
-    def start_episode(self) -> None:
-        pass
-
-    def note(self, command: Command | int) -> None:
-        pass
-
-    def perceive(self, frame: np.ndarray, box_on_felt: bool | None = None) -> Percept:
-        return Percept(self._EMPTY, np.zeros(0, dtype=np.float32), False, box_on_felt)
-
-
-def _action(value: Any) -> Command | None:
-    """The command ``value`` stands for, or None when it is not an action."""
-    if isinstance(value, bool | np.bool_):
-        return None
-    if isinstance(value, np.ndarray):
-        if value.size != 1 or not np.issubdtype(value.dtype, np.integer):
-            return None
-        value = value.reshape(()).item()
-    if isinstance(value, int | np.integer) and 0 <= int(value) <= 2:
-        return Command(int(value))
-    return None
-
-
-def _shown(value: Any) -> str:
-    if isinstance(value, np.ndarray):
-        text = f"an array of shape {value.shape} and dtype {value.dtype}"
-        if value.size == 1:
-            text += f" ({value.reshape(()).item()!r})"
-        return text
-    if isinstance(value, np.generic):
-        return f"{value.item()!r} ({value.dtype})"
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
-
-
-class _PolicyCommander:
-    """The evaluated policy as the loop's commander."""
-
-    def __init__(self, driver: _PolicyDriver) -> None:
-        self.driver = driver
-
-    def reset(self) -> None:
-        self.driver.steps = 0
-        reset = self.driver.reset_call
-        if reset is not None:
-            try:
-                reset()
-            except Exception as exc:
-                problem = f"reset() raised {type(exc).__name__}: {first_line(exc)}"
-                raise self.driver.error(problem) from None
-
-    def propose(self, moment: Any) -> Command:
-        driver = self.driver
-        if driver.observation == "frames":
-            obs = moment.frame.view()
-            obs.flags.writeable = False
-        else:
-            obs = np.clip(moment.values, -1.0, 1.0).astype(np.float32)
-        try:
-            answer = driver.call(obs)
-        except Exception as exc:
-            raise driver.error(f"raised {type(exc).__name__}: {first_line(exc)}") from None
-        if driver.unpack and isinstance(answer, tuple) and len(answer) == 2:
-            answer = answer[0]  # SB3's predict: (action, state)
-        command = _action(answer)
-        if command is None:
-            raise driver.error(f"returned {_shown(answer)}; {_ACTIONS}")
-        driver.steps += 1
-        return command
-
-
-class _PolicyDriver:
-    """What :func:`~.runner.run_trial` drives with: a perception and a commander."""
-
-    def __init__(
-        self, policy: Any, name: str, observation: str, library: RoadLibrary | None
-    ) -> None:
-        self.name = name
-        self.observation = observation
-        self.steps = 0
-        self.where = ""
-        self.unpack = False
-        if isinstance(policy, type):
-            raise PolicyError(f"policy {name}: is a class; name an instance of it (or a function)")
-        if callable(getattr(policy, "predict", None)):
-            self.call = self._predict_call(policy.predict)
-            self.unpack = True
-        elif callable(getattr(policy, "act", None)):
-            self.call = policy.act
-        elif callable(policy):
-            self.call = policy
-        else:
-            raise PolicyError(
-                f"policy {name}: is not a function and has no predict(obs) or act(obs) method"
-            )
-        reset = None if inspect.isroutine(policy) else getattr(policy, "reset", None)
-        self.reset_call: Callable[[], Any] | None = reset if callable(reset) else None
-        self._perception: Any = (
-            _FramePerception() if library is None else Perception(library, "frozen")
-        )
-
-    @staticmethod
-    def _predict_call(predict: Callable[..., Any]) -> Callable[[Any], Any]:
-        try:
-            parameters = inspect.signature(predict).parameters
-        except (TypeError, ValueError):
-            return predict
-        takes = "deterministic" in parameters or any(
-            p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters.values()
-        )
-        return (lambda obs: predict(obs, deterministic=True)) if takes else predict
-
-    def error(self, problem: str) -> PolicyError:
-        return PolicyError(f"policy {self.name}: {problem} (step {self.steps + 1} of {self.where})")
-
-    def perception(self) -> Any:
-        return self._perception
-
-    def commander(self) -> _PolicyCommander:
-        return _PolicyCommander(self)
-
-
-# --------------------------------------------------------------------------- results
 
 
 @dataclass(frozen=True)
@@ -352,7 +116,7 @@ class Evaluation:
         """Tables 2 and 3 and the success rates as markdown (``ours (paper)`` cells)."""
         from .tables import format_tables
 
-        return format_tables(self.results, ours=_ours(self.results))
+        return format_tables(self.results, ours=ours_cell(self.results))
 
     def write(self, out: str | Path) -> Path:
         """Write results.json, report.md, trajectories.png and its numbers (trajectories.csv) into the folder ``out`` (created
@@ -382,102 +146,6 @@ class Evaluation:
 
         write_results_json(out / "results.json", self.results)
         return write_evaluation_report(out, self.results)
-
-
-def _ours(results: Mapping[str, Any]) -> str:
-    info = results.get("evaluation", {})
-    laps = info.get("laps", "?")
-    return (
-        f"policy `{info.get('policy', '?')}` on {info.get('observation', '?')},"
-        f" {laps} per direction, seed {results.get('seed', '?')}"
-    )
-
-
-def _rates(outcomes: Sequence[TrialOutcome], tracks: Sequence[str]) -> dict[str, Any]:
-    """Successes, trials, rate and Wilson 95 % interval per track and direction, and overall."""
-    rates: dict[str, Any] = {}
-    for track in tracks:
-        directions = TABLE_DIRECTIONS.get(track, LOOP_DIRECTIONS)
-        runs = [o for o in outcomes if o.track == track]
-        section = {
-            d: rate_summary(sum(o.success for o in ds), len(ds))
-            for d in directions
-            for ds in [[o for o in runs if o.direction == d]]
-        }
-        section["all"] = rate_summary(sum(o.success for o in runs), len(runs))
-        rates[track] = section
-    rates["all"] = rate_summary(sum(o.success for o in outcomes), len(outcomes))
-    return rates
-
-
-def _interval(rate: Mapping[str, Any]) -> str:
-    if not rate["trials"]:
-        return "n/a"
-    low, high = rate["ci95"]
-    return (
-        f"{rate['successes']}/{rate['trials']} = {100 * rate['rate']:.1f} %"
-        f" [{100 * low:.1f}, {100 * high:.1f}]"
-    )
-
-
-def rates_section(results: Mapping[str, Any]) -> str:
-    """Markdown table of the success rates with their Wilson 95 % intervals."""
-    rates = results["rates"]
-    lines = [
-        "## Success rates with Wilson 95 % intervals",
-        "",
-        "| track | direction | successes/runs = rate [95 % interval, %] |",
-        "|---|---|---|",
-    ]
-    for track, section in rates.items():
-        if track == "all":
-            continue
-        # results.json sorts its keys: the table keeps the report's order.
-        for direction in (*TABLE_DIRECTIONS.get(track, LOOP_DIRECTIONS), "all"):
-            title = "all" if direction == "all" else DIRECTION_TITLES[direction].lower()
-            lines.append(f"| {track} | {title} | {_interval(section[direction])} |")
-    lines += [
-        f"| every track | all | {_interval(rates['all'])} |",
-        "",
-        "The intervals treat every run as independent; runs of one direction share their floor.",
-        "",
-    ]
-    return "\n".join(lines)
-
-
-def write_evaluation_report(out: str | Path, results: Mapping[str, Any]) -> Path:
-    """Write ``out/report.md`` from an evaluation's results.json dict."""
-    from .report import test_tracks_section
-    from .tables import write_report
-
-    info = results["evaluation"]
-    laps = info["laps"]
-    runs = "run" if laps == 1 else "runs"
-    intro = (
-        f"The paper's protocol (§4.2.5) on policy `{info['policy']}`, which reads"
-        f" {info['observation']}: {laps} {runs} in each direction on every track it drove"
-        f" ({', '.join(info['tracks'])})"
-    )
-    intro += (
-        "; laps of the testing track start at corner 4." if "testing" in info["tracks"] else "."
-    )
-    intro += " Nothing is learned: the policy is scored as it is."
-    if info.get("library"):
-        intro += f" Road values from the road library of `{info['library']}`."
-    extra = [rates_section(results)]
-    if results.get("test_tracks"):
-        extra.append(test_tracks_section(results["test_tracks"]))
-    return write_report(
-        out,
-        results,
-        extra_sections=extra,
-        title="Corner-success evaluation",
-        intro=intro,
-        ours=_ours(results),
-    )
-
-
-# --------------------------------------------------------------------------- evaluate
 
 
 def _check_tracks_argument(tracks: Sequence[str]) -> tuple[str, ...]:
@@ -539,7 +207,7 @@ def evaluate(
     if isinstance(policy, str | os.PathLike):
         name = name or os.fspath(policy)
         policy = load_policy(policy)
-    name = name or _describe(policy)
+    name = name or describe_policy(policy)
     shown = f"'{name}'"
     # The benchmark's trial directions with these loops (the testing track always among them, as
     # `lfd-track benchmark --test-track` has it): every direction's world seed is drawn, those of
@@ -570,7 +238,7 @@ def evaluate(
             raise LfdTrackError(
                 f"policy {shown}: a road library is read only with observation 'road-values'"
             )
-        driver = _PolicyDriver(policy, shown, observation, road_library)
+        driver = PolicyDriver(policy, shown, observation, road_library)
 
     planned = [
         (track, direction, trial)
@@ -582,12 +250,12 @@ def evaluate(
 
     def seen(outcome: TrialOutcome) -> None:
         outcomes.append(outcome)
-        if isinstance(driver, _PolicyDriver) and len(outcomes) < len(planned):
+        if isinstance(driver, PolicyDriver) and len(outcomes) < len(planned):
             _where(driver, planned[len(outcomes)])
         if progress is not None:
             progress(outcome)
 
-    if isinstance(driver, _PolicyDriver):
+    if isinstance(driver, PolicyDriver):
         _where(driver, planned[0])
     start = time.perf_counter()
     run_trials(
@@ -610,7 +278,7 @@ def evaluate(
         "preset": preset,
         "library": library_name,
     }
-    raw["rates"] = _rates(outcomes, tracks)
+    raw["rates"] = success_rates(outcomes, tracks)
     raw["environment"] = environment()
     results = json.loads(results_json_text(raw))
     evaluation = Evaluation(name, observation, outcomes, results, timing)
@@ -619,7 +287,7 @@ def evaluate(
     return evaluation
 
 
-def _where(driver: _PolicyDriver, trial: tuple[str, str, int]) -> None:
+def _where(driver: PolicyDriver, trial: tuple[str, str, int]) -> None:
     track, direction, index = trial
     title = DIRECTION_TITLES[direction].lower()
     kind = "run" if track in TRACK_RESULT_KEYS and TRIAL_COUNT_KEYS[track] == "trials" else "lap"

@@ -1,5 +1,5 @@
 """Minari datasets of LfDTrack-v0: export, read back with the real minari, recover the env, and
-learn from them exactly as from the recordings (lfd_track/dataset/minari.py)."""
+learn from them exactly as from the recordings (lfd_track/dataset/minari/)."""
 
 from __future__ import annotations
 

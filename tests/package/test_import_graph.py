@@ -146,6 +146,18 @@ def test_the_graph_sees_function_level_and_relative_imports():
     assert "lfd_track.web.app" in graph["lfd_track.cli.teach"]
     # `from .arbiter import …` in a package __init__ re-exporting its submodules.
     assert "lfd_track.teaching.arbiter" in graph["lfd_track.teaching"]
+    # `from ...errors import …` three levels up, from a subpackage of a subpackage.
+    assert "lfd_track.errors" in graph["lfd_track.dataset.minari.store"]
+
+
+def test_the_graph_holds_every_module_of_the_package():
+    files = sorted(ROOT.rglob("*.py"))
+    graph = import_graph()
+    assert len(graph) == len(files)
+    nested = {"lfd_track", "lfd_track.dataset.minari", "lfd_track.dataset.minari.export"}
+    assert nested <= set(graph)
+    for edges in graph.values():
+        assert edges <= set(graph)
 
 
 def test_find_cycles_reports_a_cycle_and_ignores_a_chain():
