@@ -33,12 +33,13 @@ def learn_cmaes(context: MethodContext) -> Learned:
 def fit_after_demonstration(context: MethodContext, learner: BCConfig | CMAESConfig) -> Learned:
     """The paper's demonstration, then ``learner`` instead of the GA (same cases, same seed;
     ``shifted_views`` as for the ``paper`` method). An Elman network is trained by BC only."""
-    if context.policy_kind == "elman-sigmoid" and not isinstance(learner, BCConfig):
+    elman = context.policy_kind == "elman-sigmoid"
+    if elman and not isinstance(learner, BCConfig):
         raise ValueError("an Elman network is trained by the GA or by backprop, not CMA-ES")
     summary, demo, library, views, (x, a) = offline_cases(context)
     trainer = learner_for(learner)
     rng = np.random.default_rng(context.ga_seed)
-    if context.policy_kind == "elman-sigmoid":
+    if elman and isinstance(learner, BCConfig):
         result = fit_bc_elman(x, a, learner, rng, episodes=episodes(demo, context.mirror))
     else:
         result = trainer.fit(x, a, rng)

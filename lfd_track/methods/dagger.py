@@ -142,7 +142,10 @@ class LabelBuffer:
             return
         self.values.append(np.asarray(step.percept.inputs, dtype=np.float64))
         self.labels.append(int(label))
-        self.agreed += step.decision.driver == "policy" and int(step.command) == int(label)
+        executed = step.command
+        self.agreed += (
+            step.decision.driver == "policy" and executed is not None and int(executed) == label
+        )
         if self.writer is not None:
             fields: dict[str, Any] = {}
             if len(step.percept.memory):

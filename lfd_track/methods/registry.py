@@ -46,7 +46,7 @@ class Method:
     results.json (lower-case letters, digits and '-')."""
     learn: Callable[[MethodContext], Learned]
     """Learns one repetition's controller (its files go to ``context.rep_dir``)."""
-    settings: type | None = None
+    settings: type[Any] | None = None
     """Its settings class: a frozen dataclass whose every field has a default, with
     ``to_dict()`` and the class method ``from_dict(data)`` (as :class:`~lfd_track.core.config.
     DictConfig` gives them); None if it has none."""
