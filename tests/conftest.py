@@ -1,4 +1,6 @@
-"""Makes ``lfd_test_support`` (helpers shared by the test folders) importable from any folder."""
+"""Makes the helpers the test folders share (``lfd_test_support``, ``parser_property_support``)
+importable from any folder: the folders are not packages, and each test module sits in the folder
+of the subpackage it tests (``tests/package/`` for the package as a whole)."""
 
 import sys
 from pathlib import Path
