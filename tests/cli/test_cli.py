@@ -142,11 +142,11 @@ def test_benchmark_runs_the_memory_pipeline_from_flags(tmp_path):
     argv += ["--memory", "last_bend", "--turnarounds", "toward_last_bend", "--mirror"]
     assert main(argv) == 0
     results = json.loads((out / "results.json").read_text())
-    assert results["config"]["memory"] == {"kind": "last_bend", "bend_pivots": 2}
+    assert results["config"]["memory"] == {"kind": "last_bend"}
     assert results["config"]["mirror"] is True
     assert results["demonstrations"][0]["turnarounds"] == ["right", "left", "right", "left"]
     controller = json.loads((out / "repetitions" / "rep_00" / "controller.json").read_text())
-    assert controller["schema_version"] == 3 and controller["layer_sizes"] == [41, 5, 3]
+    assert controller["schema_version"] == 5 and controller["layer_sizes"] == [41, 5, 3]
     assert (
         "**Beyond the paper's pipeline**: the network also reads memory inputs"
         in (out / "report.md").read_text()
@@ -269,12 +269,12 @@ def test_evolve_keeps_a_demonstrations_memory_inputs(tmp_path):
     whose memory settings do not fit its cases is refused in one line, nothing written."""
     from lfd_track.dataset import DemonstrationWriter
     from lfd_track.policy.controller import Controller
-    from lfd_track.policy.memory import MemoryConfig
+    from lfd_track.policy.memory import LastBendConfig
 
     rng = np.random.default_rng(0)
     library = RoadLibrary()
     library.learn(rng.integers(0, 255, (480, 640, 3), dtype=np.uint8))
-    memory = MemoryConfig(kind="last_bend")
+    memory = LastBendConfig()
 
     def record(path, metadata_memory):
         metadata = {"track": "training", "road_library": library.to_dict()}
