@@ -10,8 +10,9 @@ station's settings), refusing unknown keys and values out of bounds in one line.
 Every setting is a field declared with :func:`setting`: its default, its one-line description
 with units and its bounds (``low``/``high`` or ``choices``) sit together, and every reader takes
 them from there: the checks here, the command line's flags and their help
-(:func:`lfd_track.cli.types.add_map_arguments`) and the study files. Adding a knob to a kind is
-one field here (and the code in :mod:`lfd_track.policy.memory` that reads it).
+(:func:`lfd_track.cli.types.add_map_arguments`), the study files and the migration of older
+files (a setting's ``before``). Adding a knob to a kind is one field here (and the code in
+:mod:`lfd_track.policy.memory` that reads it).
 
 The shipped ``fresh_felt`` defaults are the goal's chosen map (round 17: blank bearing
 ``"last"``, bearing over +-30 deg, the rover's own strip by 0.15 m links with regions touching in
@@ -60,11 +61,16 @@ def setting(
     high: float | None = None,
     low_open: bool = False,
     choices: tuple[str, ...] | None = None,
+    before: Any = dataclasses.MISSING,
 ) -> Any:
     """A memory setting: a dataclass field with its ``default``, its one-line ``doc`` (units
     first, as ``[m]``) and its bounds: ``low`` <= value <= ``high`` (``low`` < value with
-    ``low_open``) for numbers, one of ``choices`` for strings."""
+    ``low_open``) for numbers, one of ``choices`` for strings. ``before`` is the value that
+    does what the memory did before the setting existed (default: ``default``): a file written
+    before then, which cannot name it, is read with it (:func:`memory_table_from_v1`)."""
     bounds = {"doc": doc, "low": low, "high": high, "low_open": low_open, "choices": choices}
+    if before is not dataclasses.MISSING:
+        bounds["before"] = before
     return dataclasses.field(default=default, metadata=bounds)
 
 
@@ -88,6 +94,8 @@ class SettingSpec:
     """``low`` itself is refused."""
     choices: tuple[str, ...] | None = None
     """The values a string may take."""
+    before: Any = None
+    """What an older file that does not name the setting meant (see :func:`setting`)."""
 
     def problem(self, value: Any) -> str | None:
         """Why ``value`` is refused (``"must be ..."``), or None if it is good."""
@@ -227,6 +235,7 @@ class FreshFeltConfig(MemoryConfig):
         "the bearing input while no fresh felt is left: centre (0.5) or last (the bearing the"
         " fresh felt last had)",
         choices=BLANK_BEARINGS,
+        before="centre",
     )
     bearing_range_deg: float = setting(
         30.0,
@@ -234,6 +243,7 @@ class FreshFeltConfig(MemoryConfig):
         " clipped (180: the whole circle)",
         low=1.0,
         high=FULL_BEARING_RANGE_DEG,
+        before=FULL_BEARING_RANGE_DEG,
     )
     strip_link_m: float = setting(
         0.15,
@@ -241,6 +251,7 @@ class FreshFeltConfig(MemoryConfig):
         " length, is fresh (0: off, any felt may be)",
         low=0.0,
         high=1.0,
+        before=0.0,
     )
     strip_from: str = setting(
         "axle",
@@ -251,6 +262,7 @@ class FreshFeltConfig(MemoryConfig):
     strip_picture_links: bool = setting(
         True,
         "with strip_link_m: felt regions that touch in one frame's 8 x 5 grid are linked too",
+        before=False,
     )
     blank_reach_m: float = setting(
         1.0,
@@ -258,12 +270,14 @@ class FreshFeltConfig(MemoryConfig):
         " above reach_m)",
         low=0.0,
         high=5.0,
+        before=0.0,
     )
     blank_distance: str = setting(
         "reach",
         "with blank_reach_m: the distance input of felt found further, over blank_reach (so 1 is"
         " blank_reach_m away) or over reach (clipped to 1)",
         choices=BLANK_DISTANCES,
+        before="blank_reach",
     )
     visited_fade_m: float = setting(
         0.3,
@@ -271,6 +285,7 @@ class FreshFeltConfig(MemoryConfig):
         " further (0: off, full beyond path_radius_m)",
         low=0.0,
         high=2.0,
+        before=0.0,
     )
 
     def _check(self) -> None:
@@ -282,9 +297,9 @@ class FreshFeltConfig(MemoryConfig):
     @classmethod
     def plain(cls, **changes: Any) -> FreshFeltConfig:
         """The map with every option off (the first rounds' map, and the hand-written rule's):
-        blank bearing centre, the whole circle, no strip, no looking further, no fade; then
-        ``changes``."""
-        return cls(**{**_PLAIN_MAP, **changes})
+        each setting as it was before it existed (blank bearing centre, the whole circle, no
+        strip, no looking further, no fade); then ``changes``."""
+        return cls(**{**{spec.name: spec.before for spec in setting_specs(cls)}, **changes})
 
     def mirror(self, inputs: np.ndarray) -> np.ndarray:
         # the bearing changes side; amount and distance do not
@@ -300,22 +315,8 @@ MEMORY_CONFIGS: dict[str, type[MemoryConfig]] = {
 MEMORY_KINDS = tuple(MEMORY_CONFIGS)
 """The memory kinds, in the order the docs list them."""
 
-#: ``fresh_felt`` options off: the map of the first rounds (see :meth:`FreshFeltConfig.plain`).
-_PLAIN_MAP: dict[str, Any] = {
-    "blank_bearing": "centre",
-    "bearing_range_deg": FULL_BEARING_RANGE_DEG,
-    "strip_link_m": 0.0,
-    "strip_from": "axle",
-    "strip_picture_links": False,
-    "blank_reach_m": 0.0,
-    "blank_distance": "blank_reach",
-    "visited_fade_m": 0.0,
-}
-#: What a memory table written before every setting was stored meant by a missing key: the
-#: defaults of the time (each ``fresh_felt`` option off) ...
-_V1_DEFAULTS: dict[str, Any] = {"path_radius_m": 0.35, "reach_m": 0.6, **_PLAIN_MAP}
-#: ... and, per kind, the settings removed since (no committed study set them), with the only
-#: value each one keeps: the constants in :mod:`lfd_track.policy.memory`.
+#: Per kind, the settings removed (no committed study set them), with the only value each one
+#: keeps: the constants in :mod:`lfd_track.policy.memory`. An older file may still name them.
 REMOVED_SETTINGS: dict[str, dict[str, Any]] = {
     "last_bend": {"bend_pivots": 2},
     "fresh_felt": {
@@ -338,7 +339,12 @@ def setting_specs(cls: type[MemoryConfig]) -> tuple[SettingSpec, ...]:
 def _setting_specs(cls: Any) -> tuple[SettingSpec, ...]:
     hints = typing.get_type_hints(cls)
     return tuple(
-        SettingSpec(name=f.name, type=hints[f.name], default=f.default, **f.metadata)
+        SettingSpec(
+            name=f.name,
+            type=hints[f.name],
+            default=f.default,
+            **{"before": f.default, **f.metadata},
+        )
         for f in dataclasses.fields(cls)
     )
 
@@ -367,10 +373,12 @@ def memory_table_from_v1(table: Mapping[str, Any]) -> dict[str, Any]:
     each ``fresh_felt`` option left out while off) as a full table of today's settings with
     the same meaning.
 
-    Missing keys take the defaults of the time (every option off); settings of another kind,
-    which had no effect, are dropped; a setting removed since must hold the only value it keeps
-    (:data:`REMOVED_SETTINGS`, else ``ValueError``). A full table comes back unchanged. Values are
-    not checked here (:func:`memory_config` does).
+    A missing key takes the value that does what the memory did before the setting existed
+    (each setting's ``before``: every option off), so this also reads a full table written
+    before a setting was added; settings of another kind, which had no effect, are dropped; a
+    setting removed since must hold the only value it keeps (:data:`REMOVED_SETTINGS`, else
+    ``ValueError``). A full table comes back unchanged. Values are not checked here
+    (:func:`memory_config` does).
     """
     if not isinstance(table, Mapping):
         raise ValueError(f"memory settings must be a table, got {type(table).__name__}")
@@ -378,9 +386,8 @@ def memory_table_from_v1(table: Mapping[str, Any]) -> dict[str, Any]:
     cls = MEMORY_CONFIGS.get(kind) if isinstance(kind, str) else None
     if cls is None:
         raise ValueError(f"memory kind must be one of {', '.join(MEMORY_KINDS)}, got {kind!r}")
-    names = [spec.name for spec in setting_specs(cls)]
-    old = set(_V1_DEFAULTS).union(*REMOVED_SETTINGS.values())
-    unknown = sorted(set(table) - old - {"kind"})
+    known = {spec.name for c in MEMORY_CONFIGS.values() for spec in setting_specs(c)}
+    unknown = sorted(set(table) - known.union(*REMOVED_SETTINGS.values()) - {"kind"})
     if unknown:
         raise ValueError(f"unknown memory setting '{unknown[0]}'")
     for name, value in REMOVED_SETTINGS.get(kind, {}).items():
@@ -389,4 +396,4 @@ def memory_table_from_v1(table: Mapping[str, Any]) -> dict[str, Any]:
                 f"memory {name} = {table[name]!r} is no longer supported (kind {kind!r} has"
                 f" {name} = {value!r})"
             )
-    return {"kind": kind, **{name: table.get(name, _V1_DEFAULTS[name]) for name in names}}
+    return {"kind": kind, **{s.name: table.get(s.name, s.before) for s in setting_specs(cls)}}

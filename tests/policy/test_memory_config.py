@@ -58,6 +58,9 @@ def test_every_setting_has_a_one_line_description_and_units_where_it_has_any():
             if spec.name.endswith("_deg"):
                 assert spec.doc.startswith("[deg]"), spec.name
             assert spec.problem(spec.default) is None, spec.name  # the defaults are in bounds
+            assert spec.problem(spec.before) is None, spec.name
+    # a table written before a setting existed is read with the value it had then
+    assert memory_table_from_v1({"kind": "fresh_felt"}) == FreshFeltConfig.plain().to_dict()
 
 
 @pytest.mark.parametrize(
