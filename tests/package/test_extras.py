@@ -88,7 +88,8 @@ def test_the_env_and_the_paper_pipeline_need_no_extra(tmp_path):
     code = (
         "import gymnasium as gym, lfd_track\n"
         "env = gym.make('LfDTrack-v0'); env.reset(seed=0); env.step(0)\n"
-        "from lfd_track.benchmark import methods, runner\n"
+        "from lfd_track import methods\n"
+        "from lfd_track.benchmark import runner\n"
         "from lfd_track.learning import ga, fitness\n"
         "from lfd_track.study import run\n"
         "print('ok')\n"

@@ -53,7 +53,7 @@ def test_the_docs_have_examples():
 @pytest.mark.parametrize(("page", "index", "block"), PYTHON, ids=_ids(PYTHON))
 def test_python_block_runs(page, index, block, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    code = compile(block, f"{page} python block {index}", "exec")
+    code = compile(block, f"{page} python block {index}", "exec", dont_inherit=True)
     exec(code, {"__name__": f"doc_block_{index}"})
 
 
