@@ -140,7 +140,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "--shifted-views",
         action="store_true",
         help="learn also from each case's views from a step behind and a pivot either way,"
-        " labelled with the command back (methods paper, bc and cma-es)",
+        " labelled with the command back (methods"
+        f" {', '.join(m.name for m in methods() if m.takes_views)})",
     )
     bench.add_argument(
         "--careless",
