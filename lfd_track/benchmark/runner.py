@@ -129,12 +129,13 @@ class BenchmarkConfig:
     test_tracks: tuple[str, ...] = ("testing",)  # loops (names or paths) lapped both ways
     memory: MemoryConfig = NoMemory()  # memory inputs of the policy (none: the paper's 40)
     mirror: bool = False  # learn from the cases and their mirror images (learning/mirror.py)
-    # Learn also from the shifted and turned views of every case (demo/views.py): methods
-    # "paper", "bc" and "cma-es", which learn after one simulated demonstration.
+    # Learn also from the shifted and turned views of every case (demo/views.py): the methods
+    # registered with takes_views ("paper", "bc", "cma-es": one simulated demonstration, then
+    # learning).
     shifted_views: bool = False
     # The network: "mlp-sigmoid" (the paper's) or "elman-sigmoid" (its hidden activations fed
-    # back, policy/elman.py), which the GA (method "paper") and backprop through time (method
-    # "bc") train over the demonstration's cases in order.
+    # back, policy/elman.py), for the methods whose entry lists it in policy_kinds: the GA
+    # (method "paper") and backprop through time (method "bc") over the cases in order.
     policy_kind: str = "mlp-sigmoid"
     # Per-region inputs of the policy (policy/features.py): the paper's road values,
     # "road_values+colour" (also each region's mean hue and saturation), or "none" (the memory
