@@ -21,7 +21,7 @@ A study file looks like::
     generations = 200
 
 A condition's keys (after ``[defaults]`` are merged in, table by table) are ``name``,
-``description`` and any field of :class:`~lfd_track.benchmark.runner.BenchmarkConfig` except
+``description`` and any field of :class:`~lfd_track.benchmark.config.BenchmarkConfig` except
 ``seed``, ``repetitions`` (which the study sets) and ``method_settings``: nested settings such as
 ``ga`` or ``human`` are tables of their config's fields. A method's settings are the table its
 registry entry names (:mod:`lfd_track.methods`: ``[conditions.online]``,
