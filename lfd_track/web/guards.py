@@ -257,8 +257,9 @@ class Connection(asyncio.Protocol):
         try:
             self._key = (_address(sock.getpeername()), _address(sock.getsockname()))
         except (AttributeError, OSError):
-            self._key = (None, None)
-        self._guard.by_address[self._key] = self
+            self._key = None  # the peer is gone already: uvicorn's scope names no client either
+        if self._key is not None and None not in self._key:
+            self._guard.by_address[self._key] = self
         self._await_request()
         self.inner = self._make_protocol()
         self.inner.connection_made(Pipe(self, self.transport))
