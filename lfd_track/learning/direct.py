@@ -64,7 +64,9 @@ class RoadDriver:
 
     def command(self, frame: np.ndarray) -> int:
         values = self.perception.perceive(frame).values
-        return int(self.policy.act_on_values(values))
+        command = self.policy.act_on_values(values)
+        assert command is not None, "use(weights) comes before the first command"
+        return int(command)
 
 
 # ------------------------------------------------------------------------------------ direct

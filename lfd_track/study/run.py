@@ -291,6 +291,7 @@ def _work(jobs: Any, results: Any) -> None:
     while (item := inbox.get()) is not None:
         busy.set()
         index, job = item
+        reply: tuple[int, dict[str, bytes], str | None]
         try:
             reply = (index, run_job(job), None)
         except Exception as exc:
