@@ -19,7 +19,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -37,6 +37,10 @@ from ..vision.road_library import RoadLibrary
 from .commander import BrowserCommander
 from .contract import LEASE_S, Lease, View
 from .view import make_view
+
+if TYPE_CHECKING:
+    from ..envs.track_env import LfDTrackEnv
+    from ..hardware.env import HardwareEnv
 
 HUMAN = "human"
 AUTONOMOUS = "autonomous"
@@ -102,6 +106,7 @@ class CaseTally:
     def observe(self, step: Step) -> None:
         if not step.is_case:
             return
+        assert step.command is not None, "a case always has the command it records"
         with self._lock:
             self._counts[step.command.name.lower()] += 1
             self.corrections += step.decision.correction
@@ -150,7 +155,7 @@ class LoopSession:
         seed: int | None = None,
         stop_robot: Callable[[str], None] | None = None,
         rearm_options: dict[str, Any] | None = None,
-        topdown: Callable[[], np.ndarray] | None = None,
+        topdown: Callable[[], np.ndarray | None] | None = None,
         live_frame: Callable[[], tuple[int, np.ndarray] | None] | None = None,
         preview_fps: float = 10.0,
         lease_s: float = LEASE_S,
@@ -428,6 +433,7 @@ class LoopSession:
     def _publish(self, frame: np.ndarray | None = None) -> None:
         """Publish the view of ``frame`` (default: the loop's current frame)."""
         frame = self.loop.frame if frame is None else frame
+        assert frame is not None, "the session publishes only after the loop's reset"
         values = self.loop.perception.look(frame)  # looking never counts as a selection
         topdown = self._topdown() if self._topdown is not None else None
         with self._cond:
@@ -447,6 +453,8 @@ def open_session(config: TeachConfig) -> LoopSession:
         "backend": config.backend,
         "online": config.online,
     }
+    env: LfDTrackEnv | HardwareEnv
+    topdown: Callable[[], np.ndarray | None] | None
     if config.backend == "sim":
         from ..envs.track_env import LfDTrackEnv
 
@@ -458,16 +466,18 @@ def open_session(config: TeachConfig) -> LoopSession:
             kind="simulated", track=config.track, preset=config.preset, seed=config.seed
         )
         stop_robot = None
-        topdown: Callable[[], np.ndarray] | None = env.render
+        topdown = env.render
         rearm = None
         live_frame = None
     else:
         from ..hardware.env import HardwareEnv  # lazy: the serial link and the camera stream
 
         period_s = config.period_s or 0.4
+        if config.camera is None or config.serial is None:
+            raise ValueError("the hardware backend needs both a camera stream and a serial port")
         # Each command runs one period, then the motors stop: a page that gives no command
         # leaves the robot standing (as the paper's remote did).
-        env = HardwareEnv(
+        robot = env = HardwareEnv(
             camera_url=config.camera,
             serial_url=config.serial,
             control_period_s=period_s,
@@ -476,11 +486,11 @@ def open_session(config: TeachConfig) -> LoopSession:
         metadata.update(kind="hardware", camera=config.camera, control_period_s=period_s)
 
         def stop_robot(reason: str) -> None:
-            env.link.estop()  # latched: a drive already on its way is refused by the board
+            robot.link.estop()  # latched: a drive already on its way is refused by the board
 
         topdown = None
         rearm = {"clear_estop": True}
-        live_frame = getattr(env.camera, "latest", None)
+        live_frame = getattr(robot.camera, "latest", None)
     takeover = config.takeover
     if config.online:
         metadata["online_settings"] = {
