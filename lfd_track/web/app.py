@@ -224,19 +224,28 @@ class TokenBucket:
 class StopLine:
     """Runs ``stop(reason)`` in a thread of its own (on the real robot a stop talks to the serial
     link), so a stop never waits behind other work. A stop asked for while another one waits to
-    start joins it: however many pages press stop, at most one runs and one waits."""
+    start joins it: however many pages press stop, at most one runs and one waits. The stop that
+    runs carries the reason of every request it answers (``"; "``-separated, each once), so a
+    stop button pressed while the controlling page's closing stop waited is named too."""
+
+    REASON_SEPARATOR = "; "
 
     def __init__(self, stop: Callable[[str], None]) -> None:
         self._stop = stop
         self._executor = ThreadPoolExecutor(max_workers=1, thread_name_prefix="lfd-track stop")
         self._lock = threading.Lock()
         self._waiting: Future[None] | None = None
+        self._reasons: list[str] = []  # of the waiting stop
 
     def request(self, reason: str) -> Future[None]:
-        """Ask for a stop; the future is done once the robot was told to stop."""
+        """Ask for a stop; the future is done once the robot was told to stop (by a stop that
+        started after this request)."""
         with self._lock:
             if self._waiting is None or self._waiting.done():
-                self._waiting = self._executor.submit(self._run, reason)
+                self._reasons = [reason]
+                self._waiting = self._executor.submit(self._run)
+            elif reason not in self._reasons:
+                self._reasons.append(reason)
             return self._waiting
 
     async def stop(self, reason: str) -> None:
@@ -244,10 +253,11 @@ class StopLine:
         wait does not cancel the stop (other pages' stops may have joined it)."""
         await asyncio.shield(asyncio.wrap_future(self.request(reason)))
 
-    def _run(self, reason: str) -> None:
+    def _run(self) -> None:
         with self._lock:
             self._waiting = None  # a stop asked for from now on runs after this one
-        self._stop(reason)
+            reasons, self._reasons = self._reasons, []
+        self._stop(self.REASON_SEPARATOR.join(reasons))
 
 
 class ControlDesk:

@@ -2,8 +2,9 @@
 can (reading whatever comes back), reconnecting whenever the server closes it, until its
 standard input closes.
 
-``python flooder.py WS_URL junk|heartbeat|press`` prints ``flooding`` once connected, then at
-the end one JSON line: ``{"connects": n, "refused": n, "closes": {"CODE REASON": n}}``.
+``python flooder.py WS_URL junk|heartbeat|press`` prints ``flooding`` once connected, ``closed
+CODE REASON`` each time the server closes it (as it happens), then at the end one JSON line:
+``{"connects": n, "refused": n, "closes": {"CODE REASON": n}}``.
 """
 
 from __future__ import annotations
@@ -58,6 +59,7 @@ async def flood(url: str, message: str, done: threading.Event) -> dict:
                 except ConnectionClosed as exc:
                     key = f"{exc.rcvd.code} {exc.rcvd.reason}" if exc.rcvd else "no close frame"
                     report["closes"][key] = report["closes"].get(key, 0) + 1
+                    print("closed", key, flush=True)
                 reader.cancel()
         except InvalidStatus:
             report["refused"] += 1
