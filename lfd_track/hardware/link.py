@@ -328,19 +328,36 @@ class RobotLink:
         return ack
 
     def stop(self) -> bool:
-        """Stop the motors, best effort: never raises. True if the board acknowledged ``S``."""
+        """Stop the motors, best effort. True if the board acknowledged ``S``.
+
+        Raises nothing but a ``KeyboardInterrupt`` that lands in it: the stop is then sent once
+        more (the interrupted frame may be cut short) and the interrupt re-raised, so a Ctrl-C
+        both stops the robot and reaches the caller.
+        """
         with self._lease_lock:
             self._lease.letter, self._lease.until = STOP, 0.0
+        interrupt: KeyboardInterrupt | None = None
+        stopped = False
+        for _ in range(2):  # a second go only after an interrupt
+            try:
+                stopped = self._send_stop()
+                break
+            except KeyboardInterrupt as exc:
+                interrupt = interrupt or exc
+            except Exception:  # noqa: BLE001 - best effort: the lease and watchdog stop anyway
+                break
+        if interrupt is not None:
+            raise interrupt
+        return stopped
+
+    def _send_stop(self) -> bool:
         if self._port is None:
             return False
-        try:
-            with self._io_lock:
-                for _ in range(2):  # one retry: stopping matters more than latency
-                    ack = self._request(wire.DRIVE, (STOP,), count_failure=False)
-                    if ack is not None:
-                        return ack.accepted or ack.rejected == wire.REASON_ESTOP
-        except BaseException:  # noqa: BLE001 - best effort, including KeyboardInterrupt mid-write
-            pass
+        with self._io_lock:
+            for _ in range(2):  # one retry: stopping matters more than latency
+                ack = self._request(wire.DRIVE, (STOP,), count_failure=False)
+                if ack is not None:
+                    return ack.accepted or ack.rejected == wire.REASON_ESTOP
         return False
 
     def poll(self) -> None:

@@ -6,6 +6,7 @@ corrupt its replies, or drop the connection. ``test_hardware_env.py`` reuses it.
 
 from __future__ import annotations
 
+import _thread
 import socket
 import statistics
 import threading
@@ -231,6 +232,26 @@ def test_close_stops_the_motors() -> None:
             link.drive(Command.FORWARD)
         assert board.drives()[-1] == "S"
         assert board.state == "S"
+
+
+def test_a_ctrl_c_landing_in_a_stop_stops_the_motors_and_reaches_the_caller() -> None:
+    """The board gets the stop, Ctrl-C comes before its ack is read (the interrupt is set before
+    the board answers, so it lands inside ``stop``): the stop is sent again and the interrupt
+    raised, not swallowed by the best-effort stop."""
+
+    def interrupt_on_first_stop(board, frame) -> None:
+        if frame.type == wire.DRIVE and frame.args == ("S",) and board.drives().count("S") == 1:
+            _thread.interrupt_main()  # what Ctrl-C does to the control loop
+
+    with FakeBoard() as board, make_link(board) as link:
+        link.drive(Command.FORWARD)
+        board.on_frame = interrupt_on_first_stop
+        with pytest.raises(KeyboardInterrupt):
+            link.stop()
+        board.on_frame = None
+        assert board.drives()[-2:] == ["S", "S"]
+        assert board.state == "S"
+        assert link.lease_letter() == "S"
 
 
 def test_keepalive_refreshes_the_lease_faster_than_the_watchdog() -> None:
