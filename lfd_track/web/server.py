@@ -52,6 +52,7 @@ from .guards import (
 
 with needs_extra("web"):
     import uvicorn  # the only module that knows uvicorn: Config and Server, nothing else
+    import websockets  # noqa: F401  uvicorn imports it only when a page connects (ws="websockets-sansio")
 
 _log = logging.getLogger("uvicorn.error")
 
