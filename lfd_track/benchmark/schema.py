@@ -24,11 +24,10 @@ Schema history:
 from __future__ import annotations
 
 import copy
-from pathlib import Path
 from typing import Any
 
 from ..policy.memory_config import memory_table_from_v1
-from ..utils.migrate import Step, migrate, read_versioned
+from ..utils.migrate import Step, VersionedJson
 
 RESULTS_SCHEMA = 2
 """Schema of the results.json this version writes (``len(RESULTS_STEPS) + 1``)."""
@@ -133,21 +132,12 @@ def results_v1_to_v2(data: dict[str, Any]) -> dict[str, Any]:
 
 RESULTS_STEPS: tuple[Step, ...] = (results_v1_to_v2,)
 """Step k turns a schema-k results dict into schema k + 1."""
+RESULTS_FILE = VersionedJson("results", RESULTS_STEPS, MAX_RESULTS_BYTES)
+"""results.json: its steps and largest size, read through :func:`read_results`."""
 
-
-def migrate_results(data: dict[str, Any], source: object) -> dict[str, Any]:
-    """A results.json dict (parsed from ``source``) in the current schema; ``data`` is kept.
-
-    Raises :class:`~lfd_track.errors.FileFormatError` naming ``source`` if its schema is not an
-    integer from 1 or is newer than :data:`RESULTS_SCHEMA`.
-    """
-    return migrate(data, source, what="results", steps=RESULTS_STEPS)
-
-
-def read_results(path: str | Path, max_bytes: int = MAX_RESULTS_BYTES) -> dict[str, Any]:
-    """The results.json at ``path``, parsed and migrated to the current schema.
-
-    An unreadable file, one that is not a JSON object, or one of a newer schema raises
-    :class:`~lfd_track.errors.FileFormatError` in one line naming it.
-    """
-    return read_versioned(path, what="results", steps=RESULTS_STEPS, max_bytes=max_bytes)
+migrate_results = RESULTS_FILE.migrate
+"""``migrate_results(data, source)``: a results.json dict (parsed from ``source``) in the current
+schema (:meth:`~lfd_track.utils.migrate.VersionedJson.migrate`); ``data`` is kept."""
+read_results = RESULTS_FILE.read
+"""``read_results(path, max_bytes=None)``: the results.json at ``path``, parsed and migrated to
+the current schema (:meth:`~lfd_track.utils.migrate.VersionedJson.read`)."""

@@ -13,11 +13,10 @@ Schema history:
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
 from ..benchmark.schema import config_v1_to_v2
-from ..utils.migrate import Step, migrate, read_versioned
+from ..utils.migrate import Step, VersionedJson
 
 STUDY_SCHEMA = 2
 """Schema of the study.json this version writes (``len(STUDY_STEPS) + 1``)."""
@@ -37,18 +36,12 @@ def study_v1_to_v2(data: dict[str, Any]) -> dict[str, Any]:
 
 STUDY_STEPS: tuple[Step, ...] = (study_v1_to_v2,)
 """Step k turns a schema-k study.json dict into schema k + 1."""
+STUDY_FILE = VersionedJson("study", STUDY_STEPS, MAX_STUDY_BYTES)
+"""study.json: its steps and largest size, read through :func:`read_study_results`."""
 
-
-def migrate_study(data: dict[str, Any], source: object) -> dict[str, Any]:
-    """A study.json dict (parsed from ``source``) in the current schema; ``data`` is kept.
-
-    Raises :class:`~lfd_track.errors.FileFormatError` naming ``source`` if its schema is not an
-    integer from 1 or is newer than :data:`STUDY_SCHEMA`.
-    """
-    return migrate(data, source, what="study", steps=STUDY_STEPS)
-
-
-def read_study_results(path: str | Path, max_bytes: int = MAX_STUDY_BYTES) -> dict[str, Any]:
-    """The study.json at ``path``, parsed and migrated to the current schema (errors in one
-    line naming the file)."""
-    return read_versioned(path, what="study", steps=STUDY_STEPS, max_bytes=max_bytes)
+migrate_study = STUDY_FILE.migrate
+"""``migrate_study(data, source)``: a study.json dict (parsed from ``source``) in the current
+schema (:meth:`~lfd_track.utils.migrate.VersionedJson.migrate`); ``data`` is kept."""
+read_study_results = STUDY_FILE.read
+"""``read_study_results(path, max_bytes=None)``: the study.json at ``path``, parsed and migrated
+to the current schema (:meth:`~lfd_track.utils.migrate.VersionedJson.read`)."""

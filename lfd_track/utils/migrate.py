@@ -4,7 +4,8 @@ A file format of ours carries ``schema``, an integer that grows by one whenever 
 holds changes. Its module keeps the current number and the list of its steps: step ``k`` turns a
 schema-``k`` dict into a schema-``k + 1`` dict (and sets ``schema`` to ``k + 1``). A reader
 passes what it parsed to :func:`migrate` and from then on reads the current shape only; the
-writer always writes the current shape, in full.
+writer always writes the current shape, in full. A JSON file format holds its name, steps and
+largest size in one :class:`VersionedJson`, whose ``migrate`` and ``read`` its module exports.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from __future__ import annotations
 import copy
 import json
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -77,3 +79,34 @@ def read_versioned(
     if not isinstance(data, dict):
         raise FileFormatError(path, f"unreadable {what} (not a JSON object)")
     return migrate(data, path, what=what, steps=steps)
+
+
+@dataclass(frozen=True)
+class VersionedJson:
+    """A JSON file format of ours: what messages call it, its schema steps, its largest file."""
+
+    what: str
+    """The kind of file, as an error names it (``"results"``)."""
+    steps: tuple[Step, ...]
+    """Step k turns a schema-k dict into schema k + 1."""
+    max_bytes: int
+    """Largest file :meth:`read` reads [bytes]."""
+
+    @property
+    def current(self) -> int:
+        """The schema this version writes, ``len(steps) + 1``."""
+        return len(self.steps) + 1
+
+    def migrate(self, data: dict[str, Any], source: object) -> dict[str, Any]:
+        """A dict of this format (parsed from ``source``) in the current schema; ``data`` is kept.
+
+        Raises :class:`~lfd_track.errors.FileFormatError` naming ``source`` if its schema is not
+        an integer from 1 or is newer than :attr:`current` (:func:`migrate`).
+        """
+        return migrate(data, source, what=self.what, steps=self.steps)
+
+    def read(self, path: str | Path, max_bytes: int | None = None) -> dict[str, Any]:
+        """The file at ``path`` (at most ``max_bytes``, by default :attr:`max_bytes`), parsed and
+        migrated to the current schema (:func:`read_versioned`: errors in one line naming it)."""
+        limit = self.max_bytes if max_bytes is None else max_bytes
+        return read_versioned(path, what=self.what, steps=self.steps, max_bytes=limit)

@@ -8,7 +8,7 @@ import json
 import pytest
 
 from lfd_track.errors import FileFormatError
-from lfd_track.utils.migrate import migrate, read_versioned
+from lfd_track.utils.migrate import VersionedJson, migrate, read_versioned
 
 
 def _step(to: int):
@@ -74,3 +74,14 @@ def test_reading_a_file_parses_and_migrates_it(tmp_path):
         with pytest.raises(FileFormatError, match=problem) as exc:
             read_versioned(path, what="thing", steps=STEPS, max_bytes=100)
         assert str(exc.value).startswith(f"{path}: ")
+
+
+def test_a_file_format_migrates_and_reads_through_its_own_steps_and_size(tmp_path):
+    thing = VersionedJson("thing", STEPS, max_bytes=100)
+    assert thing.current == 3
+    assert thing.migrate({"schema": 1}, "f.json")["seen"] == [2, 3]
+    path = tmp_path / "f.json"
+    path.write_text(json.dumps({"schema": 2, "pad": "x" * 200}))
+    with pytest.raises(FileFormatError, match=r"^.*f\.json: "):
+        thing.read(path)  # over its own 100 bytes
+    assert thing.read(path, max_bytes=1000)["seen"] == [3]
