@@ -78,6 +78,25 @@ def snapshot(folder: Path) -> dict[str, tuple[bytes | None, int]]:
     }
 
 
+def one_line(err: str) -> str:
+    """``err`` (a command's stderr), asserted to be one line and no traceback."""
+    assert err.count("\n") == 1 and "Traceback" not in err, err
+    return err
+
+
+def no_space_for(path: Path) -> Callable[[Any, Any], Any]:
+    """An ``os.replace`` that fails with a full disk when moving a file to ``path`` (monkeypatch
+    it in), and moves every other file as the real one does."""
+    real = os.replace
+
+    def replace(src: Any, dst: Any) -> Any:
+        if Path(dst) == path:
+            raise OSError(28, "No space left on device", str(dst))
+        return real(src, dst)
+
+    return replace
+
+
 def interrupt_demo_after(
     monkeypatch: pytest.MonkeyPatch, commands: int, signum: int, *, fsync: bool | None = None
 ) -> None:

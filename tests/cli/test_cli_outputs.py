@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from lfd_test_support import REPO, TEST_DATA, interrupt_demo_after
+from lfd_test_support import REPO, TEST_DATA, interrupt_demo_after, no_space_for, one_line
 
 from lfd_track.cli import EXIT_INTERRUPTED, EXIT_TERMINATED, main
 from lfd_track.dataset import load_demonstration
@@ -31,11 +31,6 @@ def controller(tmp_path: Path) -> Path:
 
 def _drive(controller: Path, *more: str) -> int:
     return main(["--quiet", "drive", str(controller), "--track", "training", *more])
-
-
-def _one_line(err: str) -> str:
-    assert err.count("\n") == 1 and "Traceback" not in err, err
-    return err
 
 
 # --------------------------------------------------------------------------------- drive --video
@@ -79,7 +74,7 @@ def test_an_interrupted_drive_leaves_the_earlier_video_alone(
     _stop_video_after(monkeypatch, 3, stop)
     assert _drive(controller, "--laps", "500", "--video", str(video)) == code
     assert video.read_bytes() == before
-    err = _one_line(capsys.readouterr().err)
+    err = one_line(capsys.readouterr().err)
     assert "partial video is discarded" in err and str(video) in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.json", "v.mp4"]  # no temp file
 
@@ -105,7 +100,7 @@ def test_a_drive_stopped_at_its_plot_leaves_the_earlier_video_and_plot(
     capsys.readouterr()
     monkeypatch.setattr(plots, stop[0], stop[1])
     assert _drive(controller, "--seed", "1", "--video", str(video), "--plot", str(plot)) == code
-    _one_line(capsys.readouterr().err)
+    one_line(capsys.readouterr().err)
     assert (video.read_bytes(), plot.read_bytes(), numbers.read_bytes()) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.json", "laps.csv", "laps.png", "v.mp4"]
 
@@ -114,7 +109,7 @@ def test_an_interrupted_first_drive_leaves_no_video(controller, tmp_path, monkey
     video = tmp_path / "v.webm"
     _stop_video_after(monkeypatch, 2, _ctrl_c)
     assert _drive(controller, "--video", str(video)) == EXIT_INTERRUPTED
-    assert "partial video is discarded" in _one_line(capsys.readouterr().err)
+    assert "partial video is discarded" in one_line(capsys.readouterr().err)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.json"]
 
 
@@ -128,7 +123,7 @@ def test_a_folder_as_video_name_fails_before_driving(controller, tmp_path, monke
     folder = tmp_path / "somedir.mp4"
     folder.mkdir()
     assert _drive(controller, "--video", str(folder)) == 1
-    err = _one_line(capsys.readouterr().err)
+    err = one_line(capsys.readouterr().err)
     assert f"lfd-track drive: {folder}: is a folder" in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.json", "somedir.mp4"]
     assert list(folder.iterdir()) == []
@@ -138,7 +133,7 @@ def test_a_folder_as_video_name_fails_before_driving(controller, tmp_path, monke
 def test_a_file_below_a_file_fails_before_driving(controller, tmp_path, capsys, flag):
     name = "x.mp4" if flag == "--video" else "x.png"
     assert _drive(controller, flag, str(controller / name)) == 1
-    err = _one_line(capsys.readouterr().err)
+    err = one_line(capsys.readouterr().err)
     assert str(controller) in err and "not a folder" in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.json"]
 
@@ -147,23 +142,23 @@ def test_a_file_below_a_file_fails_before_driving(controller, tmp_path, capsys, 
 def test_drive_refuses_to_write_over_its_controller(controller, tmp_path, capsys):
     before = controller.read_bytes()
     assert _drive(controller, "--plot", str(controller)) == 1
-    err = _one_line(capsys.readouterr().err)
+    err = one_line(capsys.readouterr().err)
     assert f"{controller}: is the controller" in err
     as_video = tmp_path / "c.mp4"  # a controller file may have any name
     shutil.copyfile(controller, as_video)
     assert _drive(as_video, "--video", str(as_video)) == 1
-    assert "is the controller" in _one_line(capsys.readouterr().err)
+    assert "is the controller" in one_line(capsys.readouterr().err)
     link = tmp_path / "link.png"
     link.symlink_to(controller)
     assert _drive(controller, "--plot", str(link)) == 1
-    assert "is the controller" in _one_line(capsys.readouterr().err)
+    assert "is the controller" in one_line(capsys.readouterr().err)
     assert controller.read_bytes() == before and as_video.read_bytes() == before
 
 
 def test_drive_refuses_the_same_file_for_plot_and_video(controller, tmp_path, capsys):
     out = tmp_path / "out.mp4"
     assert _drive(controller, "--video", str(out), "--plot", str(out)) == 1
-    assert "both --video and --plot" in _one_line(capsys.readouterr().err)
+    assert "both --video and --plot" in one_line(capsys.readouterr().err)
     assert not out.exists()
 
 
@@ -182,26 +177,14 @@ def test_evolve_refuses_to_write_over_its_demonstration(small_demo, tmp_path, ca
     before = small_demo.read_bytes()
     for out in (small_demo, small_demo.parent / ".." / small_demo.parent.name / small_demo.name):
         assert main(["--quiet", "evolve", str(small_demo), "--out", str(out)]) == 1
-        err = _one_line(capsys.readouterr().err)
+        err = one_line(capsys.readouterr().err)
         assert f"lfd-track evolve: {out}: is the demonstration" in err
     hard = tmp_path / "hard.json"
     os.link(small_demo, hard)
     assert main(["--quiet", "evolve", str(small_demo), "--out", str(hard)]) == 1
-    assert "is the demonstration" in _one_line(capsys.readouterr().err)
+    assert "is the demonstration" in one_line(capsys.readouterr().err)
     assert small_demo.read_bytes() == before
     assert not small_demo.with_suffix(".fitness.png").exists()
-
-
-def _no_space_for(path: Path):
-    """An ``os.replace`` that fails with a full disk when moving a file to ``path``."""
-    real = os.replace
-
-    def replace(src, dst):
-        if Path(dst) == path:
-            raise OSError(28, "No space left on device", str(dst))
-        return real(src, dst)
-
-    return replace
 
 
 @pytest.mark.parametrize("failure", ["full disk for the plot", "Ctrl-C while plotting"])
@@ -213,7 +196,7 @@ def test_a_failed_evolve_leaves_the_earlier_controller_and_plot(
     png = tmp_path / "c.fitness.png"
     png.write_bytes(b"its fitness curve")
     if failure.startswith("full disk"):
-        monkeypatch.setattr(os, "replace", _no_space_for(png))
+        monkeypatch.setattr(os, "replace", no_space_for(png))
     else:
         from lfd_track.viz import plots
 
@@ -252,7 +235,7 @@ def test_demo_force_never_touches_a_kept_partial_recording(tmp_path, monkeypatch
         code = main(["--quiet", "demo", "--force", "--out", str(out)])
     assert code == EXIT_INTERRUPTED
     second = tmp_path / "x.partial-2.lfdemo"
-    assert f"kept at {second} " in _one_line(capsys.readouterr().err)
+    assert f"kept at {second} " in one_line(capsys.readouterr().err)
     assert load_demonstration(second).n_cases == 10
     assert kept.read_bytes() == b"a partial recording an earlier demo kept"
     assert out.read_bytes() == b"an older recording"
@@ -274,7 +257,7 @@ def test_demo_below_a_file_says_the_parent_is_not_a_folder(tmp_path, capsys):
     parent = tmp_path / "existingfile"
     parent.write_bytes(b"not a folder")
     assert main(["--quiet", "demo", "--out", str(parent / "x.lfdemo")]) == 1
-    err = _one_line(capsys.readouterr().err)
+    err = one_line(capsys.readouterr().err)
     assert f"{parent / 'x.lfdemo'}: {parent} is not a folder" in err and "File exists" not in err
     assert parent.read_bytes() == b"not a folder"
 
@@ -328,7 +311,7 @@ def test_an_output_that_is_not_a_regular_file_is_refused_before_any_work(
     _no_fsync(monkeypatch)
     before = sorted(p.name for p in tmp_path.iterdir())
     code = main(["--quiet", *_output_commands(controller, small_demo, out)[command]])
-    err = _one_line(capsys.readouterr().err)
+    err = one_line(capsys.readouterr().err)
     assert code == 1, err
     assert str(out) in err and ("symbolic link" in err or "a FIFO" in err), err
     _unchanged(kind, out)
@@ -346,7 +329,7 @@ def test_dev_null_as_an_output_is_refused_and_stays_a_device(controller, small_d
     assert stat.S_ISCHR(before.st_mode)
     for command, args in _output_commands(controller, small_demo, Path("/dev/null")).items():
         assert main(["--quiet", *args]) == 1, command
-        assert "/dev/null: exists and is a device" in _one_line(capsys.readouterr().err)
+        assert "/dev/null: exists and is a device" in one_line(capsys.readouterr().err)
     after = os.stat("/dev/null")
     assert stat.S_ISCHR(after.st_mode) and after.st_rdev == before.st_rdev
     assert after.st_ino == before.st_ino
@@ -366,7 +349,7 @@ def test_benchmark_refuses_a_linked_output_folder_or_special_files_in_it(tmp_pat
         shown = folder / "report.md"
         os.mkfifo(shown)
     code = main(["--quiet", "benchmark", "--quick", "--workers", "1", "--out", str(out)])
-    err = _one_line(capsys.readouterr().err)
+    err = one_line(capsys.readouterr().err)
     assert code == 1 and f"{shown}: " in err, err
     assert os.listdir(folder) == ([] if kind == "link" else ["report.md"])
     assert sorted(os.listdir(tmp_path)) == (["real", "results"] if kind == "link" else ["real"])
@@ -382,7 +365,7 @@ def test_teach_refuses_a_fifo_before_opening_a_session(tmp_path, monkeypatch, ca
     out = tmp_path / "t.lfdemo"
     os.mkfifo(out)
     code = main(["--quiet", "teach", "--force", "--port", "0", "--out", str(out)])
-    assert code == 1 and "a FIFO" in _one_line(capsys.readouterr().err)
+    assert code == 1 and "a FIFO" in one_line(capsys.readouterr().err)
     assert stat.S_ISFIFO(os.lstat(out).st_mode)
 
 
@@ -397,7 +380,7 @@ def test_hardware_demo_refuses_a_link_before_opening_the_robot(tmp_path, monkeyp
     _special("link", out)
     args = ["--quiet", "hardware", "demo", "--camera", "0", "--serial", "loop://", "--out"]
     assert main([*args, str(out)]) == 1
-    assert "symbolic link" in _one_line(capsys.readouterr().err)
+    assert "symbolic link" in one_line(capsys.readouterr().err)
     _unchanged("link", out)
 
 

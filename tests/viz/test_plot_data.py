@@ -12,18 +12,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from lfd_test_support import REPO, TEST_DATA
+from lfd_test_support import REPO, TEST_DATA, no_space_for, one_line
 from study.study_helpers import job_results, write_study
 
 from lfd_track.cli import EXIT_INTERRUPTED, main
 from lfd_track.viz.plot_data import data_path, read_table
 
 DATA = TEST_DATA
-
-
-def _one_line(err: str) -> str:
-    assert err.count("\n") == 1 and "Traceback" not in err, err
-    return err
 
 
 def _pictures_have_numbers(folder: Path) -> list[Path]:
@@ -100,17 +95,6 @@ def test_evolve_writes_the_fitness_curves_numbers(demo, tmp_path, monkeypatch, c
     ]
 
 
-def _no_space_for(path: Path):
-    real = os.replace
-
-    def replace(src, dst):
-        if Path(dst) == path:
-            raise OSError(28, "No space left on device", str(dst))
-        return real(src, dst)
-
-    return replace
-
-
 @pytest.mark.parametrize("failing", ["c.fitness.png", "c.json"])
 def test_a_failed_evolve_leaves_the_earlier_three_files(
     demo, tmp_path, monkeypatch, capsys, failing
@@ -123,10 +107,10 @@ def test_a_failed_evolve_leaves_the_earlier_three_files(
     }
     for name, data in before.items():
         (tmp_path / name).write_bytes(data)
-    monkeypatch.setattr(os, "replace", _no_space_for(tmp_path / failing))
+    monkeypatch.setattr(os, "replace", no_space_for(tmp_path / failing))
     args = ["--quiet", "evolve", str(demo), "--generations", "2", "--out", str(tmp_path / "c.json")]
     assert main(args) == 1
-    assert "No space left" in _one_line(capsys.readouterr().err)
+    assert "No space left" in one_line(capsys.readouterr().err)
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before
 
 
@@ -137,7 +121,7 @@ def test_evolve_refuses_a_link_where_the_numbers_go_before_any_work(demo, tmp_pa
     link.symlink_to(target)
     args = ["--quiet", "evolve", str(demo), "--generations", "2", "--out", str(tmp_path / "c.json")]
     assert main(args) == 1
-    err = _one_line(capsys.readouterr().err)
+    err = one_line(capsys.readouterr().err)
     assert f"{link}: is a symbolic link" in err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.fitness.csv", "elsewhere.csv"]
     assert target.read_text() == "someone's table"
@@ -183,7 +167,7 @@ def test_drive_refuses_a_fifo_where_the_plots_numbers_go(controller, tmp_path, c
     os.mkfifo(fifo)
     args = ["--quiet", "drive", str(controller), "--track", "training"]
     assert main([*args, "--plot", str(tmp_path / "laps.png")]) == 1
-    assert f"{fifo}: exists and is a FIFO" in _one_line(capsys.readouterr().err)
+    assert f"{fifo}: exists and is a FIFO" in one_line(capsys.readouterr().err)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.json", "laps.csv"]
 
 
@@ -193,7 +177,7 @@ def test_drive_refuses_a_plot_whose_numbers_would_overwrite_an_output(
 ):
     args = ["--quiet", "drive", str(controller), "--track", "training"]
     assert main([*args, *[str(tmp_path / f) if "." in f else f for f in flags]]) == 1
-    err = _one_line(capsys.readouterr().err)
+    err = one_line(capsys.readouterr().err)
     assert "x.csv" in err and ("suffix .csv" in err or "--plot's numbers" in err), err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["c.json"]
 
@@ -257,7 +241,7 @@ def test_the_benchmark_refuses_a_fifo_where_a_pictures_numbers_go(tmp_path, caps
     os.mkfifo(out / "trajectories.csv")
     args = ["--quiet", "benchmark", "--quick", "--workers", "1", "--out", str(out)]
     assert main(args) == 1
-    assert f"{out / 'trajectories.csv'}: exists and is a FIFO" in _one_line(capsys.readouterr().err)
+    assert f"{out / 'trajectories.csv'}: exists and is a FIFO" in one_line(capsys.readouterr().err)
     assert os.listdir(out) == ["trajectories.csv"]
 
 
@@ -364,5 +348,5 @@ def test_the_study_refuses_a_link_where_its_plots_numbers_go(tmp_path, capsys):
     path, out = _stored_study(tmp_path)
     (out / "study.csv").symlink_to(tmp_path / "nowhere.csv")
     assert main(["--quiet", "study", str(path), "--out", str(out)]) == 1
-    assert "study.csv: is a symbolic link" in _one_line(capsys.readouterr().err)
+    assert "study.csv: is a symbolic link" in one_line(capsys.readouterr().err)
     assert not (out / "study.png").exists() and not (tmp_path / "nowhere.csv").exists()
