@@ -4,6 +4,7 @@ tests of this folder share."""
 from __future__ import annotations
 
 import struct
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -57,6 +58,13 @@ def case_offsets(data: bytes) -> list[int]:
         (length,) = struct.unpack_from("<I", data, pos + 1)
         pos += FRAME_LEN + length
     return offsets
+
+
+def framed(kind: int, payload: bytes) -> bytes:
+    """A record of ``kind`` holding ``payload``, with its length and a valid CRC (of the kind and
+    length, then the payload), as the writer frames it."""
+    head = struct.pack("<BI", kind, len(payload))
+    return struct.pack("<BII", kind, len(payload), zlib.crc32(payload, zlib.crc32(head))) + payload
 
 
 def write_recording_with_library(path: Path, n_frames: int, *, close: bool = True):

@@ -15,6 +15,7 @@ from lfdemo_files import (
     INDEX_LEN,
     MAGIC_LEN,
     case_offsets,
+    framed,
     make_case,
     split_records,
     write_recording,
@@ -81,28 +82,17 @@ def _rewrite_header(data: bytes, edit, raw=lambda b: b) -> bytes:
     """Replace the header JSON with ``edit(header)`` and a valid CRC (a well-formed wrong file);
     ``raw`` may then change the JSON bytes."""
     import json
-    import zlib
 
     (length,) = struct.unpack_from("<I", data, MAGIC_LEN + 1)
     start = MAGIC_LEN + FRAME_LEN
     header = json.loads(data[start : start + length])
     payload = raw(json.dumps(edit(header)).encode())
-    head = struct.pack("<BI", ord("H"), len(payload))
-    frame = struct.pack("<BII", ord("H"), len(payload), zlib.crc32(payload, zlib.crc32(head)))
-    return data[:MAGIC_LEN] + frame + payload + data[start + length :]
+    return data[:MAGIC_LEN] + framed(ord("H"), payload) + data[start + length :]
 
 
 def _with_case_byte(data: bytes, offset: int, value: int) -> bytes:
     """Set one payload byte of the record at ``offset`` and fix its CRC."""
-    import zlib
-
-    (length,) = struct.unpack_from("<I", data, offset + 1)
-    payload = bytearray(data[offset + FRAME_LEN : offset + FRAME_LEN + length])
-    payload[4 + 8] = value  # the command byte, after the record index and the int64 step
-    head = struct.pack("<BI", data[offset], length)
-    crc = zlib.crc32(bytes(payload), zlib.crc32(head))
-    frame = struct.pack("<BII", data[offset], length, crc)
-    return data[:offset] + frame + bytes(payload) + data[offset + FRAME_LEN + length :]
+    return _with_payload(data, offset, 8, bytes([value]))  # the command, after the int64 step
 
 
 def test_wrong_schema_or_values_are_rejected(tmp_path: Path) -> None:
@@ -157,15 +147,13 @@ def test_impossible_values_are_refused(tmp_path: Path) -> None:
 def _with_payload(data: bytes, offset: int, at: int, new: bytes) -> bytes:
     """Overwrite payload bytes ``at`` (counted after the record's index) of the record at
     ``offset`` and fix its CRC."""
-    import zlib
-
     (length,) = struct.unpack_from("<I", data, offset + 1)
     payload = bytearray(data[offset + FRAME_LEN : offset + FRAME_LEN + length])
     at += INDEX_LEN
     payload[at : at + len(new)] = new
-    head = struct.pack("<BI", data[offset], length)
-    frame = struct.pack("<BII", data[offset], length, zlib.crc32(bytes(payload), zlib.crc32(head)))
-    return data[:offset] + frame + bytes(payload) + data[offset + FRAME_LEN + length :]
+    return (
+        data[:offset] + framed(data[offset], bytes(payload)) + data[offset + FRAME_LEN + length :]
+    )
 
 
 def test_footer_that_disagrees_with_the_log_is_refused(tmp_path: Path) -> None:

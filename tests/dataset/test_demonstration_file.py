@@ -19,6 +19,7 @@ from lfdemo_files import (
     INDEX_LEN,
     MAGIC_LEN,
     case_offsets,
+    framed,
     make_case,
     split_records,
     write_recording,
@@ -328,16 +329,6 @@ def test_a_header_that_cannot_be_written_leaves_no_file(tmp_path, monkeypatch, o
     assert not path.exists()
 
 
-def _reframe(record: bytes, payload: bytes) -> bytes:
-    """``record``'s kind with ``payload`` and a valid CRC."""
-    import zlib
-
-    head = struct.pack("<BI", record[0], len(payload))
-    return struct.pack("<BII", record[0], len(payload), zlib.crc32(payload, zlib.crc32(head))) + (
-        payload
-    )
-
-
 def _older_schema(data: bytes, schema: int) -> bytes:
     """The same recording in the layout of ``schema`` (2 or 3): no record indexes."""
     import json
@@ -348,8 +339,8 @@ def _older_schema(data: bytes, schema: int) -> bytes:
     if schema == 3:
         meta["n_memory"] = n_memory
     meta["schema"] = schema
-    older = [_reframe(header, json.dumps(meta).encode())]
-    older += [_reframe(r, r[FRAME_LEN + INDEX_LEN :]) for r in rest]
+    older = [framed(header[0], json.dumps(meta).encode())]
+    older += [framed(r[0], r[FRAME_LEN + INDEX_LEN :]) for r in rest]
     return data[:MAGIC_LEN] + b"".join(older)
 
 
