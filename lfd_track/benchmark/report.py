@@ -98,11 +98,16 @@ def effort_section(results: dict[str, Any]) -> str:
         [
             f"## Learning method `{results['method']}`: human effort (all repetitions)",
             "",
-            "| human commands | corrections | takeovers | driving while learning [s] "
-            "| of which the policy drove [s] |",
-            "|---|---|---|---|---|",
+            "| human commands | corrections | takeovers | robot driving while learning [s] "
+            "| of which the policy drove [s] | put back by hand |",
+            "|---|---|---|---|---|---|",
             f"| {total['commands']} | {total['corrections']} | {total['takeovers']} "
-            f"| {total['learning_drive_s']:.1f} | {total['autonomous_drive_s']:.1f} |",
+            f"| {total['learning_drive_s']:.1f} | {total['autonomous_drive_s']:.1f} "
+            f"| {total.get('put_backs', 0)} |",
+            "",
+            "Robot driving while learning counts every command the robot executed before its"
+            " trials (the demonstration's included), whoever gave it; put back by hand counts the"
+            " times a person set the robot back on the felt.",
             "",
         ]
     )
@@ -247,6 +252,7 @@ def write_benchmark_outputs(
                 "takeovers",
                 "learning_drive_s",
                 "autonomous_drive_s",
+                "put_backs",
             )
         },
     }

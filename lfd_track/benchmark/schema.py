@@ -19,6 +19,11 @@ Schema history:
   wherever the run reported one (a run from before the benchmark reported the human's effort has
   no ``human_effort``: its commands are its demonstrations', see
   :func:`lfd_track.study.summary.human_commands`).
+* **3** — ``config`` holds the settings tables of the methods ``direct`` and ``mu-plus-one``
+  (``direct``, ``mu_plus_one``), and every ``human_effort`` record (the total and each
+  repetition's) counts ``put_backs``, the times the robot was put back on the felt by hand. A
+  schema-2 file was written before these methods existed: its tables are their first defaults
+  and its put-backs 0 (no method before them put the robot back by hand).
 """
 
 from __future__ import annotations
@@ -29,7 +34,7 @@ from typing import Any
 from ..policy.memory_config import memory_table_from_v1
 from ..utils.migrate import Step, VersionedJson
 
-RESULTS_SCHEMA = 2
+RESULTS_SCHEMA = 3
 """Schema of the results.json this version writes (``len(RESULTS_STEPS) + 1``)."""
 MAX_RESULTS_BYTES = 1 << 28
 """Largest results.json read (a 10-repetition benchmark writes about 100 kB)."""
@@ -130,7 +135,56 @@ def results_v1_to_v2(data: dict[str, Any]) -> dict[str, Any]:
     return data
 
 
-RESULTS_STEPS: tuple[Step, ...] = (results_v1_to_v2,)
+# The settings the methods "direct" and "mu-plus-one" had when they were registered (schema 3):
+# what a schema-2 file, written before they existed, means by the tables it lacks.
+_V2_DIRECT = {
+    "population_size": 10,
+    "generations": 25,
+    "robot_budget_s": 4000.0,
+    "stall_steps": 25,
+    "stall_m": 0.05,
+}
+_V2_MU_PLUS_ONE = {
+    "mu": 10,
+    "tau": 50,
+    "recovery": 10,
+    "reevaluation": 0.2,
+    "sigma_min": 0.1,
+    "sigma_max": 1.6,
+    "init_range": 1.0,
+    "evaluations": 500,
+    "robot_budget_s": 4000.0,
+    "put_back_penalty_m": 1.0,
+    "end_margin_m": 0.4,
+}
+
+
+def config_v2_to_v3(config: Any) -> Any:
+    """A schema-2 ``config`` section with the ``direct`` and ``mu_plus_one`` tables (also the
+    conditions' ``config`` of a schema-2 study.json)."""
+    if not isinstance(config, dict):
+        return config
+    out = dict(config)
+    out["direct"] = _filled(out.get("direct", {}), _V2_DIRECT)
+    out["mu_plus_one"] = _filled(out.get("mu_plus_one", {}), _V2_MU_PLUS_ONE)
+    return out
+
+
+def results_v2_to_v3(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 2 -> 3: the new methods' settings tables; ``put_backs`` 0 in every effort record."""
+    if "config" in data:
+        data["config"] = config_v2_to_v3(data["config"])
+    effort = data.get("human_effort")
+    if isinstance(effort, dict):
+        records = effort.get("repetitions")
+        for record in [effort.get("total"), *(records if isinstance(records, list) else [])]:
+            if isinstance(record, dict):
+                record.setdefault("put_backs", 0)
+    data["schema"] = 3
+    return data
+
+
+RESULTS_STEPS: tuple[Step, ...] = (results_v1_to_v2, results_v2_to_v3)
 """Step k turns a schema-k results dict into schema k + 1."""
 RESULTS_FILE = VersionedJson("results", RESULTS_STEPS, MAX_RESULTS_BYTES)
 """results.json: its steps and largest size, read through :func:`read_results`."""

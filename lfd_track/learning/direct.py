@@ -39,6 +39,8 @@ from typing import Any
 
 import numpy as np
 
+from ..core.config import DictConfig
+from ..envs.presets import Preset
 from ..envs.track_env import LfDTrackEnv
 from ..policy.mlp import n_weights
 from ..teaching.commanders import PolicyCommander
@@ -71,24 +73,34 @@ class RoadDriver:
 
 # ------------------------------------------------------------------------------------ direct
 @dataclass(frozen=True)
-class DirectConfig:
-    """Direct evolution settings (the GA's operators are the paper's Table 1)."""
+class DirectConfig(DictConfig):
+    """Direct evolution settings (the GA's operators are the paper's Table 1).
 
-    population_size: int = 20
+    The defaults are the arrangement of the committed experiment
+    (``benchmarks/experiments/limits``, part 5): population 10, up to 25 generations, stopped
+    after the generation in which 4 000 s of robot time were spent.
+    """
+
+    settings_name = "direct"
+
+    population_size: int = 10
+    """Individuals per generation (2..100 000)."""
     generations: int = 25
-    robot_budget_s: float | None = None
+    """Generations at most (1..1 000 000)."""
+    robot_budget_s: float | None = 4_000.0
     """Stop after the generation in which this much robot time was spent (None: no limit)."""
     stall_steps: int = 25
+    """A drive ends when its best progress grew less than ``stall_m`` in this many commands
+    (1..1 000 000)."""
     stall_m: float = 0.05
-    track: str = "training"
 
     def __post_init__(self) -> None:
-        check_int("population_size", self.population_size, 2, 100_000)
-        check_int("generations", self.generations, 1, 1_000_000)
-        check_int("stall_steps", self.stall_steps, 1)
-        check_positive("stall_m", self.stall_m)
+        check_int("direct population_size", self.population_size, 2, 100_000)
+        check_int("direct generations", self.generations, 1, 1_000_000)
+        check_int("direct stall_steps", self.stall_steps, 1, 1_000_000)
+        check_positive("direct stall_m", self.stall_m)
         if self.robot_budget_s is not None:
-            check_positive("robot_budget_s", self.robot_budget_s)
+            check_positive("direct robot_budget_s", self.robot_budget_s)
 
 
 @dataclass
@@ -132,10 +144,12 @@ def direct_evolution(
     config: DirectConfig,
     seed: int,
     *,
-    preset: str = "paper",
+    track: str = "training",
+    preset: str | Preset = "paper",
     progress: Callable[[dict[str, float]], None] | None = None,
 ) -> DirectResult:
-    """The paper's GA on progress from the start, both directions, one world per direction.
+    """The paper's GA on progress from the start of ``track``, both directions, one world per
+    direction.
 
     The two worlds (floor, lighting) are drawn once from ``seed``; later evaluations redraw the
     rover, exposure and noise. Fitness to the GA is minus the summed progress.
@@ -145,7 +159,7 @@ def direct_evolution(
     world_seeds = [int(s) for s in np.random.default_rng(world_seq).integers(0, 2**31, size=2)]
     envs = []
     for reverse, world_seed in zip((False, True), world_seeds, strict=True):
-        env = LfDTrackEnv(track=config.track, reverse=reverse, preset=preset)
+        env = LfDTrackEnv(track=track, reverse=reverse, preset=preset)
         env.reset(seed=world_seed)
         envs.append(env)
     period = float(envs[0].preset.rover.control_period_s)
@@ -192,16 +206,24 @@ def direct_evolution(
 
 # ------------------------------------------------------------------------------------ (μ+1)
 @dataclass(frozen=True)
-class MuPlusOneConfig:
+class MuPlusOneConfig(DictConfig):
     """Settings of (μ+1)-ONLINE, :func:`mu_plus_one_online` (evolution on one robot without a
     human; the ``online`` learning-from-demonstration method has its own settings,
-    :class:`lfd_track.methods.online.OnlineConfig`)."""
+    :class:`lfd_track.methods.online.OnlineConfig`).
+
+    The defaults are the arrangement of the committed experiment
+    (``benchmarks/experiments/limits``, part 5): μ = 10, τ = 50, 10 free commands, stopped after
+    the evaluation in which 4 000 s of robot time were spent (167 evaluations).
+    """
+
+    settings_name = "mu-plus-one"
 
     mu: int = 10
+    """Genomes on board (2..100 000)."""
     tau: int = 50
-    """Scored commands per evaluation."""
+    """Scored commands per evaluation (1..1 000 000)."""
     recovery: int = 10
-    """Free commands before each evaluation (driven by the candidate, not scored)."""
+    """Free commands before each evaluation (driven by the candidate, not scored; 0..1 000 000)."""
     reevaluation: float = 0.2
     """Probability that a cycle re-evaluates a population member instead of breeding."""
     sigma_min: float = 0.1
@@ -210,29 +232,30 @@ class MuPlusOneConfig:
     init_range: float = 1.0
     """Initial weights uniform in [-init_range, init_range] (as the paper's GA)."""
     evaluations: int = 500
-    """Evaluations in all (the μ initial ones included)."""
-    robot_budget_s: float | None = None
+    """Evaluations at most, the μ initial ones included (1..10 000 000)."""
+    robot_budget_s: float | None = 4_000.0
     """Stop after the evaluation in which this much robot time was spent (None: no limit)."""
     put_back_penalty_m: float = 1.0
     end_margin_m: float = 0.4
-    track: str = "training"
 
     def __post_init__(self) -> None:
-        check_int("mu", self.mu, 2, 100_000)
-        check_int("tau", self.tau, 1)
-        check_int("recovery", self.recovery, 0)
-        check_int("evaluations", self.evaluations, 1)
-        if not 0.0 <= self.reevaluation <= 1.0:
-            raise ValueError(f"reevaluation must be in [0, 1], got {self.reevaluation!r}")
-        check_positive("sigma_min", self.sigma_min)
-        check_positive("sigma_max", self.sigma_max)
+        check_int("mu-plus-one mu", self.mu, 2, 100_000)
+        check_int("mu-plus-one tau", self.tau, 1, 1_000_000)
+        check_int("mu-plus-one recovery", self.recovery, 0, 1_000_000)
+        check_int("mu-plus-one evaluations", self.evaluations, 1, 10_000_000)
+        if isinstance(self.reevaluation, bool) or not 0.0 <= self.reevaluation <= 1.0:
+            raise ValueError(
+                f"mu-plus-one reevaluation must be in [0, 1], got {self.reevaluation!r}"
+            )
+        check_positive("mu-plus-one sigma_min", self.sigma_min)
+        check_positive("mu-plus-one sigma_max", self.sigma_max)
         if self.sigma_max < self.sigma_min:
-            raise ValueError("sigma_max must be >= sigma_min")
-        check_positive("init_range", self.init_range, allow_zero=True)
-        check_positive("put_back_penalty_m", self.put_back_penalty_m, allow_zero=True)
-        check_positive("end_margin_m", self.end_margin_m, allow_zero=True)
+            raise ValueError("mu-plus-one sigma_max must be >= sigma_min")
+        check_positive("mu-plus-one init_range", self.init_range, allow_zero=True)
+        check_positive("mu-plus-one put_back_penalty_m", self.put_back_penalty_m, allow_zero=True)
+        check_positive("mu-plus-one end_margin_m", self.end_margin_m, allow_zero=True)
         if self.robot_budget_s is not None:
-            check_positive("robot_budget_s", self.robot_budget_s)
+            check_positive("mu-plus-one robot_budget_s", self.robot_budget_s)
 
 
 def adapt_sigma(sigma: float, success: bool, config: MuPlusOneConfig) -> float:
@@ -339,7 +362,7 @@ class OnboardRobot:
         world_seed: int,
         *,
         track: str = "training",
-        preset: str = "paper",
+        preset: str | Preset = "paper",
         end_margin_m: float = 0.4,
     ) -> None:
         self.env = LfDTrackEnv(track=track, preset=preset, max_steps=10**9, continue_after_end=True)
@@ -443,10 +466,12 @@ def mu_plus_one_online(
     config: MuPlusOneConfig,
     seed: int,
     *,
-    preset: str = "paper",
+    track: str = "training",
+    preset: str | Preset = "paper",
     progress: Callable[[dict[str, Any]], None] | None = None,
 ) -> OnlineResult:
-    """(μ+1)-ONLINE on one robot in one world drawn from ``seed`` (see the module docstring).
+    """(μ+1)-ONLINE on one robot on ``track`` in one world drawn from ``seed`` (see the module
+    docstring).
 
     The controller returned is the population member with the highest fitness at the end.
     """
@@ -454,7 +479,7 @@ def mu_plus_one_online(
     rng = np.random.default_rng(evo_seq)
     world_seed = int(np.random.default_rng(world_seq).integers(0, 2**31))
     robot = OnboardRobot(
-        library, world_seed, track=config.track, preset=preset, end_margin_m=config.end_margin_m
+        library, world_seed, track=track, preset=preset, end_margin_m=config.end_margin_m
     )
     state = online_init(config, rng)
     curve: list[dict[str, Any]] = []

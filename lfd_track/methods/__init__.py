@@ -18,6 +18,10 @@ Methods:
   by CMA-ES instead of the GA (:mod:`.baseline`).
 * ``dagger`` — classic DAgger: rounds of runs in which the human labels every visited state
   (:mod:`.dagger`).
+* ``direct`` / ``mu-plus-one`` — no teacher: the network evolved on the robot on progress along
+  the track, from the start of the track each time (``direct``) or on board one robot that is
+  never reset, put back by hand when it leaves the felt ((μ+1)-ONLINE); the road library is the
+  repetition's demonstration's, whose cases are not learned from (:mod:`.evolution`).
 
 "The training track" of a method is the paper's unless the benchmark gives another open track
 (``BenchmarkConfig.demo_track``): the human then demonstrates, and the rounds drive, there.
@@ -30,10 +34,12 @@ from __future__ import annotations
 
 from ..learning.bc import BCConfig
 from ..learning.cmaes import CMAESConfig
-from . import baseline, dagger, hg_dagger, online, paper
+from ..learning.direct import DirectConfig, MuPlusOneConfig
+from . import baseline, dagger, evolution, hg_dagger, online, paper
 from .baseline import learn_baseline
 from .common import Learned, MethodContext, effort_record, recording_metadata
 from .dagger import DaggerConfig, learn_dagger
+from .evolution import learn_evolved
 from .hg_dagger import HGDaggerConfig, learn_hg_dagger
 from .online import OnlineConfig, learn_online
 from .paper import learn_paper
@@ -107,20 +113,49 @@ register_method(
         flags=MethodFlags(dagger.add_flags, dagger.flags_given, dagger.settings_from_flags),
     )
 )
+register_method(
+    Method(
+        "direct",
+        evolution.learn_direct,
+        DirectConfig,
+        summary="no teacher: the GA evolves the network on progress along the track, every drive"
+        " from the start; see --direct-generations",
+        flags=MethodFlags(
+            evolution.add_direct_flags, evolution.direct_flags_given, evolution.direct_from_flags
+        ),
+    )
+)
+register_method(
+    Method(
+        "mu-plus-one",
+        evolution.learn_mu_plus_one,
+        MuPlusOneConfig,
+        summary="no teacher: (mu+1)-ONLINE evolves on board one robot never reset, put back by"
+        " hand when it leaves the felt; see --mu-plus-one-evaluations",
+        flags=MethodFlags(
+            evolution.add_mu_plus_one_flags,
+            evolution.mu_plus_one_flags_given,
+            evolution.mu_plus_one_from_flags,
+        ),
+    )
+)
 
 __all__ = [
     "DaggerConfig",
+    "DirectConfig",
     "HGDaggerConfig",
     "Learned",
     "Method",
     "MethodContext",
     "MethodFlags",
+    "MuPlusOneConfig",
     "OnlineConfig",
     "TakeoverConfig",
     "effort_record",
     "get_method",
     "learn_baseline",
     "learn_dagger",
+    "learn_evolved",
     "learn_hg_dagger",
     "learn_online",
     "learn_paper",

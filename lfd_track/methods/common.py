@@ -13,7 +13,9 @@ Human effort (``Learned.effort``), counted the same way for every method (:func:
 * ``corrections`` — times the human took control back from a driving policy;
 * ``takeovers`` — times the policy took control;
 * ``learning_drive_s`` — simulated seconds the robot drove while learning (whoever drove);
-* ``autonomous_drive_s`` — of those, the seconds the policy drove.
+* ``autonomous_drive_s`` — of those, the seconds the policy drove;
+* ``put_backs`` — times a person put the robot back on the felt by hand (``mu-plus-one``; 0 for
+  every method whose robot is reset by the simulator or steered back by the human).
 """
 
 from __future__ import annotations
@@ -113,6 +115,7 @@ def effort_record(
     demonstration_commands: int = 0,
     counts: LoopCounts | None = None,
     human_commands: int | None = None,
+    put_backs: int = 0,
     **extra: Any,
 ) -> dict[str, Any]:
     """The effort fields of results.json (``period_s``: one command [s]).
@@ -120,8 +123,8 @@ def effort_record(
     ``demonstration_commands``: commands of a demonstration the human drove alone (every one a
     human command and robot driving); ``counts``: what a teaching loop counted after it (the
     online demonstration, or rounds of runs), whose human commands are ``counts.human_commands``
-    unless ``human_commands`` says otherwise (DAgger's labels, executed or not). ``extra``
-    fields follow the five common ones.
+    unless ``human_commands`` says otherwise (DAgger's labels, executed or not); ``put_backs``:
+    times the robot was put back by hand. ``extra`` fields follow the six common ones.
     """
     counts = LoopCounts() if counts is None else counts
     human = counts.human_commands if human_commands is None else human_commands
@@ -132,6 +135,7 @@ def effort_record(
         "takeovers": counts.takeovers,
         "learning_drive_s": round(demonstration_s + counts.steps * period_s, 6),
         "autonomous_drive_s": round(counts.policy_commands * period_s, 6),
+        "put_backs": put_backs,
         **extra,
     }
 

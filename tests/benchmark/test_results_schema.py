@@ -42,7 +42,7 @@ def test_there_are_committed_results_and_all_are_schema_1_or_current():
 @pytest.mark.parametrize("path", COMMITTED)
 def test_a_committed_results_json_reads_as_the_current_schema(path):
     results = read_results(REPO / path)
-    assert results["schema"] == RESULTS_SCHEMA == 2
+    assert results["schema"] == RESULTS_SCHEMA == 3
     for index, outcome in enumerate(results["outcomes"]):
         TrialOutcome.from_dict(outcome, f"outcomes[{index}]")
     config = results["config"]

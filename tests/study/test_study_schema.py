@@ -27,7 +27,7 @@ def _stored(value):
 @pytest.mark.parametrize("path", COMMITTED)
 def test_a_committed_study_json_reads_as_the_current_schema(path):
     summary = read_study_results(REPO / path)
-    assert summary["schema"] == STUDY_SCHEMA == STUDY_FILE.current == 2
+    assert summary["schema"] == STUDY_SCHEMA == STUDY_FILE.current == 3
     for condition in summary["conditions"]:
         # A condition stores its settings without the job's seed and repetitions.
         config = {**condition["config"], "seed": 0, "repetitions": condition["repetitions"]}
@@ -67,7 +67,7 @@ def _smallest_studies(count: int) -> list[str]:
 
 @pytest.mark.parametrize("folder", _smallest_studies(3))
 def test_a_committed_study_md_is_what_its_migrated_jobs_pool_to(folder, monkeypatch):
-    """The summary is unchanged by reading the jobs as schema 2 (every committed study.md is
+    """The summary is unchanged by reading the jobs as the current schema (every committed study.md is
     reproduced so; three are checked here to keep the suite quick)."""
     from lfd_track.study.run import load_finished
     from lfd_track.study.summary import study_markdown
@@ -89,12 +89,12 @@ def test_a_stored_job_of_a_newer_schema_stops_the_study_in_one_line_naming_it(tm
     job = study.jobs()[0]
     path = tmp_path / "out" / job.key / RESULTS_FILE
     path.parent.mkdir(parents=True)
-    path.write_text(json.dumps({**job_results(job), "schema": 3}))
+    path.write_text(json.dumps({**job_results(job), "schema": 4}))
     with pytest.raises(FileFormatError) as exc:
         finished_results(tmp_path / "out", job)
     assert str(exc.value) == (
-        f"{path}: results schema 3 is newer than this lfd-track reads (2); upgrade lfd-track to"
+        f"{path}: results schema 4 is newer than this lfd-track reads (3); upgrade lfd-track to"
         " read it"
     )
     path.write_text(json.dumps({**job_results(job), "schema": 1}))  # schema 1 reads as before
-    assert finished_results(tmp_path / "out", job)["schema"] == 2
+    assert finished_results(tmp_path / "out", job)["schema"] == 3
