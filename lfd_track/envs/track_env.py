@@ -16,9 +16,12 @@ from ..core.commands import Command
 from ..render.camera import CameraRenderer
 from ..render.texture import MAX_TEXTURE_BYTES, GroundTexture, build_ground
 from ..render.topdown import draw_topdown
+from ..world.dimensions import ROVER_BODY_WIDTH_M
 from ..world.episode import EpisodeTracker, reference_step_count
+from ..world.loops import LOOPS_PER_SPLIT, drawn_split, loop_track
 from ..world.rover import Rover
-from ..world.track import Track, load_track
+from ..world.track import Track, build_track, load_track
+from ..world.track_file import MAX_TRACK_SIZE_M
 from .presets import Preset, load_preset
 from .window import TopDownWindow, keys_to_action
 
@@ -84,13 +87,21 @@ class LfDTrackEnv(gym.Env):
     ``pose`` (x, y, theta), ``progress_m``, ``lap_fraction``, ``corners_reached`` and
     ``corners_negotiated`` (labels in the order met), ``on_felt`` (left, right tread),
     ``failure`` (None, ``"reversed"`` or ``"off_track"``), ``failed_corner``, ``success``,
-    ``safe_box_on_felt``, ``step``, ``max_steps``.
+    ``safe_box_on_felt``, ``step``, ``max_steps``, ``track`` (the track's name: the file's
+    ``name``, or ``"random:<split>:<index>"`` for a procedural loop).
 
     ## Arguments
     ``gym.make("LfDTrack-v0", track="testing", reverse=False, start_corner=None, preset="paper",
     render_mode=None, max_steps=None, continue_after_end=False)``
 
-    * ``track``: shipped track name (``testing``, ``training``, ``sbend``) or a path to a TOML file.
+    * ``track``: shipped track name (``testing``, ``training``, ``sbend``), a path to a TOML file,
+      one procedural loop (``"random:test:17"``: split and index, ``tracks/README.md``), or
+      ``"random"`` for a new loop of the train split at every ``reset`` (``"random:validation"``,
+      ``"random:test"``: of that split). The loop's index is drawn from the env's ``np_random``
+      (a stream spawned after the world's, physics' and sensor's, so they are those of a fixed
+      track), and the step budget, episode rules and ground follow the loop; before the first
+      ``reset`` ``env.track`` is loop 0 of the split, and ``env.spec.max_episode_steps`` is None
+      (the budget is the loop's: ``info["max_steps"]``). Such an env takes no ``start_corner``.
     * ``reverse``: drive the track against its file order (testing: clockwise; training:
       direction 2).
     * ``start_corner``: label of the corner to start on (loops only), ``"1"`` or ``1``.
@@ -154,30 +165,27 @@ class LfDTrackEnv(gym.Env):
         self._window = (
             TopDownWindow(self.metadata["render_fps"]) if render_mode == "human" else None
         )
-        self.track: Track = load_track(track, reverse=reverse, start_corner=start_corner)
+        # "random" or "random:<split>": a new loop of that split at every reset (CarRacing's way).
+        self.loop_split: str | None = drawn_split(track)
+        self._reverse = reverse
+        if self.loop_split is not None and start_corner is not None:
+            raise ValueError(
+                f"start_corner: track '{track}' draws a new loop every episode and starts on its"
+                " corner 1; name one loop (random:<split>:<index>) to start elsewhere"
+            )
+        self._max_steps_arg = int(max_steps) if max_steps is not None else None
         self.base_preset: Preset = preset if isinstance(preset, Preset) else load_preset(preset)
         self.preset = self.base_preset
         cam = self.preset.camera
         self.observation_space = spaces.Box(0, 255, (cam.height_px, cam.width_px, 3), np.uint8)
         self.action_space = spaces.Discrete(3)
-        rover_cfg = self.preset.rover
-        ideal = reference_step_count(
-            self.track,
-            rover_cfg.forward_speed_mps * rover_cfg.control_period_s,
-            rover_cfg.pivot_rate_radps * rover_cfg.control_period_s,
-        )
-        self.max_steps = int(max_steps) if max_steps is not None else int(BUDGET_FACTOR * ideal)
-        rules = self.preset.episode
-        if not self.track.closed and (
-            self.track.length_m <= rules.start_offset_m + rules.end_margin_m
-        ):
-            raise ValueError(
-                f"track '{self.track.name}' ({self.track.length_m:.2f} m) is too short for the"
-                f" episode rules: it starts {rules.start_offset_m} m in and ends"
-                f" {rules.end_margin_m} m before the far end"
-            )
-        _check_ground_fits(self.track, self.base_preset)
-        self.episode = EpisodeTracker(self.track, rules)
+        if self.loop_split is not None:
+            # Any loop's felt fits the floor square, so one check covers every loop drawn.
+            _check_ground_fits(_floor_square(f"random:{self.loop_split}"), self.base_preset)
+            first = loop_track(self.loop_split, 0, reverse=reverse)  # until the first reset
+        else:
+            first = load_track(track, reverse=reverse, start_corner=start_corner)
+        self._use_track(first)
         self._ground: GroundTexture | None = None
         self._rover: Rover | None = None
         self._renderer: CameraRenderer | None = None
@@ -190,6 +198,28 @@ class LfDTrackEnv(gym.Env):
         self._safe_box_on_felt = False
         self._frame: np.ndarray | None = None
         self._ended = False
+
+    def _use_track(self, track: Track) -> None:
+        """Make ``track`` the env's track: its episode rules, step budget and checks."""
+        rover_cfg = self.base_preset.rover
+        ideal = reference_step_count(
+            track,
+            rover_cfg.forward_speed_mps * rover_cfg.control_period_s,
+            rover_cfg.pivot_rate_radps * rover_cfg.control_period_s,
+        )
+        budget = self._max_steps_arg
+        self.max_steps = budget if budget is not None else int(BUDGET_FACTOR * ideal)
+        rules = self.base_preset.episode
+        if not track.closed and (track.length_m <= rules.start_offset_m + rules.end_margin_m):
+            raise ValueError(
+                f"track '{track.name}' ({track.length_m:.2f} m) is too short for the"
+                f" episode rules: it starts {rules.start_offset_m} m in and ends"
+                f" {rules.end_margin_m} m before the far end"
+            )
+        if self.loop_split is None:
+            _check_ground_fits(track, self.base_preset)
+        self.track: Track = track
+        self.episode = EpisodeTracker(track, rules)
 
     # ------------------------------------------------------------------------------------
     def _build_world(self, world_rng: np.random.Generator) -> None:
@@ -226,6 +256,7 @@ class LfDTrackEnv(gym.Env):
             "safe_box_on_felt": self._safe_box_on_felt,
             "step": self._steps,
             "max_steps": self.max_steps,
+            "track": self.track.name,
         }
 
     # ------------------------------------------------------------------------------------
@@ -238,6 +269,12 @@ class LfDTrackEnv(gym.Env):
         # Independent streams so that, e.g., changing sensor noise never changes the physics.
         world_rng, physics_rng, sensor_rng = self.np_random.spawn(3)
         rebuild = self._ground is None or seed is not None or self.base_preset.randomized
+        if self.loop_split is not None:
+            # A fourth stream, spawned after the three above, so they stay what they were.
+            (loop_rng,) = self.np_random.spawn(1)
+            index = int(loop_rng.integers(LOOPS_PER_SPLIT))
+            self._use_track(loop_track(self.loop_split, index, reverse=self._reverse))
+            rebuild = True
         if rebuild:
             self.preset = self.base_preset.sample(world_rng)
             self._build_world(world_rng)
@@ -350,13 +387,17 @@ class LfDTrackEnv(gym.Env):
 
         The budget depends on the track, so registration cannot state it; ``gym.make`` then
         records ``max_episode_steps=None`` here, and this fills in ``max_steps`` instead (unless a
-        ``TimeLimit`` is asked for, which keeps its own limit on its own copy of the spec).
+        ``TimeLimit`` is asked for, which keeps its own limit on its own copy of the spec). With a
+        new loop every episode (``track="random"``) it stays None: ``info["max_steps"]`` states
+        each loop's budget.
         """
         return self._spec
 
     @spec.setter
     def spec(self, value: EnvSpec | None) -> None:
         budget = getattr(self, "max_steps", None)
+        if getattr(self, "loop_split", None) is not None:
+            budget = getattr(self, "_max_steps_arg", None)  # only a budget set for every loop
         if value is not None and value.max_episode_steps is None and budget is not None:
             value = dataclasses.replace(value, max_episode_steps=budget)
         self._spec = value
@@ -419,6 +460,14 @@ def _start_pose_option(options: Any) -> np.ndarray | None:
     if abs(pose[2]) > 1e3:
         raise ValueError(f"options['pose'] heading {pose[2]:g} rad is not plausible")
     return pose
+
+
+def _floor_square(name: str) -> Track:
+    """A loop whose felt spans the whole floor a track may cover: the largest ground any drawn
+    loop can need."""
+    side = MAX_TRACK_SIZE_M - ROVER_BODY_WIDTH_M
+    square = np.array([[0.0, 0.0], [side, 0.0], [side, side], [0.0, side]])
+    return build_track(name, square, True, ROVER_BODY_WIDTH_M, {})
 
 
 def _check_ground_fits(track: Track, preset: Preset) -> None:

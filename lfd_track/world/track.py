@@ -316,11 +316,17 @@ def build_track(
 def load_track(
     name_or_path: str | Path, *, reverse: bool = False, start_corner: str | None = None
 ) -> Track:
-    """Load a shipped track by name (``"testing"``) or a track TOML file, in driving order.
+    """Load a shipped track by name (``"testing"``), a procedural loop by name
+    (``"random:test:17"``, :mod:`lfd_track.world.loops`) or a track TOML file, in driving order.
 
     Raises FileFormatError (one line naming the file and the problem) for malformed files; the
     file format and its limits are in :mod:`lfd_track.world.track_file`.
     """
+    from . import loops  # loops builds its tracks with this module
+
+    if loops.is_loop_name(name_or_path):
+        split, index = loops.parse_loop_name(str(name_or_path))
+        return loops.loop_track(split, index, reverse=reverse, start_corner=start_corner)
     path = resolve_data_file("tracks", name_or_path)
     data = read_toml(path, max_bytes=MAX_FILE_BYTES, what="track")
     name, vertices, closed, width, corners = parse_track(data, path)
