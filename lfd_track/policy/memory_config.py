@@ -349,16 +349,23 @@ def _setting_specs(cls: Any) -> tuple[SettingSpec, ...]:
     )
 
 
-def memory_config(table: Mapping[str, Any]) -> MemoryConfig:
-    """The settings of ``table['kind']`` (default ``"none"``) from the other keys of ``table``
-    (missing keys: the shipped defaults). An unknown kind or key or a value out of bounds raises
-    ``ValueError`` naming it."""
+def _kind_of(table: Any) -> tuple[str, type[MemoryConfig]]:
+    """The kind ``table`` names (default ``"none"``) and its settings class; ``ValueError`` if
+    ``table`` is not a table or names no kind of this build."""
     if not isinstance(table, Mapping):
         raise ValueError(f"memory settings must be a table, got {type(table).__name__}")
     kind = table.get("kind", "none")
     cls = MEMORY_CONFIGS.get(kind) if isinstance(kind, str) else None
     if cls is None:
         raise ValueError(f"memory kind must be one of {', '.join(MEMORY_KINDS)}, got {kind!r}")
+    return kind, cls
+
+
+def memory_config(table: Mapping[str, Any]) -> MemoryConfig:
+    """The settings of ``table['kind']`` (default ``"none"``) from the other keys of ``table``
+    (missing keys: the shipped defaults). An unknown kind or key or a value out of bounds raises
+    ``ValueError`` naming it."""
+    kind, cls = _kind_of(table)
     names = {spec.name for spec in setting_specs(cls)}
     unknown = sorted(set(table) - names - {"kind"})
     if unknown:
@@ -380,12 +387,7 @@ def memory_table_from_v1(table: Mapping[str, Any]) -> dict[str, Any]:
     ``ValueError``). A full table comes back unchanged. Values are not checked here
     (:func:`memory_config` does).
     """
-    if not isinstance(table, Mapping):
-        raise ValueError(f"memory settings must be a table, got {type(table).__name__}")
-    kind = table.get("kind", "none")
-    cls = MEMORY_CONFIGS.get(kind) if isinstance(kind, str) else None
-    if cls is None:
-        raise ValueError(f"memory kind must be one of {', '.join(MEMORY_KINDS)}, got {kind!r}")
+    kind, cls = _kind_of(table)
     known = {spec.name for c in MEMORY_CONFIGS.values() for spec in setting_specs(c)}
     unknown = sorted(set(table) - known.union(*REMOVED_SETTINGS.values()) - {"kind"})
     if unknown:
