@@ -199,15 +199,7 @@ def build_firmware(out_dir: str | os.PathLike[str]) -> Path:
 
     The sources are copied to ``out_dir/src`` first: the package folder is never written to.
     """
-    _require_tools()
-    out = Path(out_dir).resolve()
-    with _build_lock(out):
-        source = _stage_sources("firmware/lfd_rover", out)
-        _run_make("firmware", source, f"OBJDIR={out}")
-    elf = out / "lfd_rover.elf"
-    if not elf.is_file():
-        raise SimavrError(f"building the firmware did not produce {elf}")
-    return elf
+    return _build(out_dir, "firmware", "firmware/lfd_rover", "OBJDIR", "lfd_rover.elf")
 
 
 def build_harness(out_dir: str | os.PathLike[str]) -> Path:
@@ -215,15 +207,23 @@ def build_harness(out_dir: str | os.PathLike[str]) -> Path:
 
     The sources are copied to ``out_dir/src`` first: the package folder is never written to.
     """
+    return _build(out_dir, "simavr harness", "sim", "OUT_DIR", "lfd_rover_sim")
+
+
+def _build(
+    out_dir: str | os.PathLike[str], what: str, sources: str, out_variable: str, product: str
+) -> Path:
+    """Stage the package's ``sources`` folder in ``out_dir`` and run make there with
+    ``out_variable`` naming ``out_dir``; the path of the ``product`` it must leave there."""
     _require_tools()
     out = Path(out_dir).resolve()
     with _build_lock(out):
-        source = _stage_sources("sim", out)
-        _run_make("simavr harness", source, f"OUT_DIR={out}")
-    exe = out / "lfd_rover_sim"
-    if not exe.is_file():
-        raise SimavrError(f"building the harness did not produce {exe}")
-    return exe
+        source = _stage_sources(sources, out)
+        _run_make(what, source, f"{out_variable}={out}")
+    built = out / product
+    if not built.is_file():
+        raise SimavrError(f"building the {what} did not produce {built}")
+    return built
 
 
 def parse_resets(text: str) -> list[BoardReset]:
