@@ -19,11 +19,6 @@ from lfd_track.world.track import load_track
 
 
 @pytest.fixture(scope="module")
-def track():
-    return load_track("testing")
-
-
-@pytest.fixture(scope="module")
 def ground(track):
     return build_ground(track, AppearanceConfig(), LightingConfig(), np.random.default_rng(11))
 

@@ -22,16 +22,6 @@ QUIET = SensorConfig(noise_std=0.0, white_balance_cast=0.0, white_balance_jitter
 
 
 @pytest.fixture(scope="module")
-def track():
-    return load_track("testing")
-
-
-@pytest.fixture(scope="module")
-def ground(track):
-    return build_ground(track, AppearanceConfig(), LightingConfig(), np.random.default_rng(7))
-
-
-@pytest.fixture(scope="module")
 def wide():
     return load_preset("wide").camera
 

@@ -16,16 +16,6 @@ from lfd_track.world.track import load_track
 STRAIGHT = np.array([1.5, 0.0, 0.0])  # centred on the testing track's bottom straight
 
 
-@pytest.fixture(scope="module")
-def track():
-    return load_track("testing")
-
-
-@pytest.fixture(scope="module")
-def ground(track):
-    return build_ground(track, AppearanceConfig(), LightingConfig(), np.random.default_rng(7))
-
-
 def render_sequence(ground, poses, seed, sensor=None):
     renderer = CameraRenderer(CameraConfig(), sensor or SensorConfig())
     rng = np.random.default_rng(seed)

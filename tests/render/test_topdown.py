@@ -15,12 +15,6 @@ from lfd_track.render.topdown import (
     draw_topdown,
     draw_trajectories,
 )
-from lfd_track.world.track import load_track
-
-
-@pytest.fixture(scope="module")
-def track():
-    return load_track("testing")
 
 
 def pixel(img, view, point):
