@@ -436,9 +436,9 @@ def test_a_failed_stop_after_the_controlling_page_closed_is_logged(open_station,
     assert "the controlling page closed" in "".join(seen)
 
 
-def test_a_cancelled_wait_for_a_stop_neither_drops_it_nor_breaks_later_stops() -> None:
-    """A page waiting for its stop may be cancelled (the server shutting down): the stop it
-    asked for still runs, and the stops asked for afterwards run too."""
+def _line_whose_first_stop_waits() -> tuple[StopLine, list[str], threading.Event]:
+    """A stop line, the reasons its stops ran for, and the event that ends the stop asked for
+    with reason "first" (it runs until the event is set)."""
     release = threading.Event()
     calls: list[str] = []
 
@@ -447,7 +447,13 @@ def test_a_cancelled_wait_for_a_stop_neither_drops_it_nor_breaks_later_stops() -
         if reason == "first":
             release.wait(WAIT_S)
 
-    line = StopLine(stop)
+    return StopLine(stop), calls, release
+
+
+def test_a_cancelled_wait_for_a_stop_neither_drops_it_nor_breaks_later_stops() -> None:
+    """A page waiting for its stop may be cancelled (the server shutting down): the stop it
+    asked for still runs, and the stops asked for afterwards run too."""
+    line, calls, release = _line_whose_first_stop_waits()
 
     async def main() -> None:
         line.request("first")
@@ -467,15 +473,7 @@ def test_a_cancelled_wait_for_a_stop_neither_drops_it_nor_breaks_later_stops() -
 def test_a_stop_that_joins_a_waiting_one_names_both_reasons() -> None:
     """The controlling page closes (its stop waits behind a running one) and a stop button is
     pressed: one stop runs for both, after both were asked for, and carries both reasons."""
-    release = threading.Event()
-    calls: list[str] = []
-
-    def stop(reason: str) -> None:
-        calls.append(reason)
-        if reason == "first":
-            release.wait(WAIT_S)
-
-    line = StopLine(stop)
+    line, calls, release = _line_whose_first_stop_waits()
     running = line.request("first")
     wait_until(lambda: calls == ["first"], "the first stop to start")
     closing = line.request("the controlling page closed")
