@@ -48,12 +48,12 @@ def study_v2_to_v3(data: dict[str, Any]) -> dict[str, Any]:
 
 STUDY_STEPS: tuple[Step, ...] = (study_v1_to_v2, study_v2_to_v3)
 """Step k turns a schema-k study.json dict into schema k + 1."""
-STUDY_FILE = VersionedJson("study", STUDY_STEPS, MAX_STUDY_BYTES)
+STUDY_FORMAT = VersionedJson("study", STUDY_STEPS, MAX_STUDY_BYTES)
 """study.json: its steps and largest size, read through :func:`read_study_results`."""
 
-migrate_study = STUDY_FILE.migrate
+migrate_study = STUDY_FORMAT.migrate
 """``migrate_study(data, source)``: a study.json dict (parsed from ``source``) in the current
 schema (:meth:`~lfd_track.utils.migrate.VersionedJson.migrate`); ``data`` is kept."""
-read_study_results = STUDY_FILE.read
+read_study_results = STUDY_FORMAT.read
 """``read_study_results(path, max_bytes=None)``: the study.json at ``path``, parsed and migrated
 to the current schema (:meth:`~lfd_track.utils.migrate.VersionedJson.read`)."""

@@ -11,7 +11,7 @@ import pytest
 
 from lfd_track.benchmark.runner import BenchmarkConfig, config_dict
 from lfd_track.benchmark.schema import (
-    RESULTS_FILE,
+    RESULTS_FORMAT,
     RESULTS_SCHEMA,
     migrate_results,
     read_results,
@@ -36,7 +36,7 @@ def test_there_are_committed_results_and_all_are_schema_1_or_current():
     assert len(COMMITTED) >= 270
     schemas = {json.loads((REPO / f).read_text(encoding="utf-8"))["schema"] for f in COMMITTED}
     assert schemas <= {1, RESULTS_SCHEMA}
-    assert RESULTS_FILE.current == RESULTS_SCHEMA  # one step per schema after the first
+    assert RESULTS_FORMAT.current == RESULTS_SCHEMA  # one step per schema after the first
 
 
 @pytest.mark.parametrize("path", COMMITTED)

@@ -12,7 +12,7 @@ from study_helpers import TINY_STUDY, write_study
 from lfd_track.benchmark.runner import BenchmarkConfig, config_dict
 from lfd_track.benchmark.tables import results_json_text
 from lfd_track.errors import FileFormatError
-from lfd_track.study.schema import STUDY_FILE, STUDY_SCHEMA, migrate_study, read_study_results
+from lfd_track.study.schema import STUDY_FORMAT, STUDY_SCHEMA, migrate_study, read_study_results
 from lfd_track.study.spec import load_study
 from lfd_track.study.summary import build_study_results
 
@@ -27,7 +27,7 @@ def _stored(value):
 @pytest.mark.parametrize("path", COMMITTED)
 def test_a_committed_study_json_reads_as_the_current_schema(path):
     summary = read_study_results(REPO / path)
-    assert summary["schema"] == STUDY_SCHEMA == STUDY_FILE.current == 3
+    assert summary["schema"] == STUDY_SCHEMA == STUDY_FORMAT.current == 3
     for condition in summary["conditions"]:
         # A condition stores its settings without the job's seed and repetitions.
         config = {**condition["config"], "seed": 0, "repetitions": condition["repetitions"]}
