@@ -187,11 +187,7 @@ def results_v2_to_v3(data: dict[str, Any]) -> dict[str, Any]:
 RESULTS_STEPS: tuple[Step, ...] = (results_v1_to_v2, results_v2_to_v3)
 """Step k turns a schema-k results dict into schema k + 1."""
 RESULTS_FORMAT = VersionedJson("results", RESULTS_STEPS, MAX_RESULTS_BYTES)
-"""results.json: its steps and largest size, read through :func:`read_results`."""
-
+"""results.json: its steps and largest size; :func:`read_results` (a file) and
+:func:`migrate_results` (a dict already parsed) are its ``read`` and ``migrate``."""
 migrate_results = RESULTS_FORMAT.migrate
-"""``migrate_results(data, source)``: a results.json dict (parsed from ``source``) in the current
-schema (:meth:`~lfd_track.utils.migrate.VersionedJson.migrate`); ``data`` is kept."""
 read_results = RESULTS_FORMAT.read
-"""``read_results(path, max_bytes=None)``: the results.json at ``path``, parsed and migrated to
-the current schema (:meth:`~lfd_track.utils.migrate.VersionedJson.read`)."""

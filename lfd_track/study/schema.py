@@ -15,6 +15,7 @@ Schema history:
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from ..benchmark.schema import config_v1_to_v2, config_v2_to_v3
@@ -28,32 +29,30 @@ MAX_STUDY_BYTES = 1 << 28
 
 def study_v1_to_v2(data: dict[str, Any]) -> dict[str, Any]:
     """Schema 1 -> 2: every setting in each condition's ``config``."""
-    conditions = data.get("conditions")
-    for condition in conditions if isinstance(conditions, list) else []:
-        if isinstance(condition, dict) and "config" in condition:
-            condition["config"] = config_v1_to_v2(condition["config"])
-    data["schema"] = 2
-    return data
+    return _each_config(data, config_v1_to_v2, 2)
 
 
 def study_v2_to_v3(data: dict[str, Any]) -> dict[str, Any]:
     """Schema 2 -> 3: the ``direct`` and ``mu_plus_one`` tables in each condition's ``config``."""
+    return _each_config(data, config_v2_to_v3, 3)
+
+
+def _each_config(data: dict[str, Any], step: Callable[[Any], Any], schema: int) -> dict[str, Any]:
+    """``data`` with each condition's ``config`` passed through the results.json config ``step``
+    (the conditions that are not tables, or hold no ``config``, left for the reader's checks),
+    as schema ``schema``."""
     conditions = data.get("conditions")
     for condition in conditions if isinstance(conditions, list) else []:
         if isinstance(condition, dict) and "config" in condition:
-            condition["config"] = config_v2_to_v3(condition["config"])
-    data["schema"] = 3
+            condition["config"] = step(condition["config"])
+    data["schema"] = schema
     return data
 
 
 STUDY_STEPS: tuple[Step, ...] = (study_v1_to_v2, study_v2_to_v3)
 """Step k turns a schema-k study.json dict into schema k + 1."""
 STUDY_FORMAT = VersionedJson("study", STUDY_STEPS, MAX_STUDY_BYTES)
-"""study.json: its steps and largest size, read through :func:`read_study_results`."""
-
+"""study.json: its steps and largest size; :func:`read_study_results` (a file) and
+:func:`migrate_study` (a dict already parsed) are its ``read`` and ``migrate``."""
 migrate_study = STUDY_FORMAT.migrate
-"""``migrate_study(data, source)``: a study.json dict (parsed from ``source``) in the current
-schema (:meth:`~lfd_track.utils.migrate.VersionedJson.migrate`); ``data`` is kept."""
 read_study_results = STUDY_FORMAT.read
-"""``read_study_results(path, max_bytes=None)``: the study.json at ``path``, parsed and migrated
-to the current schema (:meth:`~lfd_track.utils.migrate.VersionedJson.read`)."""
