@@ -18,7 +18,19 @@ from typing import NoReturn
 
 from ..errors import LfdTrackError
 from ..utils.signals import EXIT_INTERRUPTED
-from . import benchmark, demo, drive, evaluate, evolve, export, hardware, sample, study, teach
+from . import (
+    benchmark,
+    demo,
+    drive,
+    evaluate,
+    evolve,
+    export,
+    hardware,
+    sample,
+    study,
+    teach,
+    tracks,
+)
 from .types import EXIT_CODES, EXIT_ERROR, EXIT_USAGE
 
 __all__ = ["EXIT_CODES", "build_parser", "main"]
@@ -59,6 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
         study,
         teach,
         hardware,
+        tracks,
     ):
         command.add_parser(sub)
     return parser
