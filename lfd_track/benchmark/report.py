@@ -70,6 +70,11 @@ def demonstration_section(results: dict[str, Any]) -> str:
     off = sum(d["learned_off_felt"] for d in demos)
     acc = [a for a in results.get("training_accuracy") or [] if a is not None]
     best = [b for b in results.get("best_fitness") or [] if b is not None]
+    accuracy_row = "GA training accuracy (argmax = command)"
+    fitness_row = "best fitness after 200 generations (lower is better)"
+    if results.get("method") in ("direct", "mu-plus-one"):  # evolved without the demonstration
+        accuracy_row = "agreement with the demonstration's commands (not learned from)"
+        fitness_row = "best fitness: progress along the track [m] (higher is better)"
     lines = [
         "## Demonstrations and evolution",
         "",
@@ -80,8 +85,8 @@ def demonstration_section(results: dict[str, Any]) -> str:
         f"| forward share of commands | {_spread([100 * f for f in forward], '{:.0f}')} % | majority (paper: ~10:1) |",
         f"| turn-arounds left / right | {left} / {right} | equal |",
         f"| library updates from frames with the safe box off the felt | {off} | 0 |",
-        f"| GA training accuracy (argmax = command) | {_spread([100 * a for a in acc], '{:.1f}')} % | — |",
-        f"| best fitness after 200 generations (lower is better) | {_spread(best, '{:.3f}')} | — |",
+        f"| {accuracy_row} | {_spread([100 * a for a in acc], '{:.1f}')} % | — |",
+        f"| {fitness_row} | {_spread(best, '{:.3f}')} | — |",
         "",
         "Targets are the calibration goals of the scripted demonstrator"
         ' (`lfd_track/demo/demonstrator.py`; README, "Choices where the paper and the spec are'
@@ -195,8 +200,9 @@ def fitness_curves(reps: list[RepetitionResult]) -> list[tuple[str, np.ndarray, 
 
 
 def fitness_x_label(config: BenchmarkConfig) -> str:
-    """What fitness.png's x axis counts: epochs of behaviour cloning, else generations."""
-    return "epoch" if config.method == "bc" else "generation"
+    """What fitness.png's x axis counts: epochs of behaviour cloning, evaluations of
+    (μ+1)-ONLINE, else generations."""
+    return {"bc": "epoch", "mu-plus-one": "evaluation"}.get(config.method, "generation")
 
 
 def fitness_picture(config: BenchmarkConfig, reps: list[RepetitionResult]) -> np.ndarray:
@@ -211,6 +217,17 @@ def fitness_picture(config: BenchmarkConfig, reps: list[RepetitionResult]) -> np
     if config.method == "cma-es":
         return fitness_plot(
             curves, title="Best fitness of each CMA-ES generation, one curve per repetition"
+        )
+    if config.method in ("direct", "mu-plus-one"):
+        how = "after each generation" if config.method == "direct" else "on board after each"
+        return fitness_plot(
+            curves,
+            title=f"Best fitness {how} {fitness_x_label(config)}, one curve per repetition",
+            notes=[
+                "fitness: progress along the track's centreline [m], higher is better"
+                + (" (minus 1 m per put-back)" if config.method == "mu-plus-one" else "")
+            ],
+            x_label=fitness_x_label(config),
         )
     return fitness_plot(
         curves,
