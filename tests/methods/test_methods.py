@@ -115,6 +115,7 @@ def test_paper_repetition_is_unchanged_by_the_loop_refactor(quick_paper):
         "takeovers": 0,
         "learning_drive_s": pytest.approx(182 * 0.4),
         "autonomous_drive_s": 0.0,
+        "put_backs": 0,
     }
 
 
