@@ -71,3 +71,34 @@ def test_the_same_file_for_both_outputs_is_refused(tmp_path, capsys) -> None:
     assert main(["tracks", "show", "testing", "--out", str(out), "--toml", str(out)]) == 1
     assert "given as both --out and --toml" in capsys.readouterr().err
     assert not out.exists()
+
+
+STUDY = """
+[study]
+name = "loops"
+description = "a study scoring one procedural loop"
+seeds = [0]
+repetitions = 1
+
+[[conditions]]
+name = "paper"
+method = "paper"
+preset = "paper"
+test_tracks = ["testing", "random:test:3"]
+"""
+
+
+def test_study_files_and_the_benchmark_checks_take_loop_names(tmp_path) -> None:
+    from lfd_track.benchmark.runner import check_test_tracks, trial_directions
+    from lfd_track.errors import FileFormatError
+    from lfd_track.study.spec import load_study
+
+    path = tmp_path / "loops.toml"
+    path.write_text(STUDY, encoding="utf-8")
+    (condition,) = load_study(path).conditions  # checks names and tracks as `study` does
+    assert condition.config.test_tracks == ("testing", "random:test:3")
+    check_test_tracks(("random:validation:0",))
+    assert ("random:test:3", True, "cw") in trial_directions(("random:test:3",))
+    path.write_text(STUDY.replace("random:test:3", "random:test"), encoding="utf-8")
+    with pytest.raises(FileFormatError, match="draws a new loop every episode"):
+        load_study(path)
