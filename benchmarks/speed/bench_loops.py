@@ -16,7 +16,7 @@ import time
 from pathlib import Path
 
 from lfd_track.utils.provenance import environment
-from lfd_track.world.loops import DEFAULT_LOOPS, SPLITS, _generate, loop_seed
+from lfd_track.world.loops import DEFAULT_LOOPS, SPLITS, draw_loop, loop_seed
 from lfd_track.world.track_file import parse_track
 
 RESULTS = Path(__file__).resolve().parent / "results" / "loops.json"
@@ -31,9 +31,9 @@ def main() -> None:
         times, checks, draws, parsed = [], [], [], []
         for index in range(args.loops):
             start = time.perf_counter()
-            vertices, width, corners, attempts, to_parse = _generate(
-                loop_seed(split, index), DEFAULT_LOOPS
-            )
+            drawn = draw_loop(loop_seed(split, index), DEFAULT_LOOPS)
+            vertices, width, corners = drawn.vertices, drawn.width_m, drawn.corners
+            attempts, to_parse = drawn.draws, drawn.checked
             times.append(time.perf_counter() - start)
             table = {"closed": True, "width_m": width, "vertices": vertices.tolist()}
             start = time.perf_counter()

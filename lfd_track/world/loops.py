@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
 from ..errors import FileFormatError, LfdTrackError
 from .dimensions import ROVER_BODY_WIDTH_M
-from .track import Track, build_track
 from .track_file import MAX_TRACK_SIZE_M, parse_track
 
 
@@ -195,10 +195,24 @@ def _close(lengths: list[float], cos_h: list[float], sin_h: list[float]) -> list
     return [length - (ax * c + ay * s) for length, c, s in zip(lengths, cos_h, sin_h, strict=True)]
 
 
-def _generate(
-    seed: int, dist: LoopDistribution
-) -> tuple[np.ndarray, float, dict[str, int], int, int]:
-    """:func:`generate_loop` plus how many draws were made and how many reached parse_track."""
+@dataclass(frozen=True)
+class LoopDraw:
+    """One loop as :func:`draw_loop` drew it, with what the rejection cost."""
+
+    vertices: np.ndarray
+    """(V, 2) float64 [m], counter-clockwise."""
+    width_m: float
+    """[m] strip width."""
+    corners: dict[str, int]
+    """Corner label → vertex index (every vertex, ``"1"`` first)."""
+    draws: int
+    """Turn-and-length draws made (the last one accepted)."""
+    checked: int
+    """Draws that reached the track-file check (:func:`~lfd_track.world.track_file.parse_track`)."""
+
+
+def draw_loop(seed: int, dist: LoopDistribution = DEFAULT_LOOPS) -> LoopDraw:
+    """:func:`generate_loop` with how many draws it made and how many reached parse_track."""
     rng = np.random.default_rng(seed)
     n = int(rng.integers(dist.min_corners, dist.max_corners + 1))
     steps = round(float(rng.uniform(dist.min_width_m, dist.max_width_m)) / dist.width_step_m)
@@ -242,7 +256,7 @@ def _generate(
             parse_track(table, f"{LOOP_PREFIX} seed {seed}")
         except FileFormatError:
             continue
-        return vertices, width, corners, attempt, parsed
+        return LoopDraw(vertices, width, corners, attempt, parsed)
     raise RuntimeError(f"no loop of seed {seed} after {dist.max_attempts} draws")
 
 
@@ -251,35 +265,18 @@ def generate_loop(
 ) -> tuple[np.ndarray, float, dict[str, int]]:
     """The loop of ``seed``: vertices (V, 2) float64 [m] counter-clockwise (turns sum to +360°),
     the strip width [m], and corner label → vertex index (every vertex, ``"1"`` first)."""
-    vertices, width, corners, _, _ = _generate(int(seed), dist)
-    return vertices, width, corners
+    drawn = draw_loop(int(seed), dist)
+    return drawn.vertices, drawn.width_m, drawn.corners
 
 
-def loop_track(
-    split: str,
-    index: int,
-    *,
-    reverse: bool = False,
-    start_corner: str | None = None,
-    dist: LoopDistribution = DEFAULT_LOOPS,
-) -> Track:
-    """Loop ``index`` of ``split`` as a :class:`Track` named (and sourced) ``random:<split>:<index>``."""
-    name = loop_name(split, index)
-    vertices, width, corners = generate_loop(loop_seed(split, index), dist)
-    return build_track(
-        name,
-        vertices,
-        True,
-        width,
-        corners,
-        reverse=reverse,
-        start_corner=start_corner,
-        source=name,
-    )
+class _Turning(Protocol):
+    @property
+    def vertex_turns_rad(self) -> np.ndarray: ...
 
 
-def sharpest_turn_deg(track: Track) -> float:
-    """[deg] the largest turning angle of ``track``, either sign."""
+def sharpest_turn_deg(track: _Turning) -> float:
+    """[deg] the largest turning angle of ``track`` (a :class:`~lfd_track.world.track.Track`),
+    either sign."""
     return float(np.degrees(np.abs(track.vertex_turns_rad)).max())
 
 

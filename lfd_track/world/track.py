@@ -16,6 +16,15 @@ import numpy as np
 from ..core.config import read_toml
 from ..errors import FileFormatError, LfdTrackError
 from ..utils.data import resolve_data_file
+from .loops import (
+    DEFAULT_LOOPS,
+    LoopDistribution,
+    generate_loop,
+    is_loop_name,
+    loop_name,
+    loop_seed,
+    parse_loop_name,
+)
 from .track_file import MAX_FILE_BYTES, parse_track
 
 #: Shipped loops of our own design that no demonstration uses: a generalization set beside the
@@ -313,6 +322,30 @@ def build_track(
     )
 
 
+def loop_track(
+    split: str,
+    index: int,
+    *,
+    reverse: bool = False,
+    start_corner: str | None = None,
+    dist: LoopDistribution = DEFAULT_LOOPS,
+) -> Track:
+    """Loop ``index`` of ``split`` (:mod:`lfd_track.world.loops`) as a :class:`Track` named (and
+    sourced) ``random:<split>:<index>``."""
+    name = loop_name(split, index)
+    vertices, width, corners = generate_loop(loop_seed(split, index), dist)
+    return build_track(
+        name,
+        vertices,
+        True,
+        width,
+        corners,
+        reverse=reverse,
+        start_corner=start_corner,
+        source=name,
+    )
+
+
 def load_track(
     name_or_path: str | Path, *, reverse: bool = False, start_corner: str | None = None
 ) -> Track:
@@ -322,11 +355,9 @@ def load_track(
     Raises FileFormatError (one line naming the file and the problem) for malformed files; the
     file format and its limits are in :mod:`lfd_track.world.track_file`.
     """
-    from . import loops  # loops builds its tracks with this module
-
-    if loops.is_loop_name(name_or_path):
-        split, index = loops.parse_loop_name(str(name_or_path))
-        return loops.loop_track(split, index, reverse=reverse, start_corner=start_corner)
+    if is_loop_name(name_or_path):
+        split, index = parse_loop_name(str(name_or_path))
+        return loop_track(split, index, reverse=reverse, start_corner=start_corner)
     path = resolve_data_file("tracks", name_or_path)
     data = read_toml(path, max_bytes=MAX_FILE_BYTES, what="track")
     name, vertices, closed, width, corners = parse_track(data, path)

@@ -20,13 +20,12 @@ from lfd_track.world.loops import (
     generate_loop,
     loop_name,
     loop_seed,
-    loop_track,
     parse_loop_name,
     sharpest_turn_deg,
     turn_bin,
     width_bin,
 )
-from lfd_track.world.track import load_track, vertex_turns_rad
+from lfd_track.world.track import load_track, loop_track, vertex_turns_rad
 from lfd_track.world.track_file import parse_track
 
 LOOPS_CHECKED = 200  # per split
