@@ -18,9 +18,9 @@ from ..render.texture import MAX_TEXTURE_BYTES, GroundTexture, build_ground
 from ..render.topdown import draw_topdown
 from ..world.dimensions import ROVER_BODY_WIDTH_M
 from ..world.episode import EpisodeTracker, reference_step_count
-from ..world.loops import LOOPS_PER_SPLIT, drawn_split, loop_track
+from ..world.loops import LOOPS_PER_SPLIT, drawn_split
 from ..world.rover import Rover
-from ..world.track import Track, build_track, load_track
+from ..world.track import Track, build_track, load_track, loop_track
 from ..world.track_file import MAX_TRACK_SIZE_M
 from .presets import Preset, load_preset
 from .window import TopDownWindow, keys_to_action
@@ -187,6 +187,7 @@ class LfDTrackEnv(gym.Env):
             first = load_track(track, reverse=reverse, start_corner=start_corner)
         self._use_track(first)
         self._ground: GroundTexture | None = None
+        self._world_seed: int | None = None  # the seed the built world was drawn from, if any
         self._rover: Rover | None = None
         self._renderer: CameraRenderer | None = None
         self._camera_model: CameraModel | None = None
@@ -275,9 +276,14 @@ class LfDTrackEnv(gym.Env):
             index = int(loop_rng.integers(LOOPS_PER_SPLIT))
             self._use_track(loop_track(self.loop_split, index, reverse=self._reverse))
             rebuild = True
-        if rebuild:
+        # The world is a function of the seed (and the track): a reset with the seed of the world
+        # already built keeps it instead of painting the same floor again.
+        same_world = self.loop_split is None and seed is not None and seed == self._world_seed
+        if rebuild and not same_world:
             self.preset = self.base_preset.sample(world_rng)
             self._build_world(world_rng)
+        if rebuild:
+            self._world_seed = None if self.loop_split is not None else seed
         assert self._ground is not None and self._rover is not None and self._renderer is not None
         self._physics_rng, self._sensor_rng = physics_rng, sensor_rng
         pose = self.episode.start_pose()
