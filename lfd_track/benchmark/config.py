@@ -33,6 +33,7 @@ from ..methods import (
 from ..policy.controller import POLICY_KINDS
 from ..policy.features import DEFAULT_FEATURES, check_features
 from ..policy.memory import MemoryConfig, NoMemory
+from ..world.loops import SPLITS
 
 # Limits of the integer settings: generous (far beyond any run that finishes in days), but a typo
 # such as a trillion repetitions or a 400-digit seed is refused at once instead of hanging.
@@ -42,6 +43,8 @@ MAX_TRIALS_PER_DIRECTION = 1_000
 """Most autonomous runs per direction per repetition (the paper's: 3)."""
 MAX_SEED = 2**32 - 1
 """Largest benchmark seed (seeds are 0..2**32-1, like the study files')."""
+MAX_RANDOM_LOOPS = 10_000
+"""Most procedural loops lapped per repetition."""
 
 
 @dataclass(frozen=True)
@@ -49,7 +52,8 @@ class BenchmarkConfig:
     """What one benchmark run does.
 
     Limits (anything else is refused at construction in one line naming the setting):
-    ``repetitions`` 1..10 000, ``trials_per_direction`` 1..1000, ``seed`` 0..2**32-1; the
+    ``repetitions`` 1..10 000, ``trials_per_direction`` 1..1000, ``seed`` 0..2**32-1,
+    ``random_loops`` 0..10 000 (``random_split`` one of ``train``, ``validation``, ``test``); the
     learners' settings have their own (``GAConfig``: population and tournament size
     1..100 000, generations 1..1 000 000; see each config class).
 
@@ -94,6 +98,13 @@ class BenchmarkConfig:
     # Settings of methods registered beyond the built-in ones, by table name (an entry equal to
     # the method's defaults is dropped: a missing table means the defaults).
     method_settings: dict[str, Any] = field(default_factory=dict, hash=False)
+    # Procedural loops (lfd_track/world/loops.py) lapped per repetition, once each way: each
+    # repetition draws its own loops of ``random_split`` from its own stream, a loop entering the
+    # score only once the default scripted human laps it both ways (benchmark/loops.py).
+    random_loops: int = 0
+    # The split they are drawn from: "train" and "validation" to choose settings on, "test" to
+    # score a frozen configuration once.
+    random_split: str = "validation"
 
     def __post_init__(self) -> None:
         if isinstance(self.test_tracks, str) or not all(
@@ -110,6 +121,11 @@ class BenchmarkConfig:
         check_int("repetitions", self.repetitions, 1, MAX_REPETITIONS)
         check_int("trials_per_direction", self.trials_per_direction, 1, MAX_TRIALS_PER_DIRECTION)
         check_int("seed", self.seed, 0, MAX_SEED)
+        check_int("random_loops", self.random_loops, 0, MAX_RANDOM_LOOPS)
+        if self.random_split not in SPLITS:
+            raise ValueError(
+                f"random_split must be one of {', '.join(SPLITS)}, got {self.random_split!r}"
+            )
         check_features(self.features)
         if self.human.steers_by == "picture" and self.memory.kind != "fresh_felt":
             raise ValueError(

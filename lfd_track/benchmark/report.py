@@ -11,6 +11,7 @@ import numpy as np
 
 from ..envs.presets import load_preset
 from ..policy.features import DEFAULT_FEATURES
+from ..study.stats import wilson_interval
 from ..utils.provenance import environment
 from ..viz.plot_data import fitness_table, trajectories_table, write_picture
 from ..viz.plots import (
@@ -21,6 +22,7 @@ from ..viz.plots import (
     trajectory_grid,
 )
 from ..world.episode import EpisodeTracker
+from ..world.loops import TURN_BIN_LABELS, WIDTH_BIN_LABELS
 from ..world.track import load_track
 from .paper import DIRECTION_TITLES
 from .paper import DIRECTIONS as TABLE_DIRECTIONS
@@ -127,6 +129,50 @@ def test_tracks_section(tracks: dict[str, Any]) -> str:
             f"| {name} | {cells[0]} | {cells[1]} | {section['successes']}/{section['laps']} |"
         )
     return "\n".join([*lines, ""])
+
+
+def random_loops_section(results: dict[str, Any]) -> str:
+    """Markdown: laps of the procedural loops pooled with their 95 % Wilson interval, by
+    direction, by the loop's sharpest turn and by strip width, and the teacher's exclusions."""
+    section = results["random_loops"]
+    split = results.get("config", {}).get("random_split", "?")
+
+    def cell(row: dict[str, Any]) -> str:
+        if not row["laps"]:
+            return "–"
+        low, high = wilson_interval(row["successes"], row["laps"])
+        rate = row["successes"] / row["laps"]
+        return f"{row['successes']}/{row['laps']} {rate:.0%} [{low:.0%}–{high:.0%}]"
+
+    excluded = section.get("excluded", [])
+    drawn = section.get("drawn", section["loops"])
+    lines = [
+        f"## Procedural loops ({split} split)",
+        "",
+        f"{section['loops']} loops, each lapped once each way; {len(excluded)} of {drawn} loops"
+        " drawn were excluded because the scripted human did not lap them both ways"
+        " (lfd_track/benchmark/loops.py).",
+        "",
+        "| laps | ccw | cw |",
+        "|---|---|---|",
+        f"| {cell(section)} | {cell(section['ccw'])} | {cell(section['cw'])} |",
+        "",
+        "| sharpest turn | loops | laps |",
+        "|---|---|---|",
+        *(
+            f"| {label} | {row['loops']} | {cell(row)} |"
+            for label, row in ((x, section["by_sharpest_turn"][x]) for x in TURN_BIN_LABELS)
+        ),
+        "",
+        "| strip width [m] | loops | laps |",
+        "|---|---|---|",
+        *(
+            f"| {label} | {row['loops']} | {cell(row)} |"
+            for label, row in ((x, section["by_width"][x]) for x in WIDTH_BIN_LABELS)
+        ),
+        "",
+    ]
+    return "\n".join(lines)
 
 
 def plotted_outcomes(
@@ -247,8 +293,26 @@ def write_benchmark_outputs(
         "learning_sum": sum(r.timing_s["learning"] for r in reps),
         "trials_sum": sum(r.timing_s["trials"] for r in reps),
     }
+    draws = [r.random_loops for r in reps if r.random_loops]
+    loop_record = (
+        {
+            "drawn": sum(d["drawn"] for d in draws),
+            "excluded": [
+                dict(e, repetition=r.index)
+                for r in reps
+                for e in r.random_loops.get("excluded", [])
+            ],
+        }
+        if draws
+        else None
+    )
     results = build_results(
-        outcomes, repetitions=config.repetitions, seed=config.seed, timing_s=timing
+        outcomes,
+        repetitions=config.repetitions,
+        seed=config.seed,
+        timing_s=timing,
+        random_loops=loop_record,
+        test_tracks=config.test_tracks,
     )
     results["config"] = config_dict(config)
     results["demonstrations"] = [dict(r.demo, repetition=r.index) for r in reps]
@@ -300,6 +364,8 @@ def write_report_from_results(out: str | Path, results: dict[str, Any]) -> Path:
         extra.append(effort_section(results))
     if results.get("test_tracks"):
         extra.append(test_tracks_section(results["test_tracks"]))
+    if "random_loops" in results:
+        extra.append(random_loops_section(results))
     config = results.get("config", {})
     if not config.get("human", {}).get("careful", True):
         extra.insert(

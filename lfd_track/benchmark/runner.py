@@ -39,6 +39,7 @@ from .config import (
     config_dict,
     settings_arguments,
 )
+from .loops import MAX_DRAWS_PER_LOOP, loop_draws, teacher_lap
 from .tables import TrialOutcome
 
 __all__ = [
@@ -91,6 +92,9 @@ class RepetitionResult:
     timing_s: dict[str, float] = field(default_factory=dict)
     effort: dict[str, Any] = field(default_factory=dict)
     """Human commands, corrections, takeovers and driving seconds during learning."""
+    random_loops: dict[str, Any] = field(default_factory=dict)
+    """The procedural loops drawn (``drawn``) and those the teacher could not lap
+    (``excluded``: name and the teacher's outcome per direction); empty without them."""
 
 
 def trial_directions(test_tracks: tuple[str, ...]) -> list[tuple[str, bool, str]]:
@@ -220,6 +224,36 @@ def run_trial(
     return loop.info, trajectory.array(), loop.counts.steps
 
 
+def trial_outcome(
+    track: str,
+    env: LfDTrackEnv,
+    direction: str,
+    info: dict[str, Any],
+    trajectory: np.ndarray,
+    steps: int,
+    repetition: int,
+    trial: int,
+) -> TrialOutcome:
+    """The outcome of one trial on ``track`` (as the run names it; ``env`` drives it) from its
+    last ``info`` (a run that neither succeeded nor failed ran out of steps: ``"timeout"``)."""
+    failure = info["failure"]
+    if not info["success"] and failure is None:
+        failure = "timeout"
+    return TrialOutcome(
+        track=track,
+        direction=direction,
+        corner_order=tuple(c.label for c in env.track.corners),
+        corners_reached=tuple(info["corners_reached"]),
+        corners_negotiated=tuple(info["corners_negotiated"]),
+        failure=failure,
+        success=bool(info["success"]),
+        repetition=repetition,
+        trial=trial,
+        steps=steps,
+        trajectory=trajectory,
+    )
+
+
 def run_trials(
     controller: Any,
     *,
@@ -246,35 +280,57 @@ def run_trials(
         if tracks is not None and track not in tracks:
             continue
         env = LfDTrackEnv(track=track, reverse=reverse, preset=preset)
-        corner_order = tuple(c.label for c in env.track.corners)
         for trial in range(trials_per_direction):
             # The floor is built once per direction (seeded); later trials redraw the rover,
             # exposure and noise from the env's own stream.
             info, trajectory, steps = run_trial(
                 env, controller, seed=env_seed if trial == 0 else None
             )
-            failure = info["failure"]
-            if not info["success"] and failure is None:
-                failure = "timeout"
             outcomes.append(
-                TrialOutcome(
-                    track=track,
-                    direction=direction,
-                    corner_order=corner_order,
-                    corners_reached=tuple(info["corners_reached"]),
-                    corners_negotiated=tuple(info["corners_negotiated"]),
-                    failure=failure,
-                    success=bool(info["success"]),
-                    repetition=repetition,
-                    trial=trial,
-                    steps=steps,
-                    trajectory=trajectory,
-                )
+                trial_outcome(track, env, direction, info, trajectory, steps, repetition, trial)
             )
             if progress is not None:
                 progress(outcomes[-1])
         env.close()
     return outcomes
+
+
+def run_loop_trials(
+    controller: Any, *, trial_seed: int, config: BenchmarkConfig, repetition: int = 0
+) -> tuple[list[TrialOutcome], dict[str, Any]]:
+    """The repetition's laps of ``config.random_loops`` procedural loops (:mod:`.loops`): loops
+    drawn in order from the repetition's stream, each admitted once the teacher laps it both
+    ways in the worlds of its two directions, then lapped once each way by ``controller``.
+    Returns the outcomes and the draw's record (``drawn``, ``excluded``)."""
+    outcomes: list[TrialOutcome] = []
+    excluded: list[dict[str, Any]] = []
+    drawn = admitted = 0
+    draws = loop_draws(trial_seed, config.random_split)
+    while admitted < config.random_loops:
+        if drawn >= MAX_DRAWS_PER_LOOP * config.random_loops:
+            raise LfdTrackError(
+                f"the teacher lapped {admitted} of {drawn} procedural loops drawn from"
+                f" '{config.random_split}' in preset '{config.preset}' both ways: too few to score"
+            )
+        name, worlds = next(draws)
+        drawn += 1
+        envs = {
+            direction: (LfDTrackEnv(track=name, reverse=reverse, preset=config.preset), world)
+            for reverse, direction, world in ((False, "ccw", worlds[0]), (True, "cw", worlds[1]))
+        }
+        teacher = {direction: teacher_lap(env, world) for direction, (env, world) in envs.items()}
+        if all(t["success"] for t in teacher.values()):
+            admitted += 1
+            for direction, (env, world) in envs.items():
+                info, trajectory, steps = run_trial(env, controller, seed=world)
+                outcomes.append(
+                    trial_outcome(name, env, direction, info, trajectory, steps, repetition, 0)
+                )
+        else:
+            excluded.append({"track": name, "teacher": teacher})
+        for env, _ in envs.values():
+            env.close()
+    return outcomes, {"drawn": drawn, "excluded": excluded}
 
 
 def learn_repetition(
@@ -340,6 +396,12 @@ def run_repetition(
         preset=config.preset,
         repetition=index,
     )
+    loop_record: dict[str, Any] = {}
+    if config.random_loops:
+        loop_outcomes, loop_record = run_loop_trials(
+            controller, trial_seed=trial_seed, config=config, repetition=index
+        )
+        outcomes += loop_outcomes
     timing["trials"] = time.perf_counter() - t0
     return RepetitionResult(
         index=index,
@@ -350,6 +412,7 @@ def run_repetition(
         training_accuracy=learned.training_accuracy,
         timing_s=timing,
         effort=learned.effort,
+        random_loops=loop_record,
     )
 
 

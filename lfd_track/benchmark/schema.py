@@ -23,7 +23,10 @@ Schema history:
   (``direct``, ``mu_plus_one``), and every ``human_effort`` record (the total and each
   repetition's) counts ``put_backs``, the times the robot was put back on the felt by hand. A
   schema-2 file was written before these methods existed: its tables are their first defaults
-  and its put-backs 0 (no method before them put the robot back by hand).
+  and its put-backs 0 (no method before them put the robot back by hand). ``config`` also holds
+  ``random_loops`` and ``random_split`` (procedural loops lapped per repetition; a schema-2 run
+  lapped none: 0 and ``"validation"``), and a run that lapped some has a ``random_loops``
+  section (:func:`lfd_track.benchmark.loops.random_loop_results`).
 """
 
 from __future__ import annotations
@@ -160,13 +163,16 @@ _V2_MU_PLUS_ONE = {
 
 
 def config_v2_to_v3(config: Any) -> Any:
-    """A schema-2 ``config`` section with the ``direct`` and ``mu_plus_one`` tables (also the
-    conditions' ``config`` of a schema-2 study.json)."""
+    """A schema-2 ``config`` section with the ``direct`` and ``mu_plus_one`` tables and no
+    procedural loops (``random_loops`` 0; also the conditions' ``config`` of a schema-2
+    study.json)."""
     if not isinstance(config, dict):
         return config
     out = dict(config)
     out["direct"] = _filled(out.get("direct", {}), _V2_DIRECT)
     out["mu_plus_one"] = _filled(out.get("mu_plus_one", {}), _V2_MU_PLUS_ONE)
+    out.setdefault("random_loops", 0)  # no procedural loops before schema 3
+    out.setdefault("random_split", "validation")
     return out
 
 

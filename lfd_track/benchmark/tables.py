@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..utils.atomic import atomic_write_text
+from .loops import is_random_loop, random_loop_results
 from .paper import (
     CORNER_ORDER,
     DIRECTION_TITLES,
@@ -220,10 +221,15 @@ def build_results(
     repetitions: int,
     seed: int,
     timing_s: Mapping[str, float],
+    random_loops: Mapping[str, Any] | None = None,
+    test_tracks: Sequence[str] = (),
 ) -> dict[str, Any]:
     """Count ``outcomes`` into the results.json dict, with the paper's numbers beside ours.
 
-    Every direction of both tracks is present, with zero trials if none were run. Raises
+    Every direction of both tracks is present, with zero trials if none were run. Laps of
+    procedural loops drawn per repetition (any not among the named ``test_tracks``) are counted
+    together (``random_loops``, :func:`~lfd_track.benchmark.loops.random_loop_results`, with the
+    draw's record ``random_loops``), not loop by loop. Raises
     ValueError if two outcomes share track, direction, repetition and trial, or if the trials of
     one direction disagree on the corner order.
     """
@@ -249,8 +255,12 @@ def build_results(
         section["success_rate"] = _rate(successes, total)
         results[track_key] = section
     extra = sorted({t.track for t in outcomes} - set(TRACK_RESULT_KEYS))
-    if extra:
-        results["test_tracks"] = {name: _loop_results(name, outcomes) for name in extra}
+    named = [name for name in extra if name in test_tracks or not is_random_loop(name)]
+    if named:
+        results["test_tracks"] = {name: _loop_results(name, outcomes) for name in named}
+    if len(named) < len(extra) or random_loops:
+        drawn = [t for t in outcomes if t.track not in named and is_random_loop(t.track)]
+        results["random_loops"] = random_loop_results(drawn, random_loops)
     results["paper"] = paper_results()
     results["timing_s"] = dict(timing_s)
     results["outcomes"] = [t.to_dict() for t in outcomes]

@@ -108,6 +108,7 @@ def finished_results(out: Path, job: Job) -> dict[str, Any] | None:
             job.config.repetitions,
             job.config.trials_per_direction,
             job.config.test_tracks,
+            job.config.random_loops,
         )
     except ValueError as exc:
         raise FileFormatError(path, f"damaged results: {first_line(exc)}; {rerun}") from None

@@ -6,7 +6,7 @@ controller, so it can be narrower than the spread between controllers warrants. 
 therefore also carries ``ci95_controllers``: a bootstrap interval that resamples whole learned
 controllers (seed × repetition), and ``per_seed`` shows the spread between seeds.
 
-It stays one module: study.json, study.md and study.png are three views of one summary, built
+Length: one module, because study.json, study.md and study.png are three views of one summary, built
 once here, so a number can never differ between them.
 """
 
@@ -21,11 +21,13 @@ from typing import Any
 
 import numpy as np
 
+from ..benchmark.loops import is_random_loop
 from ..benchmark.paper import TRACK_RESULT_KEYS
 from ..benchmark.runner import config_dict, trial_directions
 from ..benchmark.tables import MAX_COUNT, TrialOutcome, results_json_text
 from ..utils.atomic import atomic_write_text
 from ..utils.provenance import environment
+from .loops import random_loops_markdown, random_loops_summary
 from .schema import STUDY_SCHEMA
 from .spec import Job, Study
 from .stats import controller_interval, rate_summary
@@ -74,6 +76,7 @@ def check_job_results(
     repetitions: int,
     trials_per_direction: int | None = None,
     test_tracks: Sequence[str] | None = None,
+    random_loops: int = 0,
 ) -> None:
     """Raise ``ValueError`` (one line) unless ``results`` holds, with the right types, every
     field this module reads from a job's results.json.
@@ -82,7 +85,8 @@ def check_job_results(
     That is: ``outcomes``, a list of trial outcomes (each as
     :meth:`~lfd_track.benchmark.tables.TrialOutcome.from_dict` reads it, ``repetition`` below
     ``repetitions``; given ``trials_per_direction`` and ``test_tracks``, exactly the job's
-    trials: each direction it drives, repetition and trial once); if present,
+    trials: each direction it drives, repetition and trial once, and each repetition's
+    ``random_loops`` procedural loops once each way); if present,
     ``timing_s.wall``, ``training_accuracy`` and the ``human_effort`` totals as finite
     numbers (counts as integers 0 to :data:`MAX_COUNT`); and, for a job that reports no command
     count, ``demonstrations`` with integer ``cases``.
@@ -95,7 +99,7 @@ def check_job_results(
     for index, o in enumerate(outcomes):
         _check_outcome(o, f"outcomes[{index}]", repetitions)
     if trials_per_direction is not None and test_tracks is not None:
-        _check_trials(outcomes, repetitions, trials_per_direction, tuple(test_tracks))
+        _check_trials(outcomes, repetitions, trials_per_direction, tuple(test_tracks), random_loops)
     timing = results.get("timing_s", {})
     if not isinstance(timing, Mapping):
         raise ValueError("'timing_s' must be an object")
@@ -137,14 +141,31 @@ def _check_outcome(o: Any, where: str, repetitions: int) -> None:
 
 
 def _check_trials(
-    outcomes: list[Mapping[str, Any]], repetitions: int, trials: int, test_tracks: tuple[str, ...]
+    outcomes: list[Mapping[str, Any]],
+    repetitions: int,
+    trials: int,
+    test_tracks: tuple[str, ...],
+    random_loops: int = 0,
 ) -> None:
     """The outcomes must be the job's trials, each once: a missing trial would pool as fewer
     laps, a repeated one as more."""
     grid = {(track, direction): 0 for track, _, direction in trial_directions(test_tracks)}
     seen: set[tuple[str, str, int, int]] = set()
+    loop_laps = [0] * repetitions
     for index, o in enumerate(outcomes):
         track, direction = o["track"], o["direction"]
+        if track not in test_tracks and is_random_loop(
+            str(track)
+        ):  # drawn per repetition: once each way, counted below
+            trial = (track, direction, o["repetition"], o["trial"])
+            if o["trial"] != 0 or trial in seen:
+                raise ValueError(
+                    f"outcomes[{index}]: procedural loop {track}/{direction} is lapped once per"
+                    f" repetition (trial 0), got trial {o['trial']} of repetition {o['repetition']}"
+                )
+            seen.add(trial)
+            loop_laps[o["repetition"]] += 1
+            continue
         if (track, direction) not in grid:
             raise ValueError(
                 f"outcomes[{index}]: the job drives no track '{track}' {direction} "
@@ -163,6 +184,12 @@ def _check_trials(
             )
         seen.add(trial)
         grid[track, direction] += 1
+    for repetition, held in enumerate(loop_laps):
+        if held != 2 * random_loops:
+            raise ValueError(
+                f"'outcomes' holds {held} laps of procedural loops in repetition {repetition},"
+                f" not the job's {2 * random_loops} ({random_loops} loops, both ways)"
+            )
     for (track, direction), held in grid.items():
         if held != repetitions * trials:
             raise ValueError(
@@ -238,7 +265,10 @@ def condition_summary(
     """One entry of study.json's ``conditions`` from the condition's finished jobs."""
     condition = next(c for c in study.conditions if c.name == name)
     outcomes = [o for _, r in jobs for o in r["outcomes"]]
-    tracks = _track_counts(outcomes)
+    named = condition.config.test_tracks
+    tracks = _track_counts(
+        [o for o in outcomes if o["track"] in named or not is_random_loop(str(o["track"]))]
+    )
     unseen = sorted(t for t in tracks if t not in PAPER_TRACKS)
 
     def rate(track_names: Sequence[str]) -> dict[str, Any]:
@@ -271,7 +301,7 @@ def condition_summary(
                 "wall_s": float(r.get("timing_s", {}).get("wall", 0.0)),
             }
         )
-    return {
+    summary = {
         "name": name,
         "description": condition.description,
         "method": condition.method,
@@ -307,6 +337,8 @@ def condition_summary(
         "per_seed": per_seed,
         "jobs": [job.key for job, _ in jobs],
     }
+    loops = random_loops_summary(jobs, named)
+    return summary if loops is None else {**summary, "random_loops": loops}
 
 
 def build_study_results(
@@ -452,6 +484,7 @@ def study_markdown(results: Mapping[str, Any]) -> str:
             + " | ".join(cells)
             + " |"
         )
+    lines += random_loops_markdown(results["conditions"], _cell)
     unseen = sorted({t for c in results["conditions"] for t in c["unseen_tracks"]})
     if unseen:
         lines += [
