@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from ..benchmark import runner
+from ..benchmark.config import MAX_RANDOM_LOOPS
 from ..demo.demonstrator import HumanConfig
 from ..methods import get_method, method_names, methods
 from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
@@ -20,6 +21,7 @@ from ..teaching.scripted import STEERING, TURNAROUND_RULES
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output, shown_path
 from ..utils.signals import Terminated, interrupted_exit_code, raise_terminated
 from ..utils.staging import staged_output
+from ..world.loops import SPLITS
 from .types import EXIT_OK, EXIT_USAGE, add_map_arguments, memory_from_args, whole_number_in
 
 
@@ -74,6 +76,22 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         metavar="TRACK",
         help="also lap this loop (name or .toml path) both ways, as many laps as on the testing"
         " track; repeatable; results per track in results.json",
+    )
+    bench.add_argument(
+        "--random-loops",
+        type=whole_number_in(0, MAX_RANDOM_LOOPS),
+        default=0,
+        metavar="N",
+        help="also lap N procedural loops per repetition, each drawn by the repetition (admitted"
+        " once the scripted human laps it both ways) and lapped once each way; pooled by"
+        " sharpest turn and strip width in results.json (default: 0)",
+    )
+    bench.add_argument(
+        "--random-split",
+        choices=SPLITS,
+        default="validation",
+        help="the split --random-loops draws from: train or validation to choose settings on,"
+        " test to score a frozen configuration once (default: validation)",
     )
     bench.add_argument(
         "--demo-track",
@@ -190,6 +208,8 @@ def run(args: argparse.Namespace) -> int:
             keep_learning=args.keep_learning,
             method=args.method,
             test_tracks=("testing", *args.test_track),
+            random_loops=args.random_loops,
+            random_split=args.random_split,
             memory=memory_from_args(args),
             mirror=args.mirror,
             shifted_views=args.shifted_views,

@@ -219,6 +219,7 @@ def test_a_successful_rerun_replaces_the_output_in_the_same_layout(old_output, p
         ("--seed", "4294967296"),
         ("--seed", "1" + "0" * 400),
         ("--workers", "1000000000000"),
+        ("--random-loops", "10001"),
     ],
 )
 def test_absurd_numbers_are_refused_at_once_naming_the_flag(

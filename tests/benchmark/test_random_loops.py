@@ -16,6 +16,7 @@ from lfd_track.benchmark.loops import loop_draws, random_loop_results
 from lfd_track.benchmark.report import write_benchmark_outputs
 from lfd_track.benchmark.schema import migrate_results, read_results
 from lfd_track.benchmark.tables import TrialOutcome
+from lfd_track.cli import main
 from lfd_track.learning.ga import GAConfig
 from lfd_track.policy.controller import Controller
 from lfd_track.teaching.scripted import HumanConfig
@@ -145,3 +146,18 @@ def test_a_schema_2_run_lapped_no_procedural_loops():
 def _controller(out):
     """The controller the module's run learned (one leg, two generations)."""
     return Controller.load(out / "rep_00" / "controller.json")
+
+
+def test_the_command_line_takes_the_loops_and_their_split(monkeypatch, tmp_path):
+    seen = []
+
+    def capture(config, work_dir, **kwargs):
+        seen.append(config)
+        raise KeyboardInterrupt  # stop here: only the settings are under test
+
+    monkeypatch.setattr(runner, "run_benchmark", capture)
+    args = ["--quiet", "benchmark", "--random-loops", "40", "--random-split", "test"]
+    main([*args, "--workers", "1", "--out", str(tmp_path / "out")])
+    assert (seen[0].random_loops, seen[0].random_split) == (40, "test")
+    with pytest.raises(SystemExit):
+        main(["--quiet", "benchmark", "--random-split", "holdout", "--out", str(tmp_path / "x")])
