@@ -102,7 +102,7 @@ def draw_histograms(panels: list[tuple[str, np.ndarray, list[int]]]) -> np.ndarr
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--loops", type=int, default=500)
+    parser.add_argument("--loops", type=int, default=300)
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args()
     t0 = time.perf_counter()
