@@ -77,6 +77,30 @@ class CameraConfig:
     pixel centre sees, however much floor the pixel covers (towards the top of the frame one
     pixel covers about 1.5 × 9 texels of the paper's 2 mm texture, so fine carpet and felt
     texture alias)."""
+    scale: float = 1.0
+    """Size of the frames relative to ``width_px`` × ``height_px`` [-]: ``0.5`` takes 320 × 240
+    frames of the same view (same field of view, mount and lens: the focal length, the principal
+    point and ``principal_shift_px``, which stays in ``width_px`` × ``height_px`` pixels, scale
+    with the frame), as if the full frame were binned 2 × 2. ``width_px``, ``height_px`` and the
+    pixel settings stay those of the full-size sensor; the frame is ``frame_width_px`` ×
+    ``frame_height_px``. Both products must be whole numbers of pixels."""
+
+    @property
+    def frame_width_px(self) -> int:
+        """Width of the frames [px]: ``width_px`` × ``scale``."""
+        return self.width_px if self.scale == 1.0 else round(self.width_px * self.scale)
+
+    @property
+    def frame_height_px(self) -> int:
+        """Height of the frames [px]: ``height_px`` × ``scale``."""
+        return self.height_px if self.scale == 1.0 else round(self.height_px * self.scale)
+
+    @property
+    def frame_principal_shift_px(self) -> float:
+        """``principal_shift_px`` in frame pixels: × ``scale``."""
+        return (
+            self.principal_shift_px if self.scale == 1.0 else self.principal_shift_px * self.scale
+        )
 
     @property
     def is_ideal_pinhole(self) -> bool:
@@ -88,6 +112,15 @@ class CameraConfig:
             raise ValueError(
                 f"image size must be at least 2 × 2 px, got {self.width_px} × {self.height_px}"
             )
+        if not math.isfinite(self.scale) or self.scale <= 0:
+            raise ValueError(f"scale must be > 0, got {self.scale}")
+        for name, size in (("width_px", self.width_px), ("height_px", self.height_px)):
+            scaled = size * self.scale
+            if abs(scaled - round(scaled)) > 1e-9 or round(scaled) < 2:
+                raise ValueError(
+                    f"scale {self.scale} makes {name} {size} {scaled:g} px: frames need a whole"
+                    " number of pixels, at least 2"
+                )
         if self.height_m <= 0:
             raise ValueError(f"height_m must be > 0, got {self.height_m}")
         if not 0.0 < self.vfov_deg < 170.0:
@@ -135,15 +168,15 @@ def _focal_px(config: CameraConfig) -> float:
     """Focal length [px] that puts the centred frame's top and bottom edges at ±vfov/2."""
     half = math.radians(config.vfov_deg) / 2.0
     scale = float(_radial(np.array(half), config.lens, config.distortion))
-    return (config.height_px / 2.0) / scale if scale > 0 else math.nan
+    return (config.frame_height_px / 2.0) / scale if scale > 0 else math.nan
 
 
 def _lens_table(config: CameraConfig, focal_px: float) -> tuple[np.ndarray, np.ndarray] | str:
     """Monotonic table (radius [px], θ [rad]) covering the frame, or why the lens cannot."""
     c = config
-    cy = (c.height_px - 1) / 2.0 - c.principal_shift_px
-    far_row = max(abs(-0.5 - cy), abs(c.height_px - 0.5 - cy))
-    reach_px = math.hypot(c.width_px / 2.0, far_row) + 1.0
+    cy = (c.frame_height_px - 1) / 2.0 - c.frame_principal_shift_px
+    far_row = max(abs(-0.5 - cy), abs(c.frame_height_px - 0.5 - cy))
+    reach_px = math.hypot(c.frame_width_px / 2.0, far_row) + 1.0
     if not math.isfinite(focal_px) or focal_px <= 0:
         return f"lens {c.lens} with distortion {c.distortion} maps vfov_deg {c.vfov_deg} nowhere"
     theta = np.linspace(0.0, _LENS_MAX_THETA[c.lens], 20001)
@@ -197,7 +230,7 @@ class CameraModel:
         c = self.config
         self.is_homography = c.is_ideal_pinhole
         if self.is_homography:
-            self.focal_px = (c.height_px / 2.0) / math.tan(math.radians(c.vfov_deg) / 2.0)
+            self.focal_px = (c.frame_height_px / 2.0) / math.tan(math.radians(c.vfov_deg) / 2.0)
             self._table: tuple[np.ndarray, np.ndarray] | None = None
         else:
             self.focal_px = _focal_px(c)
@@ -205,8 +238,8 @@ class CameraModel:
             if isinstance(table, str):
                 raise ValueError(table)
             self._table = table
-        self.cx = (c.width_px - 1) / 2.0
-        self.cy = (c.height_px - 1) / 2.0 - c.principal_shift_px
+        self.cx = (c.frame_width_px - 1) / 2.0
+        self.cy = (c.frame_height_px - 1) / 2.0 - c.frame_principal_shift_px
         self._footprint_rover: np.ndarray | None = None
         self._extrinsics_key: tuple[float, float, float] | None = None
         self._extrinsics_value: tuple[np.ndarray, np.ndarray] | None = None
@@ -232,7 +265,7 @@ class CameraModel:
     def hfov_deg(self) -> float:
         """Horizontal field of view [deg]: the angle between the rays through the left and right
         image edges on the principal point's row."""
-        half_px = self.config.width_px / 2.0
+        half_px = self.config.frame_width_px / 2.0
         if self._table is None:
             return math.degrees(2.0 * math.atan(half_px / self.focal_px))
         return math.degrees(2.0 * float(np.interp(half_px, *self._table)))
@@ -257,7 +290,7 @@ class CameraModel:
 
     def edge_pixels(self, per_edge: int) -> np.ndarray:
         """(4·per_edge, 2) points along the image's outer edge: TL → TR → BR → BL, clockwise."""
-        w, h = self.config.width_px, self.config.height_px
+        w, h = self.config.frame_width_px, self.config.frame_height_px
         t = np.linspace(0.0, 1.0, per_edge, endpoint=False)
         left, right, top, bottom = -0.5, w - 0.5, -0.5, h - 0.5
         return np.concatenate(
@@ -273,9 +306,10 @@ class CameraModel:
         """(H, W, 2) float32 floor point [m] each pixel centre sees, in the rover frame at the
         origin (x ahead, y left). The renderer moves it with the pose; every pixel sees floor."""
         c = self.config
-        u, v = np.meshgrid(np.arange(c.width_px, dtype=np.float64), np.arange(c.height_px))
+        w, h = c.frame_width_px, c.frame_height_px
+        u, v = np.meshgrid(np.arange(w, dtype=np.float64), np.arange(h))
         pts = self.floor_points(np.column_stack([u.ravel(), v.ravel()]), np.zeros(3))
-        return pts.reshape(c.height_px, c.width_px, 2).astype(np.float32)
+        return pts.reshape(h, w, 2).astype(np.float32)
 
     def row_footprint_area_m2(self) -> np.ndarray:
         """(H,) floor area [m²] one pixel covers on each image row, at the centre column.
@@ -285,14 +319,14 @@ class CameraModel:
         centre column.
         """
         c = self.config
-        u = (c.width_px - 1) / 2.0
-        rows = np.arange(c.height_px, dtype=np.float64)
+        u = (c.frame_width_px - 1) / 2.0
+        rows = np.arange(c.frame_height_px, dtype=np.float64)
         corners = [(-0.5, -0.5), (0.5, -0.5), (0.5, 0.5), (-0.5, 0.5)]
         quad = [
             self.floor_points(np.column_stack([np.full_like(rows, u + du), rows + dv]), np.zeros(3))
             for du, dv in corners
         ]
-        area = np.zeros(c.height_px)
+        area = np.zeros(c.frame_height_px)
         for a, b in zip(quad, quad[1:] + quad[:1], strict=True):
             area += a[:, 0] * b[:, 1] - b[:, 0] * a[:, 1]
         return np.abs(area) / 2.0
@@ -385,7 +419,7 @@ class CameraModel:
         return self._floor_points_of_rays(self._corner_rays, pose)
 
     def _corner_pixels(self) -> np.ndarray:
-        w, h = self.config.width_px, self.config.height_px
+        w, h = self.config.frame_width_px, self.config.frame_height_px
         return np.array([[-0.5, -0.5], [w - 0.5, -0.5], [w - 0.5, h - 0.5], [-0.5, h - 0.5]])
 
     def safe_box_floor_polygon(self, pose: np.ndarray) -> np.ndarray:
@@ -397,7 +431,7 @@ class CameraModel:
         return self._floor_points_of_rays(self._safe_box_rays, pose)
 
     def _safe_box_pixels(self) -> np.ndarray:
-        rows, cols = safe_box_slices()
+        rows, cols = safe_box_slices(self.config.frame_width_px, self.config.frame_height_px)
         u0, u1 = cols.start - 0.5, cols.stop - 0.5
         v0, v1 = rows.start - 0.5, rows.stop - 0.5
         if self._table is None:

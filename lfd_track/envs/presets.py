@@ -28,6 +28,7 @@ import numpy as np
 
 from ..core.camera_model import CameraConfig
 from ..core.config import dataclass_from_table, read_toml
+from ..core.frame import GRID_COLUMNS, GRID_ROWS, grid_fits
 from ..errors import FileFormatError
 from ..render.camera import SensorConfig
 from ..render.texture import AppearanceConfig, LightingConfig
@@ -71,6 +72,9 @@ BOUNDS: dict[str, tuple[float, float]] = {
     # [camera] a phone on a mast
     "camera.width_px": (640, 640),
     "camera.height_px": (480, 480),
+    # Frames of width_px x height_px times scale (0.5: 320 x 240 of the same view); not drawn per
+    # episode (the observation's shape is fixed).
+    "camera.scale": (0.125, 1.0),
     "camera.height_m": (0.05, 2.0),
     # Pitch may tilt up when the frame is shifted below the lens axis; the camera model itself
     # refuses any combination that shows the horizon.
@@ -211,6 +215,10 @@ def _parse_ranges(table: Any, path: Path) -> tuple[Range, ...]:
         cls = SECTIONS.get(section)
         if cls is None or key not in {f.name for f in dataclasses.fields(cls)}:
             raise FileFormatError(path, f"randomization key '{name}' names no preset field")
+        if name == "camera.scale":
+            raise FileFormatError(
+                path, "randomization cannot draw camera.scale (every frame of an env has one size)"
+            )
         hint = typing.get_type_hints(cls)[key]
         is_tuple = typing.get_origin(hint) is tuple
         elem = typing.get_args(hint)[0] if is_tuple else hint
@@ -300,8 +308,16 @@ def load_preset(name_or_path: str | Path = "paper") -> Preset:
     if camera is not None and (camera.width_px, camera.height_px) != (640, 480):
         raise FileFormatError(
             path,
-            f"camera must be 640 x 480 px (the road-value grid is 8 x 5 regions of 80 x 96 px),"
+            f"camera must be 640 x 480 px (the road-value grid is 8 x 5 regions of 80 x 96 px;"
+            f" [camera] scale takes smaller frames of the same view),"
             f" got {camera.width_px} x {camera.height_px}",
+        )
+    if camera is not None and not grid_fits(camera.frame_width_px, camera.frame_height_px):
+        raise FileFormatError(
+            path,
+            f"camera scale {camera.scale} makes {camera.frame_width_px} x"
+            f" {camera.frame_height_px} px frames, which the road-value grid of"
+            f" {GRID_COLUMNS} x {GRID_ROWS} regions does not divide evenly",
         )
     for section in SECTIONS:
         problem = _bounds_problem(section, kwargs.get(section, SECTIONS[section]()))

@@ -54,7 +54,8 @@ class LfDTrackEnv(gym.Env):
     because a Python bool is an int, but ``True`` is no command).
 
     ## Observation Space
-    ``Box(0, 255, (480, 640, 3), uint8)``: the phone camera's RGB frame (rows top to bottom).
+    ``Box(0, 255, (480, 640, 3), uint8)``: the phone camera's RGB frame (rows top to bottom);
+    ``(240, 320, 3)`` with ``[camera] scale = 0.5`` (preset ``paper_fast``: the same view).
 
     | Property     | Value                                                         |
     |--------------|---------------------------------------------------------------|
@@ -177,7 +178,9 @@ class LfDTrackEnv(gym.Env):
         self.base_preset: Preset = preset if isinstance(preset, Preset) else load_preset(preset)
         self.preset = self.base_preset
         cam = self.preset.camera
-        self.observation_space = spaces.Box(0, 255, (cam.height_px, cam.width_px, 3), np.uint8)
+        self.observation_space = spaces.Box(
+            0, 255, (cam.frame_height_px, cam.frame_width_px, 3), np.uint8
+        )
         self.action_space = spaces.Discrete(3)
         if self.loop_split is not None:
             # Any loop's felt fits the floor square, so one check covers every loop drawn.

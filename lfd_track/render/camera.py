@@ -93,7 +93,7 @@ class SensorConfig:
 
 def _vignette(config: CameraConfig, strength: float) -> np.ndarray:
     """(H, W) float64 brightness factor, 1 at the centre; a smooth cos⁴-like radial falloff."""
-    w, h = config.width_px, config.height_px
+    w, h = config.frame_width_px, config.frame_height_px
     u = (np.arange(w) - (w - 1) / 2.0) / ((w - 1) / 2.0)
     v = (np.arange(h) - (h - 1) / 2.0) / ((w - 1) / 2.0)
     r2 = (u[None, :] ** 2 + v[:, None] ** 2) / (1.0 + ((h - 1) / (w - 1)) ** 2)  # 1 at the corners
@@ -152,6 +152,9 @@ class CameraRenderer:
         self.sensor = sensor or SensorConfig()
         self.model = CameraModel(self.camera)
         self._vignette = _vignette(self.camera, self.sensor.vignetting)
+        # A smaller camera (``scale``) is the full one binned: averaging 1/scale² pixels divides
+        # the sensor noise's std by 1/scale (the same noise per unit of the picture).
+        self._noise_std = self.sensor.noise_std * min(self.camera.scale, 1.0)
         self._mean_vignette = float(self._vignette.mean())
         self._gain_maps: np.ndarray | None = None
         self._episode_started = False
@@ -175,7 +178,7 @@ class CameraRenderer:
         """Row bands (first row, stop row, mip level) the ``"mipmap"`` filter renders for a
         texture of ``metres_per_px``; one band at level 0 for ``"bilinear"``."""
         if self._row_area_m2 is None:
-            return ((0, self.camera.height_px, 0),)
+            return ((0, self.camera.frame_height_px, 0),)
         bands = self._bands.get(metres_per_px)
         if bands is None:
             bands = self._bands[metres_per_px] = mip_bands(self._row_area_m2, metres_per_px)
@@ -215,10 +218,11 @@ class CameraRenderer:
             maps = self._vignette[None, :, :, None] * balances[:, None, None, :] * _GAIN_ONE
             self._gain_maps = np.clip(np.rint(maps), 0, 255).astype(np.uint8)
         self._gain = None  # settles on the first frame, as a camera does before recording
-        if s.noise_std > 0:
-            h, w = self.camera.height_px + self._pad, self.camera.width_px + self._pad
+        if self._noise_std > 0:
+            h = self.camera.frame_height_px + self._pad
+            w = self.camera.frame_width_px + self._pad
             noise = rng.standard_normal((s.noise_pool_frames, h, w, 3), dtype=np.float32)
-            noise = np.rint(noise * np.float32(s.noise_std))
+            noise = np.rint(noise * np.float32(self._noise_std))
             # Split into two saturating uint8 adds, much faster than signed arithmetic per frame.
             self._noise_up = np.clip(noise, 0, 255).astype(np.uint8)
             self._noise_down = np.clip(-noise, 0, 255).astype(np.uint8)
@@ -290,7 +294,7 @@ class CameraRenderer:
         """(H, W, 4) uint8 RGBA view through an ideal pinhole: one floor homography."""
         c = self.camera
         tex_from_img = np.linalg.inv(self.model.homography(pose, ground))
-        size = (c.width_px, c.height_px)
+        size = (c.frame_width_px, c.frame_height_px)
         flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
         if self._mipmap:
             return self._warp_bands(ground, pose, tex_from_img)
@@ -320,13 +324,13 @@ class CameraRenderer:
         """(H, W, 4) uint8 view through an ideal pinhole, each band of rows warped from its mip
         level: level L's texel coordinates are level 0's divided by 2^L."""
         c = self.camera
-        raw = np.empty((c.height_px, c.width_px, 4), dtype=np.uint8)
+        raw = np.empty((c.frame_height_px, c.frame_width_px, 4), dtype=np.uint8)
         flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
         past = self._sees_past_margin(ground, pose)
         for v0, v1, level in self.mip_bands(ground.metres_per_px):
             m = _LEVEL_SCALES[level] @ tex_from_img
             m[:, 2] += m[:, 1] * v0  # band row 0 is image row v0
-            size = (c.width_px, v1 - v0)
+            size = (c.frame_width_px, v1 - v0)
             dst = raw[v0:v1]
             if past:
                 cv2.warpPerspective(
@@ -351,7 +355,7 @@ class CameraRenderer:
         """(H, W, 4) uint8 view through a distorted lens, each band of rows remapped from its mip
         level (level-0 texel coordinates ``maps`` divided by 2^L)."""
         c = self.camera
-        raw = np.empty((c.height_px, c.width_px, 4), dtype=np.uint8)
+        raw = np.empty((c.frame_height_px, c.frame_width_px, 4), dtype=np.uint8)
         for v0, v1, level in self.mip_bands(ground.metres_per_px):
             band = maps[v0:v1] * np.float32(0.5**level) if level else maps[v0:v1]
             dst = raw[v0:v1]
@@ -435,7 +439,7 @@ class CameraRenderer:
         # single-table LUT over the interleaved rows is twice as fast as a per-channel one).
         rgb = cv2.cvtColor(raw, cv2.COLOR_RGBA2RGB)
         table = self._tone_table(gain)
-        frame = cv2.LUT(rgb.reshape(c.height_px, -1), table).reshape(rgb.shape)
+        frame = cv2.LUT(rgb.reshape(c.frame_height_px, -1), table).reshape(rgb.shape)
         # Vignetting × this frame's white balance (applied after the tone curve: an approximation
         # that only matters in the highlights, where the balance is within a few per cent).
         if self._gain_maps is not None:
@@ -444,7 +448,7 @@ class CameraRenderer:
         if self._noise_up is not None and self._noise_down is not None:
             k = int(rng.integers(s.noise_pool_frames))
             dy, dx = (int(v) for v in rng.integers(self._pad + 1, size=2))
-            view = (k, slice(dy, dy + c.height_px), slice(dx, dx + c.width_px))
+            view = (k, slice(dy, dy + c.frame_height_px), slice(dx, dx + c.frame_width_px))
             cv2.add(frame, self._noise_up[view], dst=frame)
             cv2.subtract(frame, self._noise_down[view], dst=frame)
         if s.jpeg_quality > 0:

@@ -11,7 +11,9 @@ from ..core.frame import (
     REGION_HEIGHT,
     REGION_WIDTH,
     SAFE_BOX,
+    grid_fits,
     region_bounds,
+    safe_box,
     safe_box_slices,
 )
 
@@ -24,6 +26,8 @@ __all__ = [
     "REGION_HEIGHT",
     "REGION_WIDTH",
     "SAFE_BOX",
+    "grid_fits",
     "region_bounds",
+    "safe_box",
     "safe_box_slices",
 ]

@@ -27,9 +27,9 @@ from .grid import (
     FRAME_HEIGHT,
     FRAME_WIDTH,
     GRID_COLUMNS,
+    GRID_ROWS,
     N_REGIONS,
-    REGION_HEIGHT,
-    REGION_WIDTH,
+    grid_fits,
 )
 
 CHANNEL_NAMES = ("R", "G", "B", "H", "S")
@@ -47,12 +47,17 @@ def check_bins(bins: int) -> int:
 
 
 def check_frame(frame: np.ndarray) -> np.ndarray:
-    """Raise ``ValueError`` unless ``frame`` is an RGB uint8 (480, 640, 3) array."""
+    """Raise ``ValueError`` unless ``frame`` is an RGB uint8 (480, 640, 3) array, or an (H, W, 3)
+    one the 8 x 5 grid divides evenly (a camera with ``scale``: (240, 320, 3) at half size)."""
     if not isinstance(frame, np.ndarray) or frame.dtype != np.uint8:
         raise ValueError("frame must be a uint8 numpy array")
-    if frame.shape != (FRAME_HEIGHT, FRAME_WIDTH, 3):
+    if frame.shape != (FRAME_HEIGHT, FRAME_WIDTH, 3) and not (
+        frame.ndim == 3 and frame.shape[2] == 3 and grid_fits(frame.shape[1], frame.shape[0])
+    ):
         raise ValueError(
-            f"frame must have shape ({FRAME_HEIGHT}, {FRAME_WIDTH}, 3), got {frame.shape}"
+            f"frame must have shape ({FRAME_HEIGHT}, {FRAME_WIDTH}, 3) (or a smaller camera's"
+            f" (H, W, 3) with H a multiple of {GRID_ROWS} and W of {GRID_COLUMNS}),"
+            f" got {frame.shape}"
         )
     return frame
 
@@ -113,6 +118,10 @@ def patch_histograms(rgb: np.ndarray, bins: int) -> np.ndarray:
 class GridHistogrammer:
     """Computes the normalised histograms of all 40 regions of a frame at once.
 
+    Regions are an eighth of the frame's width and a fifth of its height (80 x 96 px of the
+    paper's 640 x 480 frame, 40 x 48 px of a half-size camera's); the buffers follow the size of
+    the frames given.
+
     One ``cv2.calcHist`` per region and channel, straight on views of the RGB frame and of its
     HSV conversion, letting OpenCV do the binning: nothing is copied, split or re-coded, and every
     call's arguments, including a view of the output array to write into, are built once.
@@ -131,18 +140,25 @@ class GridHistogrammer:
         if threads is not None and (isinstance(threads, bool) or threads not in (1, 2)):
             raise ValueError(f"threads must be 1, 2 or None, got {threads!r}")
         self._threads = threads
-        self._hsv = np.empty((FRAME_HEIGHT, FRAME_WIDTH, 3), dtype=np.uint8)
         self._out = np.empty((N_REGIONS, N_CHANNELS, self.bins), dtype=np.float32)
+        self._layout(FRAME_HEIGHT, FRAME_WIDTH)
+        self._executor: ThreadPoolExecutor | None = None
+
+    def _layout(self, height: int, width: int) -> None:
+        """Buffers and region views for frames of ``height`` x ``width`` (the grid keeps its 8 x
+        5 regions, each ``width / 8`` x ``height / 5`` px)."""
+        self._shape = (height, width, 3)
+        self._hsv = np.empty(self._shape, dtype=np.uint8)
+        region_h, region_w = height // GRID_ROWS, width // GRID_COLUMNS
         # Per region: its pixel rows and columns, its HSV block (the buffer is fixed, so the view
         # is built once), and the output view of each channel.
         self._regions = []
         for region in range(N_REGIONS):
             row, col = divmod(region, GRID_COLUMNS)
-            rows = slice(row * REGION_HEIGHT, (row + 1) * REGION_HEIGHT)
-            cols = slice(col * REGION_WIDTH, (col + 1) * REGION_WIDTH)
+            rows = slice(row * region_h, (row + 1) * region_h)
+            cols = slice(col * region_w, (col + 1) * region_w)
             outs = [self._out[region, c].reshape(self.bins, 1) for c in range(N_CHANNELS)]
             self._regions.append((rows, cols, [self._hsv[rows, cols]], outs))
-        self._executor: ThreadPoolExecutor | None = None
 
     def _count(self, frame: np.ndarray, first: int, stop: int) -> None:
         """Fill the output rows of regions ``first`` .. ``stop - 1``."""
@@ -170,6 +186,8 @@ class GridHistogrammer:
     def counts(self, frame: np.ndarray) -> np.ndarray:
         """Raw pixel counts per region, channel and bin, (40, 5, bins) float32."""
         check_frame(frame)
+        if frame.shape != self._shape:
+            self._layout(frame.shape[0], frame.shape[1])
         cv2.cvtColor(frame, cv2.COLOR_RGB2HSV, dst=self._hsv)
         if self._thread_count() > 1:
             if self._executor is None:

@@ -244,9 +244,11 @@ class RoadLibrary:
 
     # ----------------------------------------------------------------------------- histograms
     def safe_box_model(self, frame: np.ndarray) -> np.ndarray:
-        """Model of the safe box of an RGB uint8 (480, 640, 3) frame, (5, bins) float32."""
+        """Model of the safe box of an RGB uint8 (480, 640, 3) frame (or a smaller camera's: its
+        safe box is at the same place on the floor, :func:`~lfd_track.core.frame.safe_box`),
+        (5, bins) float32."""
         check_frame(frame)
-        rows, cols = safe_box_slices()
+        rows, cols = safe_box_slices(frame.shape[1], frame.shape[0])
         return patch_histograms(frame[rows, cols], self.bins)
 
     def region_histograms(self, frame: np.ndarray) -> np.ndarray:
@@ -325,7 +327,8 @@ class RoadLibrary:
     def road_values(self, frame: np.ndarray, *, update_statistics: bool = True) -> np.ndarray:
         """Algorithm 2: best similarity of each region to any stored model, (40,) float64.
 
-        ``frame``: RGB uint8 (480, 640, 3). Regions are 80 x 96 px, row-major from the top-left.
+        ``frame``: RGB uint8 (480, 640, 3). Regions are 80 x 96 px (an eighth of the width and a
+        fifth of the height of a smaller camera's frame), row-major from the top-left.
         Values lie in [-1, 1]; an empty library gives all zeros.
         """
         return self.road_values_from_histograms(

@@ -276,9 +276,11 @@ def test_from_dict_rejects_bad_data(frames, edit, match):
             RoadLibrary.from_dict(data)
 
 
-def test_frame_shape_checked():
+@pytest.mark.parametrize("shape", [(241, 320, 3), (240, 324, 3), (480, 640), (480, 640, 4)])
+def test_frame_shape_checked(shape):
+    # The 8 x 5 grid must divide the frame (a half-size camera's 240 x 320 does).
     with pytest.raises(ValueError, match="shape"):
-        RoadLibrary().road_values(np.zeros((240, 320, 3), np.uint8))
+        RoadLibrary().road_values(np.zeros(shape, np.uint8))
 
 
 @pytest.mark.parametrize(
