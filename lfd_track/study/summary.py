@@ -52,7 +52,7 @@ def human_commands(results: Mapping[str, Any]) -> int:
     return sum(int(d["cases"]) + library_only for d in results["demonstrations"])
 
 
-EFFORT_KEYS = ("corrections", "takeovers", "learning_drive_s", "autonomous_drive_s")
+EFFORT_KEYS = ("corrections", "takeovers", "learning_drive_s", "autonomous_drive_s", "put_backs")
 """Human-effort totals besides commands that a benchmark may report (``human_effort.total``)."""
 
 
@@ -465,10 +465,11 @@ def study_markdown(results: Mapping[str, Any]) -> str:
         "Human effort while learning, per repetition: commands the human gave (demonstration, "
         "corrections and interventions), times the human took control back, times the policy "
         "took control, simulated seconds the robot drove while learning and, of those, seconds "
-        "the policy drove:",
+        "the policy drove, and times the robot was put back on the felt by hand:",
         "",
-        "| condition | human commands | corrections | takeovers | driving (s) | policy driving (s) |",
-        "|---|---|---|---|---|---|",
+        "| condition | human commands | corrections | takeovers | driving (s) | policy driving (s) "
+        "| put-backs |",
+        "|---|---|---|---|---|---|---|",
     ]
     for c in results["conditions"]:
         commands = c["human_commands"]["per_repetition"]
