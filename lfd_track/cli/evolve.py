@@ -116,7 +116,24 @@ def run(args: argparse.Namespace) -> int:
         memory=memory,
         title=shown_path(Path(args.demo).name),
         note="" if demo.metadata["complete"] else " (an interrupted recording)",
+        frame_size=_recorded_frame_size(demo.metadata),
     )
+
+
+def _recorded_frame_size(metadata: dict[str, Any]) -> tuple[int, int]:
+    """(width, height) of the frames a recording was made with: its preset's camera for a
+    simulated one whose preset still loads, else the paper's 640 x 480."""
+    from ..core.frame import FRAME_HEIGHT, FRAME_WIDTH
+    from ..envs.presets import load_preset
+
+    preset = metadata.get("preset")
+    if metadata.get("kind") == "simulated" and isinstance(preset, str):
+        try:
+            camera = load_preset(preset).camera
+        except (OSError, ValueError, LfdTrackError):
+            return FRAME_WIDTH, FRAME_HEIGHT
+        return camera.frame_width_px, camera.frame_height_px
+    return FRAME_WIDTH, FRAME_HEIGHT
 
 
 def _learn(
@@ -129,6 +146,7 @@ def _learn(
     memory: MemoryConfig | None,
     title: str,
     note: str,
+    frame_size: tuple[int, int] = (640, 480),
 ) -> int:
     """Evolve on the cases, then write the controller and its fitness curve."""
     # Lazy: the drawing and progress-bar stack (OpenCV, tqdm) loads only when the command runs.
@@ -147,7 +165,12 @@ def _learn(
             progress=lambda g, best, mean: advance(bar, g, f"best fitness {best:.4f}"),
         )
     controller = Controller.from_evolution(
-        library, result, seed=args.seed, memory=memory, features=args.features
+        library,
+        result,
+        seed=args.seed,
+        memory=memory,
+        features=args.features,
+        frame_size=frame_size,
     )
     accuracy = training_accuracy(result.best_weights, inputs, commands)
     curves = [

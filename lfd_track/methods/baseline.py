@@ -54,6 +54,7 @@ def fit_after_demonstration(context: MethodContext, learner: BCConfig | CMAESCon
         memory=context.memory,
         features=context.features,
         policy_kind=context.policy_kind,
+        frame_size=context.frame_size,
     )
     return learned_offline(
         context,

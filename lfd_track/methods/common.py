@@ -88,6 +88,12 @@ class MethodContext:
         """Seconds one command is held (the preset's control period)."""
         return period_s(self.preset)
 
+    @property
+    def frame_size(self) -> tuple[int, int]:
+        """(width, height) [px] of the preset's camera frames, which the controller records."""
+        p = self.preset if isinstance(self.preset, Preset) else load_preset(self.preset)
+        return p.camera.frame_width_px, p.camera.frame_height_px
+
 
 @dataclass
 class Learned:

@@ -212,6 +212,7 @@ def learn(context: MethodContext) -> Learned:
             memory=context.memory,
             features=features,
             hidden=dagger.hidden,
+            frame_size=context.frame_size,
         )
 
     controller = fit(inputs[0], actions[0], np.random.default_rng(context.ga_seed))

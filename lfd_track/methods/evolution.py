@@ -139,6 +139,7 @@ def _controller(
         learner_config=settings,
         seed=context.ga_seed,
         fitness_history=[p.get("best_ever", p["best"]) for p in result.curve],
+        frame_size=context.frame_size,
     )
 
 

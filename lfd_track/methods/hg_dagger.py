@@ -111,7 +111,12 @@ def learn(context: MethodContext) -> Learned:
         all_x, all_a = np.concatenate(inputs), np.concatenate(actions)
         result = evolve(*training_set(context, all_x, all_a), ga, ga_rng)
         evolved = Controller.from_evolution(
-            library, result, seed=context.ga_seed, memory=context.memory, features=features
+            library,
+            result,
+            seed=context.ga_seed,
+            memory=context.memory,
+            features=features,
+            frame_size=context.frame_size,
         )
         controller = evolved.relabelled("hg-dagger", {**hg.to_dict(), "ga": ga.to_dict()})
         fitness_best += result.best_history.tolist()

@@ -131,7 +131,12 @@ def learn(context: MethodContext) -> Learned:
     env.close()
     result = ga_result(state, ga, feed.rng_state)
     evolved = Controller.from_evolution(
-        library, result, seed=context.ga_seed, memory=memory, features=features
+        library,
+        result,
+        seed=context.ga_seed,
+        memory=memory,
+        features=features,
+        frame_size=context.frame_size,
     )
     controller = evolved.relabelled("online", {**online.to_dict(), "ga": ga.to_dict()})
     counts = np.bincount(a, minlength=3)

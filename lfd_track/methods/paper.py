@@ -38,6 +38,7 @@ def learn(context: MethodContext) -> Learned:
         memory=context.memory,
         features=context.features,
         policy_kind=context.policy_kind,
+        frame_size=context.frame_size,
     )
     return learned_offline(
         context,

@@ -3,13 +3,16 @@
 ``act(frame)`` runs the paper's autonomous loop for one frame: road values (Algorithm 2) → MLP →
 the command with the largest output (an exact tie keeps the previous command).
 
-The file (schema 5) is one JSON object with the keys ``format``, ``schema_version``,
+The file (schema 6) is one JSON object with the keys ``format``, ``schema_version``,
 ``policy_kind`` (``"mlp-sigmoid"``: the 40-5-3 sigmoid network, or ``"elman-sigmoid"``),
 ``layer_sizes``, ``bias``, ``weights``, ``road_library``, ``learner`` (what trained it: ``"ga"``,
 ``"bc"``, ``"cma-es"``, ... or null), ``learner_config`` (the learner's settings as a JSON object,
 or null), ``seed``, ``fitness_history``, ``learn``, ``features`` (the per-region feature set's
 name, :mod:`lfd_track.policy.features`), ``memory`` (every memory setting,
-:meth:`~lfd_track.policy.memory_config.MemoryConfig.to_dict`, or null) and ``checksum``: the
+:meth:`~lfd_track.policy.memory_config.MemoryConfig.to_dict`, or null), ``frame_size`` (``[width,
+height]`` in pixels of the camera frames its library and network learned on: ``[640, 480]`` for
+the paper's camera, ``[320, 240]`` for the half-size one of ``[camera] scale = 0.5``) and
+``checksum``: the
 SHA-256 (hex) of the canonical JSON (sorted keys, no spaces, UTF-8) of every other key, so a
 changed digit anywhere is refused (unless the number still parses to the very same value, which
 changes nothing). ``layer_sizes`` is ``[f + m, h, 3]``: f per-region inputs (40 road values, 160
@@ -23,7 +26,8 @@ file of schema k into one of schema k + 1: schema 1 (the first release: ``ga_con
 2 (no memory) gains ``memory: null``; schema 3 (memory, road values) gains ``features:
 "road_values"``; schema 4's memory table, which left out each ``fresh_felt`` option that was
 off, becomes the full table with the same meaning
-(:func:`~lfd_track.policy.memory_config.memory_table_from_v1`). The checksum of a file of
+(:func:`~lfd_track.policy.memory_config.memory_table_from_v1`); schema 5 gains ``frame_size:
+[640, 480]`` (the only frame size before). The checksum of a file of
 schema 2 or later is checked before it is migrated.
 
 Policy kind ``"elman-sigmoid"`` (:mod:`lfd_track.policy.elman`) is an Elman network: its 5
@@ -33,6 +37,11 @@ previous hidden activations are 5 more inputs after all the others, so its ``lay
 A network with another hidden width than the paper's 5 (``hidden``, e.g. 40-20-3 fitted by
 backprop) says so in ``layer_sizes`` (``[40, 20, 3]``); older files load and drive as they did.
 An Elman network has the paper's 5 hidden nodes.
+
+Driving a controller on frames of another size than ``frame_size`` works (the 8 x 5 grid and
+the safe box cover the same floor at any size, so the inputs mean the same) but the road values
+differ a little: its perception prints one line naming both sizes on the first such frame
+(:class:`~lfd_track.teaching.perception.Perception`), once per process and pair of sizes.
 
 A policy does not import its trainer: the GA appears here only as a type for ``from_evolution``.
 """
@@ -47,6 +56,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..core.frame import FRAME_HEIGHT, FRAME_WIDTH, grid_fits
 from ..errors import FileFormatError
 from ..teaching.commanders import PolicyCommander
 from ..teaching.perception import Perception
@@ -103,6 +113,9 @@ class Controller:
             activations fed back: 5 more weights per hidden node, :mod:`lfd_track.policy.elman`).
         hidden: nodes of the hidden layer (the paper's 5; 1..1000), recorded in ``layer_sizes``
             (an Elman network has 5).
+        frame_size: (width, height) [px] of the camera frames the library and network learned
+            on (the paper's 640 x 480 by default; a camera's ``frame_width_px``,
+            ``frame_height_px``).
     """
 
     policy_kind = "mlp-sigmoid"
@@ -122,8 +135,10 @@ class Controller:
         features: str = DEFAULT_FEATURES,
         policy_kind: str = "mlp-sigmoid",
         hidden: int = N_HIDDEN,
+        frame_size: tuple[int, int] = (FRAME_WIDTH, FRAME_HEIGHT),
     ) -> None:
         _check_library(library)
+        frame_size = check_frame_size(frame_size)
         features = check_features(features)
         if policy_kind not in POLICY_KINDS:
             raise ValueError(
@@ -176,6 +191,7 @@ class Controller:
         self.features = features
         self.policy_kind = policy_kind
         self.hidden = hidden
+        self.frame_size = frame_size
         self._elman = (
             ElmanState(w, self.bias, n_inputs - context) if policy_kind == "elman-sigmoid" else None
         )
@@ -194,6 +210,7 @@ class Controller:
         memory: MemoryConfig | None = None,
         features: str = DEFAULT_FEATURES,
         policy_kind: str = "mlp-sigmoid",
+        frame_size: tuple[int, int] = (FRAME_WIDTH, FRAME_HEIGHT),
     ) -> Controller:
         """Controller from an :func:`~lfd_track.learning.ga.evolve` result.
 
@@ -218,6 +235,7 @@ class Controller:
             memory=memory,
             features=features,
             policy_kind=policy_kind,
+            frame_size=frame_size,
         )
 
     def relabelled(self, learner: str, learner_config: Mapping[str, Any] | None) -> Controller:
@@ -237,6 +255,7 @@ class Controller:
             features=self.features,
             policy_kind=self.policy_kind,
             hidden=self.hidden,
+            frame_size=self.frame_size,
         )
 
     @property
@@ -254,7 +273,9 @@ class Controller:
         ``always`` if it learns, else ``frozen``), its features and its memory inputs."""
         if rule is None:
             rule = "always" if self.learn else "frozen"
-        return Perception(self.library, rule, self.memory, self.features)
+        return Perception(
+            self.library, rule, self.memory, self.features, expected_frame_size=self.frame_size
+        )
 
     def reset(self) -> None:
         """Forget the previous command and the memory (start of an episode)."""
@@ -336,6 +357,7 @@ class Controller:
             "learn": self.learn,
             "features": self.features,
             "memory": None if self.memory is None else self.memory.to_dict(),
+            "frame_size": list(self.frame_size),
         }
         contents["checksum"] = checksum(contents)
         return contents
@@ -449,6 +471,10 @@ class Controller:
         learn = data["learn"]
         if not isinstance(learn, bool):
             raise ValueError("'learn' must be true or false")
+        size = data["frame_size"]
+        if not (isinstance(size, list) and len(size) == 2):
+            raise ValueError("'frame_size' must be [width, height] in pixels")
+        frame_size = check_frame_size((size[0], size[1]))
         return cls(
             library,
             np.asarray(weights, dtype=np.float64),
@@ -462,7 +488,24 @@ class Controller:
             features=features,
             policy_kind=kind,
             hidden=hidden,
+            frame_size=frame_size,
         )
+
+
+def check_frame_size(size: Any) -> tuple[int, int]:
+    """``size`` as (width, height) [px], or ``ValueError`` unless both are integers and the 8 x 5
+    region grid divides the frame."""
+    if (
+        not isinstance(size, tuple)
+        or len(size) != 2
+        or not all(isinstance(v, int | np.integer) and not isinstance(v, bool) for v in size)
+        or not grid_fits(int(size[0]), int(size[1]))
+    ):
+        raise ValueError(
+            f"frame_size must be (width, height) in pixels that the 8 x 5 grid divides,"
+            f" got {size!r}"
+        )
+    return int(size[0]), int(size[1])
 
 
 def _check_library(library: Any) -> None:

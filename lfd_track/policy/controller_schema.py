@@ -16,7 +16,7 @@ from typing import Any
 from .features import DEFAULT_FEATURES
 from .memory_config import memory_table_from_v1
 
-CONTROLLER_SCHEMA = 5
+CONTROLLER_SCHEMA = 6
 """Schema every controller file is written in (older ones are migrated on reading)."""
 _KEYS_V2 = (
     "format",
@@ -52,6 +52,7 @@ SCHEMA_KEYS: dict[int, tuple[str, ...]] = {
     3: (*_KEYS_V2[:-1], "memory", "checksum"),
     4: (*_KEYS_V2[:-1], "features", "memory", "checksum"),
     5: (*_KEYS_V2[:-1], "features", "memory", "checksum"),
+    6: (*_KEYS_V2[:-1], "features", "memory", "frame_size", "checksum"),
 }
 
 
@@ -78,6 +79,11 @@ def _from_schema4(data: dict[str, Any]) -> dict[str, Any]:
     return {**data, "memory": None if memory is None else memory_table_from_v1(memory)}
 
 
+def _from_schema5(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 5 -> 6: the frames it learned on were the paper's 640 x 480 (the only size then)."""
+    return {**data, "frame_size": [640, 480]}
+
+
 #: One migration per schema step: ``MIGRATIONS[k]`` turns the contents of a schema-k file into
 #: those of a schema k + 1 file meaning the same controller.
 MIGRATIONS: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {
@@ -85,6 +91,7 @@ MIGRATIONS: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {
     2: _from_schema2,
     3: _from_schema3,
     4: _from_schema4,
+    5: _from_schema5,
 }
 
 

@@ -19,6 +19,7 @@ only :meth:`Perception.perceive`, the loop's learn step, does.
 from __future__ import annotations
 
 import copy
+import sys
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -28,6 +29,19 @@ from ..core.commands import Command
 from ..policy.features import DEFAULT_FEATURES, check_features, colour_features
 from ..policy.memory import MemoryConfig, NoMemory, memory_for, policy_inputs
 from ..vision.road_library import RoadLibrary
+
+#: Pairs of (learned, seen) frame sizes already reported in this process (one line each).
+_SIZES_REPORTED: set[tuple[tuple[int, int], tuple[int, int]]] = set()
+
+
+def frame_size_note(learned: tuple[int, int], seen: tuple[int, int]) -> str:
+    """The one line that says a controller drives on frames of another size than it learned on."""
+    return (
+        f"lfd-track: note: this controller learned on {learned[0]} x {learned[1]} frames and"
+        f" drives on {seen[0]} x {seen[1]} ones (the same view and grid; its road values differ"
+        " a little from those it learned on)"
+    )
+
 
 LEARNING_RULES = ("careful", "paused", "frozen", "always")
 
@@ -69,7 +83,12 @@ class Percept:
 class Perception:
     """A road library plus its learning rule (one of :data:`LEARNING_RULES`), the memory
     inputs ``memory`` asks for (none by default) and the per-region ``features``
-    (:data:`~lfd_track.policy.features.FEATURE_SETS`; the road values by default)."""
+    (:data:`~lfd_track.policy.features.FEATURE_SETS`; the road values by default).
+
+    ``expected_frame_size`` (width, height) [px]: the frames a controller learned on; the first
+    frame of another size prints :func:`frame_size_note` to stderr (once per process and pair of
+    sizes) and driving goes on. None: any size, silently.
+    """
 
     def __init__(
         self,
@@ -77,8 +96,15 @@ class Perception:
         rule: str = "careful",
         memory: MemoryConfig | None = None,
         features: str = DEFAULT_FEATURES,
+        *,
+        expected_frame_size: tuple[int, int] | None = None,
     ) -> None:
         self.library = library
+        self._expected_shape = (
+            None
+            if expected_frame_size is None
+            else (int(expected_frame_size[1]), int(expected_frame_size[0]), 3)
+        )
         self.rule = rule
         self.memory_config = memory or NoMemory()
         self.features = check_features(features)
@@ -129,6 +155,8 @@ class Perception:
 
         ``frame``: RGB uint8 (480, 640, 3). Selections are counted unless the rule is ``frozen``.
         """
+        if self._expected_shape is not None and frame.shape != self._expected_shape:
+            self._report_size(frame)
         learn = self.would_learn(box_on_felt)
         if learn:
             self.library.learn(frame)
@@ -144,6 +172,14 @@ class Perception:
             self._memory.see(values)
             memory = self._memory.inputs()
         return self._percept(values, histograms, learn, box_on_felt, memory)
+
+    def _report_size(self, frame: np.ndarray) -> None:
+        assert self._expected_shape is not None
+        learned = (self._expected_shape[1], self._expected_shape[0])
+        seen = (int(frame.shape[1]), int(frame.shape[0])) if frame.ndim >= 2 else (0, 0)
+        if (learned, seen) not in _SIZES_REPORTED:
+            _SIZES_REPORTED.add((learned, seen))
+            print(frame_size_note(learned, seen), file=sys.stderr)
 
     def view(self, frame: np.ndarray, before: Command | int) -> Percept:
         """The last perceived frame's percept as seen from another pose: the one ``before``
