@@ -122,14 +122,15 @@ class GridHistogrammer:
     paper's 640 x 480 frame, 40 x 48 px of a half-size camera's); the buffers follow the size of
     the frames given.
 
-    One ``cv2.calcHist`` per region and channel, straight on views of the RGB frame and of its
+    Of a 640 x 480 frame: one ``cv2.calcHist`` per region and channel, straight on views of the RGB frame and of its
     HSV conversion, letting OpenCV do the binning: nothing is copied, split or re-coded, and every
     call's arguments, including a view of the output array to write into, are built once.
     Measured against packing several regions into one call through bin-index codes, this was
     faster at every bin count: raw 8-bit values are spread over many counters, whereas bin codes
     of a near-uniform region hit the same counter back to back and stall on that dependency.
 
-    With ``threads`` = 2 a worker thread counts half of the regions (OpenCV releases the GIL);
+    With ``threads`` = 2 a worker thread counts half of the regions (OpenCV releases the GIL) of
+    a 640 x 480 frame (a smaller frame is counted in one thread, by one joint call per channel);
     None follows ``cv2.getNumThreads()``, so a process that pins OpenCV to one thread stays
     single-threaded here too. The HSV and output buffers are reused, so one instance must not be
     used from two threads at once.
@@ -159,6 +160,15 @@ class GridHistogrammer:
             cols = slice(col * region_w, (col + 1) * region_w)
             outs = [self._out[region, c].reshape(self.bins, 1) for c in range(N_CHANNELS)]
             self._regions.append((rows, cols, [self._hsv[rows, cols]], outs))
+        # Frames smaller than the paper's (a camera with ``scale``) are counted by one joint call
+        # per channel over a region-label image: with regions of a quarter of the pixels the
+        # cost of 200 calls outweighs the counting (measured: 0.6 against 0.9 ms at 320 x 240;
+        # at 640 x 480 the per-region calls stay faster, 1.9 against 2.4 ms).
+        self._labels: np.ndarray | None = None
+        if height * width < FRAME_HEIGHT * FRAME_WIDTH:
+            rows = np.arange(height) // region_h
+            cols = np.arange(width) // region_w
+            self._labels = (rows[:, None] * GRID_COLUMNS + cols[None, :]).astype(np.uint8)
 
     def _count(self, frame: np.ndarray, first: int, stop: int) -> None:
         """Fill the output rows of regions ``first`` .. ``stop - 1``."""
@@ -178,6 +188,23 @@ class GridHistogrammer:
         if result is not hist and not np.shares_memory(result, hist):
             hist[...] = result  # OpenCV allocated its own output after all
 
+    def _count_joint(self, frame: np.ndarray) -> None:
+        """Fill every region's counts with one joint ``cv2.calcHist`` per channel: (region label,
+        channel value), 40 x bins. The label's bins are the labels themselves and the value's the
+        same arithmetic as one call per region, so the counts are the same numbers."""
+        assert self._labels is not None
+        size = [N_REGIONS, self.bins]
+        for c in range(N_CHANNELS):
+            image = frame if c < 3 else self._hsv
+            result = cv2.calcHist(
+                [self._labels, image],
+                [0, 1 + (c if c < 3 else c - 3)],
+                None,
+                size,
+                [0, N_REGIONS, 0, CHANNEL_UPPER[c]],
+            )
+            self._out[:, c] = result
+
     def _thread_count(self) -> int:
         if self._threads is not None:
             return self._threads
@@ -189,7 +216,9 @@ class GridHistogrammer:
         if frame.shape != self._shape:
             self._layout(frame.shape[0], frame.shape[1])
         cv2.cvtColor(frame, cv2.COLOR_RGB2HSV, dst=self._hsv)
-        if self._thread_count() > 1:
+        if self._labels is not None:
+            self._count_joint(frame)
+        elif self._thread_count() > 1:
             if self._executor is None:
                 self._executor = ThreadPoolExecutor(1, thread_name_prefix="grid-histogram")
                 weakref.finalize(self, self._executor.shutdown, wait=False)

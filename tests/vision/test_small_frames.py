@@ -1,0 +1,50 @@
+"""Region histograms and road values of frames smaller than the paper's (a camera with scale)."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from lfd_track.vision.grid import region_bounds
+from lfd_track.vision.histograms import CHANNEL_UPPER, GridHistogrammer, split_channels
+from lfd_track.vision.road_library import RoadLibrary
+
+
+def _reference_counts(frame: np.ndarray, bins: int) -> np.ndarray:
+    """One cv2.calcHist per region and channel, as the paper's code would."""
+    height, width = frame.shape[:2]
+    out = np.empty((40, 5, bins), np.float32)
+    for region in range(40):
+        x0, y0, x1, y1 = region_bounds(region, width, height)
+        planes = split_channels(np.ascontiguousarray(frame[y0:y1, x0:x1]))
+        for c, plane in enumerate(planes):
+            out[region, c] = cv2.calcHist([plane], [0], None, [bins], [0, CHANNEL_UPPER[c]]).ravel()
+    return out
+
+
+@pytest.mark.parametrize(("height", "width"), [(240, 320), (120, 160), (480, 640)])
+@pytest.mark.parametrize("bins", [16, 32, 256])
+def test_counts_are_those_of_one_call_per_region(height, width, bins):
+    frame = np.random.default_rng(bins).integers(0, 256, (height, width, 3), dtype=np.uint8)
+    grid = GridHistogrammer(bins, threads=1)
+    np.testing.assert_array_equal(grid.counts(frame), _reference_counts(frame, bins))
+
+
+def test_one_histogrammer_follows_the_frame_size():
+    rng = np.random.default_rng(0)
+    grid = GridHistogrammer(32)
+    for shape in [(480, 640, 3), (240, 320, 3), (480, 640, 3)]:
+        frame = rng.integers(0, 256, shape, dtype=np.uint8)
+        np.testing.assert_array_equal(grid.counts(frame), _reference_counts(frame, 32))
+
+
+def test_a_library_learns_from_the_safe_box_of_a_half_frame():
+    frame = np.zeros((240, 320, 3), np.uint8)
+    frame[215:240, 147:172] = (118, 176, 214)  # the half frame's safe box, felt blue
+    library = RoadLibrary()
+    library.learn(frame)
+    values = library.road_values(frame, update_statistics=False)
+    assert values.shape == (40,)
+    # Only the bottom-centre regions hold the felt; their best similarity is the highest.
+    assert values.argmax() in (35, 36)
