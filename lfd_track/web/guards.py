@@ -235,6 +235,7 @@ class Connection(asyncio.Protocol):
         self._deadline: asyncio.TimerHandle | None = None
         self._stalled: asyncio.TimerHandle | None = None
         self._lost = self._loop.create_future()
+        self._head_tail = b""  # the last bytes of a request's head read so far (see data_received)
         # Reading: paused while the protocol asked for it, input waits, or the server closed.
         self._inner_paused = False
         self._reading_paused = False
@@ -268,6 +269,14 @@ class Connection(asyncio.Protocol):
         if self.inner is None or self._closing:
             return  # refused, or closed by the server: what the peer still sends is not read
         if self._frames is None:
+            if self in self._guard.waiting:
+                # A connection whose request head has come in owes nothing more: it is no longer
+                # the idle one to make room for a new connection, even before the app has seen it
+                # (under load that takes turns of the event loop in which a flood is accepted).
+                seen = self._head_tail + data
+                if b"\r\n\r\n" in seen:
+                    self._stop_waiting()
+                self._head_tail = seen[-3:]
             self.inner.data_received(data)
             return
         self._unparsed += data
@@ -373,6 +382,7 @@ class Connection(asyncio.Protocol):
 
     def _await_request(self) -> None:
         self._stop_waiting()
+        self._head_tail = b""
         self._deadline = self._loop.call_later(self._guard.header_timeout_s, self.drop)
         self._guard.waiting[self] = None
 

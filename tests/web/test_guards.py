@@ -165,3 +165,62 @@ def test_the_header_deadline_holds_for_requests_not_for_an_open_websocket(slow_s
     finally:
         ws.close()
         http.close()
+
+
+class _Transport(asyncio.Transport):
+    """A socket's transport as far as admission and eviction look at it."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.closed = False
+
+    def get_extra_info(self, name: str, default: Any = None) -> Any:
+        return default
+
+    def write(self, data: Any) -> None:
+        pass
+
+    def close(self) -> None:
+        self.closed = True
+
+    def abort(self) -> None:
+        self.closed = True
+
+    def is_closing(self) -> bool:
+        return self.closed
+
+    def get_write_buffer_size(self) -> int:
+        return 0
+
+    def pause_reading(self) -> None:
+        pass
+
+    def resume_reading(self) -> None:
+        pass
+
+
+class _Protocol(asyncio.Protocol):
+    """uvicorn's HTTP protocol as far as the guard drives it: it has not called the app yet."""
+
+    def data_received(self, data: bytes) -> None:
+        pass
+
+
+def test_a_connection_whose_request_came_in_is_not_evicted_before_the_app_sees_it() -> None:
+    """At the limit, a new connection takes the place of the oldest one still owing its request:
+    one whose request head has been read is not that one, even while the app has not been
+    called yet (under load, turns of the event loop in which a flood is accepted)."""
+
+    async def admit_three() -> list[_Transport]:
+        guard = guards.Guard(limit=2, header_timeout_s=60.0)
+        transports = [_Transport() for _ in range(3)]
+        first = guards.Connection(_Protocol, guard)
+        first.connection_made(transports[0])
+        first.data_received(b"GET /api/status HTTP/1.1\r\n")  # the head, split across reads
+        first.data_received(b"Host: 127.0.0.1\r\n\r\n")
+        for transport in transports[1:]:  # an idle one, then one over the limit
+            guards.Connection(_Protocol, guard).connection_made(transport)
+        return transports
+
+    answered, idle, newest = asyncio.run(admit_three())
+    assert not answered.closed and idle.closed and not newest.closed
