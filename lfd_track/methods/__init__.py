@@ -120,9 +120,7 @@ register_method(
         DirectConfig,
         summary="no teacher: the GA evolves the network on progress along the track, every drive"
         " from the start; see --direct-generations",
-        flags=MethodFlags(
-            evolution.add_direct_flags, evolution.direct_flags_given, evolution.direct_from_flags
-        ),
+        flags=evolution.DIRECT_FLAGS.method_flags(),
     )
 )
 register_method(
@@ -132,11 +130,7 @@ register_method(
         MuPlusOneConfig,
         summary="no teacher: (mu+1)-ONLINE evolves on board one robot never reset, put back by"
         " hand when it leaves the felt; see --mu-plus-one-evaluations",
-        flags=MethodFlags(
-            evolution.add_mu_plus_one_flags,
-            evolution.mu_plus_one_flags_given,
-            evolution.mu_plus_one_from_flags,
-        ),
+        flags=evolution.MU_PLUS_ONE_FLAGS.method_flags(),
     )
 )
 

@@ -27,6 +27,7 @@ Its ``training_accuracy`` is the share of the demonstration's cases whose comman
 from __future__ import annotations
 
 import argparse
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -43,6 +44,7 @@ from ..policy.features import DEFAULT_FEATURES
 from ..teaching.loop import LoopCounts
 from .common import Learned, MethodContext, demonstrate, demonstration_record, effort_record
 from .offline import accuracy
+from .registry import MethodFlags
 
 MAX_FLAG_GENERATIONS = 1_000_000
 MAX_FLAG_EVALUATIONS = 10_000_000
@@ -176,56 +178,58 @@ def _learned(
 
 
 # ------------------------------------------------------------------- command-line flags
-def add_direct_flags(parser: argparse.ArgumentParser) -> None:
-    """The ``direct`` flags of ``lfd-track benchmark``."""
-    from ..cli.types import whole_number_in
+@dataclass(frozen=True)
+class CountFlag:
+    """A method's one whole-number flag (``1..high``) of ``lfd-track benchmark``, setting
+    ``field`` of its ``settings`` class (the class's defaults when not given). Its bound methods
+    are the entry's :class:`MethodFlags` (picklable: a worker process is given the entry)."""
 
-    parser.add_argument(
-        "--direct-generations",
-        type=whole_number_in(1, MAX_FLAG_GENERATIONS),
-        default=None,
-        metavar="N",
-        help="with --method direct: generations at most (default: 25; the run also stops at its"
-        " robot-time budget, 4000 s)",
-    )
+    flag: str
+    field: str
+    settings: type[Any]
+    high: int
+    help: str
 
+    @property
+    def dest(self) -> str:
+        return self.flag.lstrip("-").replace("-", "_")
 
-def direct_flags_given(args: argparse.Namespace) -> list[str]:
-    """The ``direct`` flags given on the command line."""
-    return ["--direct-generations"] if args.direct_generations is not None else []
+    def add(self, parser: argparse.ArgumentParser) -> None:
+        from ..cli.types import whole_number_in
 
+        parser.add_argument(
+            self.flag, type=whole_number_in(1, self.high), default=None, metavar="N", help=self.help
+        )
 
-def direct_from_flags(args: argparse.Namespace) -> DirectConfig:
-    """The ``direct`` settings of the command line's flags."""
-    if args.direct_generations is None:
-        return DirectConfig()
-    return DirectConfig(generations=args.direct_generations)
+    def given(self, args: argparse.Namespace) -> list[str]:
+        return [self.flag] if getattr(args, self.dest) is not None else []
 
+    def from_flags(self, args: argparse.Namespace) -> Any:
+        value = getattr(args, self.dest)
+        return self.settings() if value is None else self.settings(**{self.field: value})
 
-def add_mu_plus_one_flags(parser: argparse.ArgumentParser) -> None:
-    """The ``mu-plus-one`` flags of ``lfd-track benchmark``."""
-    from ..cli.types import whole_number_in
-
-    parser.add_argument(
-        "--mu-plus-one-evaluations",
-        type=whole_number_in(1, MAX_FLAG_EVALUATIONS),
-        default=None,
-        metavar="N",
-        help="with --method mu-plus-one: evaluations at most, the first μ included (default:"
-        " 500; the run also stops at its robot-time budget, 4000 s)",
-    )
+    def method_flags(self) -> MethodFlags:
+        return MethodFlags(self.add, self.given, self.from_flags)
 
 
-def mu_plus_one_flags_given(args: argparse.Namespace) -> list[str]:
-    """The ``mu-plus-one`` flags given on the command line."""
-    return ["--mu-plus-one-evaluations"] if args.mu_plus_one_evaluations is not None else []
-
-
-def mu_plus_one_from_flags(args: argparse.Namespace) -> MuPlusOneConfig:
-    """The ``mu-plus-one`` settings of the command line's flags."""
-    if args.mu_plus_one_evaluations is None:
-        return MuPlusOneConfig()
-    return MuPlusOneConfig(evaluations=args.mu_plus_one_evaluations)
+DIRECT_FLAGS = CountFlag(
+    "--direct-generations",
+    "generations",
+    DirectConfig,
+    MAX_FLAG_GENERATIONS,
+    "with --method direct: generations at most (default: 25; the run also stops at its"
+    " robot-time budget, 4000 s)",
+)
+"""``--direct-generations N``."""
+MU_PLUS_ONE_FLAGS = CountFlag(
+    "--mu-plus-one-evaluations",
+    "evaluations",
+    MuPlusOneConfig,
+    MAX_FLAG_EVALUATIONS,
+    "with --method mu-plus-one: evaluations at most, the first μ included (default: 500; the"
+    " run also stops at its robot-time budget, 4000 s)",
+)
+"""``--mu-plus-one-evaluations N``."""
 
 
 def learn_evolved(

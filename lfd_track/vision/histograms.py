@@ -166,9 +166,9 @@ class GridHistogrammer:
         # at 640 x 480 the per-region calls stay faster, 1.9 against 2.4 ms).
         self._labels: np.ndarray | None = None
         if height * width < FRAME_HEIGHT * FRAME_WIDTH:
-            rows = np.arange(height) // region_h
-            cols = np.arange(width) // region_w
-            self._labels = (rows[:, None] * GRID_COLUMNS + cols[None, :]).astype(np.uint8)
+            row_of = np.arange(height) // region_h
+            col_of = np.arange(width) // region_w
+            self._labels = (row_of[:, None] * GRID_COLUMNS + col_of[None, :]).astype(np.uint8)
 
     def _count(self, frame: np.ndarray, first: int, stop: int) -> None:
         """Fill the output rows of regions ``first`` .. ``stop - 1``."""
