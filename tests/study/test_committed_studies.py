@@ -24,7 +24,7 @@ PLANNED = [str(p.relative_to(REPO)) for p in _TOML if p.parent.name == "planned"
 
 
 def test_every_committed_study_is_found():
-    assert len(STUDIES) == 48
+    assert len(STUDIES) == 49
 
 
 @pytest.mark.parametrize("study_file", PLANNED)
@@ -63,6 +63,8 @@ def test_every_committed_study_keeps_its_memory_and_human_settings(monkeypatch):
         study = load_study(study_file, check_names=False)
         for condition in study.conditions:
             key = f"{study.name}/{condition.name}"
+            if key not in _V1["conditions"]:
+                continue  # a study written after schema 2 (nothing older to keep)
             memory_index, human_index = _V1["conditions"][key]
             old = _V1["memory"][memory_index]
             memory = condition.config.memory
