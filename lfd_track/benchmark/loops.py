@@ -19,7 +19,7 @@ repeat of one (``trials_per_direction`` applies to the named test tracks only).
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -63,6 +63,21 @@ def loop_draws(trial_seed: int, split: str) -> Iterator[tuple[str, tuple[int, in
             continue
         seen.add(index)
         yield loop_name(split, index), worlds
+
+
+def merged_record(records: Iterable[tuple[int, Mapping[str, Any]]]) -> dict[str, Any] | None:
+    """One run's draw record from its repetitions' ``(index, record)`` pairs (the records
+    :func:`~lfd_track.benchmark.runner.run_loop_trials` returns): loops drawn, summed, and every
+    excluded loop tagged with its repetition; None when no repetition drew any."""
+    drew = [(index, record) for index, record in records if record]
+    if not drew:
+        return None
+    return {
+        "drawn": sum(int(record["drawn"]) for _, record in drew),
+        "excluded": [
+            dict(e, repetition=index) for index, record in drew for e in record.get("excluded", [])
+        ],
+    }
 
 
 def teacher_lap(env: LfDTrackEnv, world_seed: int) -> dict[str, Any]:
@@ -113,7 +128,7 @@ def random_loop_results(
     """The ``random_loops`` section of results.json from the trial outcomes on procedural loops
     (and the repetitions' draw ``record``: drawn and excluded loops): laps and successes pooled,
     per direction, by sharpest-turn bin and by strip-width bin, and the teacher's exclusions."""
-    outcomes = [o for o in outcomes if is_random_loop(o.track)]
+    outcomes = [o for o in outcomes if is_drawn_loop(o.track)]
     facts = {name: loop_facts(name) for name in sorted({o.track for o in outcomes})}
     section: dict[str, Any] = {
         "loops": len(facts),
@@ -133,6 +148,7 @@ def random_loop_results(
     return section
 
 
-def is_random_loop(track: str) -> bool:
-    """Whether ``track`` names one procedural loop (``random:<split>:<index>``)."""
-    return is_loop_name(track)
+def is_drawn_loop(track: str, test_tracks: Collection[str] = ()) -> bool:
+    """Whether ``track`` is a procedural loop a repetition drew: a ``random:<split>:<index>``
+    name not among the run's named ``test_tracks`` (those are scored as tracks)."""
+    return track not in test_tracks and is_loop_name(track)

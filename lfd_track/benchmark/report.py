@@ -24,6 +24,7 @@ from ..viz.plots import (
 from ..world.episode import EpisodeTracker
 from ..world.loops import TURN_BIN_LABELS, WIDTH_BIN_LABELS
 from ..world.track import load_track
+from .loops import merged_record
 from .paper import DIRECTION_TITLES
 from .paper import DIRECTIONS as TABLE_DIRECTIONS
 from .runner import DIRECTIONS, BenchmarkConfig, RepetitionResult, config_dict
@@ -293,19 +294,7 @@ def write_benchmark_outputs(
         "learning_sum": sum(r.timing_s["learning"] for r in reps),
         "trials_sum": sum(r.timing_s["trials"] for r in reps),
     }
-    draws = [r.random_loops for r in reps if r.random_loops]
-    loop_record = (
-        {
-            "drawn": sum(d["drawn"] for d in draws),
-            "excluded": [
-                dict(e, repetition=r.index)
-                for r in reps
-                for e in r.random_loops.get("excluded", [])
-            ],
-        }
-        if draws
-        else None
-    )
+    loop_record = merged_record((r.index, r.random_loops) for r in reps)
     results = build_results(
         outcomes,
         repetitions=config.repetitions,

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from ..utils.atomic import atomic_write_text
-from .loops import is_random_loop, random_loop_results
+from .loops import is_drawn_loop, random_loop_results
 from .paper import (
     CORNER_ORDER,
     DIRECTION_TITLES,
@@ -255,11 +255,11 @@ def build_results(
         section["success_rate"] = _rate(successes, total)
         results[track_key] = section
     extra = sorted({t.track for t in outcomes} - set(TRACK_RESULT_KEYS))
-    named = [name for name in extra if name in test_tracks or not is_random_loop(name)]
+    named = [name for name in extra if not is_drawn_loop(name, test_tracks)]
     if named:
         results["test_tracks"] = {name: _loop_results(name, outcomes) for name in named}
     if len(named) < len(extra) or random_loops:
-        drawn = [t for t in outcomes if t.track not in named and is_random_loop(t.track)]
+        drawn = [t for t in outcomes if is_drawn_loop(t.track, test_tracks)]
         results["random_loops"] = random_loop_results(drawn, random_loops)
     results["paper"] = paper_results()
     results["timing_s"] = dict(timing_s)

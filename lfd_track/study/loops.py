@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ..benchmark.loops import is_random_loop, loop_facts
+from ..benchmark.loops import is_drawn_loop, loop_facts
 from ..world.loops import TURN_BIN_LABELS, WIDTH_BIN_LABELS, turn_bin, width_bin
 from .spec import Job
 from .stats import controller_interval, rate_summary
@@ -29,7 +29,7 @@ def random_loops_summary(
         (job.seed, o)
         for job, r in jobs
         for o in r["outcomes"]
-        if o["track"] not in test_tracks and is_random_loop(str(o["track"]))
+        if is_drawn_loop(str(o["track"]), test_tracks)
     ]
     if not laps:
         return None

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from ..benchmark.loops import is_random_loop
+from ..benchmark.loops import is_drawn_loop
 from ..benchmark.paper import TRACK_RESULT_KEYS
 from ..benchmark.runner import config_dict, trial_directions
 from ..benchmark.tables import MAX_COUNT, TrialOutcome, results_json_text
@@ -154,8 +154,8 @@ def _check_trials(
     loop_laps = [0] * repetitions
     for index, o in enumerate(outcomes):
         track, direction = o["track"], o["direction"]
-        if track not in test_tracks and is_random_loop(
-            str(track)
+        if is_drawn_loop(
+            str(track), test_tracks
         ):  # drawn per repetition: once each way, counted below
             trial = (track, direction, o["repetition"], o["trial"])
             if o["trial"] != 0 or trial in seen:
@@ -266,9 +266,7 @@ def condition_summary(
     condition = next(c for c in study.conditions if c.name == name)
     outcomes = [o for _, r in jobs for o in r["outcomes"]]
     named = condition.config.test_tracks
-    tracks = _track_counts(
-        [o for o in outcomes if o["track"] in named or not is_random_loop(str(o["track"]))]
-    )
+    tracks = _track_counts([o for o in outcomes if not is_drawn_loop(str(o["track"]), named)])
     unseen = sorted(t for t in tracks if t not in PAPER_TRACKS)
 
     def rate(track_names: Sequence[str]) -> dict[str, Any]:

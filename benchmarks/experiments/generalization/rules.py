@@ -32,6 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from lfd_track.benchmark.config import BenchmarkConfig
+from lfd_track.benchmark.loops import merged_record
 from lfd_track.benchmark.runner import (
     repetition_seeds,
     repetition_streams,
@@ -143,10 +144,7 @@ def main() -> None:
         for seed in study.seeds:
             mine = [d for d in done if d["seed"] == seed]
             outcomes = [o for d in mine for o in d["rules"][rule]["outcomes"]]
-            record = {
-                "drawn": sum(d["rules"][rule]["record"]["drawn"] for d in mine),
-                "excluded": [e for d in mine for e in d["rules"][rule]["record"]["excluded"]],
-            }
+            record = merged_record((d["repetition"], d["rules"][rule]["record"]) for d in mine)
             results = build_results(
                 outcomes,
                 repetitions=study.repetitions,
