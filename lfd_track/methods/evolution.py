@@ -27,6 +27,7 @@ Its ``training_accuracy`` is the share of the demonstration's cases whose comman
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -61,70 +62,71 @@ def _check_context(context: MethodContext, name: str) -> None:
         raise ValueError(f"method '{name}' learns from no cases: mirror does not apply")
 
 
-def learn_direct(context: MethodContext) -> Learned:
-    """Direct evolution on ``context.track`` with ``context.settings`` (:class:`DirectConfig`),
-    seeded by ``context.ga_seed``; the library from the repetition's demonstration."""
-    config: DirectConfig = context.settings
-    _check_context(context, "direct")
+def _evolve(
+    context: MethodContext,
+    name: str,
+    evolve: Callable[..., DirectResult | OnlineResult],
+    record: Callable[[Any], dict[str, Any]],
+    best_key: str,
+) -> Learned:
+    """Demonstrate (the library), evolve with ``evolve`` on ``context.track``, and record the run
+    (``record(result)`` in the demonstration record's ``evolution``; the curve's ``best_key``
+    as the best fitness)."""
+    config = context.settings
+    _check_context(context, name)
     summary, demo, library, _ = demonstrate(context)
-    result = direct_evolution(
-        library, config, context.ga_seed, track=context.track, preset=context.preset
-    )
-    controller = _controller(context, "direct", config.to_dict(), library, result)
-    evolution = {
-        "generations": result.generations,
-        "evaluations": result.evaluations,
-        "world_seeds": result.world_seeds,
-        "best_progress_m": result.best_fitness,
-        "robot_s": result.robot_s,
-        "steps": result.steps,
-    }
+    result = evolve(library, config, context.ga_seed, track=context.track, preset=context.preset)
+    controller = _controller(context, name, config.to_dict(), library, result)
     return _learned(
         context,
         summary,
         demo,
         controller,
         result,
-        evolution,
-        best=[p["best_ever"] for p in result.curve],
+        record(result),
+        best=[p[best_key] for p in result.curve],
         mean=[p["mean"] for p in result.curve],
-        put_backs=0,
+        # Direct evolution drives every evaluation from the start: no hand puts the robot back.
+        put_backs=result.put_backs if isinstance(result, OnlineResult) else 0,
     )
+
+
+def learn_direct(context: MethodContext) -> Learned:
+    """Direct evolution on ``context.track`` with ``context.settings`` (:class:`DirectConfig`),
+    seeded by ``context.ga_seed``; the library from the repetition's demonstration."""
+
+    def record(result: DirectResult) -> dict[str, Any]:
+        return {
+            "generations": result.generations,
+            "evaluations": result.evaluations,
+            "world_seeds": result.world_seeds,
+            "best_progress_m": result.best_fitness,
+            "robot_s": result.robot_s,
+            "steps": result.steps,
+        }
+
+    return _evolve(context, "direct", direct_evolution, record, "best_ever")
 
 
 def learn_mu_plus_one(context: MethodContext) -> Learned:
     """(μ+1)-ONLINE on ``context.track`` with ``context.settings`` (:class:`MuPlusOneConfig`),
     seeded by ``context.ga_seed``; the library from the repetition's demonstration."""
-    config: MuPlusOneConfig = context.settings
-    _check_context(context, "mu-plus-one")
-    summary, demo, library, _ = demonstrate(context)
-    result = mu_plus_one_online(
-        library, config, context.ga_seed, track=context.track, preset=context.preset
-    )
-    controller = _controller(context, "mu-plus-one", config.to_dict(), library, result)
-    evolution = {
-        "evaluations": result.evaluations,
-        "children": result.children,
-        "accepted": result.accepted,
-        "reevaluations": result.reevaluations,
-        "world_seed": result.world_seed,
-        "best_fitness_m": result.best_fitness,
-        "final_fitness": result.final_fitness,
-        "robot_s": result.robot_s,
-        "steps": result.steps,
-        "put_backs": result.put_backs,
-    }
-    return _learned(
-        context,
-        summary,
-        demo,
-        controller,
-        result,
-        evolution,
-        best=[p["best"] for p in result.curve],
-        mean=[p["mean"] for p in result.curve],
-        put_backs=result.put_backs,
-    )
+
+    def record(result: OnlineResult) -> dict[str, Any]:
+        return {
+            "evaluations": result.evaluations,
+            "children": result.children,
+            "accepted": result.accepted,
+            "reevaluations": result.reevaluations,
+            "world_seed": result.world_seed,
+            "best_fitness_m": result.best_fitness,
+            "final_fitness": result.final_fitness,
+            "robot_s": result.robot_s,
+            "steps": result.steps,
+            "put_backs": result.put_backs,
+        }
+
+    return _evolve(context, "mu-plus-one", mu_plus_one_online, record, "best")
 
 
 def _controller(
