@@ -684,7 +684,10 @@ def test_a_client_that_reads_no_responses_cannot_hold_connections(
             held.append(sock)
         guard = station.server._guard
         wait_until(lambda: len(guard.open) == 8 and not guard.waiting, "their requests")
-        assert not _served(port)  # they hold every place, and none owes its headers
+        # They hold every place and none owes its headers: a request is refused unless a
+        # stalled one was already dropped (WRITE_STALL_S can pass before this line under load).
+        if _served(port):
+            assert any(len(t) == 2 for t in times.values()), "served while 8 places were held"
         wait_until(lambda: _served(port), "a request to be served again")
     finally:
         for sock in held:
