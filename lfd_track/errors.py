@@ -16,6 +16,24 @@ class FileFormatError(LfdTrackError, ValueError):
         super().__init__(f"{self.path}: {problem}")
 
 
+class DemonstrationUnfinished(RuntimeError):
+    """A demonstration or teaching loop that did not finish within its command budget (the
+    human's ``max_commands``): the teacher got lost, nothing is wrong with the code.
+
+    A benchmark records the repetition it ends as failed and carries on with the others
+    (:mod:`lfd_track.benchmark.runner`); any other exception is a fault and propagates.
+    ``counts`` is what the loop counted when it gave up (a
+    :class:`~lfd_track.teaching.loop.LoopCounts`), None when unknown.
+    """
+
+    def __init__(self, message: str, counts: object = None) -> None:
+        super().__init__(message)
+        self.counts = counts
+
+    def __reduce__(self) -> tuple[object, ...]:  # picklable with its counts (worker processes)
+        return (type(self), (str(self), self.counts))
+
+
 def first_line(exc: BaseException) -> str:
     """The first line of ``exc``'s message (its type's name when it has none): what a one-line
     error shows."""

@@ -239,10 +239,12 @@ def trajectories_picture(
 
 
 def fitness_curves(reps: list[RepetitionResult]) -> list[tuple[str, np.ndarray, tuple]]:
-    """The curves of fitness.png: (label, fitness per generation or epoch, colour) per repetition."""
+    """The curves of fitness.png: (label, fitness per generation or epoch, colour) per repetition
+    that learned a controller (a failed one has no curve)."""
     return [
         (f"rep {r.index}", np.asarray(r.fitness_best), PALETTE[r.index % len(PALETTE)])
         for r in reps
+        if r.failed is None
     ]
 
 
@@ -304,9 +306,15 @@ def write_benchmark_outputs(
         test_tracks=config.test_tracks,
     )
     results["config"] = config_dict(config)
-    results["demonstrations"] = [dict(r.demo, repetition=r.index) for r in reps]
-    results["training_accuracy"] = [r.training_accuracy for r in reps]
-    results["best_fitness"] = [r.fitness_best[-1] if r.fitness_best else None for r in reps]
+    # Per repetition that learned a controller; a failed one is in "failed_repetitions" only
+    # (its effort so far is in "human_effort", its trials in "outcomes" as failures).
+    learned = [r for r in reps if r.failed is None]
+    results["demonstrations"] = [dict(r.demo, repetition=r.index) for r in learned]
+    results["training_accuracy"] = [r.training_accuracy for r in learned]
+    results["best_fitness"] = [r.fitness_best[-1] if r.fitness_best else None for r in learned]
+    failed = [failed_record(r) for r in reps if r.failed is not None]
+    if failed:  # only then: a run without one writes what it always wrote
+        results["failed_repetitions"] = failed
     results["method"] = config.method
     # Versions and BLAS kernel this run was computed with (files written before have none).
     results["environment"] = environment()
@@ -345,10 +353,47 @@ def write_benchmark_outputs(
     return format_tables(stored)
 
 
+def failed_record(rep: RepetitionResult) -> dict[str, Any]:
+    """results.json's record of a repetition that learned no controller: its index, why
+    (``failed``), and the human's commands and the robot's driving seconds so far where known
+    (``commands``, ``learning_drive_s``)."""
+    record: dict[str, Any] = {"repetition": rep.index, "failed": rep.failed}
+    for key in ("commands", "learning_drive_s"):
+        if key in rep.effort:
+            record[key] = rep.effort[key]
+    return record
+
+
+def failed_section(results: dict[str, Any]) -> str:
+    """Markdown on the repetitions that learned no controller and why (``failed_repetitions``)."""
+    failed = results["failed_repetitions"]
+    reps = results.get("repetitions", "?")
+    lines = [
+        "## Failed repetitions",
+        "",
+        f"{len(failed)} of {reps} repetitions learned no controller: each trial such a repetition"
+        " would have run is scored as a failure (`no_controller`, charged to the first corner) in"
+        " every table and rate of this report.",
+        "",
+        "| repetition | why | human commands | robot driving [s] |",
+        "|---|---|---|---|",
+    ]
+    for f in failed:
+        commands = f.get("commands")
+        drive = f.get("learning_drive_s")
+        lines.append(
+            f"| {f['repetition']} | {f['failed']} | {'–' if commands is None else commands} "
+            f"| {'–' if drive is None else f'{drive:.1f}'} |"
+        )
+    return "\n".join([*lines, ""])
+
+
 def write_report_from_results(out: str | Path, results: dict[str, Any]) -> Path:
     """Write ``out/report.md`` from a results.json dict in the current schema (no re-run needed
     to redraw it; a file is read by :func:`~lfd_track.benchmark.schema.read_results`)."""
     extra = [demonstration_section(results)]
+    if results.get("failed_repetitions"):
+        extra.insert(0, failed_section(results))
     if results.get("human_effort"):
         extra.append(effort_section(results))
     if results.get("test_tracks"):

@@ -4,7 +4,12 @@ One *repetition* is a fresh demonstration (new seed) → evolution → autonomou
 runs in each direction on the training track and 3 counter-clockwise + 3 clockwise laps on the
 testing track, starting at corner 4. Repetitions run in a process pool; every random draw comes
 from the repetition's own seed (spawned from the benchmark seed), so results are identical for a
-given seed whatever the number of workers. What a run does is a
+given seed whatever the number of workers. A repetition whose demonstration cannot finish (the
+scripted human still lost after its ``max_commands``:
+:class:`~lfd_track.errors.DemonstrationUnfinished`) learns no controller: it is recorded as failed
+(:attr:`RepetitionResult.failed`) and every trial it would have run is scored as a failure
+(:data:`~lfd_track.benchmark.tables.NO_CONTROLLER`), while the other repetitions run as ever; any
+other exception is a fault and propagates. What a run does is a
 :class:`~lfd_track.benchmark.config.BenchmarkConfig` (imported here too, with
 :func:`~lfd_track.benchmark.config.config_dict`).
 """
@@ -23,12 +28,13 @@ import numpy as np
 
 from ..envs.presets import load_preset
 from ..envs.track_env import LfDTrackEnv
-from ..errors import LfdTrackError
+from ..errors import DemonstrationUnfinished, LfdTrackError
 from ..learning.result import check_int
 from ..methods import Learned, Method, MethodContext, get_method
+from ..methods.common import effort_record, period_s
 from ..policy.controller import Controller
 from ..teaching.arbiter import Arbiter
-from ..teaching.loop import Step, TeachingLoop
+from ..teaching.loop import LoopCounts, Step, TeachingLoop
 from ..teaching.observers import CallbackObserver, TrajectoryObserver
 from ..world.track import load_track
 from .config import (
@@ -40,7 +46,7 @@ from .config import (
     settings_arguments,
 )
 from .loops import MAX_DRAWS_PER_LOOP, loop_draws, teacher_lap
-from .tables import TrialOutcome
+from .tables import NO_CONTROLLER, TrialOutcome
 
 __all__ = [
     "DIRECTIONS",
@@ -65,6 +71,7 @@ __all__ = [
     "settings_arguments",
     "trial_worlds",
     "trial_directions",
+    "unfinished_effort",
 ]
 
 #: (track, reverse, direction name in the tables), in the order trials are run.
@@ -88,13 +95,20 @@ class RepetitionResult:
     demo: dict[str, Any]
     fitness_best: list[float]
     fitness_mean: list[float]
-    training_accuracy: float
+    training_accuracy: float | None
+    """None when the repetition learned no controller (:attr:`failed`)."""
     timing_s: dict[str, float] = field(default_factory=dict)
     effort: dict[str, Any] = field(default_factory=dict)
-    """Human commands, corrections, takeovers and driving seconds during learning."""
+    """Human commands, corrections, takeovers and driving seconds during learning (of a failed
+    repetition: those of the loop that did not finish, empty when unknown)."""
     random_loops: dict[str, Any] = field(default_factory=dict)
     """The procedural loops drawn (``drawn``) and those the teacher could not lap
     (``excluded``: name and the teacher's outcome per direction); empty without them."""
+    failed: str | None = None
+    """Why the repetition learned no controller (e.g. "demonstration exceeded 1000 commands"),
+    None when it learned one; its ``outcomes`` are then every trial it would have run, each an
+    undriven :data:`~lfd_track.benchmark.tables.NO_CONTROLLER` failure, and ``demo`` and the
+    fitness curves are empty."""
 
 
 def trial_directions(test_tracks: tuple[str, ...]) -> list[tuple[str, bool, str]]:
@@ -254,8 +268,28 @@ def trial_outcome(
     )
 
 
+def unlearned_outcome(
+    track: str, env: LfDTrackEnv, direction: str, repetition: int, trial: int
+) -> TrialOutcome:
+    """The outcome of a trial on ``track`` (``env`` would drive it) that was never driven because
+    its repetition learned no controller: a :data:`NO_CONTROLLER` failure, no corner reached,
+    0 steps."""
+    return TrialOutcome(
+        track=track,
+        direction=direction,
+        corner_order=tuple(c.label for c in env.track.corners),
+        corners_reached=(),
+        corners_negotiated=(),
+        failure=NO_CONTROLLER,
+        success=False,
+        repetition=repetition,
+        trial=trial,
+        steps=0,
+    )
+
+
 def run_trials(
-    controller: Any,
+    controller: Any | None,
     *,
     trial_seed: int,
     test_tracks: tuple[str, ...],
@@ -270,7 +304,8 @@ def run_trials(
 
     ``controller`` is anything with ``perception()`` and ``commander()`` (a :class:`Controller`,
     or an evaluated policy, :mod:`lfd_track.benchmark.evaluate`); its state carries over from one
-    trial to the next, as a controller's library does when it keeps learning. ``tracks``, when
+    trial to the next, as a controller's library does when it keeps learning. None: the
+    repetition learned no controller, and every trial is an undriven :func:`unlearned_outcome`. ``tracks``, when
     given, runs only the directions of those tracks; the others' world seeds are still drawn, so
     a direction's trials do not depend on which other tracks run. ``progress(outcome)`` sees each
     trial as it ends.
@@ -281,6 +316,9 @@ def run_trials(
             continue
         env = LfDTrackEnv(track=track, reverse=reverse, preset=preset)
         for trial in range(trials_per_direction):
+            if controller is None:
+                outcomes.append(unlearned_outcome(track, env, direction, repetition, trial))
+                continue
             # The floor is built once per direction (seeded); later trials redraw the rover,
             # exposure and noise from the env's own stream.
             info, trajectory, steps = run_trial(
@@ -296,12 +334,13 @@ def run_trials(
 
 
 def run_loop_trials(
-    controller: Any, *, trial_seed: int, config: BenchmarkConfig, repetition: int = 0
+    controller: Any | None, *, trial_seed: int, config: BenchmarkConfig, repetition: int = 0
 ) -> tuple[list[TrialOutcome], dict[str, Any]]:
     """The repetition's laps of ``config.random_loops`` procedural loops (:mod:`.loops`): loops
     drawn in order from the repetition's stream, each admitted once the teacher laps it both
-    ways in the worlds of its two directions, then lapped once each way by ``controller``.
-    Returns the outcomes and the draw's record (``drawn``, ``excluded``)."""
+    ways in the worlds of its two directions, then lapped once each way by ``controller`` (None:
+    no controller was learned, each lap is an undriven :func:`unlearned_outcome`; the draw is
+    the same). Returns the outcomes and the draw's record (``drawn``, ``excluded``)."""
     outcomes: list[TrialOutcome] = []
     excluded: list[dict[str, Any]] = []
     drawn = admitted = 0
@@ -322,6 +361,9 @@ def run_loop_trials(
         if all(t["success"] for t in teacher.values()):
             admitted += 1
             for direction, (env, world) in envs.items():
+                if controller is None:
+                    outcomes.append(unlearned_outcome(name, env, direction, repetition, 0))
+                    continue
                 info, trajectory, steps = run_trial(env, controller, seed=world)
                 outcomes.append(
                     trial_outcome(name, env, direction, info, trajectory, steps, repetition, 0)
@@ -371,7 +413,9 @@ def run_repetition(
 
     ``method``: the registry entry of ``config.method`` (default: looked up here; a worker
     process is given it, so a method registered outside the package runs there too when its
-    functions can be imported)."""
+    functions can be imported). A demonstration that cannot finish
+    (:class:`~lfd_track.errors.DemonstrationUnfinished`) makes a failed repetition
+    (:attr:`RepetitionResult.failed`, no ``controller.json``); any other exception propagates."""
     import cv2
 
     cv2.setNumThreads(1)  # one repetition per core; OpenCV's own threads would only contend
@@ -381,10 +425,20 @@ def run_repetition(
     timing: dict[str, float] = {}
 
     t0 = time.perf_counter()
-    learned = learn_repetition(config, rep_dir, demo_seed=demo_seed, ga_seed=ga_seed, method=method)
-    controller = learned.controller
-    controller.learn = config.keep_learning
-    controller.save(rep_dir / "controller.json")
+    learned: Learned | None = None
+    controller: Controller | None = None
+    try:
+        learned = learn_repetition(
+            config, rep_dir, demo_seed=demo_seed, ga_seed=ga_seed, method=method
+        )
+    except DemonstrationUnfinished as exc:  # the teacher got lost: a failed repetition
+        failed: str | None = str(exc)
+        effort = unfinished_effort(exc, config.preset)
+    else:
+        failed, effort = None, learned.effort
+        controller = learned.controller
+        controller.learn = config.keep_learning
+        controller.save(rep_dir / "controller.json")
     timing["learning"] = time.perf_counter() - t0
 
     t0 = time.perf_counter()
@@ -406,14 +460,23 @@ def run_repetition(
     return RepetitionResult(
         index=index,
         outcomes=outcomes,
-        demo=learned.demo,
-        fitness_best=learned.fitness_best,
-        fitness_mean=learned.fitness_mean,
-        training_accuracy=learned.training_accuracy,
+        demo={} if learned is None else learned.demo,
+        fitness_best=[] if learned is None else learned.fitness_best,
+        fitness_mean=[] if learned is None else learned.fitness_mean,
+        training_accuracy=None if learned is None else learned.training_accuracy,
         timing_s=timing,
-        effort=learned.effort,
+        effort=effort,
         random_loops=loop_record,
+        failed=failed,
     )
+
+
+def unfinished_effort(exc: DemonstrationUnfinished, preset: str) -> dict[str, Any]:
+    """The human effort and robot driving of the loop that did not finish (the effort record
+    every method writes, from the counts ``exc`` carries); empty when it carries none."""
+    if not isinstance(exc.counts, LoopCounts):
+        return {}
+    return effort_record(period_s(preset), counts=exc.counts)
 
 
 def _run_packed(args: tuple[int, int, BenchmarkConfig, str, Method]) -> RepetitionResult:

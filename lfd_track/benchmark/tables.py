@@ -41,6 +41,11 @@ from .schema import RESULTS_SCHEMA
 
 FAILURE_KINDS = ("reversed", "off_track", "timeout")
 """Why a trial ended unsuccessfully: the paper's two failures, plus the step budget running out."""
+NO_CONTROLLER = "no_controller"
+"""The failure of a trial that was never driven: its repetition learned no controller (its
+demonstration did not finish, ``failed_repetitions`` in results.json). Counted like any failure,
+charged to the first corner; the ``failure_kinds`` tables list it only where it occurred, so a
+run without a failed repetition writes what it always wrote."""
 OUTCOME_FIELDS: dict[str, tuple[type, ...]] = {
     "track": (str,),
     "direction": (str,),
@@ -54,7 +59,7 @@ OUTCOME_FIELDS: dict[str, tuple[type, ...]] = {
     "steps": (int,),
 }
 """Every field of a trial outcome in results.json and its JSON type (lists hold corner labels;
-``failure`` is one of :data:`FAILURE_KINDS` or null): what :meth:`TrialOutcome.to_dict` writes
+``failure`` is one of :data:`FAILURE_KINDS`, :data:`NO_CONTROLLER` or null): what :meth:`TrialOutcome.to_dict` writes
 and :meth:`TrialOutcome.from_dict` reads back."""
 MAX_COUNT = 2**53
 """Largest count (steps, trials, commands ...) a results.json may hold: exact as a float."""
@@ -79,7 +84,8 @@ class TrialOutcome:
     corners_negotiated: tuple[str, ...]
     """Corners negotiated (progress 0.30 m past them, on the felt), in the order met."""
     failure: str | None
-    """"reversed", "off_track", "timeout", or None for a success."""
+    """"reversed", "off_track", "timeout", None for a success, or "no_controller" for a trial
+    its repetition could not drive (:data:`NO_CONTROLLER`)."""
     success: bool
     repetition: int
     """Repetition index (one demonstration + evolution each)."""
@@ -109,8 +115,9 @@ class TrialOutcome:
                 raise ValueError(f"{where}: {name} {met} is not a prefix of corner_order {order}")
         if len(self.corners_negotiated) > len(self.corners_reached):
             raise ValueError(f"{where}: negotiated a corner it never reached")
-        if self.failure is not None and self.failure not in FAILURE_KINDS:
-            raise ValueError(f"{where}: failure must be one of {FAILURE_KINDS} or None")
+        if self.failure is not None and self.failure not in (*FAILURE_KINDS, NO_CONTROLLER):
+            kinds = (*FAILURE_KINDS, NO_CONTROLLER)
+            raise ValueError(f"{where}: failure must be one of {kinds} or None")
         if bool(self.success) != (self.failure is None):
             raise ValueError(f"{where}: a trial succeeds exactly when it has no failure")
         if self.success and self.corners_negotiated != order:
@@ -170,6 +177,15 @@ def _rate(successes: int, trials: int) -> float | None:
     return round(successes / trials, _FLOAT_DECIMALS) if trials else None
 
 
+def _failure_kinds(trials: Sequence[TrialOutcome]) -> dict[str, int]:
+    """Trials per failure kind: every one of :data:`FAILURE_KINDS`, and :data:`NO_CONTROLLER`
+    where some trial had it."""
+    kinds: tuple[str, ...] = FAILURE_KINDS
+    if any(t.failure == NO_CONTROLLER for t in trials):
+        kinds = (*kinds, NO_CONTROLLER)
+    return {kind: sum(t.failure == kind for t in trials) for kind in kinds}
+
+
 def _direction_results(track: str, direction: str, trials: list[TrialOutcome]) -> dict[str, Any]:
     orders = {t.corner_order for t in trials}
     if len(orders) > 1:
@@ -182,9 +198,7 @@ def _direction_results(track: str, direction: str, trials: list[TrialOutcome]) -
             "reached": sum(len(t.corners_negotiated) >= index for t in trials),
             "failures": len(charged),
             "physically_reached": sum(label in t.corners_reached for t in trials),
-            "failure_kinds": {
-                kind: sum(t.failure == kind for t in charged) for kind in FAILURE_KINDS
-            },
+            "failure_kinds": _failure_kinds(charged),
         }
     successes = sum(t.success for t in trials)
     return {
@@ -196,7 +210,7 @@ def _direction_results(track: str, direction: str, trials: list[TrialOutcome]) -
         "failures_after_last_corner": sum(
             not t.success and t.charged_corner is None for t in trials
         ),
-        "failure_kinds": {kind: sum(t.failure == kind for t in trials) for kind in FAILURE_KINDS},
+        "failure_kinds": _failure_kinds(trials),
     }
 
 
@@ -378,7 +392,8 @@ def _failure_summary(results: Mapping[str, Any]) -> list[str]:
         for direction in DIRECTIONS[track]:
             d = section.get(direction) or {}
             kinds = d.get("failure_kinds") or {}
-            text = ", ".join(f"{kinds.get(k, 0)} {k.replace('_', ' ')}" for k in FAILURE_KINDS)
+            shown = (*FAILURE_KINDS, *(k for k in (NO_CONTROLLER,) if kinds.get(k)))
+            text = ", ".join(f"{kinds.get(k, 0)} {k.replace('_', ' ')}" for k in shown)
             after = d.get("failures_after_last_corner", 0)
             if after:
                 text += f"; {after} after the last corner"

@@ -30,6 +30,7 @@ from ..dataset import load_demonstration
 from ..dataset.recording import recording_writer
 from ..envs.presets import Preset
 from ..envs.track_env import LfDTrackEnv
+from ..errors import DemonstrationUnfinished
 from ..policy.memory import MemoryConfig
 from ..teaching.arbiter import Arbiter
 from ..teaching.loop import TeachingLoop
@@ -108,6 +109,10 @@ def run_demonstration(
     the camera frame of every recorded case (the frames themselves are not recorded). ``views``,
     if given, receives the shifted and turned views of every case (:mod:`lfd_track.demo.views`;
     not recorded); the demonstration itself runs exactly as without them.
+
+    A protocol that has not ended after ``human.max_commands`` commands (the human is lost)
+    raises :class:`~lfd_track.errors.DemonstrationUnfinished` ("demonstration exceeded N
+    commands", with the loop's counts); the file is then incomplete.
     """
     human = human or HumanConfig()
     rng = np.random.default_rng(seed)
@@ -164,8 +169,11 @@ def run_demonstration(
         loop.reset(seed=env_seed)
         try:
             loop.run(max_steps=human.max_commands)
-        except RuntimeError:
-            raise RuntimeError(f"demonstration exceeded {human.max_commands} commands") from None
+        except DemonstrationUnfinished as exc:  # the human got lost; any other error propagates
+            env.close()
+            raise DemonstrationUnfinished(
+                f"demonstration exceeded {human.max_commands} commands", exc.counts
+            ) from None
         commands = loop.counts.steps
         writer.close(
             {

@@ -88,8 +88,9 @@ def check_job_results(
     trials: each direction it drives, repetition and trial once, and each repetition's
     ``random_loops`` procedural loops once each way); if present,
     ``timing_s.wall``, ``training_accuracy`` and the ``human_effort`` totals as finite
-    numbers (counts as integers 0 to :data:`MAX_COUNT`); and, for a job that reports no command
-    count, ``demonstrations`` with integer ``cases``.
+    numbers (counts as integers 0 to :data:`MAX_COUNT`); if present, ``failed_repetitions``
+    (repetitions that learned no controller, each with its ``repetition`` and why, ``failed``);
+    and, for a job that reports no command count, ``demonstrations`` with integer ``cases``.
     """
     outcomes = results.get("outcomes")
     if "outcomes" not in results:
@@ -121,6 +122,7 @@ def check_job_results(
     for key in EFFORT_KEYS:
         if key in total:
             _number(total[key], f"human_effort.total.{key}")
+    _check_failed(results.get("failed_repetitions", []), repetitions)
     if _reported_commands(results) is None:  # counted from the demonstrations
         demos = results.get("demonstrations")
         if not isinstance(demos, list):
@@ -129,6 +131,35 @@ def check_job_results(
             if not isinstance(d, Mapping):
                 raise ValueError(f"'demonstrations[{index}]' must be an object")
             _count(d.get("cases"), f"demonstrations[{index}].cases")
+
+
+def _check_failed(failed: Any, repetitions: int) -> None:
+    """``failed_repetitions``: a list of ``{"repetition": index, "failed": why, ...}``, each
+    repetition once."""
+    if not isinstance(failed, list):
+        raise ValueError("'failed_repetitions' must be a list")
+    seen: set[int] = set()
+    for index, f in enumerate(failed):
+        where = f"failed_repetitions[{index}]"
+        if not isinstance(f, Mapping):
+            raise ValueError(f"'{where}' must be an object")
+        rep = f.get("repetition")
+        if isinstance(rep, bool) or not isinstance(rep, int) or not 0 <= rep < repetitions:
+            raise ValueError(f"'{where}.repetition' must be an integer below {repetitions}")
+        if rep in seen:
+            raise ValueError(f"'{where}': repetition {rep} is listed twice")
+        seen.add(rep)
+        if not isinstance(f.get("failed"), str):
+            raise ValueError(f"'{where}.failed' must say why (a string)")
+
+
+def failed_repetitions(jobs: Sequence[tuple[Job, Mapping[str, Any]]]) -> list[dict[str, Any]]:
+    """The repetitions of ``jobs`` that learned no controller: seed, repetition and why."""
+    return [
+        {"seed": job.seed, "repetition": int(f["repetition"]), "failed": str(f["failed"])}
+        for job, r in jobs
+        for f in r.get("failed_repetitions", [])
+    ]
 
 
 def _check_outcome(o: Any, where: str, repetitions: int) -> None:
@@ -335,6 +366,9 @@ def condition_summary(
         "per_seed": per_seed,
         "jobs": [job.key for job, _ in jobs],
     }
+    failed = failed_repetitions(jobs)
+    if failed:  # only then: a condition without one is summarised as it always was
+        summary["failed_repetitions"] = failed
     loops = random_loops_summary(jobs, named)
     return summary if loops is None else {**summary, "random_loops": loops}
 
@@ -430,6 +464,7 @@ def study_markdown(results: Mapping[str, Any]) -> str:
         f"| paper (reported) | paper | – | {_cell(paper['training'])} | {_cell(paper['testing'])} "
         "| – | – | – | – |"
     )
+    lines += _failed_markdown(results["conditions"])
     lines += [
         "",
         "The same rates with 95 % intervals that resample whole learned controllers (bootstrap "
@@ -506,6 +541,24 @@ def study_markdown(results: Mapping[str, Any]) -> str:
         f"Summed job time: {results['wall_s']:.0f} s.",
     ]
     return "\n".join(lines) + "\n"
+
+
+def _failed_markdown(conditions: Sequence[Mapping[str, Any]]) -> list[str]:
+    """study.md's note naming the repetitions that learned no controller and why (none: no
+    lines)."""
+    rows = [(c["name"], f) for c in conditions for f in c.get("failed_repetitions", [])]
+    if not rows:
+        return []
+    lines = [
+        "",
+        "Failed repetitions: these learned no controller, and each trial they would have run is"
+        " counted as a failure (`no_controller`) in every rate above.",
+        "",
+        "| condition | seed | repetition | why |",
+        "|---|---|---|---|",
+    ]
+    lines += [f"| {name} | {f['seed']} | {f['repetition']} | {f['failed']} |" for name, f in rows]
+    return lines
 
 
 # ------------------------------------------------------------------------------------ picture

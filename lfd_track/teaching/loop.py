@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import DemonstrationUnfinished
 from .arbiter import Arbiter, Decision
 from .commanders import Commander
 from .observers import Observer
@@ -171,7 +172,8 @@ class TeachingLoop:
         return Step(moment, percept, None, None, none, is_case=False)
 
     def run(self, max_steps: int | None = None) -> LoopCounts:
-        """Step until :attr:`done` (or ``max_steps`` commands, then ``RuntimeError``)."""
+        """Step until :attr:`done` (or ``max_steps`` commands, then
+        :class:`~lfd_track.errors.DemonstrationUnfinished` with the counts so far)."""
         executed = 0
         while not self.done:
             step = self.step()
@@ -180,5 +182,7 @@ class TeachingLoop:
                 raise RuntimeError("no commander proposed a command")
             executed += step.command is not None
             if max_steps is not None and executed > max_steps:
-                raise RuntimeError(f"the loop exceeded {max_steps} commands")
+                raise DemonstrationUnfinished(
+                    f"the loop exceeded {max_steps} commands", self.counts
+                )
         return self.counts
