@@ -173,3 +173,14 @@ def test_any_other_error_in_a_repetition_propagates(tmp_path, monkeypatch, error
     config = BenchmarkConfig(repetitions=2, seed=0, trials_per_direction=1, test_tracks=())
     with pytest.raises(type(error), match=str(error)):
         run_benchmark(config, tmp_path / "reps")
+
+
+def test_a_failed_repetition_scores_its_procedural_loops_as_the_teacher_admits_them():
+    config = BenchmarkConfig(repetitions=1, seed=0, trials_per_direction=1, random_loops=1)
+    outcomes, record = runner.run_loop_trials(None, trial_seed=7, config=config, repetition=2)
+    assert [(o.direction, o.failure, o.steps, o.repetition) for o in outcomes] == [
+        ("ccw", NO_CONTROLLER, 0, 2),
+        ("cw", NO_CONTROLLER, 0, 2),
+    ]
+    assert outcomes[0].track == outcomes[1].track  # one admitted loop, both ways
+    assert record["drawn"] == 1 + len(record["excluded"])
