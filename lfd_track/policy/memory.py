@@ -73,7 +73,7 @@ import math
 import numpy as np
 
 from ..core.commands import Command
-from ..core.frame import GRID_COLUMNS, GRID_ROWS, N_REGIONS, region_bounds
+from ..core.frame import GRID_COLUMNS, N_REGIONS, region_bounds
 from .features import frame_inputs
 from .memory_config import (
     BLANK_BEARINGS,
@@ -228,6 +228,16 @@ _STRIP_SEED_M = 0.3
 _STRIP_HOPS = 8
 #: ``fresh_felt`` with ``strip_link_m``: only felt this close to the axle is linked up [m].
 _STRIP_WINDOW_M = 1.2
+#: ``fresh_felt`` with ``strip_link_m``: bytes of a map point's row in the table of links, a bit
+#: per map point (whole 64-bit words, so rows are OR-ed a word at a time).
+_LINK_BYTES = -(-MAP_FRAMES * N_REGIONS // 64) * 8
+#: ``fresh_felt`` with ``strip_link_m``: bytes of one frame's points in a row of links (the 40
+#: regions fill five bytes, so a frame's bits never share a byte with another frame's).
+_FRAME_BYTES = N_REGIONS // 8
+#: [m^2] ``fresh_felt`` with ``strip_link_m``: a pair whose squared distance, when the newer of
+#: its points is seen, lies this close to the squared link length is measured again at every
+#: step (moving the map changes a distance by rounding only, some 1e-15 m^2).
+_UNSURE_LINK_M2 = 1e-9
 
 
 @functools.lru_cache(maxsize=1)
@@ -273,6 +283,13 @@ class FreshFeltMemory:
         self._felt = np.zeros(0)  # their felt levels in [0, 1]
         self._path = np.zeros((0, 2))  # places the rover has been, before the current one
         self._inputs = np.array([0.5, 0.0, 0.0])
+        # With strip_link_m, the links among the points' felt (bit j of row i: points i and j
+        # at most strip_link_m apart, or touching regions of one frame with picture links).
+        # Moving the map moves every point alike, so a pair's distance is measured once, when
+        # the newer point is seen; pairs measured too close to the link length to be sure are
+        # kept apart (index pairs) and measured again each step.
+        self._linked = np.zeros((0, _LINK_BYTES), dtype=np.uint8)
+        self._unsure = np.zeros((0, 2), dtype=np.int64)
 
     def _moved(self, points: np.ndarray, command: int) -> np.ndarray:
         """``points`` (N, 2) in the rover frame after it executed ``command`` (element by
@@ -314,17 +331,21 @@ class FreshFeltMemory:
         v = np.asarray(values, dtype=np.float64).reshape(N_REGIONS)
         felt = np.clip((v - CARPET_LEVEL) / (FELT_LEVEL - CARPET_LEVEL), 0.0, 1.0)
         keep = MAP_FRAMES * N_REGIONS
+        full = len(self._points) == keep  # the oldest frame leaves the map
         self._points = np.vstack([self._points, self._region_points])[-keep:]
         self._felt = np.concatenate([self._felt, felt])[-keep:]
+        if cfg.strip_link_m:
+            self._link_newest_frame(full)
         points = self._points
         dist = np.hypot(points[:, 0], points[:, 1])
-        strip = self._own_strip(dist) if cfg.strip_link_m else None
-        kept = self._kept()
+        ahead = points[:, 0] > -_BEHIND_M
+        if cfg.strip_link_m:
+            ahead &= self._own_strip(dist)
         reach = cfg.reach_m
-        weights = self._fresh(dist, reach, strip, kept)
+        weights = self._fresh(dist < reach, ahead)
         mass = float(weights.sum())
         if mass < _MIN_FRESH and cfg.blank_reach_m:  # nothing near: look further
-            weights = self._fresh(dist, cfg.blank_reach_m, strip, kept)
+            weights = self._fresh(dist < cfg.blank_reach_m, ahead)
             mass = float(weights.sum())
             if cfg.blank_distance == "blank_reach":
                 reach = cfg.blank_reach_m
@@ -348,131 +369,137 @@ class FreshFeltMemory:
             ]
         )
 
-    def _kept(self) -> np.ndarray | None:
-        """(N,) float64: how much of each map point's felt is fresh for having lain away from
-        every place the rover has been — 0 within ``path_radius_m`` of one, else 1, or with
-        ``visited_fade_m`` rising linearly to 1 that much further (None before the rover has
-        been anywhere)."""
+    def _kept(self, where: np.ndarray) -> np.ndarray | None:
+        """(N,) float64: how much of the felt of each map point ``where`` (N,) bool is fresh for
+        having lain away from every place the rover has been — 0 within ``path_radius_m`` of one,
+        else 1, or with ``visited_fade_m`` rising linearly to 1 that much further; 0 at the other
+        points (None before the rover has been anywhere)."""
         if not len(self._path):
             return None
-        gap = self._points[:, None, :] - self._path[None, :, :]
-        nearest = np.einsum("ijk,ijk->ij", gap, gap).min(axis=1)
+        kept = np.zeros(len(self._points))
+        chosen, path = self._points[where], self._path
+        gap_x = chosen[:, 0, None] - path[None, :, 0]
+        gap_y = chosen[:, 1, None] - path[None, :, 1]
+        nearest = (gap_x * gap_x + gap_y * gap_y).min(axis=1)
         radius, fade = self.config.path_radius_m, self.config.visited_fade_m
         if not fade:
-            return (nearest > radius**2).astype(np.float64)
-        return np.clip((np.sqrt(nearest) - radius) / fade, 0.0, 1.0)
+            kept[where] = nearest > radius**2
+        else:
+            kept[where] = np.clip((np.sqrt(nearest) - radius) / fade, 0.0, 1.0)
+        return kept
 
-    def _fresh(
-        self,
-        dist: np.ndarray,
-        reach: float,
-        strip: np.ndarray | None,
-        kept: np.ndarray | None,
-    ) -> np.ndarray:
-        """Weights of the felt that is fresh: felt within ``reach`` ahead of the axle (and on the
-        rover's own strip, if ``strip`` is given), times what :meth:`_kept` keeps of it."""
-        inside = (dist < reach) & (self._points[:, 0] > -_BEHIND_M)
-        if strip is not None:
-            inside &= strip
+    def _fresh(self, near: np.ndarray, ahead: np.ndarray) -> np.ndarray:
+        """Weights of the felt that is fresh: felt ``near`` the axle (within the reach) and
+        ``ahead`` of it (and on the rover's own strip, with ``strip_link_m``), times what
+        :meth:`_kept` keeps of it."""
+        inside = near & ahead
         weights = self._felt * inside
+        kept = self._kept(inside & (self._felt > 0.0))  # only felt inside can weigh
         return weights if kept is None else weights * kept
+
+    def _link_newest_frame(self, full: bool) -> None:
+        """Add the links of the newest frame's felt to the table of links (:meth:`reset`); with
+        ``full`` the oldest frame has just left the map, and its links with it."""
+        n = len(self._points)
+        first = n - N_REGIONS  # the newest frame's first point
+        frame = first // N_REGIONS
+        table = np.zeros((n, _LINK_BYTES), dtype=np.uint8)
+        unsure = self._unsure
+        if full:
+            table[:first, : _LINK_BYTES - _FRAME_BYTES] = self._linked[N_REGIONS:, _FRAME_BYTES:]
+            unsure = unsure[(unsure >= N_REGIONS).all(axis=1)] - N_REGIONS
+        else:
+            table[:first] = self._linked
+        felt = np.flatnonzero(self._felt >= 0.5)
+        newest = felt[felt >= first]
+        if len(newest):
+            points = self._points
+            gap_x = points[newest, 0, None] - points[None, felt, 0]
+            gap_y = points[newest, 1, None] - points[None, felt, 1]
+            squared = gap_x * gap_x + gap_y * gap_y
+            link_squared = self.config.strip_link_m**2
+            unclear = np.abs(squared - link_squared) <= _UNSURE_LINK_M2
+            linked = (squared <= link_squared) & ~unclear
+            if unclear.any():
+                pairs = np.nonzero(unclear)
+                unsure = np.concatenate(
+                    [unsure, np.column_stack([newest[pairs[0]], felt[pairs[1]]])]
+                )
+            rows = np.zeros((len(newest), 8 * _LINK_BYTES), dtype=bool)
+            rows[:, felt] = linked
+            if self.config.strip_picture_links:
+                rows[:, first:n] |= _touching_regions()[newest - first]
+            table[newest] = np.packbits(rows, axis=1, bitorder="little")
+            # The older felt's rows get the newest frame's bytes: the bits of the regions each
+            # is linked to, summed as whole numbers (exact in float64).
+            older = felt < first
+            bits = linked[:, older].T.astype(np.float64) @ _region_bits()[newest - first]
+            columns = slice(frame * _FRAME_BYTES, (frame + 1) * _FRAME_BYTES)
+            table[felt[older], columns] = bits.astype(np.uint8)
+        self._linked, self._unsure = table, unsure
 
     def _own_strip(self, dist: np.ndarray) -> np.ndarray:
         """(N,) bool: map points on felt connected along felt to the felt the rover stands on
         (links of at most ``strip_link_m``, at most :data:`_STRIP_HOPS` of them, among felt points
         within :data:`_STRIP_WINDOW_M`; see the module docstring)."""
-        on_strip = np.zeros(len(dist), dtype=bool)
-        candidates = np.flatnonzero((dist < _STRIP_WINDOW_M) & (self._felt >= 0.5))
-        if not len(candidates):
-            return on_strip
-        src, dst = _links(self._points[candidates], self.config.strip_link_m)
-        if self.config.strip_picture_links:
-            src, dst = _with_picture_links(src, dst, candidates, len(dist) // N_REGIONS)
-        start = dist[candidates]
+        candidate = (dist < _STRIP_WINDOW_M) & (self._felt >= 0.5)
+        if not candidate.any():
+            return candidate
         seed_m = _STRIP_SEED_M
         if self.config.strip_from == "nearest":
-            seed_m = max(seed_m, float(start.min()) + self.config.strip_link_m)
-        reached = start <= seed_m
+            seed_m = max(seed_m, float(dist[candidate].min()) + self.config.strip_link_m)
+        reached = candidate & (dist <= seed_m)
+        src, dst = self._unsure_links(candidate)
+        frontier = reached  # the points reached by the last hop
         for _ in range(_STRIP_HOPS):
-            grown = reached.copy()
-            grown[dst[reached[src]]] = True
-            if np.array_equal(grown, reached):
+            words = self._linked[frontier].view(np.uint64)
+            near = np.bitwise_or.reduce(words, axis=0).view(np.uint8)
+            linked = np.unpackbits(near, count=len(dist), bitorder="little").view(bool)
+            linked[dst[frontier[src]]] = True
+            frontier = linked & candidate & ~reached
+            if not frontier.any():
                 break
-            reached = grown
-        on_strip[candidates[reached]] = True
-        return on_strip
+            reached = reached | frontier
+        return reached
+
+    def _unsure_links(self, candidate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The links among the pairs kept apart as unsure (:meth:`reset`) whose points are both
+        ``candidate`` (N,) bool, measured now, as index arrays ``(src, dst)`` of both ways."""
+        pairs = self._unsure[candidate[self._unsure].all(axis=1)]
+        if not len(pairs):
+            return pairs[:, 0], pairs[:, 1]
+        gap = self._points[pairs[:, 0]] - self._points[pairs[:, 1]]
+        pairs = pairs[np.einsum("ij,ij->i", gap, gap) <= self.config.strip_link_m**2]
+        return np.concatenate([pairs[:, 0], pairs[:, 1]]), np.concatenate(
+            [pairs[:, 1], pairs[:, 0]]
+        )
 
     def inputs(self) -> np.ndarray:
         """The memory inputs now, (3,) float64: bearing, amount, distance, each in [0, 1]."""
         return self._inputs.copy()
 
 
-def _links(points: np.ndarray, link_m: float) -> tuple[np.ndarray, np.ndarray]:
-    """Every ordered pair (i, j) of ``points`` (N, 2) at most ``link_m`` apart (i == j
-    included), as index arrays ``(src, dst)``.
-
-    Only points in the same or a neighbouring cell of a grid of cells a hair wider than
-    ``link_m`` can be that close, so only those pairs are measured: about 60 per point on a
-    crowded map instead of all N of them. A pair's distance is computed exactly as a full
-    N x N table would compute it, so the links are the same.
-    """
-    n = len(points)
-    cell = np.floor(points / (link_m * (1.0 + 1e-9))).astype(np.int64)
-    cell -= cell.min(axis=0)
-    width = int(cell[:, 1].max()) + 3  # a row of cells and a blank column either side
-    key = (cell[:, 0] + 1) * width + (cell[:, 1] + 1)
-    order = np.argsort(key, kind="stable")
-    sorted_key = key[order]
-    index = np.arange(n)
-    sources, targets = [], []
-    for offset in (-width - 1, -width, -width + 1, -1, 0, 1, width - 1, width, width + 1):
-        lo = np.searchsorted(sorted_key, key + offset, side="left")
-        count = np.searchsorted(sorted_key, key + offset, side="right") - lo
-        total = int(count.sum())
-        if not total:
-            continue
-        first = np.cumsum(count) - count  # where each point's run starts in the output
-        within = np.arange(total) - np.repeat(first, count)
-        sources.append(np.repeat(index, count))
-        targets.append(order[np.repeat(lo, count) + within])
-    src, dst = np.concatenate(sources), np.concatenate(targets)
-    gap = points[src] - points[dst]
-    near = np.einsum("ij,ij->i", gap, gap) <= link_m**2
-    return src[near], dst[near]
+@functools.lru_cache(maxsize=1)
+def _region_bits() -> np.ndarray:
+    """(40, 5) float64: region r's bit in the five bytes of its frame in a row of links
+    (2 ** (r % 8) in byte r // 8; sums of them are whole numbers below 256, exact in float64)."""
+    regions = np.arange(N_REGIONS)
+    bits = np.zeros((N_REGIONS, _FRAME_BYTES))
+    bits[regions, regions // 8] = 2.0 ** (regions % 8)
+    bits.flags.writeable = False
+    return bits
 
 
 @functools.lru_cache(maxsize=1)
-def _touching_regions() -> tuple[np.ndarray, np.ndarray]:
-    """(a, b) index arrays of every ordered pair of regions that touch in the 8 x 5 grid (side or
-    corner)."""
-    pairs = []
-    for a in range(N_REGIONS):
-        row, col = divmod(a, GRID_COLUMNS)
-        for dr in (-1, 0, 1):
-            for dc in (-1, 0, 1):
-                r, c = row + dr, col + dc
-                if (dr or dc) and 0 <= r < GRID_ROWS and 0 <= c < GRID_COLUMNS:
-                    pairs.append((a, r * GRID_COLUMNS + c))
-    a, b = np.array(pairs).T
-    return a, b
-
-
-def _with_picture_links(
-    src: np.ndarray, dst: np.ndarray, candidates: np.ndarray, frames: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """``(src, dst)`` (indices into ``candidates``) and the pairs of candidates that are
-    touching regions of one remembered frame (the map holds ``frames`` frames of
-    :data:`N_REGIONS` points each, oldest first)."""
-    a, b = _touching_regions()
-    base = (np.arange(frames) * N_REGIONS)[:, None]
-    first, second = (base + a).ravel(), (base + b).ravel()
-    position = np.full(frames * N_REGIONS, -1)
-    position[candidates] = np.arange(len(candidates))
-    both = (position[first] >= 0) & (position[second] >= 0)
-    return (
-        np.concatenate([src, position[first[both]]]),
-        np.concatenate([dst, position[second[both]]]),
+def _touching_regions() -> np.ndarray:
+    """(40, 40) bool: the pairs of regions that touch in the 8 x 5 grid (side or corner)."""
+    row, column = np.divmod(np.arange(N_REGIONS), GRID_COLUMNS)
+    touching = (np.abs(row[:, None] - row[None, :]) <= 1) & (
+        np.abs(column[:, None] - column[None, :]) <= 1
     )
+    np.fill_diagonal(touching, False)
+    touching.flags.writeable = False
+    return touching
 
 
 def policy_inputs(config: MemoryConfig | None, features: str = "road_values") -> int:

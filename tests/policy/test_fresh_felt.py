@@ -19,7 +19,6 @@ from lfd_track.policy.memory import (
     FreshFeltMemory,
     LastBendConfig,
     MemoryConfig,
-    _links,
     fresh_bearing_rad,
     memory_config,
     memory_for,
@@ -265,27 +264,6 @@ def test_strip_link_keeps_only_the_felt_connected_to_the_rovers_own_strip():
     lonely = FreshFeltMemory(FreshFeltConfig.plain(strip_link_m=0.15))
     lonely.see(_values({0}, rows={3}))  # felt, but none under the rover: no strip, nothing fresh
     np.testing.assert_array_equal(lonely.inputs(), [0.5, 0.0, 0.0])
-
-
-@pytest.mark.parametrize("seed", range(6))
-def test_strip_links_from_the_grid_are_every_pair_a_full_table_links(seed):
-    """The strip's links are found through a grid of cells; they are exactly the pairs a full
-    N x N distance table finds, on scattered and crowded maps and with pairs spaced exactly one
-    link apart along a rotated row."""
-    rng = np.random.default_rng(seed)
-    link = 0.15
-    scattered = rng.uniform(-1.2, 1.2, (300, 2))
-    crowded = rng.normal(0.3, 0.08, (400, 2))
-    angle = rng.uniform(0, 2 * np.pi)
-    row = np.outer(np.arange(12) * link, [np.cos(angle), np.sin(angle)]) + rng.uniform(-1, 1, 2)
-    points = np.vstack([scattered, crowded, row])
-    gap = points[:, None, :] - points[None, :, :]
-    table = np.einsum("ijk,ijk->ij", gap, gap) <= link**2
-    src, dst = _links(points, link)
-    found = np.zeros_like(table)
-    found[src, dst] = True
-    assert len(src) == int(table.sum())  # no pair twice
-    np.testing.assert_array_equal(found, table)
 
 
 def test_blank_reach_looks_further_only_while_nothing_is_fresh_near():
