@@ -256,14 +256,23 @@ def _value_noise(rng: np.random.Generator, shape: tuple[int, int], cell_px: floa
 
     White noise on a coarse grid, upsampled with bicubic interpolation (cheap and seamless).
     """
+    out, scale = _value_noise_unscaled(rng, shape, cell_px)
+    out *= scale
+    return out
+
+
+def _value_noise_unscaled(
+    rng: np.random.Generator, shape: tuple[int, int], cell_px: float
+) -> tuple[np.ndarray, np.float32]:
+    """``_value_noise`` before its last step: the upsampled field and the factor that brings its
+    std to ≈ 1, so a caller using only part of the field scales only that part (same values)."""
     h, w = shape
     cell = max(cell_px, 1.0)
     gh, gw = max(int(round(h / cell)), 2), max(int(round(w / cell)), 2)
     coarse = rng.standard_normal((gh, gw), dtype=np.float32)
     out: np.ndarray = cv2.resize(coarse, (w, h), interpolation=cv2.INTER_CUBIC)
     # Interpolation lowers the std of white noise (to about 0.6 for large cells); restore ≈ 1.
-    out *= np.float32(1.0 / max(float(out[::7, ::7].std()), 1e-6))
-    return out
+    return out, np.float32(1.0 / max(float(out[::7, ::7].std()), 1e-6))
 
 
 def _smoothstep(x: np.ndarray) -> np.ndarray:
@@ -319,12 +328,102 @@ def _illumination(
     return light, step
 
 
+#: Felt windows (``_felt_windows``) are unions of square cells this wide [texels] ...
+_FELT_CELL = 16
+#: ... taken in bands of this many rows [texels].
+_BAND_ROWS = 64
+#: Rows per chunk of the colour pass (small enough for its temporaries to stay in cache).
+_CHUNK_ROWS = 64
+
+
+def _gauss_reach(sigma: float) -> int:
+    """Texels a ``cv2.GaussianBlur`` of a float image with ``sigma`` (kernel size left to OpenCV:
+    ``round(8·sigma + 1) | 1``) reaches from its centre, rounded up with room to spare."""
+    return int(math.ceil(4.0 * sigma)) + 2
+
+
+def _felt_windows(mask: np.ndarray, reach: int) -> list[list[tuple[int, int]]]:
+    """Column runs ``(c0, c1)`` per band of ``_BAND_ROWS`` rows: together they hold every texel
+    within ``reach`` texels (along rows and columns) of a nonzero ``mask`` texel.
+
+    ``mask`` is (H, W) with H and W multiples of ``_FELT_CELL``. A cell holding a mask texel marks
+    every cell within ``ceil(reach / cell)`` cells of it; a band's runs are its marked columns.
+    """
+    cell = _FELT_CELL
+    hc, wc = mask.shape[0] // cell, mask.shape[1] // cell
+    occupied = mask.reshape(hc, cell, wc * cell).max(axis=1).reshape(hc, wc, cell).max(axis=2)
+    k = -(-reach // cell)
+    if k > 0:
+        occupied = cv2.dilate(occupied, np.ones((2 * k + 1, 2 * k + 1), np.uint8))
+    per_band = _BAND_ROWS // cell
+    runs: list[list[tuple[int, int]]] = []
+    for b0 in range(0, hc, per_band):
+        marked = np.flatnonzero(occupied[b0 : b0 + per_band].max(axis=0))
+        band: list[tuple[int, int]] = []
+        if marked.size:
+            breaks = np.flatnonzero(np.diff(marked) > 1)
+            starts = np.concatenate([marked[:1], marked[breaks + 1]])
+            ends = np.concatenate([marked[breaks], marked[-1:]]) + 1
+            band = [(int(s) * cell, int(e) * cell) for s, e in zip(starts, ends, strict=True)]
+        runs.append(band)
+    return runs
+
+
+def _window(
+    image: np.ndarray, rows: tuple[int, int], cols: tuple[int, int], halo: int
+) -> tuple[np.ndarray, tuple[slice, slice]]:
+    """``image``'s rows × cols grown by ``halo`` on each side (clipped to the image), and the slices
+    that cut the requested rows × cols back out of it."""
+    h, w = image.shape[:2]
+    r0, c0 = max(rows[0] - halo, 0), max(cols[0] - halo, 0)
+    r1, c1 = min(rows[1] + halo, h), min(cols[1] + halo, w)
+    inner = (slice(rows[0] - r0, rows[1] - r0), slice(cols[0] - c0, cols[1] - c0))
+    return image[r0:r1, c0:c1], inner
+
+
+@dataclass
+class _FeltWindow:
+    """The felt side of one window of the floor: its place and its per-texel fields."""
+
+    rows: slice
+    cols: slice
+    coverage: np.ndarray  # final felt coverage in 0..1
+    shade: np.ndarray  # felt brightness factor; lit and weighted by coverage in place later
+
+
+def _rgb(planes: list[np.ndarray], colour: np.ndarray) -> list[np.ndarray]:
+    """R, G and B (uint8, rounded and saturated) of ``colour`` (3 × n float32) applied per texel
+    to the first n of the planes (carpet, carpet·flecks, felt, felt·tint).
+
+    The arithmetic is OpenCV's ``cv2.transform`` of the planes merged into one image (how the
+    floor's colours were defined): per channel the first product, then each further term added
+    with one multiply-add in order, ``cv2.scaleAdd`` (fused where the CPU has FMA, as the
+    transform is: both are compiled in OpenCV's same per-CPU unit), on whole planes.
+    """
+    out = []
+    for row in colour:
+        acc = planes[0] * row[0]
+        for plane, m in zip(planes[1:], row[1:], strict=False):
+            cv2.scaleAdd(plane, float(m), acc, dst=acc)
+        out.append(cv2.convertScaleAbs(acc))
+    return out
+
+
 def build_ground(
     track: Track, appearance: AppearanceConfig, lighting: LightingConfig, rng: np.random.Generator
 ) -> GroundTexture:
     """Paint the floor around ``track``: felt strips, carpet, light pools and shadow bands.
 
     Everything random is drawn from ``rng``, so the same seed gives the same bytes.
+
+    The felt's fields (coverage, fibres, dye) are computed only in windows around the strips, the
+    carpet's everywhere, and every texel gets the bytes it would get if each field were computed
+    over the whole floor (``tests/render/test_ground_reference.py`` compares the two): OpenCV's
+    filters give a texel the same value wherever it sits in the image they are given, as long as
+    that image holds every texel the kernel reaches (each window is cut with such a halo; the
+    box filters' running sums of these float32 values are exact in their float64 sums); outside
+    the windows the felt's coverage is exactly 0 (no strip within the blur's reach), so the
+    felt's terms of the colour are exact zeros there and are left out.
     """
     mpp = appearance.metres_per_px
     xmin, ymin, xmax, ymax = track.bounds(appearance.margin_m)
@@ -343,58 +442,64 @@ def build_ground(
     # and saves most of the build time.
     fine = rng.standard_normal(shape, dtype=np.float32)
 
-    # Felt coverage: strips rasterised with sub-texel precision, then a frayed edge.
+    # Felt coverage: strips rasterised with sub-texel precision (into an image padded to whole
+    # window cells; the strips lie inside the margin, so the floor's part is the same), then a
+    # frayed edge.
     shift = 4
-    mask = np.zeros(shape, dtype=np.uint8)
+    cell = _FELT_CELL
+    padded = np.zeros((-(-h // cell) * cell, -(-w // cell) * cell), dtype=np.uint8)
     for poly in track.strip_polygons():
         col = (poly[:, 0] - origin[0]) / mpp
         row = (origin[1] - poly[:, 1]) / mpp
         pts = np.rint(np.stack([col, row], axis=1) * (1 << shift)).astype(np.int32)
-        cv2.fillPoly(mask, [pts], 255, lineType=cv2.LINE_8, shift=shift)
-    coverage: np.ndarray = mask.astype(np.float32)
-    coverage *= np.float32(1.0 / 255.0)
+        cv2.fillPoly(padded, [pts], 255, lineType=cv2.LINE_8, shift=shift)
+    mask = padded[:h, :w]
     fuzz_px = appearance.edge_fuzz_m / mpp
-    if fuzz_px > 0.25:
-        coverage = cv2.GaussianBlur(coverage, (0, 0), sigmaX=fuzz_px)
-        # Stray fibres: noise (std ≈ 0.3) moves the 50 % line in and out by about the fuzz width.
-        # It is weighted to vanish away from the edge, or rare peaks would speckle the carpet.
-        fray = cv2.GaussianBlur(fine, (0, 0), sigmaX=1.0)
-        fray *= 4.0 * coverage * (1.0 - coverage)
-        coverage = cv2.addWeighted(coverage, 2.5, fray, 1.1, -0.75)
-        np.clip(coverage, 0.0, 1.0, out=coverage)
+    fuzzy = fuzz_px > 0.25
+    runs_per_band = _felt_windows(padded, _gauss_reach(fuzz_px) if fuzzy else 0)
+    del padded
+
+    # Felt: short fibre streaks in two directions over a soft pilled surface, slow dye variation.
+    # The vertical streaks are blurred in the field flipped upside down (rows counted from the
+    # bottom), so a window's rows are cut from the flipped field.
+    fibre_px = max(int(round(appearance.felt_fibre_length_m / mpp)), 1)
+    k_fibre = appearance.felt_fibre_strength
+    flipped = fine[::-1]
+    felt: list[_FeltWindow] = []
+    for b, runs in enumerate(runs_per_band):
+        rows = (b * _BAND_ROWS, min((b + 1) * _BAND_ROWS, h))
+        for cols in runs:
+            cols = (cols[0], min(cols[1], w))
+            felt.append(
+                _felt_window(mask, fine, flipped, rows, cols, fuzz_px, fuzzy, fibre_px, k_fibre)
+            )
+    del flipped
 
     # Carpet: loops (blobs about one loop wide) with fine fibre grain, slow wear patches.
     pile_px = appearance.carpet_pile_scale_m / mpp
     k_pile = appearance.carpet_pile_strength
-    carpet_shade: np.ndarray = cv2.addWeighted(
-        _value_noise(rng, shape, pile_px), 0.75 * k_pile, fine, 0.45 * k_pile, 1.0
-    )
-    carpet_shade = cv2.addWeighted(
-        carpet_shade, 1.0, _value_noise(rng, shape, 0.25 / mpp), appearance.carpet_patchiness, 0.0
-    )
+    carpet_shade = _value_noise(rng, shape, pile_px)
+    cv2.addWeighted(carpet_shade, 0.75 * k_pile, fine, 0.45 * k_pile, 1.0, dst=carpet_shade)
+    del fine  # full-size: keep the build's peak memory down
+    patches = _value_noise(rng, shape, 0.25 / mpp)
+    cv2.addWeighted(carpet_shade, 1.0, patches, appearance.carpet_patchiness, 0.0, dst=carpet_shade)
+    del patches
 
-    # Felt: short fibre streaks in two directions over a soft pilled surface, slow dye variation.
-    fibre_px = max(int(round(appearance.felt_fibre_length_m / mpp)), 1)
-    streaks = np.maximum(
-        cv2.blur(fine, (fibre_px, 1)), cv2.blur(np.ascontiguousarray(fine[::-1]), (1, fibre_px))
-    )
-    k_fibre = appearance.felt_fibre_strength
-    felt_shade: np.ndarray = cv2.addWeighted(
-        streaks,
-        0.6 * k_fibre * math.sqrt(fibre_px),
-        cv2.GaussianBlur(fine, (0, 0), 0.7),
-        0.5 * k_fibre,
-        1.0,
-    )
-    del streaks, fine  # full-size temporaries: keep the build's peak memory down
     slow_px = appearance.felt_nonuniformity_scale_m / mpp
-    felt_shade = cv2.addWeighted(
-        felt_shade, 1.0, _value_noise(rng, shape, slow_px), appearance.felt_nonuniformity, 0.0
-    )
+    slow, slow_scale = _value_noise_unscaled(rng, shape, slow_px)
+    for win in felt:
+        win.shade = cv2.addWeighted(
+            win.shade,
+            1.0,
+            slow[win.rows, win.cols] * slow_scale,
+            appearance.felt_nonuniformity,
+            0.0,
+        )
+    del slow
 
-    bands = _shadow_bands(track, lighting, rng)
+    shadows = _shadow_bands(track, lighting, rng)
     light, light_step = _illumination(
-        track, lighting, bands, origin, ((w - 1) * mpp, (h - 1) * mpp), rng
+        track, lighting, shadows, origin, ((w - 1) * mpp, (h - 1) * mpp), rng
     )
     # Texel (c, r) sits at coarse position (c, r) * mpp / step: an exact affine upsampling.
     inv_scale = mpp / light_step
@@ -405,19 +510,18 @@ def build_ground(
         flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
         borderMode=cv2.BORDER_REPLICATE,
     )
-    # Lit carpet and felt, each weighted by its coverage (in place, same reason as above).
-    carpet_lit, felt_lit = carpet_shade, felt_shade
-    carpet_lit *= light_full
-    felt_lit *= light_full
+    carpet_lit = carpet_shade
+    carpet_lit *= light_full  # in place (before its coverage weighting)
+    for win in felt:
+        win.shade *= light_full[win.rows, win.cols]
+        win.shade *= win.coverage
     del light_full
-    felt_lit *= coverage
-    carpet_lit -= carpet_lit * coverage
-    flecks = _value_noise(rng, shape, pile_px * 0.7)
-    tint = _value_noise(rng, shape, 2.0 * slow_px)
+    flecks, fleck_scale = _value_noise_unscaled(rng, shape, pile_px * 0.7)
+    tint, tint_scale = _value_noise_unscaled(rng, shape, 2.0 * slow_px)
 
-    # Colour: carpet_rgb·(1 + flecks·w) on the carpet, felt_rgb·(1 + tint·u) on the felt. Written
-    # as four shared planes and one 3×4 colour matrix, so the per-channel work is a single OpenCV
-    # pass; done in bands of rows so the 4-plane temporaries stay small.
+    # Colour: carpet_rgb·(1 + flecks·w) on the carpet, felt_rgb·(1 + tint·u) on the felt, that is
+    # a 3×4 colour matrix applied to four planes (carpet, carpet·flecks, felt, felt·tint), see
+    # ``_rgb``. Outside the felt windows the felt's planes are 0 and are left out.
     carpet_rgb = np.array(appearance.carpet_rgb, dtype=np.float64)
     felt_rgb = np.array(appearance.felt_rgb, dtype=np.float64)
     # Heathered yarn: fibres vary from redder to duller; felt dye varies in saturation.
@@ -434,19 +538,76 @@ def build_ground(
         ]
     ).astype(np.float32)
     rgba = np.empty((h, w, 4), dtype=np.uint8)
-    band_rows = 256
-    for r0 in range(0, h, band_rows):
-        rows = slice(r0, min(r0 + band_rows, h))
-        cl, fl = carpet_lit[rows], felt_lit[rows]
-        planes = cv2.merge([cl, cl * flecks[rows], fl, fl * tint[rows]])
-        rgba[rows, :, :3] = cv2.convertScaleAbs(cv2.transform(planes, colour))  # round, saturate
-        rgba[rows, :, 3] = cv2.convertScaleAbs(coverage[rows], alpha=255.0)
+    # The carpet's colour everywhere (the felt's planes left out: they are 0 outside the felt
+    # windows), in bands of rows so the temporaries stay in cache; then each felt window's.
+    no_felt = np.zeros((_CHUNK_ROWS, w), dtype=np.uint8)
+    for r0 in range(0, h, _CHUNK_ROWS):
+        rows = slice(r0, min(r0 + _CHUNK_ROWS, h))
+        cl = carpet_lit[rows]
+        rgb = _rgb([cl, cl * (flecks[rows] * fleck_scale)], colour)
+        rgba[rows] = cv2.merge([*rgb, no_felt[: rows.stop - r0]])
+    for win in felt:
+        cl = carpet_lit[win.rows, win.cols]
+        cl = cl - cl * win.coverage
+        fl = win.shade
+        planes = [
+            cl,
+            cl * (flecks[win.rows, win.cols] * fleck_scale),
+            fl,
+            fl * (tint[win.rows, win.cols] * tint_scale),
+        ]
+        alpha = cv2.convertScaleAbs(win.coverage, alpha=255.0)
+        rgba[win.rows, win.cols] = cv2.merge([*_rgb(planes, colour), alpha])
     return GroundTexture(
         rgba=rgba,
         origin_xy=(float(origin[0]), float(origin[1])),
         metres_per_px=float(mpp),
         illumination=light,
         illumination_m_per_px=float(light_step),
-        shadows=bands,
+        shadows=shadows,
         margin_m=float(appearance.margin_m),
     )
+
+
+def _felt_window(
+    mask: np.ndarray,
+    fine: np.ndarray,
+    flipped: np.ndarray,
+    rows: tuple[int, int],
+    cols: tuple[int, int],
+    fuzz_px: float,
+    fuzzy: bool,
+    fibre_px: int,
+    k_fibre: float,
+) -> _FeltWindow:
+    """The felt's coverage and unlit shade (fibres and pilling) in rows × cols of the floor."""
+    if fuzzy:
+        cut, inner = _window(mask, rows, cols, _gauss_reach(fuzz_px))
+        coverage = cut.astype(np.float32)
+        coverage *= np.float32(1.0 / 255.0)
+        coverage = cv2.GaussianBlur(coverage, (0, 0), sigmaX=fuzz_px)[inner]
+        # Stray fibres: noise (std ≈ 0.3) moves the 50 % line in and out by about the fuzz width.
+        # It is weighted to vanish away from the edge, or rare peaks would speckle the carpet.
+        cut, inner = _window(fine, rows, cols, _gauss_reach(1.0))
+        fray = cv2.GaussianBlur(cut, (0, 0), sigmaX=1.0)[inner]
+        fray *= 4.0 * coverage * (1.0 - coverage)
+        coverage = cv2.addWeighted(coverage, 2.5, fray, 1.1, -0.75)
+        np.clip(coverage, 0.0, 1.0, out=coverage)
+    else:
+        coverage = mask[rows[0] : rows[1], cols[0] : cols[1]].astype(np.float32)
+        coverage *= np.float32(1.0 / 255.0)
+    # Horizontal streaks along whole rows of the window; vertical ones in the flipped field.
+    cut, inner = _window(fine, rows, cols, fibre_px)
+    across = cv2.blur(cut[inner[0]], (fibre_px, 1))[:, inner[1]]
+    cut, inner = _window(flipped, rows, cols, fibre_px)
+    down = cv2.blur(np.ascontiguousarray(cut[:, inner[1]]), (1, fibre_px))[inner[0]]
+    streaks = np.maximum(across, down)
+    cut, inner = _window(fine, rows, cols, _gauss_reach(0.7))
+    shade = cv2.addWeighted(
+        streaks,
+        0.6 * k_fibre * math.sqrt(fibre_px),
+        cv2.GaussianBlur(cut, (0, 0), 0.7)[inner],
+        0.5 * k_fibre,
+        1.0,
+    )
+    return _FeltWindow(slice(*rows), slice(*cols), coverage, shade)
