@@ -455,7 +455,8 @@ class FreshFeltMemory:
             words = self._linked[frontier].view(np.uint64)
             near = np.bitwise_or.reduce(words, axis=0).view(np.uint8)
             linked = np.unpackbits(near, count=len(dist), bitorder="little").view(bool)
-            linked[dst[frontier[src]]] = True
+            if len(src):
+                linked[dst[frontier[src]]] = True
             frontier = linked & candidate & ~reached
             if not frontier.any():
                 break
