@@ -17,8 +17,8 @@ medians (baseline over this checkout). The two sides' inputs are compared step b
 Baseline: ``git worktree add --detach /tmp/fresh_felt_base <commit>`` (or ``git archive <commit>
 lfd_track | tar -x -C DIR``).
 
-Run: ``.venv/bin/python benchmarks/speed/bench_fresh_felt.py [--baseline DIR] [--rounds 5]
-[--steps 300]`` — prints a table and writes ``benchmarks/speed/results/fresh_felt.json``.
+Run: ``.venv/bin/python benchmarks/speed/bench_fresh_felt.py [--baseline DIR --baseline-label
+COMMIT] [--rounds 5] [--steps 300]`` — prints a table and writes ``benchmarks/speed/results/fresh_felt.json``.
 """
 
 from __future__ import annotations
@@ -143,6 +143,9 @@ def replay(tree: Path, episodes: Path) -> dict[str, dict]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--baseline", type=Path, help="source tree of the code to compare with")
+    parser.add_argument(
+        "--baseline-label", default="", help="what the baseline tree is (e.g. its commit)"
+    )
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--steps", type=int, default=300, help="steps recorded per track")
     parser.add_argument("--seed", type=int, default=0)
@@ -191,7 +194,9 @@ def main() -> None:
         "benchmark": "fresh_felt_map_per_step",
         "what": "FreshFeltMemory.see() + inputs() per step, CPU microseconds, one thread",
         "episodes": f"{n_steps} steps of {', '.join(TRACKS)} (teacher + 1/12 random commands)",
-        "baseline": str(args.baseline) if args.baseline else None,
+        "baseline": (
+            {"tree": str(args.baseline), "label": args.baseline_label} if args.baseline else None
+        ),
         "rounds": args.rounds,
         "modules": modules,
         "rows": rows,
