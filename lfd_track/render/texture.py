@@ -262,15 +262,19 @@ def _value_noise(rng: np.random.Generator, shape: tuple[int, int], cell_px: floa
 
 
 def _value_noise_unscaled(
-    rng: np.random.Generator, shape: tuple[int, int], cell_px: float
+    rng: np.random.Generator,
+    shape: tuple[int, int],
+    cell_px: float,
+    out: np.ndarray | None = None,
 ) -> tuple[np.ndarray, np.float32]:
     """``_value_noise`` before its last step: the upsampled field and the factor that brings its
-    std to ≈ 1, so a caller using only part of the field scales only that part (same values)."""
+    std to ≈ 1, so a caller using only part of the field scales only that part (same values).
+    The field is written into ``out`` if given ((H, W) float32 no longer needed)."""
     h, w = shape
     cell = max(cell_px, 1.0)
     gh, gw = max(int(round(h / cell)), 2), max(int(round(w / cell)), 2)
     coarse = rng.standard_normal((gh, gw), dtype=np.float32)
-    out: np.ndarray = cv2.resize(coarse, (w, h), interpolation=cv2.INTER_CUBIC)
+    out = cv2.resize(coarse, (w, h), dst=out, interpolation=cv2.INTER_CUBIC)
     # Interpolation lowers the std of white noise (to about 0.6 for large cells); restore ≈ 1.
     return out, np.float32(1.0 / max(float(out[::7, ::7].std()), 1e-6))
 
@@ -480,13 +484,14 @@ def build_ground(
     k_pile = appearance.carpet_pile_strength
     carpet_shade = _value_noise(rng, shape, pile_px)
     cv2.addWeighted(carpet_shade, 0.75 * k_pile, fine, 0.45 * k_pile, 1.0, dst=carpet_shade)
-    del fine  # full-size: keep the build's peak memory down
-    patches = _value_noise(rng, shape, 0.25 / mpp)
+    patches, patch_scale = _value_noise_unscaled(rng, shape, 0.25 / mpp, out=fine)
+    del fine  # its memory now holds the patches (fresh full-size arrays cost page faults)
+    patches *= patch_scale
     cv2.addWeighted(carpet_shade, 1.0, patches, appearance.carpet_patchiness, 0.0, dst=carpet_shade)
-    del patches
 
     slow_px = appearance.felt_nonuniformity_scale_m / mpp
-    slow, slow_scale = _value_noise_unscaled(rng, shape, slow_px)
+    slow, slow_scale = _value_noise_unscaled(rng, shape, slow_px, out=patches)
+    del patches
     for win in felt:
         win.shade = cv2.addWeighted(
             win.shade,
@@ -495,7 +500,6 @@ def build_ground(
             appearance.felt_nonuniformity,
             0.0,
         )
-    del slow
 
     shadows = _shadow_bands(track, lighting, rng)
     light, light_step = _illumination(
@@ -507,16 +511,18 @@ def build_ground(
         light,
         np.array([[inv_scale, 0.0, 0.0], [0.0, inv_scale, 0.0]]),
         (w, h),
+        dst=slow,
         flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
         borderMode=cv2.BORDER_REPLICATE,
     )
+    del slow
     carpet_lit = carpet_shade
     carpet_lit *= light_full  # in place (before its coverage weighting)
     for win in felt:
         win.shade *= light_full[win.rows, win.cols]
         win.shade *= win.coverage
+    flecks, fleck_scale = _value_noise_unscaled(rng, shape, pile_px * 0.7, out=light_full)
     del light_full
-    flecks, fleck_scale = _value_noise_unscaled(rng, shape, pile_px * 0.7)
     tint, tint_scale = _value_noise_unscaled(rng, shape, 2.0 * slow_px)
 
     # Colour: carpet_rgb·(1 + flecks·w) on the carpet, felt_rgb·(1 + tint·u) on the felt, that is
