@@ -2,16 +2,19 @@
 
 Every world of a study job is a new seeded floor (each training, testing and loop world of each
 repetition), so painting them is a fixed cost of every job, whatever the camera. Timed here on the
-training track, the testing track and one procedural loop (``random:test:0``, as the unseen loops
-the chosen configuration drives), each floor from its own seed, ``--rounds`` times; min and
-median per track. Everything runs on one thread (``single_thread.pin_one_thread``).
+training track, the testing track and one procedural loop (``random:test:0``), each floor from its
+own seed, ``--rounds`` times; min and median per track, in wall and in CPU (this thread's) time.
+``--tracks`` times other tracks instead (e.g. ``notch bolt step arrow zed``, the unseen loops of
+``benchmarks/experiments/goal/chosen.toml``). Everything runs on one thread
+(``single_thread.pin_one_thread``).
 
 With ``--baseline-rev REV`` the ``build_ground`` of ``lfd_track/render/texture.py`` at git revision
 ``REV`` is timed too, alternating with this checkout's in every round (so load from other
 processes falls on both alike), and the two floors' bytes are compared (they must be identical).
 
 Run: ``.venv/bin/python benchmarks/speed/bench_ground.py [--rounds 5] [--preset paper]
-[--baseline-rev REV]`` — prints a table and writes ``benchmarks/speed/results/ground.json``.
+[--baseline-rev REV] [--tracks NAME ...] [--output FILE]`` — prints a table and writes
+``benchmarks/speed/results/ground.json``.
 """
 
 from __future__ import annotations
@@ -94,23 +97,25 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--preset", default="paper")
     parser.add_argument("--baseline-rev", default=None)
+    parser.add_argument("--tracks", nargs="+", default=list(TRACKS))
     parser.add_argument("--output", type=Path, default=RESULTS)
     args = parser.parse_args()
     pin_one_thread()
     load_before = load_average()
+    tracks = args.tracks
 
     sides: dict[str, Builder] = {"this checkout": texture.build_ground}
     if args.baseline_rev:
         sides[f"baseline {args.baseline_rev}"] = baseline_module(args.baseline_rev).build_ground
     # times[clock][side][track]: one value per round
-    times = {c: {s: {t: [] for t in TRACKS} for s in sides} for c in CLOCKS}
+    times = {c: {s: {t: [] for t in tracks} for s in sides} for c in CLOCKS}
     shapes: dict[str, list[int]] = {}
     identical = True
     for build in sides.values():  # warm up: OpenCV's first calls set up their kernels
         build(load_track("training"), *_world(args.preset), np.random.default_rng(0))
     for r in range(args.rounds):
         order = list(sides) if r % 2 == 0 else list(reversed(sides))
-        for name in TRACKS:
+        for name in tracks:
             floors = []
             for side in order:
                 wall, cpu, rgba = time_floor(sides[side], name, args.preset, seed=r)
@@ -126,7 +131,7 @@ def main() -> None:
         print(f"build_ground, preset {args.preset}, {clock} ms per floor (min / median):")
         result[clock] = per_side = {}
         for side in sides:
-            per_side[side] = per_track = {t: summary(times[clock][side][t]) for t in TRACKS}
+            per_side[side] = per_track = {t: summary(times[clock][side][t]) for t in tracks}
             cells = "  ".join(
                 f"{t}: {v['min_ms']:.0f} / {v['median_ms']:.0f}" for t, v in per_track.items()
             )
@@ -137,7 +142,7 @@ def main() -> None:
                 times[clock]["this checkout"],
             )
             ratios = {
-                t: round(statistics.median(base[t]) / statistics.median(ours[t]), 2) for t in TRACKS
+                t: round(statistics.median(base[t]) / statistics.median(ours[t]), 2) for t in tracks
             }
             per_side["speedup_of_medians"] = ratios
             print(f"  speed-up (median over median): {ratios}")
