@@ -132,7 +132,12 @@ def test_windowed_floor_matches_whole_floor_reference(case):
     ground = build_ground(track, appearance, lighting, rng_a)
     rgba, light = _reference_ground(track, appearance, lighting, rng_b)
     assert ground.rgba.shape == rgba.shape
-    mismatched = int(np.count_nonzero(ground.rgba != rgba))
-    assert mismatched == 0, f"{mismatched} bytes differ from the whole-floor reference"
+    # Byte-equal on the machines measured; the colour pass is a different OpenCV kernel from the
+    # reference's (scaleAdd, not transform), so on another CPU a texel may round the other way:
+    # allowed at most one level, on at most 1 texel in 10,000.
+    diff = np.abs(ground.rgba.astype(np.int16) - rgba.astype(np.int16))
+    assert int(diff.max()) <= 1, f"a texel differs by {int(diff.max())} levels"
+    mismatched = int(np.count_nonzero(diff))
+    assert mismatched <= rgba.size // 10_000, f"{mismatched} bytes differ from the reference"
     assert np.array_equal(ground.illumination, light)
     assert rng_a.integers(1 << 30) == rng_b.integers(1 << 30)  # the same draws, in order
