@@ -33,6 +33,7 @@ from ..learning.result import check_int
 from ..methods import Learned, Method, MethodContext, get_method
 from ..methods.common import effort_record, period_s
 from ..policy.controller import Controller
+from ..policy.map_geometry import MapGeometry
 from ..teaching.arbiter import Arbiter
 from ..teaching.loop import LoopCounts, Step, TeachingLoop
 from ..teaching.observers import CallbackObserver, TrajectoryObserver
@@ -226,9 +227,13 @@ def run_trial(
         )
     if on_loop_step is not None:
         observers.append(CallbackObserver(on_loop_step))
+    if isinstance(controller, Controller):  # its map notes a world of another geometry
+        perception = controller.perception(world_geometry=MapGeometry.from_preset(env.base_preset))
+    else:  # a policy driver or a rule: whatever perception it brings
+        perception = controller.perception()
     loop = TeachingLoop(
         env,
-        controller.perception(),
+        perception,
         Arbiter("policy"),
         policy=controller.commander(),
         observers=observers,

@@ -27,6 +27,10 @@ Schema history:
   ``random_loops`` and ``random_split`` (procedural loops lapped per repetition; a schema-2 run
   lapped none: 0 and ``"validation"``), and a run that lapped some has a ``random_loops``
   section (:func:`lfd_track.benchmark.loops.random_loop_results`).
+* **4** — ``config.memory`` names every memory setting added since, in particular the
+  ``fresh_felt`` map's ``geometry`` (:mod:`lfd_track.policy.map_geometry`). A schema-3 file was
+  written before them: each one it lacks has the value that does what the memory did then
+  (``geometry = "paper"``: the paper's camera, 0.10 m and 22.9° per command).
 """
 
 from __future__ import annotations
@@ -37,7 +41,7 @@ from typing import Any
 from ..policy.memory_config import memory_table_from_v1
 from ..utils.migrate import Step, VersionedJson
 
-RESULTS_SCHEMA = 3
+RESULTS_SCHEMA = 4
 """Schema of the results.json this version writes (``len(RESULTS_STEPS) + 1``)."""
 MAX_RESULTS_BYTES = 1 << 28
 """Largest results.json read (a 10-repetition benchmark writes about 100 kB)."""
@@ -190,7 +194,24 @@ def results_v2_to_v3(data: dict[str, Any]) -> dict[str, Any]:
     return data
 
 
-RESULTS_STEPS: tuple[Step, ...] = (results_v1_to_v2, results_v2_to_v3)
+def config_v3_to_v4(config: Any) -> Any:
+    """A schema-3 ``config`` section whose memory table names every setting of today, each one
+    it lacks at the value that does what the memory did before the setting existed (also the
+    conditions' ``config`` of a schema-3 study.json)."""
+    if not isinstance(config, dict) or not isinstance(config.get("memory"), dict):
+        return config
+    return {**config, "memory": memory_table_from_v1(config["memory"])}
+
+
+def results_v3_to_v4(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 3 -> 4: the memory settings added since, at what an older run did."""
+    if "config" in data:
+        data["config"] = config_v3_to_v4(data["config"])
+    data["schema"] = 4
+    return data
+
+
+RESULTS_STEPS: tuple[Step, ...] = (results_v1_to_v2, results_v2_to_v3, results_v3_to_v4)
 """Step k turns a schema-k results dict into schema k + 1."""
 RESULTS_FORMAT = VersionedJson("results", RESULTS_STEPS, MAX_RESULTS_BYTES)
 """results.json: its steps and largest size; :func:`read_results` (a file) and

@@ -16,6 +16,7 @@ from ..learning.fitness import training_accuracy
 from ..learning.ga import GAConfig, evolve
 from ..policy.controller import Controller
 from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
+from ..policy.map_geometry import MapGeometry
 from ..policy.memory import MemoryConfig
 from ..utils.outputs import shown_path
 from ..vision.road_library import RoadLibrary
@@ -117,6 +118,7 @@ def run(args: argparse.Namespace) -> int:
         title=shown_path(Path(args.demo).name),
         note="" if demo.metadata["complete"] else " (an interrupted recording)",
         frame_size=_recorded_frame_size(demo.metadata),
+        map_geometry=_recorded_map_geometry(demo.metadata),
     )
 
 
@@ -136,6 +138,25 @@ def _recorded_frame_size(metadata: dict[str, Any]) -> tuple[int, int]:
     return FRAME_WIDTH, FRAME_HEIGHT
 
 
+def _recorded_map_geometry(metadata: dict[str, Any]) -> MapGeometry:
+    """The map geometry a recording's ``fresh_felt`` inputs were computed with: its preset's
+    world for a simulated one whose preset still loads, else the robot's (the paper preset's
+    camera and rates at the recording's control period, if it names one)."""
+    from ..envs.presets import load_preset
+    from ..policy.map_geometry import hardware_geometry
+
+    preset = metadata.get("preset")
+    if metadata.get("kind") == "simulated" and isinstance(preset, str):
+        try:
+            return MapGeometry.from_preset(load_preset(preset))
+        except (OSError, ValueError, LfdTrackError):
+            pass
+    period = metadata.get("control_period_s")
+    if isinstance(period, int | float) and not isinstance(period, bool) and period > 0:
+        return hardware_geometry(period_s=float(period))
+    return hardware_geometry()
+
+
 def _learn(
     args: argparse.Namespace,
     png: Path,
@@ -147,6 +168,7 @@ def _learn(
     title: str,
     note: str,
     frame_size: tuple[int, int] = (640, 480),
+    map_geometry: MapGeometry | None = None,
 ) -> int:
     """Evolve on the cases, then write the controller and its fitness curve."""
     # Lazy: the drawing and progress-bar stack (OpenCV, tqdm) loads only when the command runs.
@@ -171,6 +193,7 @@ def _learn(
         memory=memory,
         features=args.features,
         frame_size=frame_size,
+        map_geometry=map_geometry,
     )
     accuracy = training_accuracy(result.best_weights, inputs, commands)
     curves = [

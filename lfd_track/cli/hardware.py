@@ -21,6 +21,7 @@ from typing import Any
 
 from ..errors import LfdTrackError
 from ..policy.controller import Controller
+from ..policy.map_geometry import hardware_geometry
 from ..policy.memory import MEMORY_KINDS, memory_config
 from ..teaching import Arbiter, TeachingLoop
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output
@@ -200,7 +201,7 @@ def _cmd_drive(args: argparse.Namespace) -> int:
         # The teaching loop with the controller as the only commander.
         loop = TeachingLoop(
             env,
-            controller.perception(),
+            controller.perception(world_geometry=hardware_geometry(period_s=args.period)),
             Arbiter("policy"),
             policy=controller.commander(),
         )
@@ -242,6 +243,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
                 library_only=args.library_only,
                 metadata=meta,
                 memory=memory_config({"kind": args.memory}),
+                map_geometry=hardware_geometry(period_s=args.period),
             ) as recorder,
         ):
             print(

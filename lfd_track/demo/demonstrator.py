@@ -31,6 +31,7 @@ from ..dataset.recording import recording_writer
 from ..envs.presets import Preset
 from ..envs.track_env import LfDTrackEnv
 from ..errors import DemonstrationUnfinished
+from ..policy.map_geometry import MapGeometry
 from ..policy.memory import MemoryConfig
 from ..teaching.arbiter import Arbiter
 from ..teaching.loop import TeachingLoop
@@ -129,7 +130,12 @@ def run_demonstration(
         "human": dataclasses.asdict(human),
         "bins": library.bins,
     }
-    perception = Perception(library, "careful" if human.careful else "always", memory)
+    perception = Perception(
+        library,
+        "careful" if human.careful else "always",
+        memory,
+        geometry=MapGeometry.from_preset(env.base_preset),
+    )
     tally = LearningTally()
     with recording_writer(out, metadata, perception, fsync=fsync, overwrite=overwrite) as writer:
         observers: list[Any] = [

@@ -25,6 +25,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from ..core.commands import Command
+from ..policy.map_geometry import MapGeometry, hardware_geometry
 from ..policy.memory import MemoryConfig
 
 QUIT = "quit"
@@ -115,7 +116,10 @@ class DemonstrationRecorder:
     to ``paused``) as the paper's robot did while a careful human drove; the first
     ``library_only`` commands only build the library. It is an observer of the teaching loop:
     cases go through ``lfd_track.dataset.DemonstrationWriter``, with the perception's memory
-    inputs (``memory``, none by default) if it has any.
+    inputs (``memory``, none by default) if it has any. A ``fresh_felt`` map assumes
+    ``map_geometry``: the robot's profile where one exists, else (None)
+    :func:`~lfd_track.policy.map_geometry.hardware_geometry`, the paper preset's camera and
+    rates (nothing on the robot is measured yet).
     """
 
     def __init__(
@@ -127,6 +131,7 @@ class DemonstrationRecorder:
         metadata: Mapping[str, Any] | None = None,
         overwrite: bool = False,
         memory: MemoryConfig | None = None,
+        map_geometry: MapGeometry | None = None,
     ) -> None:
         from ..dataset.recording import RecordingTarget
         from ..teaching.observers import Recorder
@@ -134,7 +139,9 @@ class DemonstrationRecorder:
         from ..vision.road_library import RoadLibrary
 
         self.library = RoadLibrary(bins=bins)
-        self.perception = Perception(self.library, "careful", memory)
+        self.perception = Perception(
+            self.library, "careful", memory, geometry=hardware_geometry(map_geometry)
+        )
         self.library_only = int(library_only)
         meta = {"source": "hardware teleop", **dict(metadata or {})}
         # The library is logged as it changes, so an interrupted recording still trains; the

@@ -55,6 +55,7 @@ def fit_after_demonstration(context: MethodContext, learner: BCConfig | CMAESCon
         features=context.features,
         policy_kind=context.policy_kind,
         frame_size=context.frame_size,
+        map_geometry=context.map_geometry,
     )
     return learned_offline(
         context,

@@ -38,6 +38,7 @@ from ..learning.ga import GAConfig
 from ..learning.mirror import with_mirrored
 from ..policy.controller import Controller
 from ..policy.features import DEFAULT_FEATURES
+from ..policy.map_geometry import MapGeometry
 from ..policy.memory import MemoryConfig
 from ..teaching.loop import LoopCounts
 from ..vision.road_library import RoadLibrary
@@ -93,6 +94,14 @@ class MethodContext:
         """(width, height) [px] of the preset's camera frames, which the controller records."""
         p = self.preset if isinstance(self.preset, Preset) else load_preset(self.preset)
         return p.camera.frame_width_px, p.camera.frame_height_px
+
+    @property
+    def map_geometry(self) -> MapGeometry:
+        """The camera and per-command motion of the preset's world, which a ``fresh_felt`` map
+        with ``geometry = "world"`` assumes and the controller records
+        (:meth:`~lfd_track.policy.map_geometry.MapGeometry.from_preset`)."""
+        p = self.preset if isinstance(self.preset, Preset) else load_preset(self.preset)
+        return MapGeometry.from_preset(p)
 
 
 @dataclass

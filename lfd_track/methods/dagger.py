@@ -213,6 +213,7 @@ def learn(context: MethodContext) -> Learned:
             features=features,
             hidden=dagger.hidden,
             frame_size=context.frame_size,
+            map_geometry=context.map_geometry,
         )
 
     controller = fit(inputs[0], actions[0], np.random.default_rng(context.ga_seed))
@@ -237,7 +238,7 @@ def learn(context: MethodContext) -> Learned:
         with recording_writer(
             context.rep_dir / f"labels_r{r}.lfdemo",
             recording_metadata("dagger", library, round=r, label_noise=dagger.label_noise),
-            controller.perception("frozen"),
+            controller.perception("frozen", world_geometry=context.map_geometry),
             fsync=False,
             overwrite=True,
             log_library=False,  # the library is the demonstration's, frozen: nothing to log

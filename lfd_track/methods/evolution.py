@@ -144,6 +144,7 @@ def _controller(
         seed=context.ga_seed,
         fitness_history=[p.get("best_ever", p["best"]) for p in result.curve],
         frame_size=context.frame_size,
+        map_geometry=context.map_geometry,
     )
 
 

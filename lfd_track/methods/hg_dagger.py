@@ -76,7 +76,7 @@ def learn(context: MethodContext) -> Learned:
         with recording_writer(
             rep_dir / f"interventions_r{r}.lfdemo",
             recording_metadata("hg-dagger", library, round=r),
-            controller.perception("frozen"),
+            controller.perception("frozen", world_geometry=context.map_geometry),
             fsync=False,
             overwrite=True,
             log_library=False,  # the library is the demonstration's, frozen: nothing to log
@@ -117,6 +117,7 @@ def learn(context: MethodContext) -> Learned:
             memory=context.memory,
             features=features,
             frame_size=context.frame_size,
+            map_geometry=context.map_geometry,
         )
         controller = evolved.relabelled("hg-dagger", {**hg.to_dict(), "ga": ga.to_dict()})
         fitness_best += result.best_history.tolist()

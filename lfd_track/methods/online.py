@@ -70,7 +70,13 @@ def learn(context: MethodContext) -> Learned:
         memory=memory,
     )
     library = RoadLibrary()
-    perception = Perception(library, "careful" if human.careful else "always", memory, features)
+    perception = Perception(
+        library,
+        "careful" if human.careful else "always",
+        memory,
+        features,
+        geometry=context.map_geometry,
+    )
     policy = PolicyCommander(None)
     feed = GALearnerFeed(
         ga,
@@ -137,6 +143,7 @@ def learn(context: MethodContext) -> Learned:
         memory=memory,
         features=features,
         frame_size=context.frame_size,
+        map_geometry=context.map_geometry,
     )
     controller = evolved.relabelled("online", {**online.to_dict(), "ga": ga.to_dict()})
     counts = np.bincount(a, minlength=3)

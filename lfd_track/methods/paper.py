@@ -39,6 +39,7 @@ def learn(context: MethodContext) -> Learned:
         features=context.features,
         policy_kind=context.policy_kind,
         frame_size=context.frame_size,
+        map_geometry=context.map_geometry,
     )
     return learned_offline(
         context,

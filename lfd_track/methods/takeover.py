@@ -86,7 +86,7 @@ def drive_both_ways(
         )
         loop = TeachingLoop(
             env,
-            controller.perception("frozen"),
+            controller.perception("frozen", world_geometry=context.map_geometry),
             Arbiter(
                 "takeover",
                 window=takeover.window,

@@ -3,7 +3,7 @@
 ``act(frame)`` runs the paper's autonomous loop for one frame: road values (Algorithm 2) → MLP →
 the command with the largest output (an exact tie keeps the previous command).
 
-The file (schema 6) is one JSON object with the keys ``format``, ``schema_version``,
+The file (schema 7) is one JSON object with the keys ``format``, ``schema_version``,
 ``policy_kind`` (``"mlp-sigmoid"``: the 40-5-3 sigmoid network, or ``"elman-sigmoid"``),
 ``layer_sizes``, ``bias``, ``weights``, ``road_library``, ``learner`` (what trained it: ``"ga"``,
 ``"bc"``, ``"cma-es"``, ... or null), ``learner_config`` (the learner's settings as a JSON object,
@@ -11,7 +11,9 @@ or null), ``seed``, ``fitness_history``, ``learn``, ``features`` (the per-region
 name, :mod:`lfd_track.policy.features`), ``memory`` (every memory setting,
 :meth:`~lfd_track.policy.memory_config.MemoryConfig.to_dict`, or null), ``frame_size`` (``[width,
 height]`` in pixels of the camera frames its library and network learned on: ``[640, 480]`` for
-the paper's camera, ``[320, 240]`` for the half-size one of ``[camera] scale = 0.5``) and
+the paper's camera, ``[320, 240]`` for the half-size one of ``[camera] scale = 0.5``),
+``map_geometry`` (the camera and per-command motion its ``fresh_felt`` map was taught with,
+:meth:`~lfd_track.policy.map_geometry.MapGeometry.to_dict`; null without that map) and
 ``checksum``: the
 SHA-256 (hex) of the canonical JSON (sorted keys, no spaces, UTF-8) of every other key, so a
 changed digit anywhere is refused (unless the number still parses to the very same value, which
@@ -27,7 +29,9 @@ file of schema k into one of schema k + 1: schema 1 (the first release: ``ga_con
 "road_values"``; schema 4's memory table, which left out each ``fresh_felt`` option that was
 off, becomes the full table with the same meaning
 (:func:`~lfd_track.policy.memory_config.memory_table_from_v1`); schema 5 gains ``frame_size:
-[640, 480]`` (the only frame size before). The checksum of a file of
+[640, 480]`` (the only frame size before); schema 6 gains ``map_geometry``: a ``fresh_felt`` map
+then had the paper's constants (the paper preset's camera, 0.10 m, 22.9°), and its memory table
+``geometry = "paper"``. The checksum of a file of
 schema 2 or later is checked before it is migrated.
 
 Policy kind ``"elman-sigmoid"`` (:mod:`lfd_track.policy.elman`) is an Elman network: its 5
@@ -42,6 +46,10 @@ Driving a controller on frames of another size than ``frame_size`` works (the 8 
 the safe box cover the same floor at any size, so the inputs mean the same) but the road values
 differ a little: its perception prints one line naming both sizes on the first such frame
 (:class:`~lfd_track.teaching.perception.Perception`), once per process and pair of sizes.
+Likewise, driving a controller with a ``fresh_felt`` map in a world whose map geometry differs
+from ``map_geometry`` beyond :data:`~lfd_track.policy.map_geometry.TOLERANCES` (``perception(
+world_geometry=...)``) prints one line naming both geometries and the difference, once per
+process and pair; the map keeps the recorded geometry (the robot's belief about itself).
 
 A policy does not import its trainer: the GA appears here only as a type for ``from_evolution``.
 """
@@ -68,7 +76,8 @@ from ..vision.road_library import RoadLibrary
 from .controller_schema import CONTROLLER_SCHEMA, checksum, migrate
 from .elman import N_CONTEXT, ElmanCommander, ElmanState
 from .features import DEFAULT_FEATURES, FEATURE_SETS, check_features
-from .memory import MemoryConfig, policy_inputs
+from .map_geometry import PAPER_GEOMETRY, MapGeometry
+from .memory import FreshFeltConfig, MemoryConfig, policy_inputs
 from .mlp import (
     MAX_HIDDEN,
     N_HIDDEN,
@@ -116,6 +125,10 @@ class Controller:
         frame_size: (width, height) [px] of the camera frames the library and network learned
             on (the paper's 640 x 480 by default; a camera's ``frame_width_px``,
             ``frame_height_px``).
+        map_geometry: the camera and per-command motion of the world its ``fresh_felt`` map was
+            taught in (:mod:`lfd_track.policy.map_geometry`; None: the paper's constants).
+            Recorded only with that map (else None); with ``geometry = "paper"`` it is the
+            paper's constants whatever is passed.
     """
 
     policy_kind = "mlp-sigmoid"
@@ -136,6 +149,7 @@ class Controller:
         policy_kind: str = "mlp-sigmoid",
         hidden: int = N_HIDDEN,
         frame_size: tuple[int, int] = (FRAME_WIDTH, FRAME_HEIGHT),
+        map_geometry: MapGeometry | None = None,
     ) -> None:
         _check_library(library)
         frame_size = check_frame_size(frame_size)
@@ -192,6 +206,8 @@ class Controller:
         self.policy_kind = policy_kind
         self.hidden = hidden
         self.frame_size = frame_size
+        self.map_geometry = _map_geometry(memory, map_geometry)
+        """The geometry its ``fresh_felt`` map assumes (None without that map)."""
         self._elman = (
             ElmanState(w, self.bias, n_inputs - context) if policy_kind == "elman-sigmoid" else None
         )
@@ -211,6 +227,7 @@ class Controller:
         features: str = DEFAULT_FEATURES,
         policy_kind: str = "mlp-sigmoid",
         frame_size: tuple[int, int] = (FRAME_WIDTH, FRAME_HEIGHT),
+        map_geometry: MapGeometry | None = None,
     ) -> Controller:
         """Controller from an :func:`~lfd_track.learning.ga.evolve` result.
 
@@ -236,6 +253,7 @@ class Controller:
             features=features,
             policy_kind=policy_kind,
             frame_size=frame_size,
+            map_geometry=map_geometry,
         )
 
     def relabelled(self, learner: str, learner_config: Mapping[str, Any] | None) -> Controller:
@@ -256,6 +274,7 @@ class Controller:
             policy_kind=self.policy_kind,
             hidden=self.hidden,
             frame_size=self.frame_size,
+            map_geometry=self.map_geometry,
         )
 
     @property
@@ -268,13 +287,24 @@ class Controller:
         plus the memory inputs."""
         return policy_inputs(self.memory, self.features)
 
-    def perception(self, rule: str | None = None) -> Perception:
+    def perception(
+        self, rule: str | None = None, *, world_geometry: MapGeometry | None = None
+    ) -> Perception:
         """A perception for driving with this controller: its library, ``rule`` (default:
-        ``always`` if it learns, else ``frozen``), its features and its memory inputs."""
+        ``always`` if it learns, else ``frozen``), its features and its memory inputs, its map
+        with the recorded :attr:`map_geometry`. ``world_geometry``: the map geometry of the world
+        it drives in; one that differs beyond the tolerances is noted in one line (see the
+        module docstring)."""
         if rule is None:
             rule = "always" if self.learn else "frozen"
         return Perception(
-            self.library, rule, self.memory, self.features, expected_frame_size=self.frame_size
+            self.library,
+            rule,
+            self.memory,
+            self.features,
+            expected_frame_size=self.frame_size,
+            geometry=self.map_geometry,
+            world_geometry=world_geometry,
         )
 
     def reset(self) -> None:
@@ -358,6 +388,7 @@ class Controller:
             "features": self.features,
             "memory": None if self.memory is None else self.memory.to_dict(),
             "frame_size": list(self.frame_size),
+            "map_geometry": None if self.map_geometry is None else self.map_geometry.to_dict(),
         }
         contents["checksum"] = checksum(contents)
         return contents
@@ -475,6 +506,12 @@ class Controller:
         if not (isinstance(size, list) and len(size) == 2):
             raise ValueError("'frame_size' must be [width, height] in pixels")
         frame_size = check_frame_size((size[0], size[1]))
+        stored = data["map_geometry"]
+        geometry = None if stored is None else MapGeometry.from_dict(stored)
+        if (geometry is None) != (_map_geometry(memory, PAPER_GEOMETRY) is None):
+            raise ValueError(
+                "'map_geometry' must be recorded for a fresh_felt map, and null without one"
+            )
         return cls(
             library,
             np.asarray(weights, dtype=np.float64),
@@ -489,7 +526,21 @@ class Controller:
             policy_kind=kind,
             hidden=hidden,
             frame_size=frame_size,
+            map_geometry=geometry,
         )
+
+
+def _map_geometry(memory: MemoryConfig | None, given: MapGeometry | None) -> MapGeometry | None:
+    """The geometry a controller with ``memory`` records: None without a ``fresh_felt`` map, the
+    paper's constants for one with ``geometry = "paper"`` (or when none is ``given``), else
+    ``given``."""
+    if not isinstance(memory, FreshFeltConfig):
+        return None
+    if given is None or memory.geometry == "paper":
+        return PAPER_GEOMETRY
+    if not isinstance(given, MapGeometry):
+        raise TypeError(f"map_geometry must be a MapGeometry or None, got {type(given).__name__}")
+    return given
 
 
 def check_frame_size(size: Any) -> tuple[int, int]:

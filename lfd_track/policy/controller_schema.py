@@ -14,9 +14,10 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from .features import DEFAULT_FEATURES
+from .map_geometry import PAPER_GEOMETRY
 from .memory_config import memory_table_from_v1
 
-CONTROLLER_SCHEMA = 6
+CONTROLLER_SCHEMA = 7
 """Schema every controller file is written in (older ones are migrated on reading)."""
 _KEYS_V2 = (
     "format",
@@ -53,6 +54,7 @@ SCHEMA_KEYS: dict[int, tuple[str, ...]] = {
     4: (*_KEYS_V2[:-1], "features", "memory", "checksum"),
     5: (*_KEYS_V2[:-1], "features", "memory", "checksum"),
     6: (*_KEYS_V2[:-1], "features", "memory", "frame_size", "checksum"),
+    7: (*_KEYS_V2[:-1], "features", "memory", "frame_size", "map_geometry", "checksum"),
 }
 
 
@@ -84,6 +86,20 @@ def _from_schema5(data: dict[str, Any]) -> dict[str, Any]:
     return {**data, "frame_size": [640, 480]}
 
 
+def _from_schema6(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 6 -> 7: a ``fresh_felt`` map had the paper's constants (the paper preset's camera,
+    0.10 m per forward command, 22.9 deg per pivot): its memory table gains ``geometry =
+    "paper"`` and the file ``map_geometry`` those constants (null without that map)."""
+    memory = data["memory"]
+    if not isinstance(memory, dict) or memory.get("kind") != "fresh_felt":
+        return {**data, "map_geometry": None}
+    return {
+        **data,
+        "memory": memory_table_from_v1(memory),
+        "map_geometry": PAPER_GEOMETRY.to_dict(),
+    }
+
+
 #: One migration per schema step: ``MIGRATIONS[k]`` turns the contents of a schema-k file into
 #: those of a schema k + 1 file meaning the same controller.
 MIGRATIONS: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {
@@ -92,6 +108,7 @@ MIGRATIONS: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {
     3: _from_schema3,
     4: _from_schema4,
     5: _from_schema5,
+    6: _from_schema6,
 }
 
 

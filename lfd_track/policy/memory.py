@@ -34,7 +34,11 @@ such runs, and reading the training accuracy with that baseline in mind, are the
   it there is, and how far its centre lies. Each frame's 40 road values are
   placed on the floor where their regions' centres look (the camera's geometry; the last
   :data:`MAP_FRAMES` frames are kept), and every executed command moves the map by the rover's
-  nominal motion for it (forward :data:`STEP_M`, a pivot :data:`PIVOT_DEG`). Felt within
+  nominal motion for it (a forward step, a pivot). The camera and the motion are the map's
+  :class:`~lfd_track.policy.map_geometry.MapGeometry`: with ``geometry = "world"`` (the
+  default) those of the world the policy is taught in (the perception passes them), with
+  ``geometry = "paper"`` the paper's constants (the paper preset's camera, forward
+  :data:`STEP_M`, a pivot :data:`PIVOT_DEG`), as every map had before the setting. Felt within
   ``path_radius_m`` of a place the rover has been is *visited* (the strip it came along); what is
   left within ``reach_m`` ahead of its axle is *fresh*. At a sharp corner the next strip leaves
   the picture before the rover can turn, but the stub of it seen on the way in stays on the map,
@@ -73,8 +77,9 @@ import math
 import numpy as np
 
 from ..core.commands import Command
-from ..core.frame import GRID_COLUMNS, N_REGIONS, region_bounds
+from ..core.frame import GRID_COLUMNS, N_REGIONS
 from .features import frame_inputs
+from .map_geometry import PAPER_GEOMETRY, MapGeometry
 from .memory_config import (
     BLANK_BEARINGS,
     BLANK_DISTANCES,
@@ -102,6 +107,7 @@ __all__ = [
     "FreshFeltConfig",
     "FreshFeltMemory",
     "LastBendConfig",
+    "MapGeometry",
     "MemoryConfig",
     "NoMemory",
     "PreviousCommandConfig",
@@ -125,10 +131,12 @@ MAP_FRAMES = 25
 CARPET_LEVEL = 0.3
 #: ``fresh_felt``: road value at or above which a region counts as felt (felt level 1).
 FELT_LEVEL = 0.5
-#: [m] ``fresh_felt``: the rover's nominal advance per forward command (paper preset).
-STEP_M = 0.10
-#: [deg] ``fresh_felt``: the rover's nominal turn per pivot command (paper preset).
-PIVOT_DEG = 22.9
+#: [m] ``fresh_felt`` with ``geometry = "paper"``: the advance per forward command (the paper's
+#: constant, :data:`~lfd_track.policy.map_geometry.PAPER_GEOMETRY`).
+STEP_M = PAPER_GEOMETRY.step_m
+#: [deg] ``fresh_felt`` with ``geometry = "paper"``: the turn per pivot command (the paper's
+#: constant; the paper preset's rate x period is 22.918 deg).
+PIVOT_DEG = PAPER_GEOMETRY.pivot_deg
 
 
 class TurnMemory:
@@ -240,19 +248,11 @@ _FRAME_BYTES = N_REGIONS // 8
 _UNSURE_LINK_M2 = 1e-9
 
 
-@functools.lru_cache(maxsize=1)
-def region_floor_points() -> np.ndarray:
+def region_floor_points(geometry: MapGeometry | None = None) -> np.ndarray:
     """(40, 2) float64 floor points [m] (x ahead, y left of the rover's axle) that the centres
-    of the 40 regions see with the paper preset's camera (0.31 m high, pitched 30° down)."""
-    from ..core.camera_model import CameraModel  # the camera's geometry, not its renderer
-
-    # Pixel centres: a pixel's index is its centre, so a region spanning columns x0..x1-1 is
-    # centred on (x0 + x1 - 1) / 2 (the image's centre column is 319.5).
-    bounds = np.array([region_bounds(i) for i in range(N_REGIONS)], dtype=np.float64)
-    centres = (bounds[:, :2] + bounds[:, 2:] - 1.0) / 2.0
-    points = CameraModel().floor_points(centres, np.zeros(3))
-    points.flags.writeable = False
-    return points
+    of the 40 regions see with the camera of ``geometry`` (default the paper's: 0.31 m high,
+    pitched 30° down; read-only, computed once per geometry)."""
+    return (PAPER_GEOMETRY if geometry is None else geometry).floor_points()
 
 
 def fresh_bearing_rad(inputs: np.ndarray, range_deg: float = FULL_BEARING_RANGE_DEG) -> float:
@@ -268,12 +268,18 @@ class FreshFeltMemory:
     """The ``fresh_felt`` map (see the module docstring): felt seen lately, less where the
     rover has been, as (bearing, amount, distance) of what is left."""
 
-    def __init__(self, config: FreshFeltConfig) -> None:
+    def __init__(self, config: FreshFeltConfig, geometry: MapGeometry | None = None) -> None:
         if config.kind != "fresh_felt":
             raise ValueError(f"FreshFeltMemory implements 'fresh_felt', not {config.kind!r}")
         self.config = config
-        self._region_points = region_floor_points()
-        angle = math.radians(PIVOT_DEG)
+        self.geometry = (
+            PAPER_GEOMETRY if geometry is None or config.geometry == "paper" else geometry
+        )
+        """The camera and motion the map assumes: ``geometry`` (the world's) with
+        ``config.geometry = "world"``, else (or without one) the paper's constants."""
+        self._region_points = self.geometry.floor_points()
+        self._step = self.geometry.step_m
+        angle = math.radians(self.geometry.pivot_deg)
         self._cos, self._sin = math.cos(angle), math.sin(angle)
         self.reset()
 
@@ -295,7 +301,7 @@ class FreshFeltMemory:
         """``points`` (N, 2) in the rover frame after it executed ``command`` (element by
         element, so the same bits on every processor)."""
         if command == Command.FORWARD:
-            return points - np.array([STEP_M, 0.0])
+            return points - np.array([self._step, 0.0])
         # A pivot turns the rover by +-angle: the map turns the other way.
         sin = -self._sin if command == Command.LEFT else self._sin
         x, y = points[:, 0], points[:, 1]
@@ -318,7 +324,7 @@ class FreshFeltMemory:
         if cmd not in (0, 1, 2):
             raise ValueError(f"command must be 0, 1 or 2, got {command!r}")
         if cmd == Command.FORWARD:
-            back = np.array([STEP_M, 0.0])
+            back = np.array([self._step, 0.0])
             self._points, self._path = self._points + back, self._path + back
             return
         undo = Command.RIGHT if cmd == Command.LEFT else Command.LEFT
@@ -510,13 +516,14 @@ def policy_inputs(config: MemoryConfig | None, features: str = "road_values") ->
 
 
 def memory_for(
-    config: MemoryConfig | None,
+    config: MemoryConfig | None, geometry: MapGeometry | None = None
 ) -> TurnMemory | PreviousCommandMemory | FreshFeltMemory | None:
-    """The memory part for ``config`` (None for no memory)."""
+    """The memory part for ``config`` (None for no memory); a ``fresh_felt`` map with
+    ``geometry = "world"`` takes ``geometry`` (the world's; None: the paper's constants)."""
     if isinstance(config, PreviousCommandConfig):
         return PreviousCommandMemory(config)
     if isinstance(config, FreshFeltConfig):
-        return FreshFeltMemory(config)
+        return FreshFeltMemory(config, geometry)
     if isinstance(config, LastBendConfig):
         return TurnMemory(config)
     return None

@@ -51,6 +51,9 @@ BLANK_BEARINGS = ("centre", "last")
 #: What the ``fresh_felt`` distance input is measured against when ``blank_reach_m`` looked
 #: further (``blank_distance``).
 BLANK_DISTANCES = ("blank_reach", "reach")
+#: Where the ``fresh_felt`` map's camera and motion come from (``geometry``;
+#: :mod:`lfd_track.policy.map_geometry`).
+MAP_GEOMETRIES = ("world", "paper")
 
 
 def setting(
@@ -286,6 +289,14 @@ class FreshFeltConfig(MemoryConfig):
         low=0.0,
         high=2.0,
         before=0.0,
+    )
+    geometry: str = setting(
+        "world",
+        "the camera and per-command motion the map assumes: world (the world it is taught in:"
+        " the env's preset, or the robot's profile) or paper (the paper's constants: its"
+        " camera, 0.10 m, 22.9 deg)",
+        choices=MAP_GEOMETRIES,
+        before="paper",
     )
 
     def _check(self) -> None:

@@ -11,6 +11,8 @@ Schema history:
 * **2** — each condition's ``config`` holds every setting (as results.json schema 2).
 * **3** — each condition's ``config`` holds the ``direct`` and ``mu_plus_one`` tables (as
   results.json schema 3).
+* **4** — each condition's ``config.memory`` names every memory setting added since (as
+  results.json schema 4: the ``fresh_felt`` map's ``geometry``, ``"paper"`` in older files).
 """
 
 from __future__ import annotations
@@ -18,10 +20,10 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from ..benchmark.schema import config_v1_to_v2, config_v2_to_v3
+from ..benchmark.schema import config_v1_to_v2, config_v2_to_v3, config_v3_to_v4
 from ..utils.migrate import Step, VersionedJson
 
-STUDY_SCHEMA = 3
+STUDY_SCHEMA = 4
 """Schema of the study.json this version writes (``len(STUDY_STEPS) + 1``)."""
 MAX_STUDY_BYTES = 1 << 28
 """Largest study.json read."""
@@ -49,7 +51,12 @@ def _each_config(data: dict[str, Any], step: Callable[[Any], Any], schema: int) 
     return data
 
 
-STUDY_STEPS: tuple[Step, ...] = (study_v1_to_v2, study_v2_to_v3)
+def study_v3_to_v4(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 3 -> 4: the memory settings added since in each condition's ``config``."""
+    return _each_config(data, config_v3_to_v4, 4)
+
+
+STUDY_STEPS: tuple[Step, ...] = (study_v1_to_v2, study_v2_to_v3, study_v3_to_v4)
 """Step k turns a schema-k study.json dict into schema k + 1."""
 STUDY_FORMAT = VersionedJson("study", STUDY_STEPS, MAX_STUDY_BYTES)
 """study.json: its steps and largest size; :func:`read_study_results` (a file) and

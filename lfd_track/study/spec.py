@@ -3,7 +3,7 @@
 A study file looks like::
 
     [study]
-    schema = 2                       # the file's schema (absent: 1, see below)
+    schema = 3                       # the file's schema (absent: 1, see below)
     name = "beyond_the_paper"        # optional, default: the file name
     description = "..."              # optional
     seeds = [0, 1, 2]                # benchmark seeds, the same for every condition
@@ -35,8 +35,12 @@ A condition's ``[memory]`` table names its ``kind`` and that kind's settings
 every ``fresh_felt`` option was off unless named: each condition's memory table (after
 ``[defaults]`` is merged in) is read through
 :func:`~lfd_track.policy.memory_config.memory_table_from_v1`, so the file means what it meant
-(:data:`STUDY_MIGRATIONS`, one function per schema step). The human's settings did not change
-meaning between the schemas.
+(:data:`STUDY_MIGRATIONS`, one function per schema step). A file of schema 2 was written when
+every ``fresh_felt`` map had the paper's geometry: each condition's ``fresh_felt`` memory table
+that does not name ``geometry`` reads as ``geometry = "paper"`` (the paper's camera, 0.10 m,
+22.9°; :mod:`lfd_track.policy.map_geometry`), where a schema-3 file's means the default,
+``"world"`` (the camera and motion of the preset the policy is taught in). The human's settings
+did not change meaning between the schemas.
 
 Anything wrong in the file (unknown key, wrong type, unknown method, preset or track, duplicate
 name, a number out of bounds) raises :class:`~lfd_track.errors.FileFormatError`: one line naming
@@ -72,7 +76,12 @@ from ..core.config import dataclass_from_table, read_toml
 from ..errors import FileFormatError, LfdTrackError
 from ..learning.result import shown_int
 from ..methods import method_names, method_of_table
-from ..policy.memory_config import memory_config, memory_table_from_v1
+from ..policy.memory_config import (
+    MEMORY_CONFIGS,
+    memory_config,
+    memory_table_from_v1,
+    setting_specs,
+)
 
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._+-]{0,63}$")
 _STUDY_KEYS = {"schema", "name", "description", "seeds", "repetitions"}
@@ -96,8 +105,11 @@ OTHER_SETTING_LIMIT = 10**9
 """Largest value of an integer setting missing from :data:`SETTING_LIMITS`."""
 SETTING_MINIMUMS: dict[str, int] = {"human.max_commands": 1}
 """Smallest value of an integer setting where its config does not check it (else 0)."""
-STUDY_SCHEMA_VERSION = 2
-"""Schema of a study file that names none is 1; this build reads 1 and 2."""
+STUDY_SCHEMA_VERSION = 3
+"""Schema of a study file that names none is 1; this build reads 1 to 3."""
+SETTINGS_SINCE_SCHEMA3: tuple[str, ...] = ("geometry",)
+"""Memory settings a schema-2 file could not name: it is read with each one's ``before`` (what
+the memory did before the setting existed)."""
 
 
 def _condition_from_schema1(table: dict[str, Any]) -> dict[str, Any]:
@@ -108,8 +120,24 @@ def _condition_from_schema1(table: dict[str, Any]) -> dict[str, Any]:
     return {**table, "memory": memory_table_from_v1(table["memory"])}
 
 
+def _condition_from_schema2(table: dict[str, Any]) -> dict[str, Any]:
+    """Schema 2 -> 3 of one condition's table: its memory table gains each setting of
+    :data:`SETTINGS_SINCE_SCHEMA3` it does not name, at the value that does what the memory did
+    then (``geometry = "paper"``: the paper's camera and motion)."""
+    memory = table.get("memory")
+    if not isinstance(memory, dict):
+        return table
+    kind = memory.get("kind", "none")
+    cls = MEMORY_CONFIGS.get(kind) if isinstance(kind, str) else None
+    if cls is None:  # an unknown kind is named by the reader's checks
+        return table
+    before = {s.name: s.before for s in setting_specs(cls) if s.name in SETTINGS_SINCE_SCHEMA3}
+    return {**table, "memory": {**before, **memory}}
+
+
 STUDY_MIGRATIONS: dict[int, typing.Callable[[dict[str, Any]], dict[str, Any]]] = {
     1: _condition_from_schema1,
+    2: _condition_from_schema2,
 }
 """One migration per schema step: ``STUDY_MIGRATIONS[k]`` turns a condition's table of a schema-k
 file into one of schema k + 1 meaning the same condition."""

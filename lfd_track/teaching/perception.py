@@ -27,11 +27,14 @@ import numpy as np
 
 from ..core.commands import Command
 from ..policy.features import DEFAULT_FEATURES, check_features, colour_features
-from ..policy.memory import MemoryConfig, NoMemory, memory_for, policy_inputs
+from ..policy.map_geometry import MapGeometry, geometry_note
+from ..policy.memory import FreshFeltMemory, MemoryConfig, NoMemory, memory_for, policy_inputs
 from ..vision.road_library import RoadLibrary
 
 #: Pairs of (learned, seen) frame sizes already reported in this process (one line each).
 _SIZES_REPORTED: set[tuple[tuple[int, int], tuple[int, int]]] = set()
+#: Pairs of (map, world) geometries already reported in this process (one line each).
+_GEOMETRIES_REPORTED: set[tuple[MapGeometry, MapGeometry]] = set()
 
 
 def frame_size_note(learned: tuple[int, int], seen: tuple[int, int]) -> str:
@@ -88,6 +91,14 @@ class Perception:
     ``expected_frame_size`` (width, height) [px]: the frames a controller learned on; the first
     frame of another size prints :func:`frame_size_note` to stderr (once per process and pair of
     sizes) and driving goes on. None: any size, silently.
+
+    ``geometry``: the camera and per-command motion of the world the policy is taught in (or,
+    for a controller, the ones it recorded), which a ``fresh_felt`` map with ``geometry =
+    "world"`` assumes (:mod:`lfd_track.policy.map_geometry`; None: the paper's constants).
+    ``world_geometry``: the world's where the map drives with another one (a controller's);
+    if the map's geometry differs from it beyond the tolerances, one line
+    (:func:`~lfd_track.policy.map_geometry.geometry_note`) goes to stderr (once per process
+    and pair) and the map keeps its own.
     """
 
     def __init__(
@@ -98,6 +109,8 @@ class Perception:
         features: str = DEFAULT_FEATURES,
         *,
         expected_frame_size: tuple[int, int] | None = None,
+        geometry: MapGeometry | None = None,
+        world_geometry: MapGeometry | None = None,
     ) -> None:
         self.library = library
         self._expected_shape = (
@@ -112,8 +125,16 @@ class Perception:
             raise ValueError(
                 "features 'none' leave the policy only its memory inputs: set a memory kind"
             )
-        self._memory = memory_for(memory)
+        self._memory = memory_for(memory, geometry)
         self._memory_before = copy.copy(self._memory)  # the memory as it was before the last frame
+        if world_geometry is not None and self.map_geometry is not None:
+            _report_geometry(self.map_geometry, world_geometry)
+
+    @property
+    def map_geometry(self) -> MapGeometry | None:
+        """The geometry the ``fresh_felt`` map assumes (None without a map)."""
+        memory = self._memory
+        return memory.geometry if isinstance(memory, FreshFeltMemory) else None
 
     @property
     def n_inputs(self) -> int:
@@ -225,3 +246,12 @@ class Perception:
     def look(self, frame: np.ndarray) -> np.ndarray:
         """Road values (40,) float64 of a frame without touching the library (no counts)."""
         return self.library.road_values(frame, update_statistics=False)
+
+
+def _report_geometry(learned: MapGeometry, world: MapGeometry) -> None:
+    """Print :func:`~lfd_track.policy.map_geometry.geometry_note` if ``learned`` and ``world``
+    differ beyond the tolerances (once per process and pair)."""
+    differences = learned.differences(world)
+    if differences and (learned, world) not in _GEOMETRIES_REPORTED:
+        _GEOMETRIES_REPORTED.add((learned, world))
+        print(geometry_note(learned, world, differences), file=sys.stderr)

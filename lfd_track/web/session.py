@@ -27,6 +27,7 @@ from ..core.commands import Command
 from ..dataset import DemonstrationWriter
 from ..dataset.recording import RecordingTarget, ReplacingWriter
 from ..methods.online import OnlineConfig
+from ..policy.map_geometry import MapGeometry, hardware_geometry
 from ..policy.memory import MemoryConfig, NoMemory
 from ..teaching.arbiter import Arbiter
 from ..teaching.commanders import PolicyCommander
@@ -462,6 +463,7 @@ def open_session(config: TeachConfig) -> LoopSession:
             track=config.track, preset=config.preset, render_mode="rgb_array", max_steps=10**9
         )
         period_s = config.period_s or env.preset.rover.control_period_s
+        map_geometry = MapGeometry.from_preset(env.base_preset)  # the world it is taught in
         metadata.update(
             kind="simulated", track=config.track, preset=config.preset, seed=config.seed
         )
@@ -473,6 +475,8 @@ def open_session(config: TeachConfig) -> LoopSession:
         from ..hardware.env import HardwareEnv  # lazy: the serial link and the camera stream
 
         period_s = config.period_s or 0.4
+        # The robot's map geometry: its profile once calibrated; until then the paper's.
+        map_geometry = hardware_geometry(period_s=period_s)
         if config.camera is None or config.serial is None:
             raise ValueError("the hardware backend needs both a camera stream and a serial port")
         # Each command runs one period, then the motors stop: a page that gives no command
@@ -509,6 +513,7 @@ def open_session(config: TeachConfig) -> LoopSession:
             "careful",
             config.memory,
             config.features,
+            geometry=map_geometry,
         )
         writer = target.writer(metadata, perception, fsync=True, overwrite=config.force)
     except BaseException:

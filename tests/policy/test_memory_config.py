@@ -160,7 +160,7 @@ def test_the_command_line_and_a_study_table_give_the_same_map(tmp_path):
     )  # fmt: skip
     study = tmp_path / "study.toml"
     study.write_text(
-        '[study]\nschema = 2\nseeds = [0]\nrepetitions = 1\n[[conditions]]\nname = "a"\n'
+        '[study]\nschema = 3\nseeds = [0]\nrepetitions = 1\n[[conditions]]\nname = "a"\n'
         '[conditions.memory]\nkind = "fresh_felt"\nblank_bearing = "centre"\n'
         'bearing_range_deg = 180.0\nstrip_link_m = 0.2\nstrip_from = "nearest"\n'
         'strip_picture_links = false\nblank_reach_m = 1.5\nblank_distance = "blank_reach"\n'
@@ -180,7 +180,10 @@ def test_the_command_line_and_a_study_table_give_the_same_map(tmp_path):
 
 def test_kind_fresh_felt_alone_is_the_chosen_configurations_map(tmp_path):
     chosen = load_study(CHOSEN, check_names=False).conditions[0].config.memory
-    assert chosen == FreshFeltConfig() == memory_config({"kind": "fresh_felt"})
+    # a committed schema-2 study: its map had the paper's geometry, as every map then
+    assert chosen == FreshFeltConfig(geometry="paper")
+    assert FreshFeltConfig() == memory_config({"kind": "fresh_felt"})
+    assert FreshFeltConfig().geometry == "world"
     assert chosen.to_dict() == {
         "kind": "fresh_felt",
         "path_radius_m": 0.35,
@@ -193,6 +196,7 @@ def test_kind_fresh_felt_alone_is_the_chosen_configurations_map(tmp_path):
         "blank_reach_m": 1.0,
         "blank_distance": "reach",
         "visited_fade_m": 0.3,
+        "geometry": "paper",
     }
     # a schema-1 study with the same one line meant the map with every option off
     old = tmp_path / "old.toml"
@@ -201,8 +205,8 @@ def test_kind_fresh_felt_alone_is_the_chosen_configurations_map(tmp_path):
         '[conditions.memory]\nkind = "fresh_felt"\n'
     )
     assert load_study(old, check_names=False).conditions[0].config.memory == FreshFeltConfig.plain()
-    old.write_text(old.read_text().replace("[study]\n", "[study]\nschema = 3\n"))
-    with pytest.raises(FileFormatError, match="'study.schema' must be one of 1..2"):
+    old.write_text(old.read_text().replace("[study]\n", "[study]\nschema = 4\n"))
+    with pytest.raises(FileFormatError, match="'study.schema' must be one of 1..3"):
         load_study(old, check_names=False)
 
 
@@ -225,7 +229,7 @@ def test_a_v1_memory_table_becomes_the_full_table_with_the_same_meaning():
         "blank_distance": "reach",
         "strip_picture_links": True,
     }
-    assert memory_table_from_v1(chosen) == FreshFeltConfig().to_dict()
+    assert memory_table_from_v1(chosen) == FreshFeltConfig(geometry="paper").to_dict()
     assert memory_table_from_v1({"kind": "last_bend", "bend_pivots": 2}) == {"kind": "last_bend"}
     with pytest.raises(ValueError, match="memory bend_pivots = 3 is no longer supported"):
         memory_table_from_v1({"kind": "last_bend", "bend_pivots": 3})

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from lfd_track.policy.memory_config import REMOVED_SETTINGS
+from lfd_track.policy.memory_config import REMOVED_SETTINGS, setting_specs
 from lfd_track.study.run import load_finished
 from lfd_track.study.spec import load_study
 
@@ -69,7 +69,10 @@ def test_every_committed_study_keeps_its_memory_and_human_settings(monkeypatch):
             old = _V1["memory"][memory_index]
             memory = condition.config.memory
             fields = [f.name for f in dataclasses.fields(memory)]
-            assert memory.to_dict() == {"kind": old["kind"], **{f: old[f] for f in fields}}, key
+            # a setting added since means what the map did before it (geometry: the paper's)
+            before = {s.name: s.before for s in setting_specs(type(memory))}
+            meant = {f: old.get(f, before[f]) for f in fields}
+            assert memory.to_dict() == {"kind": old["kind"], **meant}, key
             removed = REMOVED_SETTINGS.get(memory.kind, {})
             assert {k: old[k] for k in removed} == removed, key
             assert dataclasses.asdict(condition.config.human) == _V1["human"][human_index], key
