@@ -61,6 +61,10 @@ such runs, and reading the training accuracy with that baseline in mind, are the
   The settings, their bounds and their defaults (the goal's chosen map: every option above on)
   are :class:`~lfd_track.policy.memory_config.FreshFeltConfig`'s;
   :meth:`~lfd_track.policy.memory_config.FreshFeltConfig.plain` is the map with them off.
+  A region's *felt level* rises from 0 at the carpet level to 1 at the felt level of road
+  values: fixed at :data:`CARPET_LEVEL` and :data:`FELT_LEVEL` (the paper world's), or with
+  ``felt_levels = "library"`` read from the road values the perception's library gave in the
+  world it runs in (:mod:`lfd_track.vision.felt_levels`: where this world's carpet values end).
   The map knows nothing the robot could not: its own commands and what its camera saw.
 
 The input is computed from *executed* commands, whoever gave them (the human demonstrating or
@@ -331,11 +335,15 @@ class FreshFeltMemory:
         self._points = self._moved(self._points, undo)
         self._path = self._moved(self._path, undo)
 
-    def see(self, values: np.ndarray) -> None:
-        """Add a frame's road values (40,) to the map and compute the inputs."""
+    def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
+        """Add a frame's road values (40,) to the map and compute the inputs. ``levels``:
+        the road values ``(carpet, felt)`` of felt levels 0 and 1 (with ``felt_levels =
+        "library"``, from :class:`~lfd_track.vision.felt_levels.RoadValueLevels`); None: the
+        fixed :data:`CARPET_LEVEL` and :data:`FELT_LEVEL`."""
         cfg = self.config
         v = np.asarray(values, dtype=np.float64).reshape(N_REGIONS)
-        felt = np.clip((v - CARPET_LEVEL) / (FELT_LEVEL - CARPET_LEVEL), 0.0, 1.0)
+        carpet, felt_at = (CARPET_LEVEL, FELT_LEVEL) if levels is None else levels
+        felt = np.clip((v - carpet) / (felt_at - carpet), 0.0, 1.0)
         keep = MAP_FRAMES * N_REGIONS
         full = len(self._points) == keep  # the oldest frame leaves the map
         self._points = np.vstack([self._points, self._region_points])[-keep:]

@@ -54,6 +54,8 @@ BLANK_DISTANCES = ("blank_reach", "reach")
 #: Where the ``fresh_felt`` map's camera and motion come from (``geometry``;
 #: :mod:`lfd_track.policy.map_geometry`).
 MAP_GEOMETRIES = ("world", "paper")
+#: How the ``fresh_felt`` map tells felt from carpet in the road values (``felt_levels``).
+FELT_LEVELS = ("fixed", "library")
 
 
 def setting(
@@ -297,6 +299,13 @@ class FreshFeltConfig(MemoryConfig):
         " camera, 0.10 m, 22.9 deg)",
         choices=MAP_GEOMETRIES,
         before="paper",
+    )
+    felt_levels: str = setting(
+        "fixed",
+        "what counts as felt: fixed (road values from 0.3, carpet, to 0.5, felt: the paper"
+        " world's levels) or library (levels read from the road values the library gave in the"
+        " world it runs in, lfd_track.vision.felt_levels)",
+        choices=FELT_LEVELS,
     )
 
     def _check(self) -> None:

@@ -28,7 +28,15 @@ import numpy as np
 from ..core.commands import Command
 from ..policy.features import DEFAULT_FEATURES, check_features, colour_features
 from ..policy.map_geometry import MapGeometry, geometry_note
-from ..policy.memory import FreshFeltMemory, MemoryConfig, NoMemory, memory_for, policy_inputs
+from ..policy.memory import (
+    FreshFeltConfig,
+    FreshFeltMemory,
+    MemoryConfig,
+    NoMemory,
+    memory_for,
+    policy_inputs,
+)
+from ..vision.felt_levels import RoadValueLevels
 from ..vision.road_library import RoadLibrary
 
 #: Pairs of (learned, seen) frame sizes already reported in this process (one line each).
@@ -127,6 +135,14 @@ class Perception:
             )
         self._memory = memory_for(memory, geometry)
         self._memory_before = copy.copy(self._memory)  # the memory as it was before the last frame
+        # A map with felt_levels = "library" reads felt by levels from the road values seen.
+        self.felt_levels: RoadValueLevels | None = (
+            RoadValueLevels()
+            if isinstance(memory, FreshFeltConfig) and memory.felt_levels == "library"
+            else None
+        )
+        """The road values' felt and carpet levels read so far (None: fixed levels)."""
+        self._levels_used: tuple[float, float] | None = None  # at the last perceived frame
         if world_geometry is not None and self.map_geometry is not None:
             _report_geometry(self.map_geometry, world_geometry)
 
@@ -190,7 +206,13 @@ class Perception:
         else:
             # A shallow copy is a snapshot: the memories replace their arrays, never write them.
             self._memory_before = copy.copy(self._memory)
-            self._memory.see(values)
+            if self.felt_levels is not None and isinstance(self._memory, FreshFeltMemory):
+                if self.library.n_models:  # an empty library's zeros say nothing of the floor
+                    self.felt_levels.add(values)
+                self._levels_used = self.felt_levels.levels()
+                self._memory.see(values, self._levels_used)
+            else:
+                self._memory.see(values)
             memory = self._memory.inputs()
         return self._percept(values, histograms, learn, box_on_felt, memory)
 
@@ -218,7 +240,10 @@ class Perception:
         if self._memory_before is not None:  # set with the memory, None without one
             placed = copy.copy(self._memory_before)
             placed.place_before(before)
-            placed.see(values)
+            if isinstance(placed, FreshFeltMemory):  # with the last frame's levels, if any
+                placed.see(values, self._levels_used)
+            else:
+                placed.see(values)
             memory = placed.inputs()
         return self._percept(values, histograms, False, None, memory)
 
