@@ -47,7 +47,8 @@ such runs, and reading the training accuracy with that baseline in mind, are the
   it went: the side to pivot to at a blank corner). ``strip_link_m`` keeps only the felt
   connected *along felt* to the felt the rover stands on — a chain of felt points each within
   ``strip_link_m`` of the next, at most :data:`_STRIP_HOPS` links from felt within
-  :data:`_STRIP_SEED_M` of the axle (``strip_picture_links``: regions touching in one frame's
+  :data:`_STRIP_SEED_M` of the axle (further for a camera whose nearest region looks further
+  ahead than the paper's, :func:`_strip_seed_m`; ``strip_picture_links``: regions touching in one frame's
   grid are linked too) — so that where two strips pass within reach of each other across
   carpet, the one the rover is not on does not pull it off its own; ``blank_reach_m`` looks
   again up to that distance while nothing is fresh within ``reach_m``, for a sharp corner whose
@@ -252,6 +253,16 @@ _FRAME_BYTES = N_REGIONS // 8
 _UNSURE_LINK_M2 = 1e-9
 
 
+def _strip_seed_m(region_points: np.ndarray) -> float:
+    """[m] How near the axle felt counts as the rover's own strip for a camera whose regions'
+    centres look at ``region_points``: :data:`_STRIP_SEED_M` (set for the paper's camera, whose
+    nearest region looks 0.29 m ahead), grown in proportion where a camera's nearest region looks
+    further ahead, so that the seed ring still reaches the nearest row of the picture."""
+    nearest = float(np.hypot(region_points[:, 0], region_points[:, 1]).min())
+    paper = float(np.hypot(*PAPER_GEOMETRY.floor_points().T).min())
+    return max(_STRIP_SEED_M, _STRIP_SEED_M * nearest / paper)
+
+
 def region_floor_points(geometry: MapGeometry | None = None) -> np.ndarray:
     """(40, 2) float64 floor points [m] (x ahead, y left of the rover's axle) that the centres
     of the 40 regions see with the camera of ``geometry`` (default the paper's: 0.31 m high,
@@ -282,6 +293,7 @@ class FreshFeltMemory:
         """The camera and motion the map assumes: ``geometry`` (the world's) with
         ``config.geometry = "world"``, else (or without one) the paper's constants."""
         self._region_points = self.geometry.floor_points()
+        self._seed_m = _strip_seed_m(self._region_points)
         self._step = self.geometry.step_m
         angle = math.radians(self.geometry.pivot_deg)
         self._cos, self._sin = math.cos(angle), math.sin(angle)
@@ -459,7 +471,7 @@ class FreshFeltMemory:
         candidate = (dist < _STRIP_WINDOW_M) & (self._felt >= 0.5)
         if not candidate.any():
             return candidate
-        seed_m = _STRIP_SEED_M
+        seed_m = self._seed_m
         if self.config.strip_from == "nearest":
             seed_m = max(seed_m, float(dist[candidate].min()) + self.config.strip_link_m)
         reached = candidate & (dist <= seed_m)

@@ -217,3 +217,18 @@ def test_geometry_files_and_the_robots_geometry():
     assert hardware_geometry() == MapGeometry.from_preset(load_preset("paper"))
     assert hardware_geometry(period_s=0.5).step_m == pytest.approx(0.25 * 0.5)
     assert hardware_geometry(wide) is wide
+
+
+def test_the_strip_seed_ring_reaches_the_nearest_row_of_any_camera():
+    """The felt the rover stands on is looked for within 0.3 m under the paper's camera (its map
+    unchanged), and further out for a camera whose nearest row looks further ahead."""
+    from lfd_track.policy.memory import _STRIP_SEED_M, _strip_seed_m
+
+    assert _strip_seed_m(PAPER_GEOMETRY.floor_points()) == _STRIP_SEED_M
+    steep = dataclasses.replace(PAPER_GEOMETRY, pitch_deg=36.0)
+    flat = dataclasses.replace(PAPER_GEOMETRY, pitch_deg=26.0, height_m=0.33)
+    assert _strip_seed_m(steep.floor_points()) == _STRIP_SEED_M
+    points = flat.floor_points()
+    nearest = float(np.hypot(points[:, 0], points[:, 1]).min())
+    assert nearest > _STRIP_SEED_M
+    assert _strip_seed_m(points) > nearest
