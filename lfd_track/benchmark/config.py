@@ -45,6 +45,8 @@ MAX_SEED = 2**32 - 1
 """Largest benchmark seed (seeds are 0..2**32-1, like the study files')."""
 MAX_RANDOM_LOOPS = 10_000
 """Most procedural loops lapped per repetition."""
+ROOMS = ("per_episode", "per_repetition")
+"""Values of ``room``: when a preset with ``[randomization]`` draws its world."""
 
 
 @dataclass(frozen=True)
@@ -53,7 +55,8 @@ class BenchmarkConfig:
 
     Limits (anything else is refused at construction in one line naming the setting):
     ``repetitions`` 1..10 000, ``trials_per_direction`` 1..1000, ``seed`` 0..2**32-1,
-    ``random_loops`` 0..10 000 (``random_split`` one of ``train``, ``validation``, ``test``); the
+    ``random_loops`` 0..10 000 (``random_split`` one of ``train``, ``validation``, ``test``),
+    ``room`` one of ``per_episode``, ``per_repetition``; the
     learners' settings have their own (``GAConfig``: population and tournament size
     1..100 000, generations 1..1 000 000; see each config class).
 
@@ -105,6 +108,11 @@ class BenchmarkConfig:
     # The split they are drawn from: "train" and "validation" to choose settings on, "test" to
     # score a frozen configuration once.
     random_split: str = "validation"
+    # When a preset with [randomization] draws its world: "per_episode" (a new room at every
+    # episode, the preset as it is) or "per_repetition" (one room per repetition, drawn from its
+    # own stream and kept for the demonstration, the learning and every trial: a user's own
+    # room). A preset without randomization has one world either way.
+    room: str = "per_episode"
 
     def __post_init__(self) -> None:
         if isinstance(self.test_tracks, str) or not all(
@@ -126,6 +134,8 @@ class BenchmarkConfig:
             raise ValueError(
                 f"random_split must be one of {', '.join(SPLITS)}, got {self.random_split!r}"
             )
+        if self.room not in ROOMS:
+            raise ValueError(f"room must be one of {', '.join(ROOMS)}, got {self.room!r}")
         check_features(self.features)
         if self.human.steers_by == "picture" and self.memory.kind != "fresh_felt":
             raise ValueError(
@@ -245,11 +255,15 @@ def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
     """JSON-friendly form of a benchmark config (stored in results.json), every setting written:
     each field (nested settings as tables), the memory by its ``to_dict``, and the settings
     table of every registered method that has settings (a built-in one's field, or another's
-    under its table name). :meth:`BenchmarkConfig.from_dict` reads it back."""
+    under its table name). :meth:`BenchmarkConfig.from_dict` reads it back.
+
+    ``room`` is written only when it is not ``"per_episode"``: a file without it means a new
+    room per episode, as every run did before the setting existed (so their files still match
+    the settings that produced them)."""
     data: dict[str, Any] = {}
     for f in dataclasses.fields(config):
         value = getattr(config, f.name)
-        if f.name == "method_settings":
+        if f.name == "method_settings" or (f.name == "room" and value == "per_episode"):
             continue
         if f.name == "memory":
             data[f.name] = config.memory.to_dict()

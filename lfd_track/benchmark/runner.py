@@ -16,6 +16,7 @@ other exception is a fault and propagates. What a run does is a
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import time
 from collections.abc import Callable, Collection
@@ -26,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from ..envs.presets import load_preset
+from ..envs.presets import Preset, load_preset
 from ..envs.track_env import LfDTrackEnv
 from ..errors import DemonstrationUnfinished, LfdTrackError
 from ..learning.result import check_int
@@ -56,6 +57,7 @@ __all__ = [
     "MAX_TRIALS_PER_DIRECTION",
     "MAX_WORKERS",
     "BenchmarkConfig",
+    "ROOM_STREAM",
     "RepetitionResult",
     "check_demo_track",
     "check_test_tracks",
@@ -63,6 +65,7 @@ __all__ = [
     "check_workers",
     "config_dict",
     "learn_repetition",
+    "repetition_preset",
     "repetition_seeds",
     "repetition_streams",
     "run_benchmark",
@@ -194,6 +197,26 @@ def repetition_streams(seed: int) -> tuple[int, int, int]:
     return demo_seed, ga_seed, trial_seed
 
 
+ROOM_STREAM = 0x726F6F6D
+"""Spawn key of a repetition's room draw (``room = "per_repetition"``): a child of the
+repetition's seed that no other stream of the repetition uses."""
+
+
+def repetition_preset(config: BenchmarkConfig, seed: int) -> str | Preset:
+    """The preset every env of the repetition with seed ``seed`` uses: ``config.preset`` itself,
+    or, with ``room = "per_repetition"`` and a preset that has ``[randomization]``, one world
+    drawn from it (:meth:`~lfd_track.envs.presets.Preset.sample`, from the repetition's own room
+    stream :data:`ROOM_STREAM`) with its randomization removed, so no episode redraws it. A
+    preset without randomization is returned as it is (it has one world either way)."""
+    if config.room != "per_repetition":
+        return config.preset
+    preset = load_preset(config.preset)
+    if not preset.randomized:
+        return config.preset
+    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(ROOM_STREAM,)))
+    return dataclasses.replace(preset.sample(rng), name=f"{preset.name}-room", randomization=())
+
+
 def trial_worlds(trial_seed: int, test_tracks: tuple[str, ...]) -> list[tuple[str, bool, str, int]]:
     """(track, reverse, direction, world seed) of every trial direction, in the order they are
     run: each direction's floor is built once, from its own seed drawn from ``trial_seed``."""
@@ -299,7 +322,7 @@ def run_trials(
     trial_seed: int,
     test_tracks: tuple[str, ...],
     trials_per_direction: int,
-    preset: str,
+    preset: str | Preset,
     repetition: int = 0,
     tracks: Collection[str] | None = None,
     progress: Callable[[TrialOutcome], None] | None = None,
@@ -339,13 +362,20 @@ def run_trials(
 
 
 def run_loop_trials(
-    controller: Any | None, *, trial_seed: int, config: BenchmarkConfig, repetition: int = 0
+    controller: Any | None,
+    *,
+    trial_seed: int,
+    config: BenchmarkConfig,
+    repetition: int = 0,
+    preset: str | Preset | None = None,
 ) -> tuple[list[TrialOutcome], dict[str, Any]]:
     """The repetition's laps of ``config.random_loops`` procedural loops (:mod:`.loops`): loops
     drawn in order from the repetition's stream, each admitted once the teacher laps it both
     ways in the worlds of its two directions, then lapped once each way by ``controller`` (None:
     no controller was learned, each lap is an undriven :func:`unlearned_outcome`; the draw is
-    the same). Returns the outcomes and the draw's record (``drawn``, ``excluded``)."""
+    the same). ``preset``: the repetition's (:func:`repetition_preset`; default
+    ``config.preset``). Returns the outcomes and the draw's record (``drawn``, ``excluded``)."""
+    world_preset = config.preset if preset is None else preset
     outcomes: list[TrialOutcome] = []
     excluded: list[dict[str, Any]] = []
     drawn = admitted = 0
@@ -359,7 +389,7 @@ def run_loop_trials(
         name, worlds = next(draws)
         drawn += 1
         envs = {
-            direction: (LfDTrackEnv(track=name, reverse=reverse, preset=config.preset), world)
+            direction: (LfDTrackEnv(track=name, reverse=reverse, preset=world_preset), world)
             for reverse, direction, world in ((False, "ccw", worlds[0]), (True, "cw", worlds[1]))
         }
         teacher = {direction: teacher_lap(env, world) for direction, (env, world) in envs.items()}
@@ -387,15 +417,17 @@ def learn_repetition(
     demo_seed: int,
     ga_seed: int,
     method: Method | None = None,
+    preset: str | Preset | None = None,
 ) -> Learned:
     """Learn one repetition's controller by ``config.method`` (its registry entry, or
-    ``method``); its files go to ``rep_dir``."""
+    ``method``) under ``preset`` (the repetition's, :func:`repetition_preset`; default
+    ``config.preset``); its files go to ``rep_dir``."""
     method = get_method(config.method) if method is None else method
     context = MethodContext(
         rep_dir,
         demo_seed=demo_seed,
         ga_seed=ga_seed,
-        preset=config.preset,
+        preset=config.preset if preset is None else preset,
         human=config.human,
         memory=config.memory,
         mirror=config.mirror,
@@ -425,6 +457,7 @@ def run_repetition(
 
     cv2.setNumThreads(1)  # one repetition per core; OpenCV's own threads would only contend
     demo_seed, ga_seed, trial_seed = repetition_streams(seed)
+    preset = repetition_preset(config, seed)
     rep_dir = Path(work_dir) / f"rep_{index:02d}"
     rep_dir.mkdir(parents=True, exist_ok=True)
     timing: dict[str, float] = {}
@@ -434,11 +467,11 @@ def run_repetition(
     controller: Controller | None = None
     try:
         learned = learn_repetition(
-            config, rep_dir, demo_seed=demo_seed, ga_seed=ga_seed, method=method
+            config, rep_dir, demo_seed=demo_seed, ga_seed=ga_seed, method=method, preset=preset
         )
     except DemonstrationUnfinished as exc:  # the teacher got lost: a failed repetition
         failed: str | None = str(exc)
-        effort = unfinished_effort(exc, config.preset)
+        effort = unfinished_effort(exc, preset)
     else:
         failed, effort = None, learned.effort
         controller = learned.controller
@@ -452,13 +485,13 @@ def run_repetition(
         trial_seed=trial_seed,
         test_tracks=config.test_tracks,
         trials_per_direction=config.trials_per_direction,
-        preset=config.preset,
+        preset=preset,
         repetition=index,
     )
     loop_record: dict[str, Any] = {}
     if config.random_loops:
         loop_outcomes, loop_record = run_loop_trials(
-            controller, trial_seed=trial_seed, config=config, repetition=index
+            controller, trial_seed=trial_seed, config=config, repetition=index, preset=preset
         )
         outcomes += loop_outcomes
     timing["trials"] = time.perf_counter() - t0
@@ -476,7 +509,7 @@ def run_repetition(
     )
 
 
-def unfinished_effort(exc: DemonstrationUnfinished, preset: str) -> dict[str, Any]:
+def unfinished_effort(exc: DemonstrationUnfinished, preset: str | Preset) -> dict[str, Any]:
     """The human effort and robot driving of the loop that did not finish (the effort record
     every method writes, from the counts ``exc`` carries); empty when it carries none."""
     if not isinstance(exc.counts, LoopCounts):

@@ -31,6 +31,10 @@ Schema history:
   ``fresh_felt`` map's ``geometry`` (:mod:`lfd_track.policy.map_geometry`). A schema-3 file was
   written before them: each one it lacks has the value that does what the memory did then
   (``geometry = "paper"``: the paper's camera, 0.10 m and 22.9° per command).
+  ``config.room`` came later without a new schema: it is written only when it is
+  ``"per_repetition"`` (one world drawn per repetition from a randomized preset), and a file
+  without it means ``"per_episode"``, what every run did before (so no older file changes
+  meaning, and each still matches the settings that produced it).
 """
 
 from __future__ import annotations

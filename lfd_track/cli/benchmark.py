@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from ..benchmark import runner
-from ..benchmark.config import MAX_RANDOM_LOOPS
+from ..benchmark.config import MAX_RANDOM_LOOPS, ROOMS
 from ..demo.demonstrator import HumanConfig
 from ..methods import get_method, method_names, methods
 from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
@@ -68,6 +68,14 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     bench.add_argument(
         "--preset", default="paper", help="environment preset name or TOML path (default: paper)"
+    )
+    bench.add_argument(
+        "--room",
+        choices=ROOMS,
+        default="per_episode",
+        help="when a preset with [randomization] draws its world: per_episode (a new room every"
+        " episode) or per_repetition (one room per repetition, kept for teaching and driving);"
+        " a preset without randomization has one world either way (default: per_episode)",
     )
     bench.add_argument(
         "--test-track",
@@ -210,6 +218,7 @@ def run(args: argparse.Namespace) -> int:
             test_tracks=("testing", *args.test_track),
             random_loops=args.random_loops,
             random_split=args.random_split,
+            room=args.room,
             memory=memory_from_args(args),
             mirror=args.mirror,
             shifted_views=args.shifted_views,
