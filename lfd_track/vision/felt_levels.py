@@ -16,10 +16,14 @@ variance between the two parts) and reads from the split:
 * the *felt level*: the carpet level plus :data:`LEVEL_RAMP_WIDTH`, the fixed levels' own ramp
   (felt values sit near 1 in every world; it is the carpet that moves).
 
-Until :data:`MIN_FRAMES` frames are in, or while the split is unclear (a part under
-:data:`MIN_PART` of the weight, or the parts' medians closer than :data:`MIN_MODE_GAP`: a view of
-felt or of carpet only), :meth:`RoadValueLevels.levels` gives None and the caller keeps its
-fixed levels. Every step is element-wise or a running sum over 100 bins, so the same road values
+A split is clear when each part holds at least :data:`MIN_PART` of the weight, the parts'
+medians lie at least :data:`MIN_MODE_GAP` apart and the upper part looks like felt (its median at
+least :data:`MIN_FELT_MEDIAN`). Until :data:`MIN_FRAMES` frames are in and a split has been clear,
+:meth:`RoadValueLevels.levels` gives None and the caller keeps its fixed levels. Once levels have
+been read, an unclear split keeps the last clear levels: after some fifty frames of carpet alone
+(a rover that has lost the strip and turns on the spot) the felt has faded from the histogram,
+and the carpet's own spread would otherwise split in two, putting the felt level inside the
+carpet's values and the map's felt on the carpet. Every step is element-wise or a running sum over 100 bins, so the same road values
 give the same levels on every processor.
 """
 
@@ -42,6 +46,9 @@ LEVEL_RAMP_WIDTH = 0.2
 MIN_PART = 0.05
 #: [road value] the two parts' medians must lie at least this far apart.
 MIN_MODE_GAP = 0.3
+#: [road value] the upper part's median must reach this: a library taught on the felt gives the
+#: felt values near 1 in every world, so an upper part centred lower is the carpet's own spread.
+MIN_FELT_MEDIAN = 0.7
 
 _EDGES = np.linspace(-1.0, 1.0, LEVEL_BINS + 1)
 _CENTRES = 0.5 * (_EDGES[1:] + _EDGES[:-1])
@@ -68,10 +75,13 @@ class RoadValueLevels:
         self._fresh = False
 
     def levels(self) -> tuple[float, float] | None:
-        """``(carpet, felt)`` road-value levels, carpet < felt, or None while the histogram does
-        not tell felt from carpet (fewer than :data:`MIN_FRAMES` frames, or no clear split)."""
+        """``(carpet, felt)`` road-value levels, carpet < felt: the last clear split's, or None
+        while no split has been clear (fewer than :data:`MIN_FRAMES` frames, or a view of felt
+        or of carpet alone so far)."""
         if not self._fresh:
-            self._levels = self._compute() if self.frames >= MIN_FRAMES else None
+            clear = self._compute() if self.frames >= MIN_FRAMES else None
+            if clear is not None:  # an unclear split keeps the last clear levels
+                self._levels = clear
             self._fresh = True
         return self._levels
 
@@ -91,7 +101,8 @@ class RoadValueLevels:
         upper[:k] = 0.0
         if min(float(lower.sum()), float(upper.sum())) < MIN_PART * total:
             return None
-        if _quantile(upper, 0.5) - _quantile(lower, 0.5) < MIN_MODE_GAP:
+        felt_median = _quantile(upper, 0.5)
+        if felt_median < MIN_FELT_MEDIAN or felt_median - _quantile(lower, 0.5) < MIN_MODE_GAP:
             return None
         carpet = _quantile(lower, CARPET_QUANTILE)
         return carpet, carpet + LEVEL_RAMP_WIDTH

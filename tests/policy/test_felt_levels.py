@@ -68,6 +68,25 @@ def test_no_levels_before_enough_frames_or_without_two_parts():
     assert _levels_after([]) is None
 
 
+def test_a_long_view_of_carpet_alone_keeps_the_last_clear_levels():
+    # A rover that has lost the strip and turns on the spot sees carpet alone for longer than
+    # the histogram remembers; the carpet's own spread (here 0.05-0.5, as in a greenish room)
+    # must not become a felt-versus-carpet split that puts felt inside the carpet's values.
+    rng = np.random.default_rng(3)
+    levels = RoadValueLevels()
+    for values in _frames(rng, 0.25):
+        levels.add(values)
+    clear = levels.levels()
+    assert clear is not None
+    for _ in range(200):
+        levels.add(np.concatenate([rng.uniform(0.0, 0.15, 20), rng.uniform(0.35, 0.5, 20)]))
+    assert levels.levels() == clear
+    for values in _frames(rng, 0.10, 150):  # felt again, over a duller carpet: the levels follow
+        levels.add(values)
+    after = levels.levels()
+    assert after is not None and after[0] < clear[0] - 0.05
+
+
 def test_looking_at_the_levels_changes_nothing():
     levels = RoadValueLevels()
     for values in _frames(np.random.default_rng(2), 0.1, 10):
