@@ -16,6 +16,12 @@ class FileFormatError(LfdTrackError, ValueError):
         super().__init__(f"{self.path}: {problem}")
 
 
+class CalibrationFailed(LfdTrackError):
+    """A robot calibration that cannot give a trustworthy forward step and pivot (frames too
+    uniform to match, estimates too scattered, a robot that does not move or stopped); one line
+    says why, and nothing is written (:mod:`lfd_track.hardware.calibrate`)."""
+
+
 class DemonstrationUnfinished(RuntimeError):
     """A demonstration or teaching loop that did not finish within its command budget (the
     human's ``max_commands``): the teacher got lost, nothing is wrong with the code.

@@ -139,12 +139,18 @@ def _recorded_frame_size(metadata: dict[str, Any]) -> tuple[int, int]:
 
 
 def _recorded_map_geometry(metadata: dict[str, Any]) -> MapGeometry:
-    """The map geometry a recording's ``fresh_felt`` inputs were computed with: its preset's
-    world for a simulated one whose preset still loads, else the robot's (the paper preset's
-    camera and rates at the recording's control period, if it names one)."""
+    """The map geometry a recording's ``fresh_felt`` inputs were computed with: the one it
+    records (a robot's profile, ``--profile``), else its preset's world for a simulated one
+    whose preset still loads, else the robot's (the paper preset's camera and rates at the
+    recording's control period, if it names one)."""
     from ..envs.presets import load_preset
     from ..policy.map_geometry import hardware_geometry
 
+    if "map_geometry" in metadata:
+        try:
+            return MapGeometry.from_dict(metadata["map_geometry"])
+        except ValueError as exc:
+            raise LfdTrackError(f"the recording's map geometry: {exc}") from None
     preset = metadata.get("preset")
     if metadata.get("kind") == "simulated" and isinstance(preset, str):
         try:

@@ -1,4 +1,5 @@
-"""``lfd-track hardware …``: simulated board, link check, autonomous drive, tele-operated demo.
+"""``lfd-track hardware …``: simulated board, link check, calibration, autonomous drive,
+tele-operated demo.
 
 ``add_parser(subparsers)`` adds the ``hardware`` command to the main CLI. Each subcommand's
 handler is stored as ``func`` on the parsed namespace, takes the namespace and returns the exit
@@ -21,7 +22,7 @@ from typing import Any
 
 from ..errors import LfdTrackError
 from ..policy.controller import Controller
-from ..policy.map_geometry import hardware_geometry
+from ..policy.map_geometry import MapGeometry, hardware_geometry
 from ..policy.memory import MEMORY_KINDS, memory_config
 from ..teaching import Arbiter, TeachingLoop
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output
@@ -194,14 +195,24 @@ def _make_env(args: argparse.Namespace, **kwargs: Any) -> Any:
     )
 
 
+def _profile_geometry(args: argparse.Namespace) -> MapGeometry | None:
+    """The map geometry of ``--profile`` (a robot profile), None without one."""
+    if args.profile is None:
+        return None
+    from ..hardware.profile import load_profile
+
+    return load_profile(args.profile).geometry
+
+
 def _cmd_drive(args: argparse.Namespace) -> int:
     controller = Controller.load(args.controller)
+    world = hardware_geometry(_profile_geometry(args), period_s=args.period)
     env = _make_env(args)
     try:
         # The teaching loop with the controller as the only commander.
         loop = TeachingLoop(
             env,
-            controller.perception(world_geometry=hardware_geometry(period_s=args.period)),
+            controller.perception(world_geometry=world),
             Arbiter("policy"),
             policy=controller.commander(),
         )
@@ -229,10 +240,13 @@ def _cmd_demo(args: argparse.Namespace) -> int:
 
     refuse_unsafe_output(args.out)  # before the camera and the link are opened
     refuse_undecodable(args.camera, "camera")  # recorded in the file's metadata
+    profile = _profile_geometry(args)
+    meta: dict[str, Any] = {"camera": args.camera, "control_period_s": args.period}
+    if profile is not None:  # evolve teaches the map with the geometry it was recorded with
+        meta["map_geometry"] = profile.to_dict()
     env = _make_env(args, between_steps="stop")
     try:
         obs, _ = env.reset()
-        meta = {"camera": args.camera, "control_period_s": args.period}
         # The keyboard first: without a terminal nothing is created (a stub recording would
         # otherwise block the next run with "file exists").
         with (
@@ -243,7 +257,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
                 library_only=args.library_only,
                 metadata=meta,
                 memory=memory_config({"kind": args.memory}),
-                map_geometry=hardware_geometry(period_s=args.period),
+                map_geometry=hardware_geometry(profile, period_s=args.period),
             ) as recorder,
         ):
             print(
@@ -259,13 +273,76 @@ def _cmd_demo(args: argparse.Namespace) -> int:
         env.close()
 
 
+# ---------------------------------------------------------------------------------- calibrate
+def _cmd_calibrate(args: argparse.Namespace) -> int:
+    from ..hardware.calibrate import calibrate, strip_start
+    from ..hardware.profile import RobotProfile
+
+    if args.sim and (args.camera or args.serial):
+        return _fail("--camera and --serial are for the robot; --sim calibrates the simulator's")
+    if not args.sim and not (args.camera and args.serial):
+        return _fail("calibrate needs --camera URL and --serial URL (the robot) or --sim")
+    if args.preset is not None and not args.sim:
+        return _fail("--preset is for --sim (the robot's camera comes from --profile)")
+    refuse_unsafe_output(args.out)  # before the robot moves
+    known = _profile_geometry(args)
+    options: dict[str, Any] | None = None
+    if args.sim:
+        from ..envs.presets import load_preset
+        from ..envs.track_env import LfDTrackEnv
+
+        preset = load_preset(args.preset or "paper")
+        if preset.randomized:
+            return _fail(
+                f"preset '{preset.name}' draws a new world at every episode: calibrate in one"
+                " without [randomization]"
+            )
+        camera = known.camera() if known is not None else preset.camera
+        env: Any = LfDTrackEnv(track="training", preset=preset)
+        # On the training track's straight: the simulator's strip, every run from its start.
+        options = {"pose": strip_start(env.track)}
+    else:
+        camera = (known or hardware_geometry(period_s=args.period)).camera()
+        print(
+            "place the robot at the start of a straight felt strip with at least"
+            f" {args.runs * args.commands_per_run * 0.15:.1f} m ahead of it; it drives"
+            f" {args.runs} runs of {args.commands_per_run} forward commands, left pivots and"
+            " right pivots",
+            flush=True,
+        )
+        if sys.stdin.isatty():
+            input("press Enter to start (Ctrl-C to stop) ")
+        env = _make_env(args)
+    try:
+        result = calibrate(
+            env,
+            camera,
+            runs=args.runs,
+            commands_per_run=args.commands_per_run,
+            reset_options=options,
+            seed=args.seed if args.sim else None,
+            on_run=lambda line: print(line, flush=True),
+        )
+    finally:
+        env.close()
+    geometry = MapGeometry.from_camera(camera, step_m=result.step_m, pivot_deg=result.pivot_deg)
+    RobotProfile(geometry, result).save(args.out)
+    print(
+        f"forward step {result.step_m:.4f} m per command (spread {100 * result.step_spread:.1f} %,"
+        f" {len(result.forward_step_m)} runs); pivot {result.pivot_deg:.2f} deg per command"
+        f" (spread {100 * result.pivot_spread:.1f} %, {len(result.pivot_samples_deg)} runs)"
+    )
+    print(f"robot profile written to {args.out}")
+    return EXIT_OK
+
+
 # ------------------------------------------------------------------------------------- parser
-def _add_link_options(parser: argparse.ArgumentParser) -> None:
+def _add_link_options(parser: argparse.ArgumentParser, required: bool = True) -> None:
     from ..hardware.wire import DEFAULT_BAUD  # not .link: the parser works without pyserial
 
     parser.add_argument(
         "--serial",
-        required=True,
+        required=required,
         metavar="URL",
         help="serial port or pyserial URL: /dev/rfcomm0, /dev/pts/N, socket://host:port",
     )
@@ -286,10 +363,21 @@ def _add_link_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _add_camera_options(parser: argparse.ArgumentParser) -> None:
+def _add_profile_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--profile",
+        metavar="FILE",
+        default=None,
+        help="robot profile written by `hardware calibrate`: the robot's measured forward step"
+        " and pivot for the fresh_felt map (default: the paper preset's camera and rates at"
+        " --period)",
+    )
+
+
+def _add_camera_options(parser: argparse.ArgumentParser, required: bool = True) -> None:
     parser.add_argument(
         "--camera",
-        required=True,
+        required=required,
         metavar="URL",
         help="phone stream (http://PHONE:8080/video), snapshot URL (…/shot.jpg) or video file",
     )
@@ -299,14 +387,15 @@ def _add_camera_options(parser: argparse.ArgumentParser) -> None:
 
 
 def add_parser(subparsers: Any) -> argparse.ArgumentParser:
-    """Add ``hardware`` with subcommands ``sim``, ``check``, ``drive``, ``demo``.
+    """Add ``hardware`` with subcommands ``sim``, ``check``, ``calibrate``, ``drive``, ``demo``.
 
     Each leaf parser sets ``func`` (namespace → exit code).
     """
     hardware = subparsers.add_parser(
         "hardware",
         help="run on the real robot (or its firmware in simavr)",
-        description="Real-robot backend: simulated board, link check, autonomous drive, demo.",
+        description="Real-robot backend: simulated board, link check, calibration, autonomous"
+        " drive, demo.",
     )
     commands = hardware.add_subparsers(dest="hardware_command", metavar="COMMAND")
     commands.required = True
@@ -349,6 +438,52 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     )
     check.set_defaults(func=_guarded(_cmd_check))
 
+    calibrate = commands.add_parser(
+        "calibrate",
+        help="measure the robot's forward step and pivot from its camera; write a robot profile",
+        description="Measure the robot's forward step [m] and pivot [deg] per command from its own"
+        " camera frames: on a straight felt strip it drives --runs runs of --commands-per-run"
+        " forward commands, left pivots and right pivots, each run from rest, and matches the"
+        " bird's-eye views of the floor before and after each command. Writes a robot profile"
+        " (--out) that `teach --backend hardware`, `hardware drive` and `hardware demo` read with"
+        " --profile. With --sim it calibrates the simulated robot of --preset instead. A"
+        " calibration that does not converge says why in one line, exits 1 and writes nothing.",
+    )
+    calibrate.add_argument("--out", required=True, metavar="FILE", help="robot profile to write")
+    _add_camera_options(calibrate, required=False)
+    _add_link_options(calibrate, required=False)
+    calibrate.add_argument(
+        "--sim", action="store_true", help="calibrate the simulated robot (no hardware)"
+    )
+    calibrate.add_argument(
+        "--preset",
+        default=None,
+        metavar="NAME_OR_PATH",
+        help="with --sim: the simulator's preset (default paper)",
+    )
+    calibrate.add_argument(
+        "--seed", type=int, default=0, help="with --sim: seed of the world (default 0)"
+    )
+    calibrate.add_argument(
+        "--runs", type=_positive, default=3, help="runs of each command (default 3)"
+    )
+    calibrate.add_argument(
+        "--commands-per-run",
+        type=_positive,
+        default=3,
+        metavar="N",
+        help="identical commands per run, from rest (default 3, as the simulator's rates are"
+        " defined)",
+    )
+    calibrate.add_argument(
+        "--profile",
+        metavar="FILE",
+        default=None,
+        help="an earlier robot profile whose camera to keep (default: the --preset's camera with"
+        " --sim, the paper preset's on the robot)",
+    )
+    calibrate.set_defaults(func=_guarded(_cmd_calibrate))
+
     drive = commands.add_parser(
         "drive",
         help="drive autonomously with a controller file",
@@ -361,6 +496,7 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     _add_camera_options(drive)
     _add_link_options(drive)
     drive.add_argument("--steps", type=int, default=None, help="stop after N commands")
+    _add_profile_option(drive)
     drive.set_defaults(func=_guarded(_cmd_drive))
 
     demo = commands.add_parser(
@@ -389,8 +525,20 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="memory inputs recorded with every case for the policy to read (see"
         " docs/learning-api.md; default none, the paper's 40 road values)",
     )
+    _add_profile_option(demo)
     demo.set_defaults(func=_guarded(_cmd_demo))
     return hardware
+
+
+def _positive(text: str) -> int:
+    """An argparse type: an integer from 1 to 100."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if not 1 <= value <= 100:
+        raise argparse.ArgumentTypeError(f"must be 1..100, got {value}")
+    return value
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -39,6 +39,11 @@ def teach_config(args: argparse.Namespace) -> Any:
         memory = memory_from_args(args)
     except ValueError as exc:
         raise LfdTrackError(str(exc)) from None
+    profile = None
+    if args.profile is not None:
+        from ..hardware.profile import load_profile  # lazy: read only when given
+
+        profile = load_profile(args.profile).geometry
     return TeachConfig(
         out=Path(args.out),
         backend=args.backend,
@@ -48,6 +53,7 @@ def teach_config(args: argparse.Namespace) -> Any:
         camera=args.camera,
         serial=args.serial,
         period_s=args.period,
+        profile=profile,
         online=args.online,
         takeover=OnlineConfig(
             generations_per_case=args.generations_per_case or OnlineConfig.generations_per_case,
@@ -76,6 +82,10 @@ def run(args: argparse.Namespace) -> int:
         raise LfdTrackError("--backend hardware needs --camera URL and --serial URL")
     if args.backend == "sim" and (args.camera or args.serial):
         raise LfdTrackError("--camera and --serial are for --backend hardware")
+    if args.backend == "sim" and args.profile:
+        raise LfdTrackError(
+            "--profile is for --backend hardware (in the simulator the preset is the robot)"
+        )
     out = Path(args.out)
     refuse_unsafe_output(out)
     for what, name in (("track", args.track), ("preset", args.preset)):
@@ -149,6 +159,14 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         metavar="S",
         help="control period [s], {:g}..{:g}: the real robot's command length; in the simulator the "
         "pace of commands (default: the preset's, 0.4 s)".format(*PERIOD_RANGE),
+    )
+    teach.add_argument(
+        "--profile",
+        metavar="FILE",
+        default=None,
+        help="robot profile written by `lfd-track hardware calibrate` (hardware): the robot's"
+        " measured forward step and pivot for the fresh_felt map (default: the paper preset's"
+        " camera and rates at --period)",
     )
     teach.add_argument(
         "--online",

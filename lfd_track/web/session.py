@@ -68,6 +68,10 @@ class TeachConfig:
     """The serial port or pyserial URL of the board (hardware)."""
     period_s: float | None = None
     """[s] control period; None: the preset's (sim) or 0.4 s (hardware)."""
+    profile: MapGeometry | None = None
+    """The robot's calibrated map geometry (hardware; a robot profile's,
+    :mod:`lfd_track.hardware.profile`); None: the paper preset's camera and rates at
+    ``period_s``."""
     online: bool = False
     """Evolve a policy while the person teaches; it is offered the wheel when it agrees."""
     takeover: OnlineConfig = field(default_factory=OnlineConfig)
@@ -476,7 +480,7 @@ def open_session(config: TeachConfig) -> LoopSession:
 
         period_s = config.period_s or 0.4
         # The robot's map geometry: its profile once calibrated; until then the paper's.
-        map_geometry = hardware_geometry(period_s=period_s)
+        map_geometry = hardware_geometry(config.profile, period_s=period_s)
         if config.camera is None or config.serial is None:
             raise ValueError("the hardware backend needs both a camera stream and a serial port")
         # Each command runs one period, then the motors stop: a page that gives no command
@@ -488,6 +492,8 @@ def open_session(config: TeachConfig) -> LoopSession:
             between_steps="stop",
         )
         metadata.update(kind="hardware", camera=config.camera, control_period_s=period_s)
+        if config.profile is not None:  # evolve teaches the map with the recorded geometry
+            metadata["map_geometry"] = config.profile.to_dict()
 
         def stop_robot(reason: str) -> None:
             robot.link.estop()  # latched: a drive already on its way is refused by the board

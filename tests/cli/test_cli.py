@@ -429,7 +429,7 @@ def test_hardware_subcommands_have_descriptions():
     from lfd_track.cli import build_parser
 
     hardware = _subcommands(_subcommands(build_parser())["hardware"])
-    assert set(hardware) == {"sim", "check", "drive", "demo"}
+    assert set(hardware) == {"sim", "check", "calibrate", "drive", "demo"}
     for name, sub in hardware.items():
         assert sub.description and len(sub.description) > 80, name
 
