@@ -10,10 +10,14 @@ motion is measured). Between two frames the floor moves rigidly, so the rover's 
 rotation and shift that lays the later view onto the earlier one, expressed about the rover's
 pivot centre (the camera sits ``forward_offset_m`` ahead of it; the view's coordinates are
 the rover's). :func:`floor_motion` finds it from the carpet's texture and the felt's edges:
-both views are high-passed (which removes the camera's own shading: vignetting, exposure),
-a coarse search from several starting angles picks the best match on a 4x coarser view, and a
-Gauss–Newton fit of the three motion parameters refines it, maximising the views' correlation
-over the floor both see (the correlation is also the match's quality).
+both views are high-passed (which removes the camera's own shading: vignetting, exposure) and
+contrast-normalised (every 5 cm of floor weighs alike, so the felt's long straight edges, which
+say nothing about a shift along them, do not drown the carpet's texture); a search tries turns
+5° apart, each with the shift that best lays the turned view on the other (a cross-correlation
+of the whole views, on a 2x coarser view), and a Gauss–Newton fit refines the best few,
+maximising the views' correlation over the floor both see (the correlation is also the
+match's quality). A pivot is fitted as a turn about the pivot centre alone, as the map models
+it (on bare carpet a turn and a shift can otherwise trade for one another).
 
 The guided routine (:func:`calibrate`): with the robot on a straight felt strip, it drives
 ``runs`` runs of ``commands_per_run`` forward commands, then of left pivots, then of right
@@ -27,8 +31,8 @@ preset's nominal motion mean the same. Each run gives one sample; the step and p
 samples' medians (left and right pivots together) and their spread is reported.
 
 It does not converge, and raises :class:`CalibrationFailed` with one line saying why, when the
-frames cannot be matched (a uniform floor: correlation below :data:`MIN_CORRELATION`, or too
-little floor seen twice), the samples scatter (relative spread above :data:`MAX_SPREAD`), the
+frames cannot be matched (a floor with too little texture, :data:`MIN_TEXTURE`; a correlation
+below :data:`MIN_CORRELATION`, or too little floor seen twice, in more than half the runs), the samples scatter (relative spread above :data:`MAX_SPREAD`), the
 robot does not move or moves the wrong way, or its episode ends (a lost link, a stalled camera).
 
 The robot is anything with Gymnasium's ``reset``/``step`` (actions 0 forward, 1 left, 2 right)
@@ -66,7 +70,7 @@ MIN_CORRELATION = 0.5
 #: Least share of the first view's floor the second must see for a match [-].
 MIN_OVERLAP = 0.2
 #: Least floor texture a view must show [grey levels, RMS of the high-passed bird's-eye view]:
-#: bare carpet in the paper's world shows 6-30, a featureless floor only the sensor's noise (2-3).
+#: the simulated worlds show 7-22 (bare carpet to felt), a featureless floor its sensor's noise (1.5).
 MIN_TEXTURE = 4.0
 #: Largest relative spread (standard deviation / median) of the runs' steps or pivots [-].
 MAX_SPREAD = 0.10
