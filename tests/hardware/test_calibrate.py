@@ -446,3 +446,27 @@ def test_evolve_reads_the_geometry_a_recording_names():
     assert _recorded_map_geometry({"control_period_s": 0.4}) == hardware_geometry(period_s=0.4)
     with pytest.raises(LfdTrackError, match="map geometry"):
         _recorded_map_geometry({"map_geometry": {"step_m": 1}})
+
+
+def test_calibrate_drives_the_real_robots_env_and_stops_it(tmp_path, capsys):
+    """``hardware calibrate`` through ``HardwareEnv`` on loopback fakes (a board that acks every
+    drive, a phone whose view never changes): every command is sent, the motors are stopped,
+    and a robot whose view does not move fails in one line with nothing written."""
+    from lfd_test_support import load_test_module
+
+    here = Path(__file__).parent
+    board_module = load_test_module(here / "test_link.py", "_lfd_hw_test_link")
+    camera_module = load_test_module(here / "test_camera.py", "_lfd_hw_test_camera")
+    still = np.ascontiguousarray(FloorRobot(CameraConfig()).reset()[0][:, :, ::-1])  # BGR
+    out = tmp_path / "robot.json"
+    with board_module.FakeBoard() as board, camera_module.MjpegServer(lambda i: still) as server:
+        code = main(
+            ["hardware", "calibrate", "--camera", server.url, "--serial", board.url]
+            + ["--period", "0.1", "--boot-wait", "0.3", "--runs", "1", "--commands-per-run", "1"]
+            + ["--out", str(out)]
+        )
+    err = capsys.readouterr().err
+    assert code == 1 and "did not move" in err and err.count("\n") == 1, err
+    assert not out.exists()
+    drives = board.drives()
+    assert {"F", "L", "R"} <= set(drives) and drives[-1] == "S"
