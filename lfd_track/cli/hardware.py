@@ -27,7 +27,7 @@ from ..policy.memory import MEMORY_KINDS, memory_config
 from ..teaching import Arbiter, TeachingLoop
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output
 from ..utils.signals import EXIT_INTERRUPTED, stop_signals_interrupt
-from .types import EXIT_ERROR, EXIT_OK
+from .types import EXIT_ERROR, EXIT_OK, non_negative_int, positive_int
 
 
 def _fail(message: str) -> int:
@@ -462,14 +462,14 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="with --sim: the simulator's preset (default paper)",
     )
     calibrate.add_argument(
-        "--seed", type=int, default=0, help="with --sim: seed of the world (default 0)"
+        "--seed", type=non_negative_int, default=0, help="with --sim: seed of the world (default 0)"
     )
     calibrate.add_argument(
-        "--runs", type=_positive, default=3, help="runs of each command (default 3)"
+        "--runs", type=positive_int, default=3, help="runs of each command (default 3)"
     )
     calibrate.add_argument(
         "--commands-per-run",
-        type=_positive,
+        type=positive_int,
         default=3,
         metavar="N",
         help="identical commands per run, from rest (default 3, as the simulator's rates are"
@@ -528,17 +528,6 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     _add_profile_option(demo)
     demo.set_defaults(func=_guarded(_cmd_demo))
     return hardware
-
-
-def _positive(text: str) -> int:
-    """An argparse type: an integer from 1 to 100."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if not 1 <= value <= 100:
-        raise argparse.ArgumentTypeError(f"must be 1..100, got {value}")
-    return value
 
 
 def main(argv: Sequence[str] | None = None) -> int:
