@@ -19,6 +19,12 @@ Writes ``results/rules/<rule>/seed<k>/results.json`` (the benchmark's format) an
 ``results/rules/rules.md``.
 
     .venv/bin/python benchmarks/experiments/generalization/rules.py --workers 2
+
+``--study FILE --condition NAME --out DIR`` scores the rules on another study's trials instead
+(that condition's tracks, loops and preset, the study's seeds), ``--repetitions N`` on the first
+N repetitions of each seed (the same repetitions as the study's first N: a repetition's seed does
+not depend on how many follow). ``rules.md`` then also pools the named tracks other than the
+testing track.
 """
 
 from __future__ import annotations
@@ -121,24 +127,33 @@ def run_repetition(job: tuple[int, int, int, BenchmarkConfig]) -> dict[str, Any]
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--study", type=Path, default=STUDY, help="study file whose trials to use")
+    parser.add_argument("--condition", default="paper", help="its condition giving the trials")
+    parser.add_argument("--repetitions", type=int, default=None, help="first N per seed")
+    parser.add_argument("--out", type=Path, default=OUT, help="output folder")
     args = parser.parse_args()
-    study = load_study(STUDY)
-    base = next(c for c in study.conditions if c.name == "paper").config
+    study = load_study(args.study)
+    out: Path = args.out
+    repetitions = args.repetitions or study.repetitions
+    base = next(c for c in study.conditions if c.name == args.condition).config
     jobs = [
         (seed, index, repetition_seed, base)
         for seed in study.seeds
-        for index, repetition_seed in enumerate(repetition_seeds(seed, study.repetitions))
+        for index, repetition_seed in enumerate(repetition_seeds(seed, repetitions))
     ]
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
         done = list(pool.map(run_repetition, jobs))
     lines = [
-        "# The hand-written rules on the generalization table's trials",
+        f"# The hand-written rules on the trials of {args.study.name} ({args.condition}),"
+        f" seeds {', '.join(map(str, study.seeds))} x {repetitions} repetitions",
         "",
-        "| rule | testing track | procedural test loops | <=60 | 60-100 | 100-135 | >135 |",
-        "|---|---|---|---|---|---|---|",
+        "| rule | testing track | other named tracks | procedural test loops | <=60 | 60-100"
+        " | 100-135 | >135 |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for rule in RULES:
         pooled_testing = [0, 0]
+        pooled_named = [0, 0]
         pooled_loops = {"laps": 0, "successes": 0}
         bins: dict[str, list[int]] = {}
         for seed in study.seeds:
@@ -147,20 +162,25 @@ def main() -> None:
             record = merged_record((d["repetition"], d["rules"][rule]["record"]) for d in mine)
             results = build_results(
                 outcomes,
-                repetitions=study.repetitions,
+                repetitions=repetitions,
                 seed=seed,
                 timing_s={"wall": sum(d["rules"][rule]["wall_s"] for d in mine)},
                 random_loops=record,
                 test_tracks=base.test_tracks,
             )
             results["rule"] = {"name": rule, "config": dataclasses.asdict(RULES[rule])}
-            folder = OUT / rule / f"seed{seed}"
+            folder = out / rule / f"seed{seed}"
             folder.mkdir(parents=True, exist_ok=True)
             write_results_json(folder / "results.json", results)
             testing = [o for o in outcomes if o.track == "testing"]
             pooled_testing[0] += sum(o.success for o in testing)
             pooled_testing[1] += len(testing)
-            section = results["random_loops"]
+            named = [o for o in outcomes if o.track in base.test_tracks and o.track != "testing"]
+            pooled_named[0] += sum(o.success for o in named)
+            pooled_named[1] += len(named)
+            section = results.get(
+                "random_loops", {"laps": 0, "successes": 0, "by_sharpest_turn": {}}
+            )
             pooled_loops["laps"] += section["laps"]
             pooled_loops["successes"] += section["successes"]
             for label, row in section["by_sharpest_turn"].items():
@@ -174,12 +194,12 @@ def main() -> None:
             return "–" if not n else f"{k}/{n} = {k / n:.0%} [{low:.0%}–{high:.0%}]"
 
         lines.append(
-            f"| {rule} | {cell(*pooled_testing)} "
+            f"| {rule} | {cell(*pooled_testing)} | {cell(*pooled_named)} "
             f"| {cell(pooled_loops['successes'], pooled_loops['laps'])} | "
             + " | ".join(cell(*bins.get(x, [0, 0])) for x in ("<=60", "60-100", "100-135", ">135"))
             + " |"
         )
-    (OUT / "rules.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    (out / "rules.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
     print("\n".join(lines))
 
 
