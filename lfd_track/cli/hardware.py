@@ -196,12 +196,17 @@ def _make_env(args: argparse.Namespace, **kwargs: Any) -> Any:
 
 
 def _profile_geometry(args: argparse.Namespace) -> MapGeometry | None:
-    """The map geometry of ``--profile`` (a robot profile), None without one."""
+    """The map geometry of ``--profile`` (a robot profile), None without one; a note on stderr
+    if it was measured at another control period than ``--period``."""
     if args.profile is None:
         return None
     from ..hardware.profile import load_profile
 
-    return load_profile(args.profile).geometry
+    profile = load_profile(args.profile)
+    note = profile.period_note(args.profile, args.period)
+    if note is not None:
+        print(note, file=sys.stderr)
+    return profile.geometry
 
 
 def _cmd_drive(args: argparse.Namespace) -> int:
@@ -298,11 +303,13 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
                 " without [randomization]"
             )
         camera = known.camera() if known is not None else preset.camera
+        period_s = preset.rover.control_period_s  # the command's length, not its motion
         env: Any = LfDTrackEnv(track="training", preset=preset)
         # On the training track's straight: the simulator's strip, every run from its start.
         options = {"pose": strip_start(env.track)}
     else:
         camera = (known or hardware_geometry(period_s=args.period)).camera()
+        period_s = args.period
         print(
             "place the robot at the start of a straight felt strip with at least"
             f" {args.runs * args.commands_per_run * 0.15:.1f} m ahead of it; it drives"
@@ -326,7 +333,7 @@ def _cmd_calibrate(args: argparse.Namespace) -> int:
     finally:
         env.close()
     geometry = MapGeometry.from_camera(camera, step_m=result.step_m, pivot_deg=result.pivot_deg)
-    RobotProfile(geometry, result).save(args.out)
+    RobotProfile(geometry, result, control_period_s=period_s).save(args.out)
     print(
         f"forward step {result.step_m:.4f} m per command (spread {100 * result.step_spread:.1f} %,"
         f" {len(result.forward_step_m)} runs); pivot {result.pivot_deg:.2f} deg per command"

@@ -7,6 +7,7 @@ real robot, the serial link and the camera stream) is imported only when the com
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -43,7 +44,11 @@ def teach_config(args: argparse.Namespace) -> Any:
     if args.profile is not None:
         from ..hardware.profile import load_profile  # lazy: read only when given
 
-        profile = load_profile(args.profile).geometry
+        robot = load_profile(args.profile)
+        note = robot.period_note(args.profile, args.period or 0.4)  # the hardware's default
+        if note is not None:
+            print(note, file=sys.stderr)
+        profile = robot.geometry
     return TeachConfig(
         out=Path(args.out),
         backend=args.backend,

@@ -9,6 +9,8 @@ The file (schema 1) is one JSON object with the keys:
 
 * ``format``: ``"lfd-track robot profile"``;
 * ``schema_version``: ``1``;
+* ``control_period_s``: the command length [s] it was measured at (a run at another one prints
+  a note: :meth:`RobotProfile.period_note`);
 * ``map_geometry``: :meth:`~lfd_track.policy.map_geometry.MapGeometry.to_dict`, whose
   ``step_m`` and ``pivot_deg`` are the measured ones and whose camera is the one the
   calibration assumed (the mount is not measured);
@@ -136,12 +138,34 @@ class RobotProfile:
     """The map geometry: the measured step and pivot, the camera the calibration assumed."""
     calibration: Calibration
     """What was measured."""
+    control_period_s: float
+    """[s] the command length it was measured at: the step and pivot are per command of it."""
+
+    def __post_init__(self) -> None:
+        period = self.control_period_s
+        if isinstance(period, bool) or not isinstance(period, int | float):
+            raise ValueError(f"control_period_s must be a number, got {period!r}")
+        if not (math.isfinite(period) and 0.0 < period <= 60.0):
+            raise ValueError(f"control_period_s must be in (0, 60] s, got {period!r}")
+        object.__setattr__(self, "control_period_s", float(period))
+
+    def period_note(self, path: str | Path, period_s: float) -> str | None:
+        """One line saying the profile at ``path`` was measured at another command length than
+        ``period_s`` [s] (its step and pivot are then not the robot's), None if they agree."""
+        if abs(period_s - self.control_period_s) <= 1e-9:
+            return None
+        return (
+            f"lfd-track: note: {path} was calibrated with {self.control_period_s:g} s commands and"
+            f" this run's are {period_s:g} s: its step and pivot per command do not hold; run"
+            f" `lfd-track hardware calibrate --period {period_s:g}`"
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """The file's JSON object."""
         return {
             "format": PROFILE_FORMAT,
             "schema_version": PROFILE_SCHEMA,
+            "control_period_s": self.control_period_s,
             "map_geometry": self.geometry.to_dict(),
             "calibration": self.calibration.to_dict(),
         }
@@ -165,15 +189,17 @@ class RobotProfile:
                 f"robot profile schema_version {version!r} is not supported (this lfd-track"
                 f" reads {PROFILE_SCHEMA})"
             )
-        unknown = sorted(set(data) - {"format", "schema_version", "map_geometry", "calibration"})
+        keys = ("control_period_s", "map_geometry", "calibration")
+        unknown = sorted(set(data) - {"format", "schema_version", *keys})
         if unknown:
             raise ValueError(f"unknown key '{unknown[0]}'")
-        for key in ("map_geometry", "calibration"):
+        for key in keys:
             if key not in data:
                 raise ValueError(f"missing '{key}'")
         return cls(
             geometry=MapGeometry.from_dict(data["map_geometry"]),
             calibration=Calibration.from_dict(data["calibration"]),
+            control_period_s=data["control_period_s"],
         )
 
 

@@ -109,6 +109,7 @@ def test_cli_calibrates_another_robot_and_writes_its_profile(other_robot, tmp_pa
     assert _within(measured.pivot_deg, truth.pivot_deg), (measured.pivot_deg, truth.pivot_deg)
     assert measured.differences(truth) == []  # the camera is the preset's, the motion measured
     assert f"{measured.step_m:.4f} m" in printed and f"{measured.pivot_deg:.2f} deg" in printed
+    assert profile.control_period_s == 0.4
 
 
 def test_cli_on_a_uniform_floor_fails_in_one_line_and_keeps_the_old_profile(
@@ -260,7 +261,7 @@ def _profile(step_m: float = 0.09, pivot_deg: float = 26.0) -> RobotProfile:
     geometry = MapGeometry.from_camera(
         CameraConfig(), step_m=calibration.step_m, pivot_deg=calibration.pivot_deg
     )
-    return RobotProfile(geometry, calibration)
+    return RobotProfile(geometry, calibration, control_period_s=0.4)
 
 
 def test_profile_round_trips_and_writes_the_same_bytes(tmp_path):
@@ -281,6 +282,7 @@ def test_profile_round_trips_and_writes_the_same_bytes(tmp_path):
         (lambda d: {**d, "schema_version": 2}, "schema_version 2"),
         (lambda d: {**d, "extra": 1}, "unknown key 'extra'"),
         (lambda d: {k: v for k, v in d.items() if k != "calibration"}, "missing 'calibration'"),
+        (lambda d: {**d, "control_period_s": 0}, "control_period_s"),
         (lambda d: {**d, "map_geometry": {**d["map_geometry"], "step_m": -0.1}}, "step_m"),
         (
             lambda d: {**d, "calibration": {**d["calibration"], "left_pivot_deg": []}},
@@ -345,6 +347,20 @@ def test_profile_is_the_map_geometry_hardware_drive_uses(tmp_path, monkeypatch):
             cli_hardware._cmd_drive(args)
     assert seen[0] == _profile().geometry
     assert seen[1] == hardware_geometry(period_s=0.4)  # unchanged without --profile
+
+
+def test_a_profile_measured_at_another_period_says_so(tmp_path, capsys):
+    from lfd_track.cli import build_parser
+    from lfd_track.cli.hardware import _profile_geometry
+
+    path = tmp_path / "robot.json"
+    _profile().save(path)
+    base = ["hardware", "drive", "c.json", "--camera", "c", "--serial", "s", "--profile", str(path)]
+    assert _profile_geometry(build_parser().parse_args(base)) == _profile().geometry
+    assert capsys.readouterr().err == ""
+    _profile_geometry(build_parser().parse_args(base + ["--period", "0.3"]))
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "0.4 s" in err and "0.3 s" in err and str(path) in err
 
 
 def test_profile_is_the_map_geometry_hardware_demo_records(tmp_path, monkeypatch):
