@@ -85,10 +85,9 @@ _RESOLUTION_M = 0.005  # [m] bird's-eye pixel
 _DEPTH_M = 1.2  # [m] floor used ahead of the nearest floor seen
 _HALF_WIDTH_M = 0.8  # [m] at most this far to either side
 _CONTRAST_SIGMA_M = 0.05  # [m] contrast normalisation's reach: each 5 cm of floor weighs alike
-_SHADING_SIGMA_M = 0.05  # [m] high-pass scale: keeps felt edges and carpet, drops camera shading
-_COARSE = 2  # the search's level: 2 x 2 bird's-eye pixels
+_SHADING_SIGMA_M = 0.05  # [m] high-pass scale: keeps felt edges and carpet, drops shading
+_SEARCH_SCALE = 2  # the search works on blocks of 2 x 2 bird's-eye pixels
 _SEARCH_ANGLES_DEG = tuple(float(a) for a in range(-50, 51, 5))  # turns tried by the search
-_WHITEN = 0.0
 _REFINED = 3  # the search's best matches refined by the fit
 _ITERATIONS = {2: 10, 1: 10}  # Gauss-Newton iterations per level
 _MIN_POINTS = 200  # floor points both views must share for a fit
@@ -146,8 +145,8 @@ class FloorView:
         near = float(np.min(footprint[:, 0]))
         far = min(float(np.max(footprint[:, 0])), near + _DEPTH_M)
         half = min(float(np.max(np.abs(footprint[:, 1]))), _HALF_WIDTH_M)
-        rows = int((far - near) / _RESOLUTION_M) // _COARSE * _COARSE
-        cols = int(2.0 * half / _RESOLUTION_M) // _COARSE * _COARSE
+        rows = int((far - near) / _RESOLUTION_M) // _SEARCH_SCALE * _SEARCH_SCALE
+        cols = int(2.0 * half / _RESOLUTION_M) // _SEARCH_SCALE * _SEARCH_SCALE
         self.camera = camera
         self.shape = (rows, cols)
         self.far_m, self.half_width_m = far, half
@@ -170,13 +169,14 @@ class FloorView:
         # A few pixels in from the edge of what the camera sees: no border pixel is matched.
         seen_view = seen.reshape(rows, cols).astype(np.uint8)
         self.mask = cv2.erode(seen_view, np.ones((5, 5), np.uint8)).astype(np.float32)
-        if self.mask.sum() < _MIN_POINTS * _COARSE * _COARSE:
+        if self.mask.sum() < _MIN_POINTS * _SEARCH_SCALE * _SEARCH_SCALE:
             raise ValueError("the camera sees too little floor to calibrate on")
 
     def warp(self, frame: np.ndarray) -> tuple[np.ndarray, float]:
-        """(rows, cols) float32 high-passed floor view of ``frame`` ((H, W, 3) uint8 RGB), zero
-        where the camera does not see, scaled to unit RMS over the floor it sees; and that RMS
-        before scaling [grey levels]: how much texture the floor shows."""
+        """(rows, cols) float32 floor view of ``frame`` ((H, W, 3) uint8 RGB): its grey levels
+        high-passed at 5 cm and scaled to about unit RMS in every 5 cm of floor, zero where the
+        camera does not see; and the high-passed view's RMS over the floor it sees [grey
+        levels]: how much texture the floor shows."""
         expected = (self.camera.frame_height_px, self.camera.frame_width_px, 3)
         if frame.shape != expected:
             raise CalibrationFailed(
@@ -191,16 +191,14 @@ class FloorView:
         local = cv2.GaussianBlur(floor * mask, (0, 0), sigma) / np.maximum(weight, 1e-3)
         detail = (floor - local) * mask
         rms = math.sqrt(float(np.sum(detail * detail)) / float(mask.sum()))
-        if _CONTRAST_SIGMA_M > 0:
-            # Every patch of floor counts alike: the felt's long straight edges, which say
-            # nothing about a shift along them, do not drown the carpet's texture.
-            spread = _CONTRAST_SIGMA_M / _RESOLUTION_M
-            energy = cv2.GaussianBlur(detail * detail, (0, 0), spread) / np.maximum(
-                cv2.GaussianBlur(mask, (0, 0), spread), 1e-3
-            )
-            detail = detail * mask / np.sqrt(energy + (0.1 * rms) ** 2)
-            return detail, rms
-        return (detail / rms if rms > 0 else detail), rms
+        # Every patch of floor counts alike: the felt's long straight edges, which say nothing
+        # about a shift along them, do not drown the carpet's texture. (A tenth of the whole
+        # view's RMS keeps a patch of bare noise from being blown up.)
+        spread = _CONTRAST_SIGMA_M / _RESOLUTION_M
+        energy = cv2.GaussianBlur(detail * detail, (0, 0), spread) / np.maximum(
+            cv2.GaussianBlur(mask, (0, 0), spread), 1e-3
+        )
+        return detail * mask / np.sqrt(energy + (0.1 * rms) ** 2 + 1e-12), rms
 
 
 def floor_motion(
@@ -218,9 +216,9 @@ def floor_motion(
     bare carpet a turn and a shift can otherwise trade for one another)."""
     (first, texture_first), (second, texture_second) = view.warp(before), view.warp(after)
     texture = min(texture_first, texture_second)
-    levels = [_Level(view, first, second, scale, turn_only) for scale in (_COARSE, 1)]
+    levels = [_Level(view, first, second, scale, turn_only) for scale in (_SEARCH_SCALE, 1)]
     # Every turn the search tries, with the shift that best lays the views on one another
-    # (phase correlation: the whole view's reach); the best few, and the guess, are refined.
+    # (a cross-correlation: the whole view's reach); the best few, and the guess, are refined.
     candidates = levels[0].search(_SEARCH_ANGLES_DEG)[:_REFINED]
     if guess is not None:
         candidates.insert(
@@ -256,7 +254,7 @@ class _Level:
     def __init__(
         self, view: FloorView, first: np.ndarray, second: np.ndarray, scale: int, turn_only: bool
     ) -> None:
-        mask = view.mask
+        mask: np.ndarray = view.mask
         # The parameters fitted: (turn, forward, left), or the turn alone.
         self.free = np.array([True, not turn_only, not turn_only])
         if scale > 1:
@@ -310,7 +308,6 @@ class _Level:
             # Plain cross-correlation, not phase correlation: whitening would give the sensor's
             # noise, which differs in every frame, the weight of the floor's texture.
             product = first_spectrum * np.conj(np.fft.rfft2(turned, shape))
-            product /= np.abs(product) ** _WHITEN + 1e-9
             correlation = np.fft.irfft2(product, shape)
             peak = int(np.argmax(correlation))
             dv, du = divmod(peak, shape[1])
