@@ -10,6 +10,7 @@ from typing import Any
 import numpy as np
 
 from ..envs.presets import load_preset
+from ..methods.common import calibrates
 from ..policy.features import DEFAULT_FEATURES
 from ..study.stats import wilson_interval
 from ..utils.provenance import environment
@@ -315,6 +316,12 @@ def write_benchmark_outputs(
     failed = [failed_record(r) for r in reps if r.failed is not None]
     if failed:  # only then: a run without one writes what it always wrote
         results["failed_repetitions"] = failed
+    if calibrates(
+        config.memory
+    ):  # only then, likewise: what each repetition's calibration measured
+        results["calibrations"] = [
+            dict(r.calibration, repetition=r.index) for r in reps if r.calibration
+        ]
     results["method"] = config.method
     # Versions and BLAS kernel this run was computed with (files written before have none).
     results["environment"] = environment()

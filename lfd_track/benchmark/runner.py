@@ -8,8 +8,10 @@ given seed whatever the number of workers. A repetition whose demonstration cann
 scripted human still lost after its ``max_commands``:
 :class:`~lfd_track.errors.DemonstrationUnfinished`) learns no controller: it is recorded as failed
 (:attr:`RepetitionResult.failed`) and every trial it would have run is scored as a failure
-(:data:`~lfd_track.benchmark.tables.NO_CONTROLLER`), while the other repetitions run as ever; any
-other exception is a fault and propagates. What a run does is a
+(:data:`~lfd_track.benchmark.tables.NO_CONTROLLER`), while the other repetitions run as ever; so
+is one whose map's calibration cannot converge (``geometry = "calibrated"``:
+:class:`~lfd_track.errors.CalibrationFailed`); any other
+exception is a fault and propagates. What a run does is a
 :class:`~lfd_track.benchmark.config.BenchmarkConfig` (imported here too, with
 :func:`~lfd_track.benchmark.config.config_dict`).
 """
@@ -29,10 +31,10 @@ import numpy as np
 
 from ..envs.presets import Preset, load_preset
 from ..envs.track_env import LfDTrackEnv
-from ..errors import DemonstrationUnfinished, LfdTrackError
+from ..errors import CalibrationFailed, DemonstrationUnfinished, LfdTrackError
 from ..learning.result import check_int
 from ..methods import Learned, Method, MethodContext, get_method
-from ..methods.common import effort_record, period_s
+from ..methods.common import SimulatedCalibration, calibration_for, effort_record, period_s
 from ..policy.controller import Controller
 from ..policy.map_geometry import MapGeometry
 from ..teaching.arbiter import Arbiter
@@ -113,6 +115,10 @@ class RepetitionResult:
     None when it learned one; its ``outcomes`` are then every trial it would have run, each an
     undriven :data:`~lfd_track.benchmark.tables.NO_CONTROLLER` failure, and ``demo`` and the
     fitness curves are empty."""
+    calibration: dict[str, Any] = field(default_factory=dict)
+    """With ``geometry = "calibrated"``: what the calibration before teaching measured
+    (:meth:`~lfd_track.methods.common.SimulatedCalibration.record`); empty otherwise, and when
+    it failed (:attr:`failed` says why)."""
 
 
 def trial_directions(test_tracks: tuple[str, ...]) -> list[tuple[str, bool, str]]:
@@ -418,10 +424,12 @@ def learn_repetition(
     ga_seed: int,
     method: Method | None = None,
     preset: str | Preset | None = None,
+    calibration: SimulatedCalibration | None = None,
 ) -> Learned:
     """Learn one repetition's controller by ``config.method`` (its registry entry, or
     ``method``) under ``preset`` (the repetition's, :func:`repetition_preset`; default
-    ``config.preset``); its files go to ``rep_dir``."""
+    ``config.preset``); its files go to ``rep_dir``. ``calibration``: the repetition's, which a
+    ``geometry = "calibrated"`` map assumes."""
     method = get_method(config.method) if method is None else method
     context = MethodContext(
         rep_dir,
@@ -439,6 +447,7 @@ def learn_repetition(
         bc=config.bc,
         cmaes=config.cmaes,
         settings=config.settings_of(method),
+        calibration=calibration,
     )
     return method.learn(context)
 
@@ -451,8 +460,10 @@ def run_repetition(
     ``method``: the registry entry of ``config.method`` (default: looked up here; a worker
     process is given it, so a method registered outside the package runs there too when its
     functions can be imported). A demonstration that cannot finish
-    (:class:`~lfd_track.errors.DemonstrationUnfinished`) makes a failed repetition
-    (:attr:`RepetitionResult.failed`, no ``controller.json``); any other exception propagates."""
+    (:class:`~lfd_track.errors.DemonstrationUnfinished`), or a map's calibration that cannot
+    converge (:class:`~lfd_track.errors.CalibrationFailed`, "calibration failed: ..."), makes a
+    failed repetition (:attr:`RepetitionResult.failed`, no ``controller.json``); any other
+    exception propagates."""
     import cv2
 
     cv2.setNumThreads(1)  # one repetition per core; OpenCV's own threads would only contend
@@ -465,12 +476,26 @@ def run_repetition(
     t0 = time.perf_counter()
     learned: Learned | None = None
     controller: Controller | None = None
+    calibration: SimulatedCalibration | None = None
     try:
+        # Before teaching, in the repetition's world (with room = "per_repetition", its room);
+        # passed on only when there is one, so a learner standing in need not know of it.
+        calibration = calibration_for(config.memory, preset, seed)
+        extra = {} if calibration is None else {"calibration": calibration}
         learned = learn_repetition(
-            config, rep_dir, demo_seed=demo_seed, ga_seed=ga_seed, method=method, preset=preset
+            config,
+            rep_dir,
+            demo_seed=demo_seed,
+            ga_seed=ga_seed,
+            method=method,
+            preset=preset,
+            **extra,
         )
+    except CalibrationFailed as exc:  # the map cannot know its robot: a failed repetition
+        failed: str | None = f"calibration failed: {exc}"
+        effort = {}
     except DemonstrationUnfinished as exc:  # the teacher got lost: a failed repetition
-        failed: str | None = str(exc)
+        failed = str(exc)
         effort = unfinished_effort(exc, preset)
     else:
         failed, effort = None, learned.effort
@@ -506,6 +531,7 @@ def run_repetition(
         effort=effort,
         random_loops=loop_record,
         failed=failed,
+        calibration={} if calibration is None else calibration.record(),
     )
 
 

@@ -100,6 +100,7 @@ def run_demonstration(
     memory: MemoryConfig | None = None,
     frames: Callable[[int, np.ndarray], None] | None = None,
     views: ViewCases | None = None,
+    map_geometry: MapGeometry | None = None,
 ) -> DemonstrationSummary:
     """Record one demonstration on ``track`` to the file ``out`` and return a summary.
 
@@ -109,7 +110,11 @@ def run_demonstration(
     with every case (none by default). ``frames``, if given, is called with the step index and
     the camera frame of every recorded case (the frames themselves are not recorded). ``views``,
     if given, receives the shifted and turned views of every case (:mod:`lfd_track.demo.views`;
-    not recorded); the demonstration itself runs exactly as without them.
+    not recorded); the demonstration itself runs exactly as without them. ``map_geometry``: the
+    camera and per-command motion the teacher's ``fresh_felt`` map assumes, recorded in the
+    file's metadata (the controller learned from it must assume the same, e.g. a calibration's:
+    ``geometry = "calibrated"``); None: the world's (:meth:`MapGeometry.from_preset` of the
+    env's preset), not recorded.
 
     A protocol that has not ended after ``human.max_commands`` commands (the human is lost)
     raises :class:`~lfd_track.errors.DemonstrationUnfinished` ("demonstration exceeded N
@@ -130,11 +135,13 @@ def run_demonstration(
         "human": dataclasses.asdict(human),
         "bins": library.bins,
     }
+    if map_geometry is not None:  # read back by evolve (only then: other files stay as they were)
+        metadata["map_geometry"] = map_geometry.to_dict()
     perception = Perception(
         library,
         "careful" if human.careful else "always",
         memory,
-        geometry=MapGeometry.from_preset(env.base_preset),
+        geometry=MapGeometry.from_preset(env.base_preset) if map_geometry is None else map_geometry,
     )
     tally = LearningTally()
     with recording_writer(out, metadata, perception, fsync=fsync, overwrite=overwrite) as writer:

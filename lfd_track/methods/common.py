@@ -3,8 +3,15 @@ every method writes the same way (human effort, recording metadata, the demonstr
 
 A method is a function ``learn(context: MethodContext) -> Learned``. The context holds what the
 benchmark decides for a repetition (its seeds, preset, human, the policy's inputs, the track to
-demonstrate on, the learners' settings) and the method's own settings; the method records what
-it needs under ``context.rep_dir`` and returns the controller with its records.
+demonstrate on, the learners' settings, the map's geometry) and the method's own settings; the
+method records what it needs under ``context.rep_dir`` and returns the controller with its
+records.
+
+A ``fresh_felt`` map with ``geometry = "calibrated"`` assumes the world's camera and the motion
+per command that a calibration of the simulated rover measures in the world the policy is taught
+in, before teaching (:func:`simulated_calibration`, the routine ``lfd-track hardware calibrate``
+runs on a robot); the demonstration's map and the controller's both use it
+(:attr:`MethodContext.map_geometry`).
 
 Human effort (``Learned.effort``), counted the same way for every method (:func:`effort_record`):
 
@@ -21,6 +28,7 @@ Human effort (``Learned.effort``), counted the same way for every method (:func:
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -32,6 +40,7 @@ from ..demo.demonstrator import DemonstrationSummary, HumanConfig, run_demonstra
 from ..demo.views import ViewCases
 from ..envs.presets import Preset, load_preset
 from ..envs.track_env import LfDTrackEnv
+from ..hardware.profile import Calibration
 from ..learning.bc import BCConfig
 from ..learning.cmaes import CMAESConfig
 from ..learning.ga import GAConfig
@@ -39,9 +48,95 @@ from ..learning.mirror import with_mirrored
 from ..policy.controller import Controller
 from ..policy.features import DEFAULT_FEATURES
 from ..policy.map_geometry import MapGeometry
-from ..policy.memory import MemoryConfig
+from ..policy.memory import FreshFeltConfig, MemoryConfig
 from ..teaching.loop import LoopCounts
 from ..vision.road_library import RoadLibrary
+
+CALIBRATION_STREAM = 0x63616C69
+"""Spawn key of a repetition's calibration stream (``geometry = "calibrated"``): a child of the
+repetition's seed that no other stream of the repetition uses, so calibrating moves no other
+draw."""
+
+
+def calibrates(memory: MemoryConfig | None) -> bool:
+    """Whether ``memory`` is a ``fresh_felt`` map whose motion comes from a calibration
+    (``geometry = "calibrated"``)."""
+    return isinstance(memory, FreshFeltConfig) and memory.geometry == "calibrated"
+
+
+@dataclass(frozen=True)
+class SimulatedCalibration:
+    """What a calibration of the simulated rover measured before teaching, and the map geometry
+    it gives (:func:`simulated_calibration`)."""
+
+    geometry: MapGeometry
+    """The map's geometry: the world's camera (as ``geometry = "world"``) with the measured
+    forward step and pivot."""
+    calibration: Calibration
+    """The measurement: every run's per-command motion (medians and spreads derived)."""
+    true_step_m: float
+    """[m] the forward step the world calibrated in defines (forward speed x control period)."""
+    true_pivot_deg: float
+    """[deg] the pivot it defines (pivot rate x control period)."""
+
+    def record(self) -> dict[str, Any]:
+        """What results.json records of it: the measured step and pivot and their relative
+        spreads, the world's own, and every run's measurement."""
+        return {
+            "step_m": self.calibration.step_m,
+            "pivot_deg": self.calibration.pivot_deg,
+            "step_spread": self.calibration.step_spread,
+            "pivot_spread": self.calibration.pivot_spread,
+            "true_step_m": self.true_step_m,
+            "true_pivot_deg": self.true_pivot_deg,
+            "runs": self.calibration.to_dict(),
+        }
+
+
+def simulated_calibration(preset: str | Preset, seed: int) -> SimulatedCalibration:
+    """Calibrate the simulated rover of ``preset`` as ``lfd-track hardware calibrate --sim``
+    does (:func:`~lfd_track.hardware.calibrate.calibrate`: the default runs, on the training
+    track's straight, from camera frames alone, the camera taken as known), from the stream
+    :data:`CALIBRATION_STREAM` of the repetition seed ``seed``; the map geometry is the
+    preset's camera with the measured step and pivot.
+
+    A preset with ``[randomization]`` draws a new world at every episode, and a calibration's
+    runs must all see one: the rover is calibrated in one world drawn from the preset with that
+    stream (first draw) and kept for its runs; the map's camera stays the preset's nominal one,
+    as with ``geometry = "world"``. Raises :class:`~lfd_track.errors.CalibrationFailed`."""
+    from ..hardware.calibrate import calibrate, strip_start  # the camera's geometry alone
+
+    base = preset if isinstance(preset, Preset) else load_preset(preset)
+    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(CALIBRATION_STREAM,)))
+    world = base
+    if base.randomized:
+        drawn = base.sample(rng)
+        world = dataclasses.replace(drawn, name=f"{base.name}-calibration", randomization=())
+    env = LfDTrackEnv(track="training", preset=world)
+    try:
+        calibration = calibrate(
+            env,
+            base.camera,
+            reset_options={"pose": strip_start(env.track)},
+            seed=int(rng.integers(2**31 - 1)),
+        )
+    finally:
+        env.close()
+    truth = MapGeometry.from_preset(world)
+    geometry = dataclasses.replace(
+        MapGeometry.from_preset(base), step_m=calibration.step_m, pivot_deg=calibration.pivot_deg
+    )
+    return SimulatedCalibration(geometry, calibration, truth.step_m, truth.pivot_deg)
+
+
+def calibration_for(
+    memory: MemoryConfig | None, preset: str | Preset, seed: int
+) -> SimulatedCalibration | None:
+    """The repetition's calibration (:func:`simulated_calibration` in its world ``preset``, from
+    the repetition seed ``seed``'s stream :data:`CALIBRATION_STREAM`) when ``memory`` is a
+    ``fresh_felt`` map with ``geometry = "calibrated"``; None (nothing run) for any other map.
+    Raises :class:`~lfd_track.errors.CalibrationFailed`."""
+    return simulated_calibration(preset, seed) if calibrates(memory) else None
 
 
 @dataclass(frozen=True)
@@ -80,6 +175,10 @@ class MethodContext:
     """CMA-ES's settings."""
     settings: Any = None
     """The method's own settings (an instance of its registered settings class, or None)."""
+    calibration: SimulatedCalibration | None = None
+    """With ``geometry = "calibrated"``: the calibration the benchmark ran before teaching
+    (:func:`simulated_calibration`); None: calibrated when first needed, with ``demo_seed`` as
+    the repetition seed. Unused by any other map."""
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "rep_dir", Path(self.rep_dir))
@@ -97,11 +196,23 @@ class MethodContext:
 
     @property
     def map_geometry(self) -> MapGeometry:
-        """The camera and per-command motion of the preset's world, which a ``fresh_felt`` map
-        with ``geometry = "world"`` assumes and the controller records
+        """The camera and per-command motion the ``fresh_felt`` map assumes and the controller
+        records: with ``geometry = "calibrated"`` the calibration's (:attr:`calibrated`), else
+        the preset's world, which ``geometry = "world"`` assumes
         (:meth:`~lfd_track.policy.map_geometry.MapGeometry.from_preset`)."""
+        if calibrates(self.memory):
+            return self.calibrated.geometry
         p = self.preset if isinstance(self.preset, Preset) else load_preset(self.preset)
         return MapGeometry.from_preset(p)
+
+    @functools.cached_property
+    def calibrated(self) -> SimulatedCalibration:
+        """The repetition's calibration: :attr:`calibration`, or one run now (once per context:
+        kept) from ``demo_seed``'s calibration stream. Raises
+        :class:`~lfd_track.errors.CalibrationFailed`."""
+        if self.calibration is not None:
+            return self.calibration
+        return simulated_calibration(self.preset, self.demo_seed)
 
 
 @dataclass
@@ -190,6 +301,9 @@ def demonstrate(
         overwrite=True,
         memory=context.memory,
         views=views,
+        # The teacher's map assumes what the controller's will; else the demonstrator's default
+        # (the world's), so every other recording stays as it was.
+        map_geometry=context.map_geometry if calibrates(context.memory) else None,
     )
     demo = load_demonstration(demo_path)
     return summary, demo, RoadLibrary.from_dict(demo.metadata["road_library"]), views

@@ -36,8 +36,9 @@ such runs, and reading the training accuracy with that baseline in mind, are the
   :data:`MAP_FRAMES` frames are kept), and every executed command moves the map by the rover's
   nominal motion for it (a forward step, a pivot). The camera and the motion are the map's
   :class:`~lfd_track.policy.map_geometry.MapGeometry`: with ``geometry = "world"`` (the
-  default) those of the world the policy is taught in (the perception passes them), with
-  ``geometry = "paper"`` the paper's constants (the paper preset's camera, forward
+  default) those of the world the policy is taught in (the perception passes them; with
+  ``geometry = "calibrated"`` the world's camera and the motion a calibration measured there),
+  with ``geometry = "paper"`` the paper's constants (the paper preset's camera, forward
   :data:`STEP_M`, a pivot :data:`PIVOT_DEG`), as every map had before the setting. Felt within
   ``path_radius_m`` of a place the rover has been is *visited* (the strip it came along); what is
   left within ``reach_m`` ahead of its axle is *fresh*. At a sharp corner the next strip leaves
@@ -290,8 +291,9 @@ class FreshFeltMemory:
         self.geometry = (
             PAPER_GEOMETRY if geometry is None or config.geometry == "paper" else geometry
         )
-        """The camera and motion the map assumes: ``geometry`` (the world's) with
-        ``config.geometry = "world"``, else (or without one) the paper's constants."""
+        """The camera and motion the map assumes: ``geometry`` (the world's, or its calibration's)
+        with ``config.geometry = "world"`` or ``"calibrated"``, else (or without one) the paper's
+        constants."""
         self._region_points = self.geometry.floor_points()
         self._seed_m = _strip_seed_m(self._region_points)
         self._step = self.geometry.step_m
@@ -539,7 +541,8 @@ def memory_for(
     config: MemoryConfig | None, geometry: MapGeometry | None = None
 ) -> TurnMemory | PreviousCommandMemory | FreshFeltMemory | None:
     """The memory part for ``config`` (None for no memory); a ``fresh_felt`` map with
-    ``geometry = "world"`` takes ``geometry`` (the world's; None: the paper's constants)."""
+    ``geometry = "world"`` or ``"calibrated"`` takes ``geometry`` (the world's, or its
+    calibration's; None: the paper's constants)."""
     if isinstance(config, PreviousCommandConfig):
         return PreviousCommandMemory(config)
     if isinstance(config, FreshFeltConfig):

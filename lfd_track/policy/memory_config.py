@@ -53,7 +53,7 @@ BLANK_BEARINGS = ("centre", "last")
 BLANK_DISTANCES = ("blank_reach", "reach")
 #: Where the ``fresh_felt`` map's camera and motion come from (``geometry``;
 #: :mod:`lfd_track.policy.map_geometry`).
-MAP_GEOMETRIES = ("world", "paper")
+MAP_GEOMETRIES = ("world", "paper", "calibrated")
 #: How the ``fresh_felt`` map tells felt from carpet in the road values (``felt_levels``).
 FELT_LEVELS = ("fixed", "library")
 
@@ -295,8 +295,9 @@ class FreshFeltConfig(MemoryConfig):
     geometry: str = setting(
         "world",
         "the camera and per-command motion the map assumes: world (the world it is taught in:"
-        " the env's preset, or the robot's profile) or paper (the paper's constants: its"
-        " camera, 0.10 m, 22.9 deg)",
+        " the env's preset, or the robot's profile), paper (the paper's constants: its"
+        " camera, 0.10 m, 22.9 deg) or calibrated (the world's camera, the motion a calibration"
+        " measures there before teaching; kept: the sweeps study compares it with paper)",
         choices=MAP_GEOMETRIES,
         before="paper",
     )

@@ -16,9 +16,10 @@ from lfd_track.study.spec import load_study
 
 REPO = Path(__file__).resolve().parents[2]
 EXPERIMENTS = REPO / "benchmarks" / "experiments"
-# A study file X.toml keeps its results in results/X/ beside it; tracks/ beside a study holds
-# track files it names, not studies; planned/ holds study files written but not yet run.
-_TOML = sorted(p for p in EXPERIMENTS.rglob("*.toml") if p.parent.name != "tracks")
+# A study file X.toml keeps its results in results/X/ beside it; tracks/ and presets/ beside a
+# study hold track and preset files it names, not studies; planned/ holds study files written but
+# not yet run.
+_TOML = sorted(p for p in EXPERIMENTS.rglob("*.toml") if p.parent.name not in ("tracks", "presets"))
 STUDIES = [str(p.relative_to(REPO)) for p in _TOML if p.parent.name != "planned"]
 PLANNED = [str(p.relative_to(REPO)) for p in _TOML if p.parent.name == "planned"]
 
