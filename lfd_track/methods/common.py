@@ -139,6 +139,19 @@ def calibration_for(
     return simulated_calibration(preset, seed) if calibrates(memory) else None
 
 
+def simulated_map_geometry(
+    memory: MemoryConfig | None, preset: str | Preset, seed: int
+) -> MapGeometry:
+    """The map geometry of a policy taught in the simulated world ``preset`` outside a benchmark
+    (``lfd-track teach``): the world's (:meth:`MapGeometry.from_preset`), or with ``geometry =
+    "calibrated"`` the calibration's there (:func:`simulated_calibration`, ``seed`` as the
+    repetition seed). Raises :class:`~lfd_track.errors.CalibrationFailed`."""
+    calibration = calibration_for(memory, preset, seed)
+    if calibration is not None:
+        return calibration.geometry
+    return MapGeometry.from_preset(preset if isinstance(preset, Preset) else load_preset(preset))
+
+
 @dataclass(frozen=True)
 class MethodContext:
     """Everything a method learns from in one repetition (one object, so a method's signature

@@ -26,6 +26,7 @@ import numpy as np
 from ..core.commands import Command
 from ..dataset import DemonstrationWriter
 from ..dataset.recording import RecordingTarget, ReplacingWriter
+from ..methods.common import calibrates, simulated_map_geometry
 from ..methods.online import OnlineConfig
 from ..policy.map_geometry import MapGeometry, hardware_geometry
 from ..policy.memory import MemoryConfig, NoMemory
@@ -467,10 +468,13 @@ def open_session(config: TeachConfig) -> LoopSession:
             track=config.track, preset=config.preset, render_mode="rgb_array", max_steps=10**9
         )
         period_s = config.period_s or env.preset.rover.control_period_s
-        map_geometry = MapGeometry.from_preset(env.base_preset)  # the world it is taught in
+        # The world it is taught in (its motion calibrated there with geometry = "calibrated").
+        map_geometry = simulated_map_geometry(config.memory, env.base_preset, config.seed)
         metadata.update(
             kind="simulated", track=config.track, preset=config.preset, seed=config.seed
         )
+        if calibrates(config.memory):  # evolve teaches the map with the recorded geometry
+            metadata["map_geometry"] = map_geometry.to_dict()
         stop_robot = None
         topdown = env.render
         rearm = None

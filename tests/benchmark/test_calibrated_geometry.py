@@ -221,3 +221,26 @@ def test_a_study_with_calibrated_geometry_loads_and_finishes_when_it_fails(
             "failed": "calibration failed: the floor is too uniform to see the robot move",
         }
     ]
+
+
+class _Stop(Exception):
+    pass
+
+
+def test_the_teaching_station_in_simulation_calibrates_its_map_first(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from lfd_track.web.session import TeachConfig, open_session
+
+    seen: list[object] = []
+
+    def perception(*args: object, geometry: object = None, **kwargs: object) -> None:
+        seen.append(geometry)
+        raise _Stop
+
+    monkeypatch.setattr("lfd_track.web.session.Perception", perception)
+    config = TeachConfig(out=tmp_path / "t.lfdemo", backend="sim", memory=CALIBRATED, seed=3)
+    with pytest.raises(_Stop):
+        open_session(config)
+    expected = calibration_for(CALIBRATED, "paper", 3)
+    assert expected is not None and seen == [expected.geometry]
