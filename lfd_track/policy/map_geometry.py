@@ -22,6 +22,11 @@ Where a map's geometry comes from:
   kept is a preset of its own, whose geometry is then exact. On hardware it is the robot's
   profile where one exists, else :func:`hardware_geometry` (the paper preset's camera and rates
   at the robot's control period).
+* ``geometry = "calibrated"``: the world's camera (as ``"world"``) with the motion per command
+  that a calibration (:mod:`lfd_track.hardware.calibrate`) measures in the world the policy is
+  taught in, before teaching: in simulation on the simulated rover, from a stream of the
+  repetition's own (:func:`lfd_track.methods.common.simulated_calibration`); on hardware the
+  robot's profile, which is that calibration.
 
 A perception built without a geometry (tests, tools that replay frames) uses
 :data:`PAPER_GEOMETRY`. A controller file records the geometry its map was taught with
