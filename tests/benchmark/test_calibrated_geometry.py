@@ -177,6 +177,25 @@ def test_a_failed_calibration_is_one_failed_repetition(
     assert f"| 0 | {why} |" in (tmp_path / "report.md").read_text(encoding="utf-8")
 
 
+def test_a_kept_room_is_calibrated_in_that_room(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    seen: list[tuple[object, object]] = []
+
+    def record(robot: object, camera: object, **kwargs: object) -> None:
+        seen.append((robot.base_preset, camera))  # type: ignore[attr-defined]
+        _fail()
+
+    monkeypatch.setattr(calibrate_module, "calibrate", record)
+    config = tiny("randomized", room="per_repetition")
+    seed = repetition_seeds(config.seed, 1)[0]
+    result = runner.run_repetition(0, seed, config, str(tmp_path))
+    room = runner.repetition_preset(config, seed)
+    assert not isinstance(room, str)
+    assert seen == [(room, room.camera)]
+    assert result.failed is not None and result.failed.startswith("calibration failed: ")
+
+
 STUDY = """
 [study]
 schema = 3
