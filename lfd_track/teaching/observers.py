@@ -1,11 +1,15 @@
-"""Observers: parts that see every executed step (recorder, trajectory, learner feed, callbacks)."""
+"""Observers: parts that see every executed step (recorder, trajectory, learner feed, callbacks,
+the teaching station's case tally)."""
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
+
+from ..core.commands import Command
 
 if TYPE_CHECKING:
     from ..dataset import DemonstrationWriter
@@ -142,3 +146,28 @@ class LearningTally:
         self.learned += step.percept.learned
         self.off_felt += not box_on_felt
         self.learned_off_felt += step.percept.learned and not box_on_felt
+
+
+class CaseTally:
+    """Observer: cases per command and corrections, as the page shows them (thread-safe)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._counts = dict.fromkeys((c.name.lower() for c in Command), 0)
+        self.corrections = 0
+
+    def start(self, info: dict[str, Any]) -> None:
+        pass
+
+    def observe(self, step: Step) -> None:
+        if not step.is_case:
+            return
+        assert step.command is not None, "a case always has the command it records"
+        with self._lock:
+            self._counts[step.command.name.lower()] += 1
+            self.corrections += step.decision.correction
+
+    @property
+    def counts(self) -> dict[str, int]:
+        with self._lock:
+            return dict(self._counts)

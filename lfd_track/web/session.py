@@ -32,8 +32,8 @@ from ..policy.map_geometry import MapGeometry, hardware_geometry
 from ..policy.memory import MemoryConfig, NoMemory
 from ..teaching.arbiter import Arbiter
 from ..teaching.commanders import PolicyCommander
-from ..teaching.loop import Step, TeachingLoop
-from ..teaching.observers import Recorder
+from ..teaching.loop import TeachingLoop
+from ..teaching.observers import CaseTally, Recorder
 from ..teaching.perception import Perception
 from ..vision.road_library import RoadLibrary
 from .commander import BrowserCommander
@@ -70,9 +70,7 @@ class TeachConfig:
     period_s: float | None = None
     """[s] control period; None: the preset's (sim) or 0.4 s (hardware)."""
     profile: MapGeometry | None = None
-    """The robot's calibrated map geometry (hardware; a robot profile's,
-    :mod:`lfd_track.hardware.profile`); None: the paper preset's camera and rates at
-    ``period_s``."""
+    """The robot's calibrated map geometry (hardware: a robot profile's); None: the paper's."""
     online: bool = False
     """Evolve a policy while the person teaches; it is offered the wheel when it agrees."""
     takeover: OnlineConfig = field(default_factory=OnlineConfig)
@@ -96,31 +94,6 @@ class TeachConfig:
     """Replace an existing ``out`` (kept until the new recording holds a case)."""
     fps: float = 10.0
     """[frames/s] live view rate of a standing robot's camera."""
-
-
-class CaseTally:
-    """Observer: cases per command and corrections, as the page shows them (thread-safe)."""
-
-    def __init__(self) -> None:
-        self._lock = threading.Lock()
-        self._counts = dict.fromkeys((c.name.lower() for c in Command), 0)
-        self.corrections = 0
-
-    def start(self, info: dict[str, Any]) -> None:
-        pass
-
-    def observe(self, step: Step) -> None:
-        if not step.is_case:
-            return
-        assert step.command is not None, "a case always has the command it records"
-        with self._lock:
-            self._counts[step.command.name.lower()] += 1
-            self.corrections += step.decision.correction
-
-    @property
-    def counts(self) -> dict[str, int]:
-        with self._lock:
-            return dict(self._counts)
 
 
 class LoopSession:
@@ -470,11 +443,8 @@ def open_session(config: TeachConfig) -> LoopSession:
         period_s = config.period_s or env.preset.rover.control_period_s
         # The world it is taught in (its motion calibrated there with geometry = "calibrated").
         map_geometry = simulated_map_geometry(config.memory, env.base_preset, config.seed)
-        metadata.update(
-            kind="simulated", track=config.track, preset=config.preset, seed=config.seed
-        )
-        if calibrates(config.memory):  # evolve teaches the map with the recorded geometry
-            metadata["map_geometry"] = map_geometry.to_dict()
+        metadata.update(kind="simulated", track=config.track, preset=config.preset)
+        metadata["seed"] = config.seed
         stop_robot = None
         topdown = env.render
         rearm = None
@@ -496,8 +466,6 @@ def open_session(config: TeachConfig) -> LoopSession:
             between_steps="stop",
         )
         metadata.update(kind="hardware", camera=config.camera, control_period_s=period_s)
-        if config.profile is not None:  # evolve teaches the map with the recorded geometry
-            metadata["map_geometry"] = config.profile.to_dict()
 
         def stop_robot(reason: str) -> None:
             robot.link.estop()  # latched: a drive already on its way is refused by the board
@@ -505,6 +473,8 @@ def open_session(config: TeachConfig) -> LoopSession:
         topdown = None
         rearm = {"clear_estop": True}
         live_frame = getattr(robot.camera, "latest", None)
+    if calibrates(config.memory) or (config.backend != "sim" and config.profile is not None):
+        metadata["map_geometry"] = map_geometry.to_dict()  # evolve teaches the map with it
     takeover = config.takeover
     if config.online:
         metadata["online_settings"] = {
