@@ -56,7 +56,11 @@ def test_a_committed_results_json_reads_as_the_current_schema(path):
     assert _stored(config_dict(BenchmarkConfig.from_dict(config))) == config
     # Valid as the study reads a job (every trial once), with the command count in one place.
     check_job_results(
-        results, config["repetitions"], config["trials_per_direction"], config["test_tracks"]
+        results,
+        config["repetitions"],
+        config["trials_per_direction"],
+        config["test_tracks"],
+        config.get("random_loops", 0),
     )
     assert human_commands(results) == results["human_effort"]["total"]["commands"]
 

@@ -62,7 +62,7 @@ from lfd_track.teaching.scripted import HumanConfig
 from lfd_track.vision.road_library import RoadLibrary
 
 HERE = Path(__file__).resolve().parent
-STUDY = HERE / "planned" / "generalization.toml"
+STUDY = HERE / "generalization.toml"
 OUT = HERE / "results" / "rules"
 RULES = {
     "road-rule": RoadRuleConfig(turn_at=1.5, latch=True),
