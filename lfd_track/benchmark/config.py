@@ -111,9 +111,9 @@ class BenchmarkConfig:
     # When a preset with [randomization] draws its world: "per_episode" (a new room at every
     # episode, the preset as it is) or "per_repetition" (one room per repetition, drawn from its
     # own stream and kept for the demonstration, the learning and every trial: a user's own
-    # room). A preset without randomization has one world either way. No committed result uses
-    # it yet; it stays as the way to teach and drive in one kept room, which the robustness
-    # table (rooms drawn from the randomized ranges) and a user's own room need.
+    # room). A preset without randomization has one world either way. The robustness rooms
+    # study (benchmarks/experiments/robustness/planned/rooms.toml, not run yet) uses it, and it
+    # is how a user teaches and drives in one kept room.
     room: str = "per_episode"
 
     def __post_init__(self) -> None:

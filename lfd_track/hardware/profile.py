@@ -34,7 +34,7 @@ from typing import Any
 from ..errors import FileFormatError
 from ..policy.map_geometry import MapGeometry
 from ..utils.atomic import atomic_write_text
-from ..utils.files import NonFiniteNumber, read_regular_text, reject_constant
+from ..utils.files import parse_json_file_text, read_regular_text
 
 PROFILE_FORMAT = "lfd-track robot profile"
 PROFILE_SCHEMA = 1
@@ -206,16 +206,7 @@ class RobotProfile:
 def load_profile(path: str | Path) -> RobotProfile:
     """Read a robot profile; anything malformed raises ``FileFormatError(path, problem)``."""
     text = read_regular_text(path, MAX_FILE_BYTES, "robot profile")
-    try:
-        data = json.loads(text, parse_constant=reject_constant)
-    except NonFiniteNumber as exc:
-        raise FileFormatError(path, f"non-finite number {exc} is not allowed") from None
-    except json.JSONDecodeError as exc:
-        raise FileFormatError(
-            path, f"not valid JSON (truncated or corrupted?): {exc.msg} at line {exc.lineno}"
-        ) from None
-    except (ValueError, RecursionError) as exc:
-        raise FileFormatError(path, f"not a valid robot profile: {exc}") from None
+    data = parse_json_file_text(path, text, "robot profile")
     try:
         return RobotProfile.from_dict(data)
     except (ValueError, TypeError, OverflowError, RecursionError) as exc:

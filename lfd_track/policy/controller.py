@@ -69,9 +69,7 @@ from ..errors import FileFormatError
 from ..teaching.commanders import PolicyCommander
 from ..teaching.perception import Perception
 from ..utils.atomic import atomic_write_text
-from ..utils.files import NonFiniteNumber as _NonFiniteError
-from ..utils.files import read_regular_text
-from ..utils.files import reject_constant as _reject_constant
+from ..utils.files import parse_json_file_text, read_regular_text
 from ..vision.road_library import RoadLibrary
 from .controller_schema import CONTROLLER_SCHEMA, checksum, migrate
 from .elman import N_CONTEXT, ElmanCommander, ElmanState
@@ -402,18 +400,7 @@ class Controller:
     def load(cls, path: str | Path) -> Controller:
         """Read a controller file; anything malformed raises ``FileFormatError(path, problem)``."""
         text = read_regular_text(path, MAX_FILE_BYTES, "controller")
-        try:
-            data = json.loads(text, parse_constant=_reject_constant)
-        except _NonFiniteError as exc:
-            raise FileFormatError(path, f"non-finite number {exc} is not allowed") from None
-        except json.JSONDecodeError as exc:
-            raise FileFormatError(
-                path, f"not valid JSON (truncated or corrupted?): {exc.msg} at line {exc.lineno}"
-            ) from None
-        except RecursionError:
-            raise FileFormatError(path, "JSON nested too deeply to be a controller file") from None
-        except ValueError as exc:  # e.g. an integer with thousands of digits
-            raise FileFormatError(path, f"not a valid controller file: {exc}") from None
+        data = parse_json_file_text(path, text, "controller")
         try:
             return cls._from_dict(data)
         except (ValueError, TypeError, OverflowError, RecursionError) as exc:

@@ -8,11 +8,12 @@ forever) and checked with ``fstat`` on the opened descriptor (no race between ch
 from __future__ import annotations
 
 import errno
+import json
 import os
 import stat
 from collections.abc import Callable
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 from ..errors import FileFormatError
 
@@ -153,3 +154,21 @@ def reject_constant(name: str) -> NoReturn:
     """``parse_constant`` for ``json.loads``: Python's json accepts NaN, Infinity and -Infinity,
     which no file lfd-track reads may hold; raises :class:`NonFiniteNumber`."""
     raise NonFiniteNumber(name)
+
+
+def parse_json_file_text(path: str | Path, text: str, what: str) -> Any:
+    """``text`` (the file ``path``, a ``what`` file) parsed as strict JSON: NaN and Infinity,
+    malformed text, nesting too deep for the parser and numbers it cannot hold each raise
+    ``FileFormatError(path, problem)`` in one line."""
+    try:
+        return json.loads(text, parse_constant=reject_constant)
+    except NonFiniteNumber as exc:
+        raise FileFormatError(path, f"non-finite number {exc} is not allowed") from None
+    except json.JSONDecodeError as exc:
+        raise FileFormatError(
+            path, f"not valid JSON (truncated or corrupted?): {exc.msg} at line {exc.lineno}"
+        ) from None
+    except RecursionError:
+        raise FileFormatError(path, f"JSON nested too deeply to be a {what} file") from None
+    except ValueError as exc:  # e.g. an integer with thousands of digits
+        raise FileFormatError(path, f"not a valid {what} file: {exc}") from None
