@@ -237,3 +237,55 @@ def wheel_in_fresh_venv(root: Path, timeout_s: float) -> tuple[Path, Path, Path]
         check=True, capture_output=True, text=True, env=offline_env(), timeout=timeout_s,
     ).stdout.strip()  # fmt: skip
     return wheel, env_dir, Path(site)
+
+
+# ------------------------------------------------------- a learned controller's stand-in
+class _Forward:
+    """Commander that always drives forward."""
+
+    def reset(self) -> None:
+        pass
+
+    def propose(self, moment: Any) -> Any:
+        from lfd_track.core.commands import Command
+
+        return Command.FORWARD
+
+
+class ForwardController:
+    """Stand-in for a learned controller: drives forward until the trial ends."""
+
+    learn = False
+
+    def perception(self) -> Any:
+        from lfd_track.teaching.perception import Perception
+        from lfd_track.vision.road_library import RoadLibrary
+
+        return Perception(RoadLibrary(), "always")
+
+    def commander(self) -> _Forward:
+        return _Forward()
+
+    def save(self, path: str | Path) -> None:
+        Path(path).write_text("{}\n", encoding="utf-8")
+
+
+def stand_in_learned() -> Any:
+    """What a repetition's learning returns, with :class:`ForwardController` as its controller."""
+    from lfd_track.methods.common import Learned, effort_record
+
+    return Learned(
+        controller=ForwardController(),  # type: ignore[arg-type]
+        demo={
+            "cases": 150,
+            "counts": {"forward": 120, "left": 15, "right": 15},
+            "turnarounds": ["left", "right"],
+            "library_models": 40,
+            "library_types": 2,
+            "learned_off_felt": 0,
+        },
+        fitness_best=[0.5, 0.4],
+        fitness_mean=[0.6, 0.5],
+        training_accuracy=0.8,
+        effort=effort_record(0.4, demonstration_commands=160),
+    )

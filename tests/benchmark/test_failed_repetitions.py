@@ -12,65 +12,20 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from lfd_test_support import stand_in_learned
 
 import lfd_track.benchmark.runner as runner
 from lfd_track.benchmark.report import write_benchmark_outputs
 from lfd_track.benchmark.runner import BenchmarkConfig, run_benchmark
 from lfd_track.benchmark.schema import read_results
 from lfd_track.benchmark.tables import NO_CONTROLLER
-from lfd_track.core.commands import Command
 from lfd_track.demo.demonstrator import HumanConfig, run_demonstration
 from lfd_track.errors import DemonstrationUnfinished
-from lfd_track.methods.common import Learned, effort_record
+from lfd_track.methods.common import Learned
 from lfd_track.teaching.loop import TeachingLoop
-from lfd_track.teaching.perception import Perception
-from lfd_track.vision.road_library import RoadLibrary
 
 LOST = HumanConfig(max_commands=5)
 """A human who gives up after 5 commands: the protocol's 10 library-only commands alone are more."""
-
-
-class _Forward:
-    """Commander that always drives forward."""
-
-    def reset(self) -> None:
-        pass
-
-    def propose(self, moment: Any) -> Command:
-        return Command.FORWARD
-
-
-class ForwardController:
-    """Stand-in for a learned controller: drives forward until the trial ends."""
-
-    learn = False
-
-    def perception(self) -> Perception:
-        return Perception(RoadLibrary(), "always")
-
-    def commander(self) -> _Forward:
-        return _Forward()
-
-    def save(self, path: str | Path) -> None:
-        Path(path).write_text("{}\n", encoding="utf-8")
-
-
-def stand_in_learned() -> Learned:
-    return Learned(
-        controller=ForwardController(),  # type: ignore[arg-type]
-        demo={
-            "cases": 150,
-            "counts": {"forward": 120, "left": 15, "right": 15},
-            "turnarounds": ["left", "right"],
-            "library_models": 40,
-            "library_types": 2,
-            "learned_off_felt": 0,
-        },
-        fitness_best=[0.5, 0.4],
-        fitness_mean=[0.6, 0.5],
-        training_accuracy=0.8,
-        effort=effort_record(0.4, demonstration_commands=160),
-    )
 
 
 def patch_learning(monkeypatch: pytest.MonkeyPatch, lost: set[int]) -> None:

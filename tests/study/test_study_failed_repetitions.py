@@ -10,18 +10,16 @@ import json
 from pathlib import Path
 from typing import Any
 
+from lfd_test_support import stand_in_learned
 from study_helpers import write_study
 
 import lfd_track.benchmark.runner as runner
 from lfd_track.benchmark.runner import BenchmarkConfig
 from lfd_track.cli import main
-from lfd_track.core.commands import Command
-from lfd_track.methods.common import Learned, effort_record
+from lfd_track.methods.common import Learned
 from lfd_track.study.jobs import expected_config
 from lfd_track.study.spec import load_study
 from lfd_track.study.summary import check_job_results, study_markdown
-from lfd_track.teaching.perception import Perception
-from lfd_track.vision.road_library import RoadLibrary
 
 STUDY = """
 [study]
@@ -46,47 +44,13 @@ method = "paper"
 """
 
 
-class _Forward:
-    def reset(self) -> None:
-        pass
-
-    def propose(self, moment: Any) -> Command:
-        return Command.FORWARD
-
-
-class _ForwardController:
-    learn = False
-
-    def perception(self) -> Perception:
-        return Perception(RoadLibrary(), "always")
-
-    def commander(self) -> _Forward:
-        return _Forward()
-
-    def save(self, path: str | Path) -> None:
-        Path(path).write_text("{}\n", encoding="utf-8")
-
-
-def _stand_in() -> Learned:
-    demo = {"cases": 150, "counts": {"forward": 120, "left": 15, "right": 15}}
-    demo |= {"turnarounds": [], "library_models": 40, "library_types": 2, "learned_off_felt": 0}
-    return Learned(
-        controller=_ForwardController(),  # type: ignore[arg-type]
-        demo=demo,
-        fitness_best=[0.5],
-        fitness_mean=[0.6],
-        training_accuracy=0.8,
-        effort=effort_record(0.4, demonstration_commands=160),
-    )
-
-
 def test_a_study_with_lost_demonstrations_finishes_and_names_them(tmp_path, monkeypatch):
     real = runner.learn_repetition
 
     def learn(config: BenchmarkConfig, rep_dir: Path, **kwargs: Any) -> Learned:
         if config.human.max_commands == 5:
             return real(config, rep_dir, **kwargs)  # the real demonstrator, which gives up
-        return _stand_in()
+        return stand_in_learned()
 
     monkeypatch.setattr(runner, "learn_repetition", learn)
     path = write_study(tmp_path, STUDY, "lost.toml")
