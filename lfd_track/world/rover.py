@@ -29,10 +29,18 @@ counter-clockwise from +x.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
+from typing import Any
 
 import numpy as np
 import pymunk
+
+try:  # The C functions pymunk's Body and Space properties call, for the substep loop below.
+    from pymunk._chipmunk_cffi import lib as _chipmunk
+except ImportError:  # another pymunk layout: the public properties serve
+    _chipmunk = None
 
 from .dimensions import ROVER_BODY_WIDTH_M
 
@@ -259,10 +267,42 @@ class Rover:
         n_sub = max(1, math.ceil(period / cfg.physics_dt_s - 1e-9))
         self._integrate(left, right, period / n_sub, n_sub)
 
+    def _substep_calls(self) -> tuple[Callable[..., Any], ...]:
+        """(velocity, angular velocity, angle, set force, set torque, step space) of this rover's
+        body and space: the very C calls pymunk's properties and ``Space.step`` make, bound to
+        the body and space, without the Python wrappers around them (a quarter of a substep's
+        time). Only while the space has nothing pending (bodies to check, additions, removals,
+        which the public ``Space.step`` handles around the same call); the public properties
+        otherwise, and with a pymunk that lays out its bindings differently."""
+        body, space = self._body, self._space
+        body_ptr = getattr(body, "_body", None)
+        space_ptr = getattr(space, "_space", None)
+        pending = (
+            getattr(space, "_bodies_to_check", True)
+            or getattr(space, "_add_later", True)
+            or getattr(space, "_removed_shapes", True)
+        )
+        if _chipmunk is None or body_ptr is None or space_ptr is None or pending:
+            return (
+                lambda: body.velocity,
+                lambda: body.angular_velocity,
+                lambda: body.angle,
+                lambda force: setattr(body, "force", force),
+                lambda torque: setattr(body, "torque", torque),
+                space.step,
+            )
+        return (
+            partial(_chipmunk.cpBodyGetVelocity, body_ptr),
+            partial(_chipmunk.cpBodyGetAngularVelocity, body_ptr),
+            partial(_chipmunk.cpBodyGetAngle, body_ptr),
+            partial(_chipmunk.cpBodySetForce, body_ptr),
+            partial(_chipmunk.cpBodySetTorque, body_ptr),
+            partial(_chipmunk.cpSpaceStep, space_ptr),
+        )
+
     def _integrate(self, left_mps: float, right_mps: float, dt: float, n_sub: int) -> None:
         """Advance ``n_sub`` substeps of ``dt`` with belt speed targets (left, right) [m/s]."""
-        body = self._body
-        space = self._space
+        velocity, angular_velocity, angle, set_force, set_torque, step = self._substep_calls()
         b = self._b
         kd = self.config.drive_gain_npmps
         traction = self._traction_n
@@ -271,9 +311,10 @@ class Rover:
         along = self._along
         cos, sin = math.cos, math.sin
         for _ in range(n_sub):
-            vx, vy = body.velocity
-            w = body.angular_velocity
-            th = body.angle
+            v = velocity()
+            vx, vy = v.x, v.y
+            w = angular_velocity()
+            th = angle()
             c, s = cos(th), sin(th)
             v_fwd = vx * c + vy * s
             v_left = -vx * s + vy * c
@@ -293,9 +334,9 @@ class Rover:
                 f = lim if f > lim else (-lim if f < -lim else f)
                 f_side += f
                 torque += x * f
-            body.force = (f_fwd * c - f_side * s, f_fwd * s + f_side * c)
-            body.torque = torque
-            space.step(dt)
+            set_force((f_fwd * c - f_side * s, f_fwd * s + f_side * c))
+            set_torque(torque)
+            step(dt)
 
     def _calibrate(self) -> tuple[float, float]:
         """Belt speeds [m/s] giving the configured achieved speeds over a run from rest."""

@@ -31,6 +31,23 @@ def test_counts_are_those_of_one_call_per_region(height, width, bins):
     np.testing.assert_array_equal(grid.counts(frame), _reference_counts(frame, bins))
 
 
+@pytest.mark.parametrize("bins", [1, 2, 8, 24, 32, 33, 64])
+def test_small_frame_counts_by_bin_codes_or_joint_calls_are_exact(bins):
+    # Powers of two up to 32 are counted by bin codes per row of regions, other bin counts by
+    # joint calls; both give each region's own counts, flat regions and extreme values included.
+    rng = np.random.default_rng(bins)
+    frame = rng.integers(0, 256, (240, 320, 3), dtype=np.uint8)
+    frame[:48, :40] = (255, 0, 255)  # hue 150, full saturation
+    frame[48:96] = 0
+    frame[96:144, 120:200] = (255, 255, 255)
+    frame[200:, 300:] = (254, 1, 128)
+    grid = GridHistogrammer(bins, threads=1)
+    np.testing.assert_array_equal(grid.counts(frame), _reference_counts(frame, bins))
+    # The buffers are reused: a second, different frame is counted afresh.
+    other = np.ascontiguousarray(frame[::-1])
+    np.testing.assert_array_equal(grid.counts(other), _reference_counts(other, bins))
+
+
 def test_one_histogrammer_follows_the_frame_size():
     rng = np.random.default_rng(0)
     grid = GridHistogrammer(32)
