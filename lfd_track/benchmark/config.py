@@ -92,10 +92,11 @@ class BenchmarkConfig:
     # (method "paper") and backprop through time (method "bc") over the cases in order.
     policy_kind: str = "mlp-sigmoid"
     # Per-region inputs of the policy (policy/features.py): the paper's road values,
-    # "road_values+colour" (also each region's mean hue and saturation), or "none" (the memory
+    # "road_values+colour" (also each region's mean hue and saturation), "near_felt" (where the
+    # felt lies across the picture's two nearest rows, and how much: 2) or "none" (the memory
     # inputs alone).
     features: str = DEFAULT_FEATURES
-    # The open track the human demonstrates on (and HG-DAgger's rounds drive); the paper's
+    # The track the human demonstrates on (and HG-DAgger's rounds drive); the paper's
     # training track by default. Trials still run the paper's training track both ways.
     demo_track: str = "training"
     # Settings of methods registered beyond the built-in ones, by table name (an entry equal to

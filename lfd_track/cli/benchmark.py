@@ -147,7 +147,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         choices=FEATURE_SETS,
         default=DEFAULT_FEATURES,
         help="per-region inputs of the policy: road_values (the paper's 40),"
-        " road_values+colour (also each region's mean hue and saturation: 160) or none (its"
+        " road_values+colour (also each region's mean hue and saturation: 160), near_felt"
+        " (where the felt lies across the picture's nearest rows, and how much: 2) or none (its"
         " memory inputs alone; needs a memory)",
     )
     bench.add_argument(

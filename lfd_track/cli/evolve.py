@@ -66,7 +66,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         default=DEFAULT_FEATURES,
         help="per-region inputs of the network: road_values (the paper's 40),"
         " road_values+colour (also each region's mean hue and saturation, from the recorded"
-        " histograms: 160), or none (the recorded memory inputs alone)",
+        " histograms: 160), near_felt (where the felt lies across the picture's nearest rows,"
+        " and how much: 2) or none (the recorded memory inputs alone)",
     )
     evo.add_argument("--out", required=True, help="controller file to write (.json)")
     evo.set_defaults(func=run)

@@ -220,7 +220,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         choices=FEATURE_SETS,
         default=DEFAULT_FEATURES,
         help="with --online: per-region inputs of the policy: road_values (the paper's 40,"
-        " default), road_values+colour (160) or none (its memory inputs alone; needs --memory)",
+        " default), road_values+colour (160), near_felt (2) or none (its memory inputs alone;"
+        " needs --memory)",
     )
     teach.add_argument(
         "--ga-bias",

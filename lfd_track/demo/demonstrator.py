@@ -6,6 +6,11 @@ twice, with alternating turn-arounds. Every frame goes through the loop's percep
 learning from the safe box, then road values of the 40 regions); each command after the first 10
 is recorded with the road values computed at that moment.
 
+On a loop (a closed track) the same protocol drives laps: a leg is one lap, from the loop's
+start round to ``stop_before_end_m`` short of it, then the human turns round and drives the next
+leg the other way (``HumanConfig.legs`` legs in all; 2 is a lap each way). It lets a
+demonstration show corners the training track lacks (sharp corners, turns both ways).
+
 *Careful training*: the library learns only while the safe box is on the felt, as an operator
 watching the phone's screen would; with ``careful=False`` it learns from every frame and the
 library is poisoned with carpet (the paper's §6 warning).
@@ -79,11 +84,9 @@ class DemonstrationSummary:
 def protocol_human(
     track: str, human: HumanConfig, rng: np.random.Generator, **kwargs: Any
 ) -> ProtocolHuman:
-    """The scripted human for the demonstration protocol on the open ``track``."""
-    forward = load_track(track)
-    if forward.closed:
-        raise ValueError(f"the demonstration protocol needs an open track, '{track}' is a loop")
-    return ProtocolHuman((forward, load_track(track, reverse=True)), human, rng, **kwargs)
+    """The scripted human for the demonstration protocol on ``track`` (open: end to end and
+    back; a loop: a lap per leg, alternating directions)."""
+    return ProtocolHuman((load_track(track), load_track(track, reverse=True)), human, rng, **kwargs)
 
 
 def run_demonstration(

@@ -23,8 +23,9 @@ Methods:
   never reset, put back by hand when it leaves the felt ((μ+1)-ONLINE); the road library is the
   repetition's demonstration's, whose cases are not learned from (:mod:`.evolution`).
 
-"The training track" of a method is the paper's unless the benchmark gives another open track
-(``BenchmarkConfig.demo_track``): the human then demonstrates, and the rounds drive, there.
+"The training track" of a method is the paper's unless the benchmark gives another track
+(``BenchmarkConfig.demo_track``, open or a loop): the human then demonstrates, and the rounds
+drive, there.
 
 Adding a method is one module with its ``learn`` (and settings class, if any) plus one
 ``register_method(Method(...))`` (``docs/learning-api.md``, "Adding a method").

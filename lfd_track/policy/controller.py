@@ -18,7 +18,7 @@ the paper's camera, ``[320, 240]`` for the half-size one of ``[camera] scale = 0
 SHA-256 (hex) of the canonical JSON (sorted keys, no spaces, UTF-8) of every other key, so a
 changed digit anywhere is refused (unless the number still parses to the very same value, which
 changes nothing). ``layer_sizes`` is ``[f + m, h, 3]``: f per-region inputs (40 road values, 160
-with colour, 0 with the features ``"none"``, which need a memory), m memory inputs, h hidden
+with colour, 2 with ``"near_felt"``, 0 with ``"none"``, which need a memory), m memory inputs, h hidden
 nodes.
 
 Older files are read through one migration per schema step
@@ -346,6 +346,9 @@ class Controller:
         if values.shape != (self.n_inputs,):
             if self.features == "none":
                 what = "the memory inputs"
+            elif self.features == "near_felt":
+                what = "the two near_felt inputs"
+                what += "" if self.memory is None else ", then the memory inputs"
             else:
                 what = "the road values"
                 what += "" if self.features == DEFAULT_FEATURES else ", then the colour features"

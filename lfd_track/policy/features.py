@@ -14,6 +14,16 @@ are the same to the network however different their colours. The feature sets:
   average to red, not to cyan, and a region of many hues gets a short vector (both features
   near 0.5). The inputs are ordered feature by feature, each a row-major block of 40 regions:
   ``road values | hue cos | hue sin | saturation``;
+* ``"near_felt"`` — two inputs of the frame instead of its 40 road values: where the felt lies
+  across the picture's :data:`NEAR_ROWS` nearest rows of regions, ``(1 + p) / 2`` with ``p`` the
+  felt-weighted mean of the columns' centres from -7/8 (the picture's right edge column) to 7/8
+  (its left), so above 0.5 the felt lies left of the rover's axis; and how much felt those rows
+  hold (the mean of their regions' felt levels). A region's felt level rises from 0 at road
+  value 0.3 to 1 at 0.5 (the paper world's carpet and felt levels, as the ``fresh_felt`` map's
+  fixed levels); with no felt in those rows the position is 0.5. A person steering by where the
+  strip lies just ahead of the rover steers by about these two numbers (a pinhole camera's
+  column is a bearing, whatever the row); with a memory kind they come before its inputs;
+  mirrored, the position becomes ``1 - p``;
 * ``"none"`` — no per-region inputs: the network reads its memory inputs alone (a memory kind
   with inputs is required). With the ``fresh_felt`` map (:mod:`lfd_track.policy.memory`) the
   road values still reach the network, through the map they feed (bearing, amount and distance
@@ -51,12 +61,17 @@ import numpy as np
 
 from ..core.frame import GRID_COLUMNS, GRID_ROWS, N_REGIONS
 
-FEATURE_SETS = ("road_values", "road_values+colour", "none")
+FEATURE_SETS = ("road_values", "road_values+colour", "near_felt", "none")
 """Per-region input feature sets a policy may read (see the module docstring)."""
 DEFAULT_FEATURES = "road_values"
 COLOUR_PER_REGION = 3
 """Colour features per region: hue cos, hue sin, saturation."""
 _HUE, _SATURATION = 3, 4  # channel indexes of the R, G, B, H, S histograms
+NEAR_ROWS = 2
+"""Rows of regions, nearest the rover, the ``near_felt`` features read."""
+NEAR_FELT_INPUTS = 2
+"""``near_felt`` inputs: the felt's position across the near rows, and its amount."""
+_NEAR_CARPET, _NEAR_FELT = 0.3, 0.5  # road values of felt level 0 and 1 (the paper world's)
 
 
 def check_features(features: str) -> str:
@@ -66,11 +81,19 @@ def check_features(features: str) -> str:
     return features
 
 
+def reads_road_values(features: str) -> bool:
+    """Whether a policy with ``features`` reads the 40 road values one by one."""
+    return check_features(features) in (DEFAULT_FEATURES, "road_values+colour")
+
+
 def frame_inputs(features: str = DEFAULT_FEATURES) -> int:
-    """Inputs a network reads of one frame: 40, 160 with the colour features, 0 with none."""
+    """Inputs a network reads of one frame: 40, 160 with the colour features, 2 with
+    ``near_felt``, 0 with none."""
     check_features(features)
     if features == "none":
         return 0
+    if features == "near_felt":
+        return NEAR_FELT_INPUTS
     return N_REGIONS if features == DEFAULT_FEATURES else N_REGIONS * (1 + COLOUR_PER_REGION)
 
 
@@ -116,26 +139,47 @@ def _bin_moments(bins: int) -> tuple[np.ndarray, np.ndarray]:
     return hue, sat
 
 
+def near_felt_features(road_values: np.ndarray) -> np.ndarray:
+    """The ``near_felt`` inputs (..., 2) of road values (..., 40): the felt's position across
+    the :data:`NEAR_ROWS` nearest rows and its amount (see the module docstring); float64."""
+    values = np.asarray(road_values, dtype=np.float64)
+    grid = values.reshape(*values.shape[:-1], GRID_ROWS, GRID_COLUMNS)[..., -NEAR_ROWS:, :]
+    felt = np.clip((grid - _NEAR_CARPET) / (_NEAR_FELT - _NEAR_CARPET), 0.0, 1.0)
+    columns = (GRID_COLUMNS - 1 - 2 * np.arange(GRID_COLUMNS)) / GRID_COLUMNS  # left positive
+    total = felt.sum(axis=(-2, -1))
+    moment = (felt * columns).sum(axis=(-2, -1))
+    position = np.where(total > 0.0, moment / np.where(total > 0.0, total, 1.0), 0.0)
+    amount = total / (NEAR_ROWS * GRID_COLUMNS)
+    return np.stack([0.5 * (1.0 + position), amount], axis=-1)
+
+
 def frame_features(
     road_values: np.ndarray, histograms: np.ndarray, features: str = DEFAULT_FEATURES
 ) -> np.ndarray:
     """The per-region inputs of ``features``: ``road_values`` (..., 40) alone, or followed by
-    the :func:`colour_features` of ``histograms`` (..., 40, 5, bins), or nothing (..., 0) with
-    ``"none"``; float64."""
+    the :func:`colour_features` of ``histograms`` (..., 40, 5, bins), or the two
+    :func:`near_felt_features` (..., 2), or nothing (..., 0) with ``"none"``; float64."""
     values = np.asarray(road_values, dtype=np.float64)
     if check_features(features) == DEFAULT_FEATURES:
         return values
     if features == "none":
         return values[..., :0]
+    if features == "near_felt":
+        return near_felt_features(values)
     return np.concatenate([values, colour_features(histograms)], axis=-1)
 
 
 def mirror_frame_inputs(inputs: np.ndarray, features: str = DEFAULT_FEATURES) -> np.ndarray:
-    """Per-region inputs (N, 40), (N, 160) or (N, 0) as they would be in a world flipped left to
-    right: every block of 40 has each grid row reversed."""
+    """Per-region inputs (N, 40), (N, 160), (N, 2) or (N, 0) as they would be in a world flipped
+    left to right: every block of 40 has each grid row reversed; the ``near_felt`` position
+    becomes ``1 - p`` (its amount stays)."""
     x = np.asarray(inputs, dtype=np.float64)
     n = frame_inputs(features)
     if x.ndim != 2 or x.shape[1] != n:
         raise ValueError(f"inputs must have shape (N, {n}) for features {features!r}")
+    if features == "near_felt":
+        out = x.copy()
+        out[:, 0] = 1.0 - out[:, 0]
+        return out
     blocks = x.reshape(len(x), n // N_REGIONS, GRID_ROWS, GRID_COLUMNS)[..., ::-1]
     return blocks.reshape(len(x), n)

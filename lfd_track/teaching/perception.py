@@ -26,7 +26,13 @@ from functools import cached_property
 import numpy as np
 
 from ..core.commands import Command
-from ..policy.features import DEFAULT_FEATURES, check_features, colour_features
+from ..policy.features import (
+    DEFAULT_FEATURES,
+    check_features,
+    colour_features,
+    near_felt_features,
+    reads_road_values,
+)
 from ..policy.map_geometry import MapGeometry, geometry_note
 from ..policy.memory import (
     FreshFeltConfig,
@@ -72,20 +78,22 @@ class Percept:
     memory: np.ndarray = field(default_factory=lambda: np.zeros(0))
     """Memory inputs at this frame, (m,) float64 (m = 0 without memory)."""
     colour: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    """The regions' colour features, (120,) float64 with the ``road_values+colour`` features,
-    else (0,) (computed from :attr:`histograms`, as for a recorded case)."""
+    """The frame's inputs beyond the road values one by one: the regions' colour features,
+    (120,) float64 with the ``road_values+colour`` features, the two ``near_felt`` inputs with
+    those, else (0,) (computed from :attr:`values` and :attr:`histograms`, as for a recorded
+    case)."""
 
     road_inputs: bool = True
-    """Whether the policy reads the road values one by one (False with the ``"none"`` features:
-    it reads the memory inputs alone)."""
+    """Whether the policy reads the road values one by one (False with the ``"near_felt"`` and
+    ``"none"`` features)."""
 
     @cached_property
     def inputs(self) -> np.ndarray:
-        """The policy's inputs: the road values (unless the features are ``"none"``), then any
-        colour features, then the memory inputs, (40 + c + m,) or (m,) float64 (joined once, on
-        first use)."""
+        """The policy's inputs: the road values (unless the features are ``"near_felt"`` or
+        ``"none"``), then any colour or ``near_felt`` features, then the memory inputs,
+        (40 + c + m,), (2 + m,) or (m,) float64 (joined once, on first use)."""
         if not self.road_inputs:
-            return self.memory
+            return np.concatenate([self.colour, self.memory]) if len(self.colour) else self.memory
         if not len(self.memory) and not len(self.colour):
             return self.values
         return np.concatenate([self.values, self.colour, self.memory])
@@ -255,9 +263,12 @@ class Perception:
         box_on_felt: bool | None,
         memory: np.ndarray,
     ) -> Percept:
-        colour = (
-            colour_features(histograms) if self.features == "road_values+colour" else np.zeros(0)
-        )
+        if self.features == "road_values+colour":
+            colour = colour_features(histograms)
+        elif self.features == "near_felt":
+            colour = near_felt_features(values)
+        else:
+            colour = np.zeros(0)
         return Percept(
             values=values,
             histograms=histograms,
@@ -265,7 +276,7 @@ class Perception:
             box_on_felt=box_on_felt,
             memory=memory,
             colour=colour,
-            road_inputs=self.features != "none",
+            road_inputs=reads_road_values(self.features),
         )
 
     def look(self, frame: np.ndarray) -> np.ndarray:

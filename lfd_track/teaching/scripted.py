@@ -57,7 +57,7 @@ class HumanConfig:
     reaction_delay_prob: float = 0.10  # chance a command answers the previous frame, not this one
     lapse_prob: float = 0.03  # chance the human just repeats the previous command
     library_only_commands: int = 10  # initial commands that only build the library (not recorded)
-    legs: int = 4  # end-to-end drives: right→left, left→right, twice
+    legs: int = 4  # end-to-end drives: right→left, left→right, twice (on a loop: laps)
     stop_before_end_m: float = 0.35  # [m] where the human stops to turn round
     first_turnaround: str = "left"  # direction of the first turn-around; then they alternate
     # Turn-around rule: "alternate" (left, right, left, ...), "one_sided" (always the first
@@ -234,7 +234,8 @@ class ProtocolHuman:
     """The demonstration protocol as a commander (needs the privileged pose in ``info``).
 
     Args:
-        legs: the track in its two directions ``(forward, reverse)``, both open.
+        legs: the track in its two directions ``(forward, reverse)``: open (a leg drives it end
+            to end) or a loop (a leg is one lap from its start).
         config: traits and protocol settings.
         rng: the human's own random stream (reaction delays, lapses).
         intervention: the rule for taking control back while a policy drives (None: never

@@ -99,9 +99,34 @@ def test_human_traits_are_validated():
         HumanConfig(first_turnaround="up")
 
 
-def test_loop_tracks_are_refused(tmp_path):
-    with pytest.raises(ValueError, match="open track"):
-        run_demonstration(tmp_path / "x.lfdemo", seed=0, track="testing", fsync=False)
+def test_on_a_loop_each_leg_is_a_lap_and_the_next_goes_the_other_way(tmp_path):
+    # random:train:27 is a 2.9 m loop: two legs are a lap each way, each ending in a turn-around
+    # (as every leg of the protocol does).
+    from lfd_track.world.track import load_track
+
+    track = "random:train:27"
+    human = HumanConfig(legs=2)
+    summary = run_demonstration(
+        tmp_path / "loop.lfdemo", seed=0, track=track, human=human, fsync=False
+    )
+    demo = load_demonstration(tmp_path / "loop.lfdemo")
+    assert summary.turnarounds == ("left", "right")
+    phases = np.asarray(demo.phases)
+    turning = phases == "turnaround"
+    # Two drives, each followed by its turn-around: drive, turn, drive, turn.
+    runs = [phases[0]] + [p for q, p in zip(phases[:-1], phases[1:], strict=True) if p != q]
+    assert runs == ["drive", "turnaround", "drive", "turnaround"]
+    first_turn = int(np.argmax(turning))
+    second_leg = first_turn + int(np.argmax(~turning[first_turn:]))
+    length = load_track(track).length_m
+    # Each leg ends stop_before_end_m short of a whole lap of its own direction.
+    for leg in (slice(0, first_turn), slice(second_leg, None)):
+        progress = demo.progress_m[leg][phases[leg] == "drive"]
+        assert progress.max() == pytest.approx(length - human.stop_before_end_m, abs=0.15)
+    # The turn-around faces the rover the other way round the loop.
+    before, after = demo.poses[first_turn - 1, 2], demo.poses[second_leg, 2]
+    assert np.cos(after - before) < 0.0
+    assert summary.commands <= 2 * (length / 0.1) + 80
 
 
 class _FixedDriver:

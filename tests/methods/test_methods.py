@@ -460,11 +460,13 @@ def test_methods_demonstrate_and_drive_on_the_demo_track(tmp_path, monkeypatch):
     assert online.metadata["track"] == str(elbow)
 
 
-def test_a_loop_is_refused_as_demo_track_before_anything_runs():
+def test_an_unknown_demo_track_is_refused_before_anything_runs_and_a_loop_is_taken():
     from lfd_track.benchmark.runner import check_tracks
+    from lfd_track.errors import LfdTrackError
 
-    with pytest.raises(ValueError, match="demonstration track 'testing' is a loop"):
-        check_tracks(BenchmarkConfig(demo_track="testing"))
+    with pytest.raises((ValueError, LfdTrackError), match="no-such-track"):
+        check_tracks(BenchmarkConfig(demo_track="no-such-track"))
     with pytest.raises(ValueError, match="demo_track must be"):
         BenchmarkConfig(demo_track="")
     check_tracks(BenchmarkConfig())  # the default, the paper's training track, passes
+    check_tracks(BenchmarkConfig(demo_track="testing"))  # a loop: a lap per leg

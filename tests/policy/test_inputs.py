@@ -1,4 +1,5 @@
-"""The policy's input options: the colour features per region and the previous-command memory.
+"""The policy's input options: the colour features per region, the two ``near_felt`` inputs and
+the previous-command memory.
 
 Each is computed the same way for a recorded case and for a driving frame, every learner fits
 it, and the controller file records it, so a reloaded controller decides the same.
@@ -21,7 +22,12 @@ from lfd_track.learning.fitness import training_accuracy
 from lfd_track.learning.ga import GAConfig, evolve
 from lfd_track.learning.mirror import mirror_cases
 from lfd_track.policy.controller import Controller
-from lfd_track.policy.features import colour_features, frame_inputs
+from lfd_track.policy.features import (
+    colour_features,
+    frame_inputs,
+    mirror_frame_inputs,
+    near_felt_features,
+)
 from lfd_track.policy.memory import PreviousCommandConfig, PreviousCommandMemory, memory_config
 from lfd_track.teaching.perception import Perception
 from lfd_track.vision.histograms import N_CHANNELS
@@ -127,6 +133,88 @@ def test_mirror_reverses_every_block_and_swaps_the_previous_command(frames, libr
     assert actions.tolist() == [2]
     with pytest.raises(ValueError, match=r"\(N, 163\) for memory 'previous_command'"):
         mirror_cases(x[:, :160], [1], PREVIOUS, COLOUR)
+
+
+# ------------------------------------------------------------------------- near_felt
+def _grid(near: list[list[float]]) -> np.ndarray:
+    """Road values (40,): carpet (0.2) everywhere but the two nearest rows given (2 x 8)."""
+    grid = np.full((5, 8), 0.2)
+    grid[3:] = near
+    return grid.reshape(40)
+
+
+def test_near_felt_says_where_the_felt_lies_across_the_nearest_rows_and_how_much():
+    felt, carpet = 0.6, 0.2
+    # Felt in the two leftmost columns of both near rows: left of the axis, a quarter of them.
+    left = _grid([[felt, felt] + [carpet] * 6] * 2)
+    position, amount = near_felt_features(left)
+    assert position == pytest.approx(0.5 * (1 + (7 / 8 + 5 / 8) / 2))
+    assert amount == pytest.approx(0.25)
+    # Its mirror image lies as far right; centred felt lies straight ahead.
+    assert near_felt_features(_grid([[carpet] * 6 + [felt, felt]] * 2))[0] == pytest.approx(
+        1 - position
+    )
+    centred = near_felt_features(_grid([[carpet] * 3 + [felt, felt] + [carpet] * 3] * 2))
+    assert centred[0] == pytest.approx(0.5)
+    # No felt in the near rows (felt further up does not count): the middle, nothing.
+    far = np.full((5, 8), carpet)
+    far[0] = felt
+    np.testing.assert_array_equal(near_felt_features(far.reshape(40)), [0.5, 0.0])
+    # Felt levels rise from 0 at road value 0.3 to 1 at 0.5: half-felt counts half.
+    half = near_felt_features(_grid([[0.4] * 8] * 2))
+    np.testing.assert_allclose(half, [0.5, 0.5], atol=1e-12)
+    # Batches work row by row.
+    batch = near_felt_features(np.stack([left, far.reshape(40)]))
+    np.testing.assert_allclose(batch[0], near_felt_features(left), atol=0)
+    assert frame_inputs("near_felt") == 2
+
+
+def test_near_felt_of_a_mirrored_frame_is_the_mirrored_input(frames, library):
+    perception = Perception(library, "frozen", PREVIOUS, "near_felt")
+    assert perception.n_inputs == 5
+    perception.note(1)
+    x = perception.perceive(frames[0]).inputs[None]
+    flipped = Perception(library, "frozen", PREVIOUS, "near_felt")
+    flipped.note(2)
+    expected = flipped.perceive(np.ascontiguousarray(frames[0][:, ::-1])).inputs
+    mirrored, actions = mirror_cases(x, [1], PREVIOUS, "near_felt")
+    np.testing.assert_allclose(mirrored[0], expected, atol=1e-9)
+    assert actions.tolist() == [2]
+    np.testing.assert_allclose(
+        mirror_frame_inputs(x[:, :2], "near_felt")[0], [1 - x[0, 0], x[0, 1]], atol=0
+    )
+
+
+def test_near_felt_of_a_recorded_case_is_what_the_driving_frame_read(tmp_path, frames, library):
+    perception = Perception(library, "frozen", PREVIOUS, "near_felt")
+    writer = recording_writer(tmp_path / "d.lfdemo", {}, perception, fsync=False)
+    seen = []
+    for i, frame in enumerate(frames):
+        percept = perception.perceive(frame)
+        assert percept.inputs.shape == (5,)
+        np.testing.assert_array_equal(percept.inputs[:2], near_felt_features(percept.values))
+        writer.append(i % 3, percept.values, percept.histograms, memory=percept.memory)
+        perception.note(i % 3)
+        seen.append(percept.inputs)
+    writer.close()
+    demo = load_demonstration(tmp_path / "d.lfdemo")
+    np.testing.assert_allclose(demo.policy_inputs("near_felt"), np.stack(seen), rtol=0, atol=1e-12)
+    # A controller reading them drives the frames as the same network on those inputs.
+    weights = np.random.default_rng(5).uniform(-3, 3, 5 * 5 + 15)
+    controller = Controller(library, weights, features="near_felt", memory=PREVIOUS)
+    commands = [controller.act(f) for f in frames]
+    twin = Controller(library, weights, features="near_felt", memory=PREVIOUS)
+    replay = Perception(library, "frozen", PREVIOUS, "near_felt")
+    by_hand = []
+    for f in frames:
+        by_hand.append(twin.act_on_values(replay.perceive(f).inputs))
+        replay.note(by_hand[-1])
+    assert commands == by_hand
+    loaded = Controller.load(_save(tmp_path, controller))
+    assert loaded.features == "near_felt" and loaded.n_inputs == 5
+    assert [loaded.act(f) for f in frames] == commands
+    with pytest.raises(ValueError, match="the two near_felt inputs, then the memory inputs"):
+        controller.act_on_values(np.zeros(3))
 
 
 # --------------------------------------------------------------------------------- memory

@@ -274,16 +274,18 @@ def test_test_tracks_must_be_loops_with_corners(tmp_path, capsys, tracks, proble
     load_study(path, check_names=False)  # the structure alone is fine
 
 
-def test_demo_track_is_relative_to_the_study_file_and_must_be_open(tmp_path, capsys):
+def test_demo_track_is_relative_to_the_study_file_and_must_exist(tmp_path, capsys):
     (tmp_path / "tracks").mkdir()
     (tmp_path / "tracks" / "open.toml").write_text((REPO / "tracks" / "training.toml").read_text())
     path = write_study(tmp_path, TINY_STUDY + 'demo_track = "tracks/open.toml"\n')
     (condition,) = load_study(path).conditions
     assert condition.config.demo_track == str(tmp_path / "tracks" / "open.toml")
-    loop = write_study(tmp_path, TINY_STUDY + 'demo_track = "testing"\n', name="loop.toml")
+    missing = write_study(
+        tmp_path, TINY_STUDY + 'demo_track = "tracks/missing.toml"\n', name="missing.toml"
+    )
     out = tmp_path / "out"
-    assert main(["--quiet", "study", str(loop), "--out", str(out)]) == 1
+    assert main(["--quiet", "study", str(missing), "--out", str(out)]) == 1
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and err.startswith(f"lfd-track study: {loop}: "), err
-    assert "demonstration track 'testing' is a loop" in err, err
+    assert err.count("\n") == 1 and err.startswith(f"lfd-track study: {missing}: "), err
+    assert "missing.toml" in err, err
     assert not out.exists()
