@@ -167,8 +167,9 @@ class GridHistogrammer:
         # the pixels the cost of 200 calls outweighs the counting (measured: one joint call per
         # channel over a region-label image 0.6 against 0.9 ms at 320 x 240; at 640 x 480 the
         # per-region calls stay faster, 1.9 against 2.4 ms). Bin codes counted per row of
-        # regions are faster still where they fit in a byte (0.68 against 0.80 ms at 320 x 240,
-        # 32 bins): 1-D calls count a pixel faster than joint ones.
+        # regions are faster still where they fit in a byte (at 320 x 240, 32 bins: 0.68 against
+        # 0.80 ms alone, 0.78 against 0.83 inside the closed loop): 1-D calls count a pixel
+        # faster than joint ones.
         self._labels: np.ndarray | None = None
         self._shift = 0
         self._codes: tuple[np.ndarray, np.ndarray, np.ndarray, list, np.ndarray] | None = None

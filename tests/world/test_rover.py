@@ -277,3 +277,31 @@ def test_config_loads_from_a_toml_table() -> None:
 def test_rover_imports_no_renderer() -> None:
     code = "import sys, lfd_track.world.rover as r; r.Rover(); assert 'cv2' not in sys.modules"
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+def test_direct_substep_calls_move_the_rover_as_pymunks_properties_do(monkeypatch) -> None:
+    # The substeps call pymunk's C functions directly; with them unavailable the public
+    # properties and Space.step serve. Both give the same calibration and poses, to the bit.
+    import lfd_track.world.rover as rover_module
+
+    commands = [FORWARD, FORWARD, LEFT, None, RIGHT, FORWARD, RIGHT, RIGHT, FORWARD, None] * 3
+
+    def trace() -> tuple[tuple[float, float], np.ndarray]:
+        built = Rover(RoverConfig())
+        rng = np.random.default_rng(11)
+        built.reset((0.3, -0.2, 0.4), rng)
+        states = []
+        for command in commands:
+            built.step(command, rng)
+            states.append(np.concatenate([built.pose, built.velocity]))
+        return built.belt_speeds_mps, np.array(states)
+
+    direct = trace()
+    # The direct calls were the ones exercised: the space is stepped by pymunk's C function.
+    assert rover_module._chipmunk is not None
+    step = Rover(RoverConfig())._substep_calls()[-1]
+    assert getattr(step, "func", None) is rover_module._chipmunk.cpSpaceStep
+    monkeypatch.setattr(rover_module, "_chipmunk", None)
+    public = trace()
+    assert direct[0] == public[0]
+    np.testing.assert_array_equal(direct[1], public[1])
