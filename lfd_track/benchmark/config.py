@@ -113,7 +113,7 @@ class BenchmarkConfig:
     # episode, the preset as it is) or "per_repetition" (one room per repetition, drawn from its
     # own stream and kept for the demonstration, the learning and every trial: a user's own
     # room). A preset without randomization has one world either way. The robustness rooms
-    # study (benchmarks/experiments/robustness/planned/rooms.toml, not run yet) uses it, and it
+    # study (benchmarks/experiments/robustness/rooms.toml) uses it, and it
     # is how a user teaches and drives in one kept room.
     room: str = "per_episode"
 
