@@ -34,7 +34,8 @@ Schema history:
   ``config.room`` came later without a new schema: it is written only when it is
   ``"per_repetition"`` (one world drawn per repetition from a randomized preset), and a file
   without it means ``"per_episode"``, what every run did before (so no older file changes
-  meaning, and each still matches the settings that produced it).
+  meaning, and each still matches the settings that produced it). The ``hg_dagger`` table's
+  ``learner`` came the same way: written only when it is ``"bc"``; without it, ``"ga"``.
 """
 
 from __future__ import annotations

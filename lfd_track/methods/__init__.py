@@ -13,7 +13,8 @@ Methods:
 * ``online`` — the GA learns while the scripted human demonstrates; the policy takes over when
   it agrees, the human takes control back by the intervention rule (:mod:`.online`).
 * ``hg-dagger`` — the paper's demonstration and GA, then rounds of autonomous runs with the
-  human intervening; the GA re-run on all cases after each round (:mod:`.hg_dagger`).
+  human intervening; the GA re-run on all cases after each round (:mod:`.hg_dagger`; with
+  ``learner = "bc"`` backprop in the GA's place).
 * ``bc`` / ``cma-es`` — the paper's demonstration, then the same network fitted by backprop or
   by CMA-ES instead of the GA (:mod:`.baseline`).
 * ``dagger`` — classic DAgger: rounds of runs in which the human labels every visited state
@@ -81,7 +82,10 @@ register_method(
         "hg-dagger",
         hg_dagger.learn,
         HGDaggerConfig,
-        summary="rounds of runs with interventions",
+        summary="rounds of runs with interventions; see --hg-dagger-learner",
+        flags=MethodFlags(
+            hg_dagger.add_flags, hg_dagger.flags_given, hg_dagger.settings_from_flags
+        ),
     )
 )
 register_method(

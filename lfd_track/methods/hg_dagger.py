@@ -1,10 +1,13 @@
 """The ``hg-dagger`` method: the paper's demonstration and GA, then ``rounds`` rounds of
 autonomous runs on the demonstration track (one each way) with the human intervening by the
 intervention rule; the interventions of every round are aggregated and the GA re-run on all
-cases after each round."""
+cases after each round. With ``learner = "bc"`` backprop (the benchmark's ``bc`` settings) takes
+the GA's place: the ``bc`` method's network after the demonstration, fitted again on all cases
+after each round."""
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,10 +19,11 @@ from ..dataset import load_demonstration
 from ..dataset.recording import recording_writer
 from ..learning.fitness import training_accuracy
 from ..learning.ga import evolve
+from ..learning.learners import learner_for
 from ..policy.controller import Controller
 from ..teaching.loop import LoopCounts
 from ..teaching.observers import CaseBuffer, Recorder
-from . import paper
+from . import baseline, paper
 from .common import (
     Learned,
     MethodContext,
@@ -28,6 +32,7 @@ from .common import (
     recording_metadata,
     training_set,
 )
+from .dagger import DAGGER_LEARNERS
 from .takeover import RoundTally, TakeoverConfig, drive_both_ways
 
 
@@ -40,10 +45,26 @@ class HGDaggerConfig(TakeoverConfig):
 
     rounds: int = 3
     """R: rounds of autonomous runs, each followed by re-evolving on all cases (1..1000)."""
+    learner: str = "ga"
+    """What fits the network after the demonstration and after each round: ``"ga"`` (the
+    paper's GA, the benchmark's ``ga`` settings) or ``"bc"`` (backprop, the benchmark's ``bc``
+    settings; an MLP only), with mirrored cases as the benchmark says."""
+
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as a dict; ``learner`` only when it is not ``"ga"`` (what every run did
+        before the setting existed), so that files written before it still match theirs."""
+        data = super().to_dict()
+        if data["learner"] == "ga":
+            del data["learner"]
+        return data
 
     def __post_init__(self) -> None:
         super().__post_init__()
         self._check_count("rounds", 1_000)
+        if self.learner not in DAGGER_LEARNERS:
+            raise ValueError(
+                f"hg-dagger learner must be one of {', '.join(DAGGER_LEARNERS)}, got {self.learner!r}"
+            )
 
 
 def learn(context: MethodContext) -> Learned:
@@ -56,7 +77,9 @@ def learn(context: MethodContext) -> Learned:
     """
     hg: HGDaggerConfig = context.settings
     ga, features, rep_dir = context.ga, context.features, context.rep_dir
-    first = paper.learn(context)
+    if hg.learner == "bc" and context.policy_kind != "mlp-sigmoid":
+        raise ValueError("hg-dagger learner 'bc' fits an MLP (policy_kind 'mlp-sigmoid')")
+    first = paper.learn(context) if hg.learner == "ga" else baseline.learn_bc(context)
     demo = load_demonstration(rep_dir / "demonstration.lfdemo")
     inputs = [np.asarray(demo.policy_inputs(features), dtype=np.float64)]
     actions = [np.asarray(demo.commands, dtype=np.intp)]
@@ -109,19 +132,38 @@ def learn(context: MethodContext) -> Learned:
         inputs.append(x)
         actions.append(a)
         all_x, all_a = np.concatenate(inputs), np.concatenate(actions)
-        result = evolve(*training_set(context, all_x, all_a), ga, ga_rng)
-        evolved = Controller.from_evolution(
-            library,
-            result,
-            seed=context.ga_seed,
-            memory=context.memory,
-            features=features,
-            frame_size=context.frame_size,
-            map_geometry=context.map_geometry,
-        )
-        controller = evolved.relabelled("hg-dagger", {**hg.to_dict(), "ga": ga.to_dict()})
-        fitness_best += result.best_history.tolist()
-        fitness_mean += result.mean_history.tolist()
+        if hg.learner == "ga":
+            result = evolve(*training_set(context, all_x, all_a), ga, ga_rng)
+            fitted = Controller.from_evolution(
+                library,
+                result,
+                seed=context.ga_seed,
+                memory=context.memory,
+                features=features,
+                frame_size=context.frame_size,
+                map_geometry=context.map_geometry,
+            )
+            fitness_best += result.best_history.tolist()
+            fitness_mean += result.mean_history.tolist()
+            settings = {"ga": ga.to_dict()}
+        else:
+            fit = learner_for(context.bc).fit(*training_set(context, all_x, all_a), ga_rng)
+            fitted = Controller(
+                library,
+                fit.weights,
+                bias=context.bc.bias,
+                learner=fit.learner,
+                learner_config=context.bc.to_dict(),
+                seed=context.ga_seed,
+                fitness_history=fit.history.tolist(),
+                memory=context.memory,
+                features=features,
+                frame_size=context.frame_size,
+                map_geometry=context.map_geometry,
+            )
+            fitness_best += fit.history.tolist()
+            settings = {"bc": context.bc.to_dict()}
+        controller = fitted.relabelled("hg-dagger", {**hg.to_dict(), **settings})
         per_round.append(
             {
                 "round": r,
@@ -148,3 +190,25 @@ def learn_hg_dagger(rep_dir: str | Path, *, hg: HGDaggerConfig, **context: Any) 
     """:func:`learn` with the settings ``hg`` and the context's fields as keywords
     (:class:`~lfd_track.methods.common.MethodContext`)."""
     return learn(MethodContext(Path(rep_dir), settings=hg, **context))
+
+
+# ------------------------------------------------------------------------------- command line
+def add_flags(parser: argparse.ArgumentParser) -> None:
+    """The ``hg-dagger`` flag of ``lfd-track benchmark``."""
+    parser.add_argument(
+        "--hg-dagger-learner",
+        choices=DAGGER_LEARNERS,
+        default=None,
+        help="with --method hg-dagger: what fits the network after the demonstration and after"
+        " each round, the GA or backprop (the bc method's settings; default: ga)",
+    )
+
+
+def flags_given(args: argparse.Namespace) -> list[str]:
+    """The ``hg-dagger`` flags given on the command line."""
+    return ["--hg-dagger-learner"] if args.hg_dagger_learner is not None else []
+
+
+def settings_from_flags(args: argparse.Namespace) -> HGDaggerConfig:
+    """The ``hg-dagger`` settings of the command line's flags."""
+    return HGDaggerConfig(learner=args.hg_dagger_learner or "ga")

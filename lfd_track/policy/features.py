@@ -23,7 +23,9 @@ are the same to the network however different their colours. The feature sets:
   fixed levels); with no felt in those rows the position is 0.5. A person steering by where the
   strip lies just ahead of the rover steers by about these two numbers (a pinhole camera's
   column is a bearing, whatever the row); with a memory kind they come before its inputs;
-  mirrored, the position becomes ``1 - p``;
+  mirrored, the position becomes ``1 - p`` (round 1 of
+  ``benchmarks/experiments/human_goal/`` tried them beside the ``fresh_felt`` map: they fit the
+  centreline human better and lapped less);
 * ``"none"`` — no per-region inputs: the network reads its memory inputs alone (a memory kind
   with inputs is required). With the ``fresh_felt`` map (:mod:`lfd_track.policy.memory`) the
   road values still reach the network, through the map they feed (bearing, amount and distance

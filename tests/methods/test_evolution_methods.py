@@ -176,7 +176,7 @@ def test_a_study_runs_both_methods(tmp_path):
         load_study(path)
 
 
-def test_the_command_line_runs_a_method_without_a_teacher(tmp_path, capsys):
+def test_the_command_line_runs_a_method_without_a_teacher(tmp_path, capsys, monkeypatch):
     out = tmp_path / "out"
     code = main(
         [
@@ -197,6 +197,7 @@ def test_the_command_line_runs_a_method_without_a_teacher(tmp_path, capsys):
     assert "put back by hand" in (out / "report.md").read_text()
     assert main(["benchmark", "--direct-generations", "2", "--out", str(tmp_path / "x")]) == 2
     assert "--direct-generations needs --method direct" in capsys.readouterr().err
+    monkeypatch.setenv("COLUMNS", "400")  # one line per option: argparse breaks at hyphens
     with pytest.raises(SystemExit):
         main(["benchmark", "--help"])
     shown = " ".join(capsys.readouterr().out.split())

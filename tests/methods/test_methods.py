@@ -285,6 +285,45 @@ def test_hg_dagger_with_memory_keeps_it_in_every_file(tmp_path):
     assert Controller.load(out).memory == memory
 
 
+def test_hg_dagger_by_backprop_fits_the_bc_network_again_after_every_round(tmp_path):
+    """learner "bc": the bc method's network after the demonstration, then backprop on all cases
+    (mirrored too) after each round, on the map alone; the file says so, and the GA's settings
+    are not what it used."""
+    from lfd_track.learning.bc import BCConfig
+    from lfd_track.policy.memory import FreshFeltConfig
+
+    demo_seed, ga_seed, _ = _seeds(0)
+    bc = BCConfig(epochs=200, bias=True)
+    kwargs = dict(
+        demo_seed=demo_seed,
+        ga_seed=ga_seed,
+        preset="paper",
+        human=HumanConfig(clear_memory_per_leg=True),
+        memory=FreshFeltConfig(),
+        features="none",
+        mirror=True,
+        bc=bc,
+        ga=GAConfig(generations=2),
+    )
+    hg = HGDaggerConfig(rounds=1, learner="bc")
+    learned = learn_hg_dagger(tmp_path / "a", **kwargs, hg=hg)
+    (r,) = learned.demo["rounds"]
+    assert r["intervention_cases"] > 0
+    controller = learned.controller
+    assert controller.learner == "hg-dagger" and controller.bias and controller.n_inputs == 3
+    assert controller.learner_config == {**hg.to_dict(), "bc": bc.to_dict()}
+    assert controller.learner_config["learner"] == "bc"
+    # backprop's loss history after the demonstration and after the round, no GA means
+    assert len(learned.fitness_best) == 2 * bc.epochs and learned.fitness_mean == []
+    again = learn_hg_dagger(tmp_path / "b", **kwargs, hg=hg)
+    np.testing.assert_array_equal(again.controller.weights, controller.weights)
+    # "ga", the default, is left out of the settings (files written before it still match)
+    assert "learner" not in HGDaggerConfig().to_dict()
+    assert HGDaggerConfig.from_dict(hg.to_dict()) == hg
+    with pytest.raises(ValueError, match="hg-dagger learner must be one of ga, bc"):
+        HGDaggerConfig(learner="cma-es")
+
+
 def test_method_settings_round_trip_and_refuse_unknown_keys():
     online = OnlineConfig(window=6, threshold=0.5)
     assert OnlineConfig.from_dict(online.to_dict()) == online
