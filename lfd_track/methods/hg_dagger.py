@@ -50,7 +50,7 @@ class HGDaggerConfig(TakeoverConfig):
     paper's GA, the benchmark's ``ga`` settings) or ``"bc"`` (backprop, the benchmark's ``bc``
     settings; an MLP only), with mirrored cases as the benchmark says (round 3 of
     ``benchmarks/experiments/human_goal/`` sets ``"bc"``: the map-only network learns by backprop,
-    ``../goal/learners_by_kind/``)."""
+    ``benchmarks/experiments/goal/learners_by_kind/``)."""
 
     def to_dict(self) -> dict[str, Any]:
         """The settings as a dict; ``learner`` only when it is not ``"ga"`` (what every run did
