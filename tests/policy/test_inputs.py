@@ -205,11 +205,7 @@ def test_near_felt_of_a_recorded_case_is_what_the_driving_frame_read(tmp_path, f
     commands = [controller.act(f) for f in frames]
     twin = Controller(library, weights, features="near_felt", memory=PREVIOUS)
     replay = Perception(library, "frozen", PREVIOUS, "near_felt")
-    by_hand = []
-    for f in frames:
-        by_hand.append(twin.act_on_values(replay.perceive(f).inputs))
-        replay.note(by_hand[-1])
-    assert commands == by_hand
+    assert commands == _drive_by_hand(twin, replay, frames)
     loaded = Controller.load(_save(tmp_path, controller))
     assert loaded.features == "near_felt" and loaded.n_inputs == 5
     assert [loaded.act(f) for f in frames] == commands
@@ -351,11 +347,7 @@ def test_a_controller_drives_frames_with_the_inputs_it_was_trained_on(tmp_path, 
     # The same by hand: perception with the same options, the executed command noted.
     perception = Perception(library, "frozen", PREVIOUS, COLOUR)
     twin = Controller(library, weights, features=COLOUR, memory=PREVIOUS)
-    by_hand = []
-    for f in frames:
-        by_hand.append(twin.act_on_values(perception.perceive(f).inputs))
-        perception.note(by_hand[-1])
-    assert commands == by_hand
+    assert commands == _drive_by_hand(twin, perception, frames)
     loaded = Controller.load(_save(tmp_path, controller))
     assert [loaded.act(f) for f in frames] == commands
 
@@ -370,13 +362,7 @@ def test_a_controller_reading_its_memory_alone_drives_frames_by_it(tmp_path, fra
     perception = Perception(library, "frozen", PREVIOUS, "none")
     assert perception.n_inputs == 3
     twin = Controller(library, weights, features="none", memory=PREVIOUS)
-    by_hand = []
-    for f in frames:
-        percept = perception.perceive(f)
-        assert percept.inputs.shape == (3,) and percept.values.shape == (40,)
-        by_hand.append(twin.act_on_values(percept.inputs))
-        perception.note(by_hand[-1])
-    assert commands == by_hand
+    assert commands == _drive_by_hand(twin, perception, frames, n_inputs=3)
     loaded = Controller.load(_save(tmp_path, controller))
     assert loaded.features == "none" and loaded.n_inputs == 3
     assert [loaded.act(f) for f in frames] == commands
@@ -386,6 +372,21 @@ def test_a_controller_reading_its_memory_alone_drives_frames_by_it(tmp_path, fra
     mx, ma = mirror_cases(x, np.array([1, 2]), PREVIOUS, "none")  # no per-region block
     np.testing.assert_array_equal(mx, [[0.0, 0.0, 1.0], [0.0, 1.0, 0.0]])
     assert ma.tolist() == [2, 1]
+
+
+def _drive_by_hand(
+    twin: Controller, perception: Perception, frames, n_inputs: int | None = None
+) -> list[int]:
+    """The commands of ``twin`` fed ``perception``'s inputs frame by frame, each command noted
+    as executed (what ``Controller.act`` does inside); checks the inputs' length if given."""
+    commands = []
+    for frame in frames:
+        percept = perception.perceive(frame)
+        if n_inputs is not None:
+            assert percept.inputs.shape == (n_inputs,) and percept.values.shape == (40,)
+        commands.append(twin.act_on_values(percept.inputs))
+        perception.note(commands[-1])
+    return commands
 
 
 def _save(tmp_path, controller: Controller):
