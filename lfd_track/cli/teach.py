@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import LfdTrackError
-from ..methods.online import OnlineConfig
+from ..methods.online import ONLINE_LEARNERS, OnlineConfig
 from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
 from ..policy.memory import MEMORY_KINDS
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output
@@ -36,6 +36,11 @@ def teach_config(args: argparse.Namespace) -> Any:
 
     if args.features == "none" and args.memory == "none":
         raise LfdTrackError("--features none reads the memory inputs alone: give --memory")
+    if args.online_learner is not None and not args.online:
+        raise LfdTrackError("--online-learner is for --online: give --online")
+    learner = args.online_learner or "ga"
+    if learner != "ga" and args.generations_per_case is not None:
+        raise LfdTrackError(f"--generations-per-case is for --online-learner ga, not {learner}")
     try:
         memory = memory_from_args(args)
     except ValueError as exc:
@@ -62,6 +67,7 @@ def teach_config(args: argparse.Namespace) -> Any:
         online=args.online,
         takeover=OnlineConfig(
             generations_per_case=args.generations_per_case or OnlineConfig.generations_per_case,
+            learner=learner,
             window=args.takeover_window,
             threshold=args.takeover_threshold,
         ),
@@ -143,7 +149,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         description=(
             "Serve a teaching page for the simulated or the real robot: live camera view with "
             "road values, forward/left/right buttons and arrow keys, stop (space), pause library "
-            "learning; with --online the policy evolves as you teach and can take over. Every "
+            "learning; with --online the policy learns as you teach (the GA, or backprop with "
+            "--online-learner bc) and can take over. Every "
             "case is written to --out as it is given (crash-safe .lfdemo, usable by evolve)."
         ),
     )
@@ -177,6 +184,14 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         "--online",
         action="store_true",
         help="evolve a policy while you teach; it offers to take over when it agrees with you",
+    )
+    teach.add_argument(
+        "--online-learner",
+        choices=ONLINE_LEARNERS,
+        default=None,
+        help="with --online: what learns as you teach, the GA or backprop (bc: the bc method's"
+        f" settings, biases with --ga-bias, {OnlineConfig.epochs_per_case} Adam epochs on all"
+        " cases after each new case; default: ga)",
     )
     teach.add_argument(
         "--generations-per-case",
@@ -226,8 +241,8 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     teach.add_argument(
         "--ga-bias",
         action="store_true",
-        help="with --online: networks with biases (the map-only policy kind needs them to reach"
-        " steep weights)",
+        help="with --online: networks with biases, GA or backprop (the map-only policy kind needs"
+        " them to reach steep weights)",
     )
     teach.add_argument(
         "--mutation-delta",

@@ -10,8 +10,9 @@ human's effort, counted the same way for every method (:func:`effort_record`).
 Methods:
 
 * ``paper`` — demonstration, then the GA offline (the paper, §4.2.5; :mod:`.paper`).
-* ``online`` — the GA learns while the scripted human demonstrates; the policy takes over when
-  it agrees, the human takes control back by the intervention rule (:mod:`.online`).
+* ``online`` — the GA (or, with ``learner = "bc"``, backprop) learns while the scripted human
+  demonstrates; the policy takes over when it agrees, the human takes control back by the
+  intervention rule (:mod:`.online`).
 * ``hg-dagger`` — the paper's demonstration and GA, then rounds of autonomous runs with the
   human intervening; the GA re-run on all cases after each round (:mod:`.hg_dagger`; with
   ``learner = "bc"`` backprop in the GA's place).
@@ -74,7 +75,9 @@ register_method(
         "online",
         online.learn,
         OnlineConfig,
-        summary="evolve while demonstrating, policy takes over, human corrects",
+        summary="learn while demonstrating, policy takes over, human corrects; see"
+        " --online-learner",
+        flags=MethodFlags(online.add_flags, online.flags_given, online.settings_from_flags),
     )
 )
 register_method(

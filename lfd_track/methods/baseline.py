@@ -13,7 +13,9 @@ from ..learning.bc import BCConfig
 from ..learning.cmaes import CMAESConfig
 from ..learning.elman import fit_bc_elman
 from ..learning.learners import learner_for
+from ..learning.result import LearnerFit
 from ..policy.controller import Controller
+from ..vision.road_library import RoadLibrary
 from .common import Learned, MethodContext
 from .offline import episodes, learned_offline, offline_cases, views_record
 
@@ -43,20 +45,7 @@ def fit_after_demonstration(context: MethodContext, learner: BCConfig | CMAESCon
         result = fit_bc_elman(x, a, learner, rng, episodes=episodes(demo, context.mirror))
     else:
         result = trainer.fit(x, a, rng)
-    controller = Controller(
-        library,
-        result.weights,
-        bias=learner.bias,
-        learner=trainer.name,
-        learner_config=learner.to_dict(),
-        seed=context.ga_seed,
-        fitness_history=result.history.tolist(),
-        memory=context.memory,
-        features=context.features,
-        policy_kind=context.policy_kind,
-        frame_size=context.frame_size,
-        map_geometry=context.map_geometry,
-    )
+    controller = controller_of_fit(context, library, result, learner)
     return learned_offline(
         context,
         summary,
@@ -65,6 +54,32 @@ def fit_after_demonstration(context: MethodContext, learner: BCConfig | CMAESCon
         fitness_best=result.history.tolist(),
         fitness_mean=[],
         extra={"learner": result.learner, **views_record(views)},
+    )
+
+
+def controller_of_fit(
+    context: MethodContext,
+    library: RoadLibrary,
+    fit: LearnerFit,
+    learner: BCConfig | CMAESConfig,
+) -> Controller:
+    """The controller of ``fit``, made by the learner whose settings are ``learner`` (backprop or
+    CMA-ES), driving with ``library`` and the context's inputs: what the ``bc`` and ``cma-es``
+    methods write, and what ``hg-dagger`` and ``online`` with learner ``"bc"`` relabel as
+    theirs."""
+    return Controller(
+        library,
+        fit.weights,
+        bias=learner.bias,
+        learner=learner_for(learner).name,
+        learner_config=learner.to_dict(),
+        seed=context.ga_seed,
+        fitness_history=fit.history.tolist(),
+        memory=context.memory,
+        features=context.features,
+        policy_kind=context.policy_kind,
+        frame_size=context.frame_size,
+        map_geometry=context.map_geometry,
     )
 
 

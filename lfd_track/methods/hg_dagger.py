@@ -150,19 +150,7 @@ def learn(context: MethodContext) -> Learned:
             settings = {"ga": ga.to_dict()}
         else:
             fit = learner_for(context.bc).fit(*training_set(context, all_x, all_a), ga_rng)
-            fitted = Controller(
-                library,
-                fit.weights,
-                bias=context.bc.bias,
-                learner=fit.learner,
-                learner_config=context.bc.to_dict(),
-                seed=context.ga_seed,
-                fitness_history=fit.history.tolist(),
-                memory=context.memory,
-                features=features,
-                frame_size=context.frame_size,
-                map_geometry=context.map_geometry,
-            )
+            fitted = baseline.controller_of_fit(context, library, fit, context.bc)
             fitness_best += fit.history.tolist()
             settings = {"bc": context.bc.to_dict()}
         controller = fitted.relabelled("hg-dagger", {**hg.to_dict(), **settings})

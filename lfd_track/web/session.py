@@ -74,8 +74,8 @@ class TeachConfig:
     online: bool = False
     """Evolve a policy while the person teaches; it is offered the wheel when it agrees."""
     takeover: OnlineConfig = field(default_factory=OnlineConfig)
-    """How the policy learns (generations per case) and earns the wheel (window, threshold);
-    the intervention settings are the benchmark's only."""
+    """How the policy learns (the learner, its steps per case) and earns the wheel (window,
+    threshold); the intervention settings are the benchmark's only."""
     population_size: int = 40
     """GA population of the online learner (the paper's 40)."""
     memory: MemoryConfig = field(default_factory=NoMemory)
@@ -85,7 +85,8 @@ class TeachConfig:
     """Per-region inputs of the online policy (:data:`~lfd_track.policy.features.FEATURE_SETS`;
     ``"none"``: the memory inputs alone)."""
     ga_bias: bool = False
-    """With ``online``: networks with biases (``GAConfig.bias``)."""
+    """With ``online``: networks with biases (``GAConfig.bias``, or ``BCConfig.bias`` with
+    learner ``"bc"``)."""
     mutation_delta: float = 0.1
     """With ``online``: the GA's mutation step (``GAConfig.mutation_delta``, the paper's 0.1)."""
     library_only: int = 0
@@ -483,6 +484,10 @@ def open_session(config: TeachConfig) -> LoopSession:
             "threshold": takeover.threshold,
             "population_size": config.population_size,
         }
+        if takeover.learner != "ga":  # a recording taught with the GA reads as it always did
+            metadata["online_settings"].update(
+                learner=takeover.learner, epochs_per_case=takeover.epochs_per_case
+            )
     # As ``lfd-track demo --force``: an existing file is kept until the new recording is closed
     # (then replaced, if it holds a case); until then the recording has a name of its own.
     target = RecordingTarget(out, replace=config.force and out.exists())
@@ -561,11 +566,18 @@ def open_session(config: TeachConfig) -> LoopSession:
 
 
 def _online_parts(config: TeachConfig, n_inputs: int) -> tuple[PolicyCommander, Any]:
-    """The policy commander and the loop's GA learner feed, which updates its weights."""
+    """The policy commander and the loop's learner feed (the GA, or backprop with learner
+    ``"bc"``), which updates its weights."""
+    from ..learning.bc import BCConfig
     from ..learning.ga import GAConfig
-    from ..teaching.learner_feed import GALearnerFeed
+    from ..teaching.learner_feed import BCLearnerFeed, GALearnerFeed
 
     policy = PolicyCommander(None)  # no policy until the first case was learned
+    if config.takeover.learner == "bc":
+        bc = BCConfig(bias=config.ga_bias)
+        rng = np.random.default_rng(config.seed)
+        epochs = config.takeover.epochs_per_case
+        return policy, BCLearnerFeed(bc, rng, epochs, policy, n_inputs)
     learner = GALearnerFeed(
         GAConfig(
             population_size=config.population_size,

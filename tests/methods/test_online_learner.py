@@ -1,0 +1,171 @@
+"""The ``online`` method's learner: the GA by default (its files unchanged), or backprop while
+the human demonstrates, ending with the controller the ``bc`` learner writes for those cases."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from lfd_track.benchmark.runner import repetition_seeds
+from lfd_track.cli import main
+from lfd_track.dataset import load_demonstration
+from lfd_track.demo.demonstrator import HumanConfig
+from lfd_track.errors import FileFormatError
+from lfd_track.learning.bc import BCConfig
+from lfd_track.learning.learners import learner_for
+from lfd_track.learning.mirror import with_mirrored
+from lfd_track.methods import MethodContext, OnlineConfig, learn_online
+from lfd_track.methods.baseline import controller_of_fit
+from lfd_track.policy.memory import FreshFeltConfig
+from lfd_track.study.spec import load_study
+
+BC = BCConfig(epochs=300, bias=True)
+"""Backprop of the goal's chosen learner (biases), fewer epochs for a quick final fit."""
+ONLINE_BC = OnlineConfig(learner="bc")
+
+
+def _seeds() -> tuple[int, int]:
+    """(demo, ga) seeds of repetition 0 of benchmark seed 0, drawn as the runner draws them."""
+    rng = np.random.default_rng(repetition_seeds(0, 1)[0])
+    demo_seed, ga_seed, _ = (int(x) for x in rng.integers(0, 2**62, size=3))
+    return demo_seed, ga_seed
+
+
+def _context() -> dict:
+    """The human-taught goal's inputs: the centreline human with its delays and lapses, the
+    fresh_felt map afresh per leg read alone by the network, cases mirrored too."""
+    demo_seed, ga_seed = _seeds()
+    return dict(
+        demo_seed=demo_seed,
+        ga_seed=ga_seed,
+        preset="paper",
+        human=HumanConfig(clear_memory_per_leg=True),
+        memory=FreshFeltConfig(),
+        features="none",
+        mirror=True,
+        bc=BC,
+    )
+
+
+@pytest.fixture(scope="module")
+def bc_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("online_bc")
+    return out, learn_online(out, online=ONLINE_BC, **_context())
+
+
+def test_online_by_backprop_learns_while_the_human_demonstrates(bc_run):
+    """The policy refitted by backprop after every case earns the wheel, and the controller
+    fits the demonstration's cases well above always driving forward."""
+    out, learned = bc_run
+    demo = load_demonstration(out / "demonstration.lfdemo")
+    commands = np.asarray(demo.commands)
+    forward_share = float((commands == 0).mean())
+    # training accuracy on its own cases (the unmirrored ones): 0.84 on this run
+    assert learned.training_accuracy >= 0.7
+    assert learned.training_accuracy >= forward_share + 0.1
+    assert learned.effort["takeovers"] >= 1 and learned.effort["autonomous_drive_s"] > 0
+    assert learned.effort["corrections"] >= 1
+    assert learned.demo["correction_cases"] >= 1
+    # epochs_per_case Adam epochs after every case, no GA generations
+    assert learned.demo["epochs_while_teaching"] == ONLINE_BC.epochs_per_case * demo.n_cases
+    assert "generations" not in learned.demo
+    assert len(learned.fitness_best) == BC.epochs and learned.fitness_mean == []
+
+
+def test_online_by_backprop_writes_the_bc_fit_of_its_cases(bc_run, tmp_path):
+    """The controller is the bc learner's fit on all cases and their mirror images (generator
+    ga_seed), made by the helper the bc and hg-dagger methods use, relabelled as online's."""
+    out, learned = bc_run
+    context = _context()
+    demo = load_demonstration(out / "demonstration.lfdemo")
+    memory, features = context["memory"], context["features"]
+    x, a = with_mirrored(demo.policy_inputs(features), demo.commands, memory, features)
+    fit = learner_for(BC).fit(x, a, np.random.default_rng(context["ga_seed"]))
+    controller = learned.controller
+    np.testing.assert_allclose(controller.weights, fit.weights, rtol=0, atol=1e-9)
+    expected = controller_of_fit(
+        MethodContext(tmp_path, settings=ONLINE_BC, **context), controller.library, fit, BC
+    ).relabelled("online", {**ONLINE_BC.to_dict(), "bc": BC.to_dict()})
+    assert controller.learner == "online" and controller.bias and controller.n_inputs == 3
+    assert controller.learner_config == {**ONLINE_BC.to_dict(), "bc": BC.to_dict()}
+    assert controller.learner_config["learner"] == "bc"
+    mine, theirs = controller.to_dict(), expected.to_dict()
+    assert set(mine) == set(theirs)
+    assert {k: v for k, v in mine.items() if k not in ("weights", "fitness_history")} == {
+        k: v for k, v in theirs.items() if k not in ("weights", "fitness_history")
+    }
+
+
+def test_online_by_backprop_is_deterministic(bc_run, tmp_path):
+    _, first = bc_run
+    again = learn_online(tmp_path, online=ONLINE_BC, **_context())
+    assert again.effort == first.effort and again.demo == first.demo
+    np.testing.assert_allclose(again.controller.weights, first.controller.weights, atol=1e-9)
+
+
+def test_online_learner_setting_defaults_to_the_ga_and_refuses_what_it_cannot_use():
+    # "ga", the default, is left out of the settings (files written before it still match)
+    assert set(OnlineConfig().to_dict()) == {
+        "generations_per_case",
+        "window",
+        "threshold",
+        "intervention",
+    }
+    assert OnlineConfig.from_dict(ONLINE_BC.to_dict()) == ONLINE_BC
+    assert ONLINE_BC.to_dict()["learner"] == "bc"
+    bc = OnlineConfig(learner="bc", epochs_per_case=5)
+    assert OnlineConfig.from_dict(bc.to_dict()) == bc
+    with pytest.raises(ValueError, match="online learner must be one of ga, bc, got 'cma-es'"):
+        OnlineConfig(learner="cma-es")
+    with pytest.raises(ValueError, match="online epochs_per_case is for learner 'bc'"):
+        OnlineConfig(epochs_per_case=5)
+    with pytest.raises(ValueError, match="online generations_per_case is for learner 'ga'"):
+        OnlineConfig(learner="bc", generations_per_case=4)
+    with pytest.raises(ValueError, match="epochs_per_case"):
+        dataclasses.replace(ONLINE_BC, epochs_per_case=0)
+
+
+def test_online_by_backprop_needs_the_mlp(tmp_path):
+    from lfd_track.methods import online
+
+    context = MethodContext(
+        tmp_path, demo_seed=1, ga_seed=2, settings=ONLINE_BC, policy_kind="elman-sigmoid"
+    )
+    with pytest.raises(ValueError, match="online learner 'bc' fits an MLP"):
+        online.learn(context)
+
+
+def test_a_study_condition_names_the_online_learner(tmp_path):
+    body = (
+        '[study]\nseeds = [0]\nrepetitions = 1\n[[conditions]]\nname = "o"\nmethod = "online"\n'
+        '[conditions.online]\nlearner = "bc"\n'
+    )
+    path = tmp_path / "s.toml"
+    path.write_text(body)
+    study = load_study(path)
+    assert study.conditions[0].config.settings_of() == ONLINE_BC
+    path.write_text(body.replace('"bc"', '"sgd"'))
+    with pytest.raises(FileFormatError, match="online learner must be one of ga, bc"):
+        load_study(path)
+
+
+def test_the_benchmark_flag_sets_the_online_learner(tmp_path, capsys, monkeypatch):
+    from lfd_track.benchmark import runner
+
+    class Stop(Exception):
+        """The settings reached the run: stop before any work."""
+
+    def fake_run_benchmark(config, work, *, workers, progress):
+        raise Stop(config.settings_of())
+
+    monkeypatch.setattr(runner, "run_benchmark", fake_run_benchmark)
+    out = str(tmp_path / "out")
+    assert main(["benchmark", "--online-learner", "bc", "--out", out]) == 2
+    assert "--online-learner needs --method online" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["benchmark", "--method", "online", "--online-learner", "sgd", "--out", out])
+    assert "invalid choice: 'sgd'" in capsys.readouterr().err
+    for flags, settings in ((["--online-learner", "bc"], ONLINE_BC), ([], OnlineConfig())):
+        with pytest.raises(Stop) as stopped:
+            main(["--quiet", "benchmark", "--method", "online", *flags, "--out", out])
+        assert stopped.value.args == (settings,)

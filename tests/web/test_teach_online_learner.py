@@ -1,0 +1,81 @@
+"""``lfd-track teach --online --online-learner bc``: backprop learns while the person teaches (the
+learner of the goal taught by the paper's human model), the GA stays the default."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+from lfd_test_support import wait_until
+from websockets.sync.client import connect
+
+from lfd_track.cli import main
+from lfd_track.dataset import load_demonstration
+from lfd_track.teaching.learner_feed import BCLearnerFeed, GALearnerFeed
+
+
+def _teach(station, commands: list[str]) -> dict:
+    """Tap each command over the page's WebSocket; the status once the last is recorded."""
+    session = station.session
+    with connect(station.url.replace("http", "ws") + "ws", proxy=None, max_queue=None) as ws:
+        for given, command in enumerate(commands, start=1):
+            ws.send(json.dumps({"type": "press", "command": command}))
+            ws.send(json.dumps({"type": "release"}))
+            status = wait_until(
+                lambda given=given: (
+                    (s := session.status())["cases"] == given
+                    and not session.commander.pending
+                    and not s["driving"]
+                    and s
+                ),
+                f"{given} cases",
+            )
+    return status
+
+
+@pytest.mark.parametrize(
+    ("flags", "message"),
+    [
+        (["--online-learner", "bc"], "--online-learner is for --online: give --online"),
+        (
+            ["--online", "--online-learner", "bc", "--generations-per-case", "3"],
+            "--generations-per-case is for --online-learner ga, not bc",
+        ),
+    ],
+)
+def test_the_online_learner_flag_is_refused_where_it_means_nothing(
+    tmp_path, capsys, flags, message
+):
+    out = tmp_path / "t.lfdemo"
+    assert main(["teach", *flags, "--out", str(out)]) != 0
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and message in err
+    assert not out.exists()
+
+
+def test_online_teaching_by_backprop_refits_the_map_only_network_after_every_case(open_station):
+    """The goal's chosen policy kind (the fresh_felt map read alone, a 3-5-3 network with
+    biases, 38 weights) learned by backprop as the person teaches: epochs_per_case epochs after
+    each case; the recording names the learner."""
+    flags = ["--memory", "fresh_felt", "--features", "none", "--ga-bias"]
+    station = open_station("--online", "--online-learner", "bc", *flags)
+    session = station.session
+    status = _teach(station, ["forward", "forward", "left", "forward"])
+    feed = session.learner
+    assert isinstance(feed, BCLearnerFeed)
+    assert status["generation"] == 4 * feed.epochs_per_case == feed.generation
+    assert 0.0 <= status["best_fitness"] <= 1.0
+    assert feed.weights.shape == (38,) and session.policy.weights.shape == (38,)
+    session.close()
+    settings = load_demonstration(station.out).metadata["online_settings"]
+    assert settings["learner"] == "bc" and settings["epochs_per_case"] == feed.epochs_per_case
+
+
+def test_online_teaching_keeps_the_ga_by_default(open_station):
+    station = open_station("--online", "--population", "10")
+    session = station.session
+    _teach(station, ["forward", "left"])
+    assert isinstance(session.learner, GALearnerFeed)
+    session.close()
+    settings = load_demonstration(station.out).metadata["online_settings"]
+    assert "learner" not in settings and "epochs_per_case" not in settings
