@@ -202,6 +202,22 @@ class ProgressTracker:
         end_idx = (start_idx + 1) % m
         self._tan0 = np.tan(turns[start_idx] / 2.0)
         self._tan1 = np.tan(turns[end_idx] / 2.0)
+        # The same numbers as Python floats, one tuple per segment, for ``update``: a track has a
+        # few segments, and the arithmetic of a handful of floats costs less in Python than the
+        # calls of some twenty numpy operations on arrays that short.
+        self._segments = tuple(
+            zip(
+                a[:, 0].tolist(),
+                a[:, 1].tolist(),
+                self._dir[:, 0].tolist(),
+                self._dir[:, 1].tolist(),
+                self._len.tolist(),
+                self._s0.tolist(),
+                self._tan0.tolist(),
+                self._tan1.tolist(),
+                strict=True,
+            )
+        )
 
     def candidates(self, point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Progress on every segment's zone (S,) [m] and a closeness cost (S,) [m]."""
@@ -220,7 +236,66 @@ class ProgressTracker:
         return s, cost
 
     def update(self, point: np.ndarray) -> float:
-        """Advance to the progress of ``point`` (2,) [m]; returns the new progress [m]."""
+        """Advance to the progress of ``point`` (2,) [m]; returns the new progress [m].
+
+        The arithmetic of :meth:`candidates` and of the choice below, float by float in the same
+        order (the same IEEE operations numpy applies element by element), so the same progress
+        to the bit; a point that is not finite takes the array path (:meth:`_update_arrays`)."""
+        x, y = float(point[0]), float(point[1])
+        if not (math.isfinite(x) and math.isfinite(y)):
+            return self._update_arrays(point)
+        track = self.track
+        closed = track.closed
+        length = track.length_m
+        progress = self.progress_m
+        s_all: list[float] = []
+        cost_all: list[float] = []
+        for ax, ay, dx, dy, seg_len, s0, tan0, tan1 in self._segments:
+            rx, ry = x - ax, y - ay
+            along = rx * dx + ry * dy
+            lateral = -rx * dy + ry * dx
+            a0 = lateral * tan0
+            a1 = seg_len - lateral * tan1
+            width = a1 - a0
+            span = width if width > 1e-6 else 1e-6
+            u = (along - a0) / span
+            # np.clip(u, 0, 1): the larger of u and 0 (0 for -0.0), then the smaller of that and 1.
+            clipped = u if u > 0.0 else 0.0
+            clipped = clipped if clipped < 1.0 else 1.0
+            s = s0 + clipped * seg_len
+            inside = u >= 0.0 and u <= 1.0 and width > 1e-6
+            cost = abs(lateral) + (0.0 if inside else abs(u - clipped) * span)
+            if closed:
+                # np.round: half to even, with the sign of a zero kept.
+                ratio = (progress - s) / length
+                k = math.copysign(float(round(ratio)), ratio)
+                s = s + k * length
+            s_all.append(s)
+            cost_all.append(cost)
+        best = 0
+        if self._first:
+            # First fix: the globally closest zone (ties go to the earliest segment).
+            self._first = False
+            for i, c in enumerate(cost_all):
+                if c < cost_all[best]:
+                    best = i
+        else:
+            delta = [abs(s - progress) for s in s_all]
+            window = self.window_m
+            ok = [d <= window for d in delta]
+            if not any(ok):
+                # Far from everywhere we could have reached: keep the nearest in arc length.
+                limit = min(delta) + 1e-9
+                ok = [d <= limit for d in delta]
+            best_cost = math.inf
+            for i, c in enumerate(cost_all):
+                if ok[i] and c < best_cost:
+                    best, best_cost = i, c
+        self.progress_m = s_all[best]
+        return self.progress_m
+
+    def _update_arrays(self, point: np.ndarray) -> float:
+        """:meth:`update` on numpy arrays (the reference the float-by-float path follows)."""
         track = self.track
         length = track.length_m
         s_candidates, cost = self.candidates(point)
