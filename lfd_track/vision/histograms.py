@@ -97,11 +97,11 @@ def normalize_minmax(counts: np.ndarray) -> np.ndarray:
     # many short rows slowly, and a minimum or maximum is exact in any order.
     by_bin = np.ascontiguousarray(counts.reshape(-1, counts.shape[-1]).T)
     keep = (*counts.shape[:-1], 1)
-    lo = by_bin.min(axis=0).reshape(keep)
-    hi = by_bin.max(axis=0).reshape(keep)
+    lo = np.minimum.reduce(by_bin, axis=0).reshape(keep)
+    hi = np.maximum.reduce(by_bin, axis=0).reshape(keep)
     span = hi - lo
     # OpenCV: scale = 1 / (max - min) if the span exceeds DBL_EPSILON, else 0; shift = -min * scale.
-    scale = np.where(span > DBL_EPSILON, 1.0 / np.where(span > 0, span, 1.0), 0.0)
+    scale = np.divide(1.0, span, out=np.zeros_like(span), where=span > DBL_EPSILON)
     return (counts * scale - lo * scale).astype(np.float32)
 
 
@@ -301,7 +301,9 @@ def centred_unit(hists: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     h = np.asarray(hists, dtype=np.float64)
     if h.ndim != 3 or h.shape[1] != N_CHANNELS:
         raise ValueError(f"histograms must have shape (M, {N_CHANNELS}, bins), got {h.shape}")
-    centred = h - h.mean(axis=2, keepdims=True)
+    # The mean as ``ndarray.mean`` takes it (the sum, then divided by the count), without the
+    # Python wrapper around it.
+    centred = h - np.add.reduce(h, axis=2, keepdims=True) / h.shape[2]
     sumsq = np.einsum("mcb,mcb->cm", centred, centred)
     norm = np.sqrt(sumsq)
     unit = centred.transpose(1, 0, 2) / np.where(norm > 0, norm, 1.0)[:, :, None]
@@ -322,7 +324,10 @@ def similarity_matrix(
     corr = np.matmul(unit_a, unit_b.transpose(0, 2, 1))  # (5, M, K)
     # A flat pair exists in channel c only if the two smallest sums of squares multiply to at most
     # DBL_EPSILON (all are >= 0); checking that first skips the (5, M, K) mask in the usual case.
-    if ss_a.size and ss_b.size and np.any(ss_a.min(axis=1) * ss_b.min(axis=1) <= DBL_EPSILON):
-        flat = ss_a[:, :, None] * ss_b[:, None, :] <= DBL_EPSILON
-        corr[flat] = 1.0
-    return corr.mean(axis=0)
+    if ss_a.size and ss_b.size:
+        smallest = np.minimum.reduce(ss_a, axis=1) * np.minimum.reduce(ss_b, axis=1)
+        if (smallest <= DBL_EPSILON).any():
+            flat = ss_a[:, :, None] * ss_b[:, None, :] <= DBL_EPSILON
+            corr[flat] = 1.0
+    # The mean over the channels as ``ndarray.mean`` takes it, without its Python wrapper.
+    return np.add.reduce(corr, axis=0) / corr.shape[0]
