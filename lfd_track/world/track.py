@@ -134,20 +134,36 @@ class Track:
             ext_b[-1] = 0.0
         return a, d, lengths, ext_a, ext_b
 
+    @cached_property
+    def _felt_test(self) -> tuple[np.ndarray, ...]:
+        """Per strip, as contiguous (S,) arrays: start x and y, direction x and y, minus the
+        direction's y, the extent along the strip (from minus the back extension to the length
+        plus the front one), and half the width (S, the same for every strip)."""
+        a, d, lengths, ext_a, ext_b = self._strip_frames
+        half = np.full(len(a), self.width_m / 2.0)
+        columns = (a[:, 0], a[:, 1], d[:, 0], d[:, 1], -d[:, 1], -ext_a, lengths + ext_b, half)
+        return tuple(np.ascontiguousarray(c) for c in columns)
+
     def on_felt(self, points: np.ndarray) -> np.ndarray:
-        """Whether each of ``points`` (..., 2) [m] lies on the felt; returns bool array (...)."""
+        """Whether each of ``points`` (..., 2) [m] lies on the felt; returns bool array (...).
+
+        Each point relative to each strip's start, measured along the strip and across it, as
+        ``rel @ d`` and ``rel @ (-d_y, d_x)`` element by element (``-r_x * d_y`` as ``r_x *
+        (-d_y)``: the same number), with the strip-wise constants computed once."""
         pts = np.asarray(points, dtype=np.float64)
         flat = pts.reshape(-1, 2)
-        a, d, lengths, ext_a, ext_b = self._strip_frames
-        rel = flat[:, None, :] - a[None, :, :]  # (P, S, 2)
-        along = rel[..., 0] * d[None, :, 0] + rel[..., 1] * d[None, :, 1]
-        across = -rel[..., 0] * d[None, :, 1] + rel[..., 1] * d[None, :, 0]
-        inside = (
-            (along >= -ext_a[None])
-            & (along <= lengths[None] + ext_b[None])
-            & (np.abs(across) <= self.width_m / 2.0)
-        )
-        return inside.any(axis=1).reshape(pts.shape[:-1])
+        ax, ay, dx, dy, minus_dy, low, high, half = self._felt_test
+        rx = flat[:, 0, None] - ax  # (P, S)
+        ry = flat[:, 1, None] - ay
+        along = rx * dx
+        along += ry * dy
+        across = rx * minus_dy
+        across += ry * dx
+        inside = along >= low
+        inside &= along <= high
+        np.abs(across, out=across)
+        inside &= across <= half
+        return np.logical_or.reduce(inside, axis=1).reshape(pts.shape[:-1])
 
     def point_at(self, s_m: float) -> tuple[np.ndarray, float]:
         """Centreline point (2,) [m] and heading [rad] at arc length ``s_m`` (wrapped on loops)."""

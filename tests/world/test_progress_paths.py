@@ -31,3 +31,39 @@ def test_update_not_finite_takes_the_array_path() -> None:
     fast, reference = ProgressTracker(track), ProgressTracker(track)
     point = np.array([np.nan, 1.0])
     assert np.isnan(fast.update(point)) == np.isnan(reference._update_arrays(point))
+
+
+def _on_felt_reference(track, points: np.ndarray) -> np.ndarray:
+    pts = np.asarray(points, dtype=np.float64)
+    flat = pts.reshape(-1, 2)
+    a, d, lengths, ext_a, ext_b = track._strip_frames
+    rel = flat[:, None, :] - a[None, :, :]
+    along = rel[..., 0] * d[None, :, 0] + rel[..., 1] * d[None, :, 1]
+    across = -rel[..., 0] * d[None, :, 1] + rel[..., 1] * d[None, :, 0]
+    inside = (
+        (along >= -ext_a[None])
+        & (along <= lengths[None] + ext_b[None])
+        & (np.abs(across) <= track.width_m / 2.0)
+    )
+    return inside.any(axis=1).reshape(pts.shape[:-1])
+
+
+@pytest.mark.parametrize("name", ["testing", "training", "sbend", "random:test:3"])
+def test_on_felt_equals_reference(name: str) -> None:
+    track = load_track(name)
+    rng = np.random.default_rng(7)
+    xmin, ymin, xmax, ymax = track.bounds(0.3)
+    points = np.column_stack([rng.uniform(xmin, xmax, 5000), rng.uniform(ymin, ymax, 5000)])
+    # Points on the strips' edges and ends, where a rounding would flip the answer.
+    half = track.width_m / 2.0
+    for a, b in zip(track.segment_starts, track.segment_ends, strict=True):
+        d = (b - a) / np.hypot(*(b - a))
+        normal = np.array([-d[1], d[0]])
+        t = rng.uniform(-half, np.hypot(*(b - a)) + half, (200, 1))
+        points = np.concatenate([points, a + t * d + half * normal, a + t * d - half * normal])
+    inside = track.on_felt(points)
+    np.testing.assert_array_equal(inside, _on_felt_reference(track, points))
+    assert 0 < inside.sum() < len(inside)
+    shaped = points[:12].reshape(3, 4, 2)
+    np.testing.assert_array_equal(track.on_felt(shaped), _on_felt_reference(track, shaped))
+    assert track.on_felt(np.zeros((0, 2))).shape == (0,)
