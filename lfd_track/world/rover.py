@@ -310,6 +310,10 @@ class Rover:
         limit = self._lateral_limit_n
         along = self._along
         cos, sin = math.cos, math.sin
+        # Factors of the slip resistance below, multiplied once instead of at every point of
+        # every substep (``-2.0 * c_pt * u`` is ``(-2.0 * c_pt) * u``: the same number).
+        slip_gain = -2.0 * c_pt
+        lim = 2.0 * limit
         for _ in range(n_sub):
             v = velocity()
             vx, vy = v.x, v.y
@@ -329,8 +333,7 @@ class Rover:
             # so one value per position covers the pair.
             f_side = 0.0
             for x in along:
-                f = -2.0 * c_pt * (v_left + w * x)
-                lim = 2.0 * limit
+                f = slip_gain * (v_left + w * x)
                 f = lim if f > lim else (-lim if f < -lim else f)
                 f_side += f
                 torque += x * f
