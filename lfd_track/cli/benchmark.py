@@ -14,6 +14,7 @@ from typing import Any
 from ..benchmark import runner
 from ..benchmark.config import MAX_RANDOM_LOOPS, ROOMS
 from ..demo.demonstrator import HumanConfig
+from ..learning.bc import BCConfig
 from ..methods import get_method, method_names, methods
 from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
 from ..policy.memory import MEMORY_KINDS
@@ -164,6 +165,12 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         " trained by the GA with --method paper, by backprop through time with --method bc)",
     )
     bench.add_argument(
+        "--bc-bias",
+        action="store_true",
+        help="backprop's networks have biases (the bc settings: --method bc, and --online-learner,"
+        " --hg-dagger-learner or --dagger-learner bc; default: none, the paper's network)",
+    )
+    bench.add_argument(
         "--shifted-views",
         action="store_true",
         help="learn also from each case's views from a step behind and a pivot either way,"
@@ -226,6 +233,7 @@ def run(args: argparse.Namespace) -> int:
             policy_kind=args.policy_kind,
             demo_track=args.demo_track,
             features=args.features,
+            **({"bc": BCConfig(bias=True)} if args.bc_bias else {}),
             **runner.settings_arguments(tables),
         )
     except ValueError as exc:

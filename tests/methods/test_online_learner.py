@@ -149,14 +149,17 @@ def test_a_study_condition_names_the_online_learner(tmp_path):
         load_study(path)
 
 
-def test_the_benchmark_flag_sets_the_online_learner(tmp_path, capsys, monkeypatch):
+def test_the_benchmark_flags_run_the_chosen_learner_online(tmp_path, capsys, monkeypatch):
+    """``--method online --online-learner bc --bc-bias``: backprop with biases, the learner of
+    the goal taught by the paper's human model; the flag is refused without ``--method
+    online``."""
     from lfd_track.benchmark import runner
 
     class Stop(Exception):
         """The settings reached the run: stop before any work."""
 
     def fake_run_benchmark(config, work, *, workers, progress):
-        raise Stop(config.settings_of())
+        raise Stop(config.settings_of(), config.bc)
 
     monkeypatch.setattr(runner, "run_benchmark", fake_run_benchmark)
     out = str(tmp_path / "out")
@@ -165,7 +168,10 @@ def test_the_benchmark_flag_sets_the_online_learner(tmp_path, capsys, monkeypatc
     with pytest.raises(SystemExit):
         main(["benchmark", "--method", "online", "--online-learner", "sgd", "--out", out])
     assert "invalid choice: 'sgd'" in capsys.readouterr().err
-    for flags, settings in ((["--online-learner", "bc"], ONLINE_BC), ([], OnlineConfig())):
+    for flags, settings, bc in (
+        (["--online-learner", "bc", "--bc-bias"], ONLINE_BC, BCConfig(bias=True)),
+        ([], OnlineConfig(), BCConfig()),
+    ):
         with pytest.raises(Stop) as stopped:
             main(["--quiet", "benchmark", "--method", "online", *flags, "--out", out])
-        assert stopped.value.args == (settings,)
+        assert stopped.value.args == (settings, bc)
