@@ -8,7 +8,9 @@ ones came in; ``update`` returns the best weights so far, which a policy can dri
 
 Only the GA is incremental (ask/tell: the population is re-scored on the grown case set and a few
 generations run). Backprop and CMA-ES are fitted from scratch; re-fitting them after each case
-would cost a whole run per case.
+would cost a whole run per case (while a person teaches, the online method's backprop feed,
+:class:`~lfd_track.teaching.learner_feed.BCLearnerFeed`, instead continues Adam for a few epochs
+per case from the current weights).
 
 The runtime side (``Controller``, the policy commander) never imports this module: a policy
 does not need its trainer.
