@@ -61,8 +61,10 @@ class OnlineConfig(TakeoverConfig):
     by ``benchmarks/speed/bench_budget.py``."""
     epochs_per_case: int = 20
     """With learner ``"bc"``: full-batch Adam epochs on all cases so far after each new case,
-    continuing from the current weights (1..10 000). 20 keeps a demonstration's learning to a
-    few seconds of one core (``benchmarks/speed/bench_budget.py``)."""
+    continuing from the current weights (1..10 000). With 20 a repetition of the human-taught
+    goal's configuration learns in about half a second of one core, the refits and the final fit
+    together, and one refit takes a few milliseconds (``benchmarks/speed/bench_budget.py``; the
+    budget is 60 s per repetition)."""
 
     def to_dict(self) -> dict[str, Any]:
         """The settings as a dict; ``learner`` and ``epochs_per_case`` only when the learner is
