@@ -34,7 +34,10 @@ such runs, and reading the training accuracy with that baseline in mind, are the
   it there is, and how far its centre lies. Each frame's 40 road values are
   placed on the floor where their regions' centres look (the camera's geometry; the last
   :data:`MAP_FRAMES` frames are kept), and every executed command moves the map by the rover's
-  nominal motion for it (a forward step, a pivot). The camera and the motion are the map's
+  nominal motion for it (a forward step, a pivot; with ``motion = "visual"``, by the motion the
+  camera measures between the frames before and after it, :mod:`lfd_track.policy.odometry`,
+  and the nominal one where that measurement is not reliable: the perception hands each frame
+  to :meth:`FreshFeltMemory.arrive` before its road values). The camera and the motion are the map's
   :class:`~lfd_track.policy.map_geometry.MapGeometry`: with ``geometry = "world"`` (the
   default) those of the world the policy is taught in (the perception passes them; with
   ``geometry = "calibrated"`` the world's camera and the motion a calibration measured there),
@@ -79,6 +82,7 @@ from __future__ import annotations
 
 import functools
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -101,6 +105,9 @@ from .memory_config import (
     memory_config,
     memory_table_from_v1,
 )
+
+if TYPE_CHECKING:
+    from .odometry import PlanarMotion
 
 __all__ = [
     "BLANK_BEARINGS",
@@ -299,6 +306,13 @@ class FreshFeltMemory:
         self._step = self.geometry.step_m
         angle = math.radians(self.geometry.pivot_deg)
         self._cos, self._sin = math.cos(angle), math.sin(angle)
+        # motion = "visual": the camera measures each command's motion (imported here: the
+        # nominal map needs no image code).
+        self._odometry = None
+        if config.motion == "visual":
+            from .odometry import floor_odometry
+
+            self._odometry = floor_odometry(self.geometry)
         self.reset()
 
     def reset(self) -> None:
@@ -314,6 +328,15 @@ class FreshFeltMemory:
         # kept apart (index pairs) and measured again each step.
         self._linked = np.zeros((0, _LINK_BYTES), dtype=np.uint8)
         self._unsure = np.zeros((0, 2), dtype=np.int64)
+        # motion = "visual": the command executed whose frame has not arrived yet, and the floor
+        # view of the last frame that did.
+        self._pending: int | None = None
+        self._view = None
+        self.visual_moves = 0
+        """motion = "visual": this episode's commands the map moved by the measured motion."""
+        self.nominal_moves = 0
+        """motion = "visual": this episode's commands moved by the nominal one (no reliable
+        measurement, or no frame)."""
 
     def _moved(self, points: np.ndarray, command: int) -> np.ndarray:
         """``points`` (N, 2) in the rover frame after it executed ``command`` (element by
@@ -326,13 +349,61 @@ class FreshFeltMemory:
         return np.column_stack([self._cos * x - sin * y, sin * x + self._cos * y])
 
     def note(self, command: Command | int) -> None:
-        """The rover executed ``command``: move the map by its nominal motion."""
+        """The rover executed ``command``: move the map by its nominal motion (with ``motion =
+        "visual"``, by the motion measured when the frame after it arrives, :meth:`arrive`)."""
         cmd = int(command)
         if cmd not in (0, 1, 2):
             raise ValueError(f"command must be 0, 1 or 2, got {command!r}")
+        if self._odometry is not None:
+            if self._pending is not None:  # two commands without a frame between them
+                self._settle()
+                self._view = None
+            self._pending = cmd
+            return
         path = np.vstack([self._path, np.zeros((1, 2))])[-_PATH_COMMANDS:]
         self._points = self._moved(self._points, cmd)
         self._path = self._moved(path, cmd)
+
+    def arrive(self, frame: np.ndarray) -> None:
+        """With ``motion = "visual"``: the camera's frame ((H, W, 3) uint8) after the last
+        executed command, before its road values are seen. The map moves by the motion
+        :class:`~lfd_track.policy.odometry.FloorOdometry` measures between the previous frame
+        and this one, or by the command's nominal motion where that measurement is not
+        reliable or no previous frame arrived. Without ``motion = "visual"`` nothing happens."""
+        if self._odometry is None:
+            return
+        view = self._odometry.view(frame)
+        if self._pending is not None:
+            measured = None
+            if self._view is not None:
+                found = self._odometry.motion(self._view, view, self._nominal(self._pending))
+                measured = found.motion if found.reliable else None
+            self._settle(measured)
+        self._view = view
+
+    def _nominal(self, command: int) -> PlanarMotion:
+        """The geometry's motion for ``command`` (a forward step, or a pivot)."""
+        from .odometry import PlanarMotion
+
+        if command == Command.FORWARD:
+            return PlanarMotion(self._step, 0.0, 0.0)
+        pivot = self.geometry.pivot_deg
+        return PlanarMotion(0.0, 0.0, pivot if command == Command.LEFT else -pivot)
+
+    def _settle(self, measured: PlanarMotion | None = None) -> None:
+        """Move the map by the pending command's ``measured`` motion (None: its nominal one)."""
+        command, self._pending = self._pending, None
+        if command is None:
+            return
+        path = np.vstack([self._path, np.zeros((1, 2))])[-_PATH_COMMANDS:]
+        if measured is None:
+            self._points = self._moved(self._points, command)
+            self._path = self._moved(path, command)
+            self.nominal_moves += 1
+        else:
+            self._points = measured.move_points(self._points)
+            self._path = measured.move_points(path)
+            self.visual_moves += 1
 
     def place_before(self, command: Command | int) -> None:
         """The rover stands where ``command`` would bring it here from: one step behind for a
@@ -341,6 +412,8 @@ class FreshFeltMemory:
         cmd = int(command)
         if cmd not in (0, 1, 2):
             raise ValueError(f"command must be 0, 1 or 2, got {command!r}")
+        if self._pending is not None:  # a command whose frame never arrived: its nominal motion
+            self._settle()
         if cmd == Command.FORWARD:
             back = np.array([self._step, 0.0])
             self._points, self._path = self._points + back, self._path + back
@@ -354,6 +427,8 @@ class FreshFeltMemory:
         the road values ``(carpet, felt)`` of felt levels 0 and 1 (with ``felt_levels =
         "library"``, from :class:`~lfd_track.vision.felt_levels.RoadValueLevels`); None: the
         fixed :data:`CARPET_LEVEL` and :data:`FELT_LEVEL`."""
+        if self._pending is not None:  # a command whose frame never arrived: its nominal motion
+            self._settle()
         cfg = self.config
         v = np.asarray(values, dtype=np.float64).reshape(N_REGIONS)
         carpet, felt_at = (CARPET_LEVEL, FELT_LEVEL) if levels is None else levels

@@ -56,6 +56,9 @@ BLANK_DISTANCES = ("blank_reach", "reach")
 MAP_GEOMETRIES = ("world", "paper", "calibrated")
 #: How the ``fresh_felt`` map tells felt from carpet in the road values (``felt_levels``).
 FELT_LEVELS = ("fixed", "library")
+#: How the ``fresh_felt`` map moves at each executed command (``motion``;
+#: :mod:`lfd_track.policy.odometry`).
+MAP_MOTIONS = ("nominal", "visual")
 
 
 def setting(
@@ -307,6 +310,14 @@ class FreshFeltConfig(MemoryConfig):
         " world's levels) or library (levels read from the road values the library gave in the"
         " world it runs in, lfd_track.vision.felt_levels)",
         choices=FELT_LEVELS,
+    )
+    motion: str = setting(
+        "nominal",
+        "how the map moves at each executed command: nominal (the geometry's forward step or"
+        " pivot) or visual (the motion the camera measures between the frames before and after"
+        " it, lfd_track.policy.odometry, the nominal one where that is not reliable; kept: the"
+        " planned robustness study rooms_odometry compares it with nominal)",
+        choices=MAP_MOTIONS,
     )
 
     def _check(self) -> None:

@@ -15,9 +15,11 @@ and shift that lays a rectangle of the later view (the *template*: the floor 0.2
 the nearest floor seen, as wide as the camera sees it there) onto the earlier view. OpenCV's ECC
 registration (``cv2.findTransformECC``, Euclidean motion; it is insensitive to the views'
 contrast and brightness) finds it, first on views of 16 mm pixels from the command's nominal
-motion and from turns 4° either side of it (the best correlation wins: a slipping forward
-command turns the rover up to some 6°), then on the 8 mm views from there. The correlation of
-the final fit is the estimate's confidence (:attr:`FloorMotion.reliable`).
+motion and, unless that fits well, from turns 4° and 8° either side of it (a slipping forward
+command turns the rover up to some 10°; the best correlation among the motions the rover can
+have made wins: a turn traded for a sideways shift can match a strip's straight edges too),
+then on the 8 mm views from there. The fit's correlation and its distance from the nominal
+motion say whether it is trusted (:attr:`FloorMotion.reliable`).
 
 What the floor offers to match: the felt's edges (sharp, but a straight edge says nothing of a
 shift along it), the carpet's pile and patches, and the room's light pools and shadows, which are
@@ -32,6 +34,7 @@ Costs (the paper camera, one thread): warping a frame some 0.3 ms, a registratio
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -41,11 +44,13 @@ import numpy as np
 from ..core.camera_model import CameraModel
 from .map_geometry import MapGeometry
 
-__all__ = ["FloorMotion", "FloorOdometry", "FloorView", "PlanarMotion"]
+__all__ = ["FloorMotion", "FloorOdometry", "FloorView", "PlanarMotion", "floor_odometry"]
 
 #: Least ECC correlation of a fit whose motion is trusted [-] (matched views of felt and carpet
-#: give 0.85-0.99; a fit that slid off gives well below 0.5).
-MIN_CORRELATION = 0.7
+#: mostly give 0.9-0.99, views of little but carpet down to 0.3; a fit that slid off a plausible
+#: motion or found none gives below 0.3 or -1; ``odometry.py``'s measurement: plausible fits
+#: from 0.3 up were within 3 deg of the true turn).
+MIN_CORRELATION = 0.5
 #: Least floor texture a view must show [grey levels, RMS of the high-passed view] (the paper
 #: world's views show 10-25; a featureless floor shows its sensor's noise, some 2).
 MIN_TEXTURE = 4.0
@@ -61,11 +66,15 @@ _TEMPLATE_FROM_M = 0.2  # [m] the template starts this far beyond the nearest fl
 _TEMPLATE_TO_M = 0.75  # [m] and ends this far beyond it
 _SHADING_SIGMA_M = 0.04  # [m] high-pass scale: keeps felt edges and carpet, drops shading
 _COARSE = 2  # the first fit works on blocks of 2 x 2 view pixels
-_COARSE_TURNS_DEG = (0.0, -4.0, 4.0)  # turns tried around the nominal one on the coarse views
-_GOOD_START = 0.9  # a coarse fit from the nominal motion this good needs no other start
+#: Turns tried around the nominal one on the coarse views [deg], in this order (a forward command
+#: of a rover slipping 0.10 turns it up to some 10 deg).
+_COARSE_TURNS_DEG = (0.0, -4.0, 4.0, -8.0, 8.0)
+_GOOD_START = 0.8  # a plausible coarse fit this good needs no further start
 _ITERATIONS = 30  # ECC iterations per fit at most
 _EPSILON = 1e-4  # ECC stops when the correlation grows less than this
-_ECC_BLUR = 3  # ECC's own Gaussian blur [px]
+#: ECC's own Gaussian blur [px] per scale: wider on the coarse views, whose fit must reach
+#: further (from a nominal pivot 2 deg off, a 3 px blur there can lose the match).
+_ECC_BLUR = {_COARSE: 5, 1: 3}
 _MIN_TEMPLATE_PX = 12  # a template narrower or shorter than this (coarse pixels) is refused
 
 
@@ -113,13 +122,26 @@ class FloorMotion:
         """Whether the views showed texture, matched well, and the motion is one the rover can
         have made (within :data:`MAX_TURN_CHANGE_DEG` and :data:`MAX_SHIFT_CHANGE_M` of the
         guess)."""
-        m, g = self.motion, self.guess
         return (
             self.texture >= MIN_TEXTURE
             and self.correlation >= MIN_CORRELATION
-            and abs(m.turn_deg - g.turn_deg) <= MAX_TURN_CHANGE_DEG
-            and math.hypot(m.forward_m - g.forward_m, m.left_m - g.left_m) <= MAX_SHIFT_CHANGE_M
+            and _plausible(self.motion, self.guess)
         )
+
+
+def _plausible(motion: PlanarMotion, guess: PlanarMotion) -> bool:
+    """Whether ``motion`` lies within :data:`MAX_TURN_CHANGE_DEG` and :data:`MAX_SHIFT_CHANGE_M`
+    of the nominal ``guess``."""
+    shift = math.hypot(motion.forward_m - guess.forward_m, motion.left_m - guess.left_m)
+    return abs(motion.turn_deg - guess.turn_deg) <= MAX_TURN_CHANGE_DEG and (
+        shift <= MAX_SHIFT_CHANGE_M
+    )
+
+
+def _motion_of(matrix: np.ndarray) -> PlanarMotion:
+    """The motion of a (3, 3) rigid matrix (:meth:`PlanarMotion.matrix`)."""
+    turn = math.degrees(math.atan2(matrix[1, 0], matrix[0, 0]))
+    return PlanarMotion(float(matrix[0, 2]), float(matrix[1, 2]), turn)
 
 
 @dataclass(frozen=True)
@@ -154,6 +176,7 @@ class _Scale:
         self.floor_from_template = self.floor_from_view @ shift
         self.template_from_floor = np.linalg.inv(self.floor_from_template)
         self.mask = seen
+        self.blur = _ECC_BLUR[block]
 
 
 class FloorOdometry:
@@ -227,27 +250,37 @@ class FloorOdometry:
         texture = min(before.texture, after.texture)
         coarse = self._scales[_COARSE]
         template = np.ascontiguousarray(after.coarse[coarse.rows, coarse.cols])
-        best: tuple[float, np.ndarray] | None = None
+        # The best fit over the starts: a motion the rover can have made before any other (a
+        # turn traded for a sideways shift can match a strip's straight edges as well).
+        best: tuple[bool, float, np.ndarray] | None = None
         for extra in _COARSE_TURNS_DEG:
             start = PlanarMotion(guess.forward_m, guess.left_m, guess.turn_deg + extra)
             fit = _ecc(template, before.coarse, coarse, start.matrix())
-            if fit is not None and (best is None or fit[0] > best[0]):
-                best = fit
-            if best is not None and best[0] >= _GOOD_START:
+            if fit is None:
+                continue
+            ranked = (_plausible(_motion_of(fit[1]), guess), fit[0], fit[1])
+            if best is None or ranked[:2] > best[:2]:
+                best = ranked
+            if best[0] and best[1] >= _GOOD_START:
                 break
         if best is None:
             return FloorMotion(guess, -1.0, texture, guess)
         fine = self._scales[1]
         template = np.ascontiguousarray(after.fine[fine.rows, fine.cols])
-        refined = _ecc(template, before.fine, fine, best[1])
-        correlation, matrix = refined if refined is not None else best
-        turn = math.degrees(math.atan2(matrix[1, 0], matrix[0, 0]))
-        found = PlanarMotion(float(matrix[0, 2]), float(matrix[1, 2]), turn)
-        return FloorMotion(found, float(correlation), texture, guess)
+        refined = _ecc(template, before.fine, fine, best[2])
+        correlation, matrix = refined if refined is not None else best[1:]
+        return FloorMotion(_motion_of(matrix), float(correlation), texture, guess)
 
     def between(self, before: np.ndarray, after: np.ndarray, guess: PlanarMotion) -> FloorMotion:
         """:meth:`motion` of two frames ((H, W, 3) uint8 each)."""
         return self.motion(self.view(before), self.view(after), guess)
+
+
+@functools.lru_cache(maxsize=8)
+def floor_odometry(geometry: MapGeometry) -> FloorOdometry:
+    """The :class:`FloorOdometry` of ``geometry``'s camera (built once per geometry: it holds
+    the view's maps and nothing that changes)."""
+    return FloorOdometry(geometry)
 
 
 def _eroded(seen: np.ndarray) -> np.ndarray:
@@ -290,7 +323,7 @@ def _ecc(
     criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, _ITERATIONS, _EPSILON)
     try:
         correlation, warp = cv2.findTransformECC(
-            template, image, warp, cv2.MOTION_EUCLIDEAN, criteria, scale.mask, _ECC_BLUR
+            template, image, warp, cv2.MOTION_EUCLIDEAN, criteria, scale.mask, scale.blur
         )
     except cv2.error:  # no convergence: the views do not match there
         return None

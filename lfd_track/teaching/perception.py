@@ -212,6 +212,8 @@ class Perception:
         if self._memory is None:
             memory = np.zeros(0)
         else:
+            if isinstance(self._memory, FreshFeltMemory):  # motion = "visual": the frame moves it
+                self._memory.arrive(frame)
             # A shallow copy is a snapshot: the memories replace their arrays, never write them.
             self._memory_before = copy.copy(self._memory)
             if self.felt_levels is not None and isinstance(self._memory, FreshFeltMemory):

@@ -198,6 +198,7 @@ def test_kind_fresh_felt_alone_is_the_chosen_configurations_map(tmp_path):
         "visited_fade_m": 0.3,
         "geometry": "paper",
         "felt_levels": "fixed",
+        "motion": "nominal",
     }
     # a schema-1 study with the same one line meant the map with every option off
     old = tmp_path / "old.toml"
