@@ -36,6 +36,10 @@ Schema history:
   without it means ``"per_episode"``, what every run did before (so no older file changes
   meaning, and each still matches the settings that produced it). The ``hg_dagger`` table's
   ``learner`` came the same way: written only when it is ``"bc"``; without it, ``"ga"``.
+* **5** — ``config.memory`` names the ``fresh_felt`` map's ``motion`` (how it moves at each
+  command: :mod:`lfd_track.policy.odometry`). A schema-4 file was written before it:
+  ``"nominal"``, what every map did then (the same step as 3 -> 4: every memory setting a file
+  lacks at what the memory did before the setting existed).
 """
 
 from __future__ import annotations
@@ -46,7 +50,7 @@ from typing import Any
 from ..policy.memory_config import memory_table_from_v1
 from ..utils.migrate import Step, VersionedJson
 
-RESULTS_SCHEMA = 4
+RESULTS_SCHEMA = 5
 """Schema of the results.json this version writes (``len(RESULTS_STEPS) + 1``)."""
 MAX_RESULTS_BYTES = 1 << 28
 """Largest results.json read (a 10-repetition benchmark writes about 100 kB)."""
@@ -216,7 +220,20 @@ def results_v3_to_v4(data: dict[str, Any]) -> dict[str, Any]:
     return data
 
 
-RESULTS_STEPS: tuple[Step, ...] = (results_v1_to_v2, results_v2_to_v3, results_v3_to_v4)
+def results_v4_to_v5(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 4 -> 5: the memory settings added since (``motion``), at what an older run did."""
+    if "config" in data:
+        data["config"] = config_v3_to_v4(data["config"])
+    data["schema"] = 5
+    return data
+
+
+RESULTS_STEPS: tuple[Step, ...] = (
+    results_v1_to_v2,
+    results_v2_to_v3,
+    results_v3_to_v4,
+    results_v4_to_v5,
+)
 """Step k turns a schema-k results dict into schema k + 1."""
 RESULTS_FORMAT = VersionedJson("results", RESULTS_STEPS, MAX_RESULTS_BYTES)
 """results.json: its steps and largest size; :func:`read_results` (a file) and
