@@ -316,7 +316,7 @@ class FreshFeltConfig(MemoryConfig):
         "how the map moves at each executed command: nominal (the geometry's forward step or"
         " pivot) or visual (the motion the camera measures between the frames before and after"
         " it, lfd_track.policy.odometry, the nominal one where that is not reliable; kept: the"
-        " planned robustness study rooms_odometry compares it with nominal)",
+        " robustness study rooms_odometry.toml compares it with nominal)",
         choices=MAP_MOTIONS,
     )
 
