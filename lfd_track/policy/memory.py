@@ -76,6 +76,13 @@ The input is computed from *executed* commands, whoever gave them (the human dem
 correcting, the policy driving), so a recorded case and an autonomous run see the same thing.
 The teaching loop owns it through :class:`~lfd_track.teaching.perception.Perception`: the loop
 notes each executed command and starts it afresh with each episode.
+
+Length: one module, because the memory kinds share one life cycle (reset, note each executed
+command, inputs of the frame, mirror) that the teaching loop, the recordings and the controllers
+call alike, and the fresh-felt map's parts (placing the road values, moving by each command,
+following the rover's own strip) act on the same arrays step after step; the settings live in
+:mod:`~lfd_track.policy.memory_config` and the measured motion in
+:mod:`~lfd_track.policy.odometry`.
 """
 
 from __future__ import annotations
