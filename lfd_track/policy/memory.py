@@ -362,14 +362,10 @@ class FreshFeltMemory:
         if cmd not in (0, 1, 2):
             raise ValueError(f"command must be 0, 1 or 2, got {command!r}")
         if self._odometry is not None:
-            if self._pending is not None:  # two commands without a frame between them
-                self._settle()
-                self._view = None
+            self._settle_without_frame()  # two commands without a frame between them
             self._pending = cmd
             return
-        path = np.vstack([self._path, np.zeros((1, 2))])[-_PATH_COMMANDS:]
-        self._points = self._moved(self._points, cmd)
-        self._path = self._moved(path, cmd)
+        self._move(cmd)
 
     def arrive(self, frame: np.ndarray) -> None:
         """With ``motion = "visual"``: the camera's frame ((H, W, 3) uint8) after the last
@@ -402,15 +398,29 @@ class FreshFeltMemory:
         command, self._pending = self._pending, None
         if command is None:
             return
+        self._move(command, measured)
+        if measured is None:
+            self.nominal_moves += 1
+        else:
+            self.visual_moves += 1
+
+    def _settle_without_frame(self) -> None:
+        """A pending command whose frame never arrived: its nominal motion, and the last view
+        forgotten (the next frame's motion from it would span two commands)."""
+        if self._pending is not None:
+            self._settle()
+            self._view = None
+
+    def _move(self, command: int, measured: PlanarMotion | None = None) -> None:
+        """Move the map and the path by ``command``'s ``measured`` motion (None: its nominal
+        one)."""
         path = np.vstack([self._path, np.zeros((1, 2))])[-_PATH_COMMANDS:]
         if measured is None:
             self._points = self._moved(self._points, command)
             self._path = self._moved(path, command)
-            self.nominal_moves += 1
         else:
             self._points = measured.move_points(self._points)
             self._path = measured.move_points(path)
-            self.visual_moves += 1
 
     def place_before(self, command: Command | int) -> None:
         """The rover stands where ``command`` would bring it here from: one step behind for a
@@ -419,8 +429,7 @@ class FreshFeltMemory:
         cmd = int(command)
         if cmd not in (0, 1, 2):
             raise ValueError(f"command must be 0, 1 or 2, got {command!r}")
-        if self._pending is not None:  # a command whose frame never arrived: its nominal motion
-            self._settle()
+        self._settle_without_frame()
         if cmd == Command.FORWARD:
             back = np.array([self._step, 0.0])
             self._points, self._path = self._points + back, self._path + back
@@ -434,8 +443,7 @@ class FreshFeltMemory:
         the road values ``(carpet, felt)`` of felt levels 0 and 1 (with ``felt_levels =
         "library"``, from :class:`~lfd_track.vision.felt_levels.RoadValueLevels`); None: the
         fixed :data:`CARPET_LEVEL` and :data:`FELT_LEVEL`."""
-        if self._pending is not None:  # a command whose frame never arrived: its nominal motion
-            self._settle()
+        self._settle_without_frame()
         cfg = self.config
         v = np.asarray(values, dtype=np.float64).reshape(N_REGIONS)
         carpet, felt_at = (CARPET_LEVEL, FELT_LEVEL) if levels is None else levels

@@ -198,6 +198,26 @@ def test_a_visual_map_without_frames_moves_by_the_nominal_motion() -> None:
     assert visual.nominal_moves == 7 and visual.visual_moves == 0
 
 
+def test_a_visual_map_forgets_the_last_view_when_a_frame_is_skipped() -> None:
+    # Road values seen without the frame after a command: the command moves the map by its nominal
+    # motion, and the next frame is not registered against the one before the skipped frame (that
+    # motion would span two commands, measured against one command's guess).
+    frames, commands, _ = _slipping_drive()
+    geometry = MapGeometry.from_preset(load_preset(_preset_path(SLIP)))
+    memory = FreshFeltMemory(FreshFeltConfig(motion="visual"), geometry)
+    values = np.zeros(40)
+    memory.arrive(frames[0])
+    memory.see(values)
+    memory.note(commands[0])
+    memory.see(values)  # the frame after commands[0] never arrived
+    assert memory._view is None and memory.nominal_moves == 1
+    memory.note(commands[1])
+    memory.arrive(frames[2])
+    memory.see(values)
+    assert memory.nominal_moves == 2 and memory.visual_moves == 0
+    assert memory._view is not None
+
+
 def test_the_perception_hands_each_frame_to_a_visual_map() -> None:
     # Through the perception as the loops use it: a visual map's commands are moved by the
     # camera's measurement.
