@@ -57,8 +57,9 @@ class OnlineConfig(TakeoverConfig):
     """What learns while the human demonstrates: ``"ga"`` (the paper's GA, the benchmark's
     ``ga`` settings) or ``"bc"`` (backprop, the benchmark's ``bc`` settings, with mirrored cases
     as the benchmark says; an MLP only). ``"bc"`` is the learner of the goal taught by the
-    paper's human model (``benchmarks/experiments/human_goal/round03/``), timed per repetition
-    by ``benchmarks/speed/bench_budget.py``."""
+    paper's human model (``benchmarks/experiments/human_goal/round03/``); online with it is a
+    candidate of ``benchmarks/experiments/human_goal/round04/selection_round4.toml``, timed per
+    repetition by ``benchmarks/speed/bench_budget.py``."""
     epochs_per_case: int = 20
     """With learner ``"bc"``: full-batch Adam epochs on all cases so far after each new case,
     continuing from the current weights (1..10 000). With 20 a repetition of the human-taught

@@ -28,8 +28,10 @@ average out; what registers is the felt's edges and the carpet's and light's var
 centimetres. A frame of bare, uniformly lit carpet, motion blur, or a frame the camera lost
 gives a low correlation or no fit at all, and the caller keeps the nominal motion.
 
-Costs (the paper camera, one thread): warping a frame some 0.3 ms, a registration 1–2 ms
-(``benchmarks/experiments/robustness/odometry.py`` measures both, and the accuracy).
+Costs (the paper camera, one thread): warping a frame some 0.3 ms, a registration 0.7–0.9 ms
+median, 3–5 ms at the 90th percentile on the loaded machine
+(``benchmarks/experiments/robustness/odometry.py`` measures both, and the accuracy:
+``results/odometry.md`` beside it).
 """
 
 from __future__ import annotations
