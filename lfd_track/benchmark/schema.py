@@ -204,9 +204,10 @@ def results_v2_to_v3(data: dict[str, Any]) -> dict[str, Any]:
 
 
 def config_v3_to_v4(config: Any) -> Any:
-    """A schema-3 ``config`` section whose memory table names every setting of today, each one
-    it lacks at the value that does what the memory did before the setting existed (also the
-    conditions' ``config`` of a schema-3 study.json)."""
+    """A schema-3 or schema-4 ``config`` section whose memory table names every setting of
+    today, each one it lacks at the value that does what the memory did before the setting
+    existed (steps 3 -> 4 and 4 -> 5; also the conditions' ``config`` of a study.json of those
+    schemas)."""
     if not isinstance(config, dict) or not isinstance(config.get("memory"), dict):
         return config
     return {**config, "memory": memory_table_from_v1(config["memory"])}
