@@ -372,8 +372,14 @@ class FreshFeltMemory:
         executed command, before its road values are seen. The map moves by the motion
         :class:`~lfd_track.policy.odometry.FloorOdometry` measures between the previous frame
         and this one, or by the command's nominal motion where that measurement is not
-        reliable or no previous frame arrived. Without ``motion = "visual"`` nothing happens."""
+        reliable or no previous frame arrived; a frame of another size than the map's camera
+        (a controller driving on frames of another size than it learned on) is measured nothing
+        from, as if it had not arrived. Without ``motion = "visual"`` nothing happens."""
         if self._odometry is None:
+            return
+        if np.shape(frame)[:2] != self._odometry.frame_shape:
+            self._settle()
+            self._view = None
             return
         view = self._odometry.view(frame)
         if self._pending is not None:

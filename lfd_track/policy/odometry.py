@@ -227,6 +227,11 @@ class FloorOdometry:
         self._coarse_size = coarse_size
         self._frame_shape = (height, width)
 
+    @property
+    def frame_shape(self) -> tuple[int, int]:
+        """(height, width) [px] of the frames :meth:`view` reads: the camera's."""
+        return self._frame_shape
+
     def view(self, frame: np.ndarray) -> FloorView:
         """The floor view of ``frame`` ((H, W, 3) uint8, RGB or BGR alike: the channels are
         averaged) at the camera's frame size."""

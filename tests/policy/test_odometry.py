@@ -218,6 +218,25 @@ def test_a_visual_map_forgets_the_last_view_when_a_frame_is_skipped() -> None:
     assert memory._view is not None
 
 
+def test_a_visual_map_given_frames_of_another_size_moves_by_the_nominal_motion() -> None:
+    # A controller drives on frames of another size than its map's camera (a note, not an
+    # error, for its road values): nothing is measured from them, the map moves as a nominal one.
+    rng = np.random.default_rng(3)
+    nominal = FreshFeltMemory(FreshFeltConfig(), PAPER_GEOMETRY)
+    visual = FreshFeltMemory(FreshFeltConfig(motion="visual"), PAPER_GEOMETRY)
+    for command in (0, 1, 0, 2):
+        values = rng.uniform(0.0, 1.0, 40)
+        visual.arrive(rng.integers(0, 256, (240, 320, 3), dtype=np.uint8))
+        nominal.see(values)
+        visual.see(values)
+        assert np.array_equal(nominal.inputs(), visual.inputs())
+        nominal.note(command)
+        visual.note(command)
+    visual.arrive(np.zeros((240, 320, 3), dtype=np.uint8))
+    assert np.array_equal(nominal._path, visual._path)
+    assert visual.nominal_moves == 4 and visual.visual_moves == 0
+
+
 def test_the_perception_hands_each_frame_to_a_visual_map() -> None:
     # Through the perception as the loops use it: a visual map's commands are moved by the
     # camera's measurement.
