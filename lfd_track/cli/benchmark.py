@@ -210,6 +210,8 @@ def run(args: argparse.Namespace) -> int:
             return EXIT_USAGE
     repetitions = 1 if args.quick and args.repetitions is None else (args.repetitions or 10)
     trials = args.trials or (1 if args.quick else 3)
+    # --bc-bias: the backprop settings with biases (a table of BenchmarkConfig, given by name).
+    backprop: dict[str, Any] = {"bc": BCConfig(bias=True)} if args.bc_bias else {}
     try:  # settings that do not go together (e.g. --steers-by picture without the map) refused
         method = get_method(args.method)
         tables = {} if method.flags is None else {method.table: method.flags.settings(args)}
@@ -233,7 +235,7 @@ def run(args: argparse.Namespace) -> int:
             policy_kind=args.policy_kind,
             demo_track=args.demo_track,
             features=args.features,
-            **({"bc": BCConfig(bias=True)} if args.bc_bias else {}),
+            **backprop,
             **runner.settings_arguments(tables),
         )
     except ValueError as exc:

@@ -114,7 +114,7 @@ from .memory_config import (
 )
 
 if TYPE_CHECKING:
-    from .odometry import PlanarMotion
+    from .odometry import FloorView, PlanarMotion
 
 __all__ = [
     "BLANK_BEARINGS",
@@ -338,7 +338,7 @@ class FreshFeltMemory:
         # motion = "visual": the command executed whose frame has not arrived yet, and the floor
         # view of the last frame that did.
         self._pending: int | None = None
-        self._view = None
+        self._view: FloorView | None = None
         self.visual_moves = 0
         """motion = "visual": this episode's commands the map moved by the measured motion."""
         self.nominal_moves = 0
