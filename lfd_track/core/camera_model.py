@@ -456,6 +456,32 @@ class CameraModel:
         return self.image_from_world(pose) @ ground.world_from_texture()
 
 
+def floor_view_maps(
+    model: CameraModel, shape: tuple[int, int], far_m: float, half_m: float, resolution_m: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where each pixel of a bird's-eye view of the floor lies in the camera's frame: ``(map_u,
+    map_v, seen)``, each of ``shape`` (rows, cols), the maps for ``cv2.remap``. View pixel (row
+    v, column u) is the floor point ``(far_m - v * resolution_m, half_m - u * resolution_m)`` in
+    the rover's frame (the rover at the origin); ``seen`` is True where that point projects at
+    least one pixel inside the frame's edge, and the maps hold -10 where it does not. Shared by
+    the calibration's floor view and the map's odometry."""
+    rows, cols = shape
+    v, u = np.mgrid[0:rows, 0:cols].astype(np.float64)
+    floor = np.column_stack(
+        [(far_m - v * resolution_m).ravel(), (half_m - u * resolution_m).ravel()]
+    )
+    with np.errstate(invalid="ignore"):
+        pixels = model.project(floor, np.zeros(3))
+    width, height = model.config.frame_width_px, model.config.frame_height_px
+    seen = np.isfinite(pixels).all(axis=1)
+    seen &= (pixels[:, 0] >= 1.0) & (pixels[:, 0] <= width - 2.0)
+    seen &= (pixels[:, 1] >= 1.0) & (pixels[:, 1] <= height - 2.0)
+    pixels[~seen] = -10.0
+    map_u = pixels[:, 0].reshape(rows, cols).astype(np.float32)
+    map_v = pixels[:, 1].reshape(rows, cols).astype(np.float32)
+    return map_u, map_v, seen.reshape(rows, cols)
+
+
 def safe_box_floor_polygon(pose: np.ndarray, config: CameraConfig | None = None) -> np.ndarray:
     """(N, 2) floor polygon [m] of the safe box for a rover at ``pose`` (x, y, theta); N = 4 for
     an ideal pinhole (see ``CameraModel.safe_box_floor_polygon``)."""

@@ -50,7 +50,7 @@ from typing import Any, Protocol
 import cv2
 import numpy as np
 
-from ..core.camera_model import CameraConfig, CameraModel
+from ..core.camera_model import CameraConfig, CameraModel, floor_view_maps
 from ..core.commands import Command
 from ..errors import CalibrationFailed
 from .profile import Calibration
@@ -154,20 +154,11 @@ class FloorView:
         self.pixel_to_floor = np.array(
             [[0.0, -_RESOLUTION_M, far], [-_RESOLUTION_M, 0.0, half], [0.0, 0.0, 1.0]]
         )
-        v, u = np.mgrid[0:rows, 0:cols].astype(np.float64)
-        floor = np.column_stack(
-            [(far - v * _RESOLUTION_M).ravel(), (half - u * _RESOLUTION_M).ravel()]
+        self._map_u, self._map_v, seen = floor_view_maps(
+            model, (rows, cols), far, half, _RESOLUTION_M
         )
-        pixels = model.project(floor, np.zeros(3))
-        width, height = camera.frame_width_px, camera.frame_height_px
-        seen = np.isfinite(pixels).all(axis=1)
-        seen &= (pixels[:, 0] >= 1.0) & (pixels[:, 0] <= width - 2.0)
-        seen &= (pixels[:, 1] >= 1.0) & (pixels[:, 1] <= height - 2.0)
-        pixels[~seen] = -10.0
-        self._map_u = pixels[:, 0].reshape(rows, cols).astype(np.float32)
-        self._map_v = pixels[:, 1].reshape(rows, cols).astype(np.float32)
         # A few pixels in from the edge of what the camera sees: no border pixel is matched.
-        seen_view = seen.reshape(rows, cols).astype(np.uint8)
+        seen_view = seen.astype(np.uint8)
         self.mask = cv2.erode(seen_view, np.ones((5, 5), np.uint8)).astype(np.float32)
         if self.mask.sum() < _MIN_POINTS * _SEARCH_SCALE * _SEARCH_SCALE:
             raise ValueError("the camera sees too little floor to calibrate on")

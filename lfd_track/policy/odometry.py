@@ -43,7 +43,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..core.camera_model import CameraModel
+from ..core.camera_model import CameraModel, floor_view_maps
 from .map_geometry import MapGeometry
 
 __all__ = ["FloorMotion", "FloorOdometry", "FloorView", "PlanarMotion", "floor_odometry"]
@@ -199,20 +199,10 @@ class FloorOdometry:
         floor_from_pixel = np.array(
             [[0.0, -_RESOLUTION_M, far], [-_RESOLUTION_M, 0.0, half], [0.0, 0.0, 1.0]]
         )
-        v, u = np.mgrid[0:rows, 0:cols].astype(np.float64)
-        floor = np.column_stack(
-            [(far - v * _RESOLUTION_M).ravel(), (half - u * _RESOLUTION_M).ravel()]
+        self._map_u, self._map_v, seen = floor_view_maps(
+            model, (rows, cols), far, half, _RESOLUTION_M
         )
-        with np.errstate(invalid="ignore"):
-            pixels = model.project(floor, np.zeros(3))
-        width, height = camera.frame_width_px, camera.frame_height_px
-        seen = np.isfinite(pixels).all(axis=1)
-        seen &= (pixels[:, 0] >= 1.0) & (pixels[:, 0] <= width - 2.0)
-        seen &= (pixels[:, 1] >= 1.0) & (pixels[:, 1] <= height - 2.0)
-        pixels[~seen] = -10.0
-        self._map_u = pixels[:, 0].reshape(rows, cols).astype(np.float32)
-        self._map_v = pixels[:, 1].reshape(rows, cols).astype(np.float32)
-        self._seen = seen.reshape(rows, cols).astype(np.float32)
+        self._seen = seen.astype(np.float32)
         sigma = _SHADING_SIGMA_M / _RESOLUTION_M
         self._seen_weight = np.maximum(cv2.GaussianBlur(self._seen, (0, 0), sigma), 1e-3)
         coarse_size = (cols // _COARSE, rows // _COARSE)
@@ -225,7 +215,7 @@ class FloorOdometry:
             block: _Scale(floor_from_pixel, mask, block, rect) for block, mask in masks.items()
         }
         self._coarse_size = coarse_size
-        self._frame_shape = (height, width)
+        self._frame_shape = (camera.frame_height_px, camera.frame_width_px)
 
     @property
     def frame_shape(self) -> tuple[int, int]:
