@@ -48,10 +48,6 @@ _TOP_KEYS = {"name", "description", *SECTIONS, "randomization"}
 MAX_FILE_BYTES = 1 << 20
 """Largest preset file read."""
 MAX_SUBSTEPS_PER_COMMAND = 1000
-FULL_CAMERA_METRES_PER_PX = 0.002
-"""Coarsest floor texel [m] the paper's 640 x 480 camera is shown: about what its bottom rows
-resolve. A camera with ``scale`` s resolves 1/s as much, so its floor may be painted at up to
-``FULL_CAMERA_METRES_PER_PX / s`` (the half-size camera of ``paper_fast``: 4 mm)."""
 """Most physics substeps one command may take (control_period_s / physics_dt_s)."""
 
 BOUNDS: dict[str, tuple[float, float]] = {
@@ -104,7 +100,7 @@ BOUNDS: dict[str, tuple[float, float]] = {
     # [appearance] felt and carpet
     "appearance.felt_rgb": (0, 255),
     "appearance.carpet_rgb": (0, 255),
-    "appearance.metres_per_px": (0.0005, 0.004),
+    "appearance.metres_per_px": (0.0005, 0.002),
     "appearance.margin_m": (0.5, 5.0),
     "appearance.carpet_pile_strength": (0.0, 1.0),
     "appearance.carpet_pile_scale_m": (0.001, 1.0),
@@ -261,21 +257,6 @@ def _plain(value: Any) -> str:
     return str(value).replace("'", "")
 
 
-def _texel_problem(preset: Preset) -> str:
-    """Why ``preset`` paints (or may draw) a floor coarser than its camera resolves; else ""."""
-    limit = FULL_CAMERA_METRES_PER_PX / min(preset.camera.scale, 1.0)
-    coarsest = preset.appearance.metres_per_px
-    for r in preset.randomization:
-        if (r.section, r.key) == ("appearance", "metres_per_px"):
-            coarsest = max(coarsest, r.high[0])
-    if coarsest > limit * (1.0 + 1e-9):
-        return (
-            f"appearance.metres_per_px {coarsest:g} is coarser than the camera resolves:"
-            f" at most {FULL_CAMERA_METRES_PER_PX:g} / camera.scale = {limit:g} m"
-        )
-    return ""
-
-
 def _check_ranges_jointly(preset: Preset, path: Path) -> None:
     """Every corner of each table's box of drawn values must make a valid config."""
     by_section: dict[str, list[tuple[Range, int]]] = {}
@@ -348,8 +329,5 @@ def load_preset(name_or_path: str | Path = "paper") -> Preset:
     if not isinstance(data.get("description", ""), str):
         raise FileFormatError(path, "'description' must be a string")
     preset = Preset(name=name, source=str(path), **kwargs)
-    problem = _texel_problem(preset)
-    if problem:
-        raise FileFormatError(path, problem)
     _check_ranges_jointly(preset, path)
     return preset

@@ -38,11 +38,6 @@ from .felt_windows import (
 MAX_TEXTURE_BYTES = 100 * 1024 * 1024
 
 
-#: Coarsest texel [m] any floor is painted at: what the half-size camera resolves (the paper's
-#: camera resolves 2 mm at its bottom rows; see ``FULL_CAMERA_METRES_PER_PX`` in the presets).
-MAX_METRES_PER_PX = 0.004
-
-
 @dataclass(frozen=True)
 class AppearanceConfig:
     """Colours and procedural texture of felt and carpet (TOML table ``[appearance]``)."""
@@ -52,9 +47,7 @@ class AppearanceConfig:
     carpet_rgb: tuple[int, int, int] = (78, 54, 38)
     """Mean carpet colour under full light, 8-bit RGB (dark brown)."""
     metres_per_px: float = 0.002
-    """Texture resolution [m/px]; at most :data:`MAX_METRES_PER_PX` (4 mm). A preset keeps it
-    within what its camera resolves, 0.002 / ``[camera] scale`` (the paper's camera 2 mm, the
-    half-size camera 4 mm; ``lfd_track.envs.presets``)."""
+    """Texture resolution [m/px]; at most 0.002 (2 mm)."""
     margin_m: float = 1.5
     """Carpet border painted around the felt [m]; see the module docstring on what lies beyond."""
     carpet_pile_strength: float = 0.16
@@ -83,10 +76,8 @@ class AppearanceConfig:
             rgb = getattr(self, name)
             if len(rgb) != 3 or not all(0 <= int(c) <= 255 for c in rgb):
                 raise ValueError(f"{name} must be three integers in 0..255, got {rgb!r}")
-        if not 0.0 < self.metres_per_px <= MAX_METRES_PER_PX:
-            raise ValueError(
-                f"metres_per_px must be in (0, {MAX_METRES_PER_PX}], got {self.metres_per_px}"
-            )
+        if not 0.0 < self.metres_per_px <= 0.002:
+            raise ValueError(f"metres_per_px must be in (0, 0.002], got {self.metres_per_px}")
         if self.margin_m < 0.5:
             raise ValueError(f"margin_m must be at least 0.5 m, got {self.margin_m}")
         for name in ("carpet_pile_scale_m", "felt_fibre_length_m", "felt_nonuniformity_scale_m"):

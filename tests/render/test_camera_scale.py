@@ -22,12 +22,10 @@ def test_half_camera_takes_320_by_240_frames_from_the_paper_fast_preset():
     preset = load_preset("paper_fast")
     paper = load_preset("paper")
     assert (preset.camera.frame_width_px, preset.camera.frame_height_px) == (320, 240)
-    # Every other value is the paper's, but the floor's texel: painted at the 4 mm it resolves.
+    # Every other value is the paper's.
     assert dataclasses.replace(preset.camera, scale=1.0) == paper.camera
-    for section in ("rover", "sensor", "lighting", "episode"):
+    for section in ("rover", "sensor", "appearance", "lighting", "episode"):
         assert getattr(preset, section) == getattr(paper, section), section
-    assert (preset.appearance.metres_per_px, paper.appearance.metres_per_px) == (0.004, 0.002)
-    assert dataclasses.replace(preset.appearance, metres_per_px=0.002) == paper.appearance
     env = LfDTrackEnv(track="testing", preset="paper_fast")
     obs, info = env.reset(seed=0)
     assert obs.shape == (240, 320, 3) and env.observation_space.shape == (240, 320, 3)
@@ -102,21 +100,6 @@ def test_sensor_noise_is_binned_vignetting_keeps_its_shape():
 def test_bad_scales_are_refused(scale):
     with pytest.raises(ValueError, match="scale"):
         CameraConfig(scale=scale)
-
-
-def test_floor_texel_may_be_as_coarse_as_the_camera_resolves_and_no_coarser(tmp_path):
-    preset = tmp_path / "texel.toml"
-    preset.write_text("[camera]\nscale = 0.5\n[appearance]\nmetres_per_px = 0.004\n")
-    assert load_preset(preset).appearance.metres_per_px == 0.004
-    preset.write_text("[appearance]\nmetres_per_px = 0.004\n")  # the paper's camera: 2 mm
-    with pytest.raises(FileFormatError, match=r"coarser than the camera resolves: at most 0.002"):
-        load_preset(preset)
-    preset.write_text('[randomization]\n"appearance.metres_per_px" = [0.001, 0.003]\n')
-    with pytest.raises(FileFormatError, match="metres_per_px 0.003 is coarser"):
-        load_preset(preset)
-    preset.write_text("[camera]\nscale = 0.5\n[appearance]\nmetres_per_px = 0.005\n")
-    with pytest.raises(FileFormatError, match=r"metres_per_px must be in \(0, 0.004\]"):
-        load_preset(preset)
 
 
 def test_preset_refuses_a_scale_the_grid_does_not_divide_and_randomizing_it(tmp_path):

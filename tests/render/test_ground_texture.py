@@ -49,7 +49,7 @@ def test_texture_fits_the_budget_and_resolution(track, ground):
 
 def test_config_rejects_coarse_textures_and_bad_colours():
     with pytest.raises(ValueError, match="metres_per_px"):
-        AppearanceConfig(metres_per_px=0.005)
+        AppearanceConfig(metres_per_px=0.003)
     with pytest.raises(ValueError, match="felt_rgb"):
         AppearanceConfig(felt_rgb=(300, 0, 0))
     with pytest.raises(ValueError, match="shadow_count"):
