@@ -197,6 +197,14 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     return bench
 
 
+def fits_by_backprop(config: runner.BenchmarkConfig) -> bool:
+    """Whether ``config``'s method fits a network by backprop (its ``bc`` settings are used)."""
+    if config.method == "bc":
+        return True
+    table = {"online": config.online, "hg-dagger": config.hg_dagger, "dagger": config.dagger}
+    return getattr(table.get(config.method), "learner", None) == "bc"
+
+
 def run(args: argparse.Namespace) -> int:
     """The ``benchmark`` command."""
     # Lazy: the drawing and progress-bar stack (OpenCV, tqdm) loads only when the command runs.
@@ -240,6 +248,13 @@ def run(args: argparse.Namespace) -> int:
         )
     except ValueError as exc:
         print(f"lfd-track benchmark: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    if args.bc_bias and not fits_by_backprop(config):
+        print(
+            f"lfd-track benchmark: --bc-bias is for learners that use backprop (--method bc, or"
+            f" --online-learner, --hg-dagger-learner or --dagger-learner bc), not {args.method}",
+            file=sys.stderr,
+        )
         return EXIT_USAGE
     # Track and preset names are recorded in results.json and report.md, which hold text only.
     for what, name in (

@@ -39,8 +39,13 @@ def teach_config(args: argparse.Namespace) -> Any:
     if args.online_learner is not None and not args.online:
         raise LfdTrackError("--online-learner is for --online: give --online")
     learner = args.online_learner or "ga"
-    if learner != "ga" and args.generations_per_case is not None:
-        raise LfdTrackError(f"--generations-per-case is for --online-learner ga, not {learner}")
+    for flag, value in (
+        ("--generations-per-case", args.generations_per_case),
+        ("--population", args.population),
+        ("--mutation-delta", args.mutation_delta),
+    ):
+        if learner != "ga" and value is not None:
+            raise LfdTrackError(f"{flag} is for --online-learner ga, not {learner}")
     try:
         memory = memory_from_args(args)
     except ValueError as exc:
@@ -71,11 +76,11 @@ def teach_config(args: argparse.Namespace) -> Any:
             window=args.takeover_window,
             threshold=args.takeover_threshold,
         ),
-        population_size=args.population,
+        population_size=40 if args.population is None else args.population,
         memory=memory,
         features=args.features,
         ga_bias=args.ga_bias,
-        mutation_delta=args.mutation_delta,
+        mutation_delta=0.1 if args.mutation_delta is None else args.mutation_delta,
         library_only=args.library_only,
         force=args.force,
         fps=args.fps,
@@ -218,9 +223,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     teach.add_argument(
         "--population",
         type=_positive_int,
-        default=40,
+        default=None,
         metavar="P",
-        help="with --online: GA population (default 40, the paper's)",
+        help="with --online (learner ga): GA population (default 40, the paper's)",
     )
     teach.add_argument(
         "--memory",
@@ -247,9 +252,9 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
     teach.add_argument(
         "--mutation-delta",
         type=float_in(0.001, 10.0),
-        default=0.1,
+        default=None,
         metavar="D",
-        help="with --online: the GA's mutation step (default 0.1, the paper's)",
+        help="with --online (learner ga): the GA's mutation step (default 0.1, the paper's)",
     )
     teach.add_argument(
         "--library-only",

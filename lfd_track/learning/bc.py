@@ -23,7 +23,7 @@ import numpy as np
 
 from ..core.config import DictConfig
 from ..policy.mlp import N_HIDDEN, N_OUTPUTS, check_hidden, n_weights, sigmoid
-from .fitness import checked_cases, population_fitness
+from .fitness import Cases, checked_cases, population_fitness
 from .result import (
     LearnerFit,
     check_bool,
@@ -152,6 +152,41 @@ def adam_step(
     return weights - config.learning_rate * m_hat / (np.sqrt(v_hat) + config.epsilon), m, v
 
 
+def adam_epoch(
+    weights: np.ndarray,
+    moments: tuple[np.ndarray, np.ndarray, int],
+    cases: Cases,
+    config: BCConfig,
+    order: np.ndarray | None = None,
+    hidden: int = N_HIDDEN,
+) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, int]]:
+    """One epoch of Adam on the BC loss over ``cases``: the new weights and Adam's state
+    ``moments`` = (m, v, steps so far).
+
+    ``order`` None: one full-batch step on the cases as they are; else minibatches of
+    ``config.batch_size`` cases taken in that order (a permutation of the cases)."""
+    m, v, step = moments
+    x, a, case_weights = cases.inputs, cases.actions, cases.category_weights
+    batches: list[np.ndarray | None] = [None]
+    if order is not None:
+        n = x.shape[0]
+        batch = n if config.batch_size == 0 else min(config.batch_size, n)
+        batches = [order[start : start + batch] for start in range(0, n, batch)]
+    for idx in batches:
+        _, grad = bc_loss_and_gradient(
+            weights,
+            x if idx is None else x[idx],
+            a if idx is None else a[idx],
+            case_weights if idx is None else case_weights[idx],
+            config.temperature,
+            config.weight_decay,
+            hidden,
+        )
+        step += 1
+        weights, m, v = adam_step(weights, grad, m, v, step, config)
+    return weights, (m, v, step)
+
+
 def fit_bc(
     inputs: np.ndarray,
     actions: np.ndarray,
@@ -176,29 +211,14 @@ def fit_bc(
     config = check_config(config, BCConfig, "fit_bc")
     hidden = check_hidden(hidden)
     cases = checked_cases(inputs, actions)  # checked once; the epochs use the checked arrays
-    x, a, case_weights = cases.inputs, cases.actions, cases.category_weights
-    n = x.shape[0]
-    weights = initial_weights(config.bias, config.init_range, rng, x.shape[1], hidden)
-    m = np.zeros_like(weights)
-    v = np.zeros_like(weights)
+    n = cases.inputs.shape[0]
+    weights = initial_weights(config.bias, config.init_range, rng, cases.inputs.shape[1], hidden)
+    moments = (np.zeros_like(weights), np.zeros_like(weights), 0)
     history = np.empty(config.epochs)
-    batch = n if config.batch_size == 0 else min(config.batch_size, n)
-    step = 0
+    full_batch = config.batch_size == 0 or config.batch_size >= n
     for epoch in range(config.epochs):
-        order = np.arange(n) if batch == n else rng.permutation(n)
-        for start in range(0, n, batch):
-            idx = order[start : start + batch]
-            _, grad = bc_loss_and_gradient(
-                weights,
-                x[idx],
-                a[idx],
-                case_weights[idx],
-                config.temperature,
-                config.weight_decay,
-                hidden,
-            )
-            step += 1
-            weights, m, v = adam_step(weights, grad, m, v, step, config)
+        order = None if full_batch else rng.permutation(n)
+        weights, moments = adam_epoch(weights, moments, cases, config, order, hidden)
         fitness = population_fitness(
             weights[None], cases, config.threshold, bias=config.bias, hidden=hidden
         )

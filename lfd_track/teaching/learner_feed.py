@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ..learning.bc import BCConfig, adam_step, bc_loss_and_gradient
+from ..learning.bc import BCConfig, adam_epoch
 from ..learning.fitness import checked_cases, population_fitness
 from ..learning.ga import GAConfig, GAState
 from ..learning.learners import GALearner
@@ -134,20 +134,10 @@ class BCLearnerFeed:
         so far), hand the policy the new weights and return them."""
         cfg = self.config
         cases = checked_cases(inputs, actions)  # checked once for all the epochs
-        weights = self.weights
-        for _ in range(self.epochs_per_case):
-            _, grad = bc_loss_and_gradient(
-                weights,
-                cases.inputs,
-                cases.actions,
-                cases.category_weights,
-                cfg.temperature,
-                cfg.weight_decay,
-            )
-            self.generation += 1
-            weights, self._m, self._v = adam_step(
-                weights, grad, self._m, self._v, self.generation, cfg
-            )
+        weights, moments = self.weights, (self._m, self._v, self.generation)
+        for _ in range(self.epochs_per_case):  # full-batch epochs, as fit_bc's default
+            weights, moments = adam_epoch(weights, moments, cases, cfg)
+        self._m, self._v, self.generation = moments
         self.weights = weights
         self.best_fitness = float(
             population_fitness(weights[None], cases, cfg.threshold, bias=cfg.bias)[0]

@@ -168,6 +168,10 @@ def test_the_benchmark_flags_run_the_chosen_learner_online(tmp_path, capsys, mon
     with pytest.raises(SystemExit):
         main(["benchmark", "--method", "online", "--online-learner", "sgd", "--out", out])
     assert "invalid choice: 'sgd'" in capsys.readouterr().err
+    # --bc-bias with a learner that does not use backprop is refused, not ignored.
+    for method in (["--method", "online"], ["--method", "paper"], ["--method", "hg-dagger"]):
+        assert main(["benchmark", *method, "--bc-bias", "--out", out]) == 2
+        assert "--bc-bias is for learners that use backprop" in capsys.readouterr().err
     for flags, settings, bc in (
         (["--online-learner", "bc", "--bc-bias"], ONLINE_BC, BCConfig(bias=True)),
         ([], OnlineConfig(), BCConfig()),

@@ -41,6 +41,14 @@ def _teach(station, commands: list[str]) -> dict:
             ["--online", "--online-learner", "bc", "--generations-per-case", "3"],
             "--generations-per-case is for --online-learner ga, not bc",
         ),
+        (
+            ["--online", "--online-learner", "bc", "--population", "20"],
+            "--population is for --online-learner ga, not bc",
+        ),
+        (
+            ["--online", "--online-learner", "bc", "--mutation-delta", "0.2"],
+            "--mutation-delta is for --online-learner ga, not bc",
+        ),
     ],
 )
 def test_the_online_learner_flag_is_refused_where_it_means_nothing(
