@@ -262,7 +262,8 @@ def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
 
     ``room`` is written only when it is not ``"per_episode"``: a file without it means a new
     room per episode, as every run did before the setting existed (so their files still match
-    the settings that produced them)."""
+    the settings that produced them); the human's ``nudge_prob`` likewise only when it is not
+    0."""
     data: dict[str, Any] = {}
     for f in dataclasses.fields(config):
         value = getattr(config, f.name)
@@ -272,6 +273,8 @@ def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
             data[f.name] = config.memory.to_dict()
         elif dataclasses.is_dataclass(value) and not isinstance(value, type):
             data[f.name] = dataclasses.asdict(value)
+            if f.name == "human" and not data[f.name]["nudge_prob"]:
+                del data[f.name]["nudge_prob"]
         else:
             data[f.name] = copy.deepcopy(value)
     for method in methods():

@@ -89,6 +89,13 @@ class HumanConfig:
     # because the goal's round 3 study, selection_round3.toml, sets it (it halved what the
     # learners lapped; no later round uses it).
     clear_memory_per_leg: bool = False
+    # The teacher's deliberate nudges: with this chance per command while the human drives a
+    # leg (after the library-only start), the human presses a pivot to a random side on purpose
+    # and the station does not record it as a case; the commands that bring the robot back are
+    # recorded as usual. They teach recovery from states the human's own line never visits (the
+    # perturbations of DART, Laskey et al. 2017). A nudge counts as one of the human's commands.
+    # Kept because the human-goal study's round 5, selection_round5.toml, sets it.
+    nudge_prob: float = 0.0
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.dead_band_deg < 90.0:
@@ -107,6 +114,8 @@ class HumanConfig:
             raise ValueError(f"steers_by must be one of {', '.join(STEERING)}")
         if not (math.isfinite(self.picture_turn_deg) and 0.0 <= self.picture_turn_deg < 180.0):
             raise ValueError("picture_turn_deg must lie in [0, 180)")
+        if not (math.isfinite(self.nudge_prob) and 0.0 <= self.nudge_prob <= 0.5):
+            raise ValueError(f"nudge_prob must be in [0, 0.5], got {self.nudge_prob}")
 
     @property
     def driver(self) -> DriverConfig:
@@ -263,6 +272,14 @@ class ProtocolHuman:
         ``label_all`` the one it would have given while it let the policy drive."""
         self.config = config
         self.person = ScriptedHuman(config, rng)
+        # Nudges draw from their own stream, split off only when there are any, so a human
+        # without them draws exactly what it drew before the setting existed.
+        self._nudge_rng = (
+            np.random.default_rng(int(rng.integers(2**63))) if config.nudge_prob > 0 else None
+        )
+        self._nudged = False
+        self.nudges = 0
+        """Nudges pressed so far (commands executed, not recorded as cases)."""
         rover = rover or RoverConfig()
         self.watcher = (
             None if intervention is None else Watcher(intervention, rover.body_width_m / 2.0)
@@ -315,6 +332,8 @@ class ProtocolHuman:
         commands not, under the ``"unrecorded"`` turn-around rule)."""
         if self.phase == PHASE_TURNAROUND and self.config.turnarounds == "unrecorded":
             return False
+        if self._nudged:  # a deliberate nudge is not a case
+            return False
         return self._past_library_only
 
     @property
@@ -364,6 +383,7 @@ class ProtocolHuman:
     def propose(self, moment: Moment) -> Command | None:
         self._step = moment.step
         self.label = None
+        self._nudged = False
         self._advance(moment.info)
         if self.done:
             return None
@@ -394,6 +414,16 @@ class ProtocolHuman:
                     return None
                 self.interventions[why] += 1
             self._watched.clear()
+            nudge = self._nudge_rng
+            if (
+                nudge is not None
+                and not watching
+                and self._past_library_only
+                and nudge.random() < self.config.nudge_prob
+            ):
+                self._nudged = True
+                self.nudges += 1
+                return Command.LEFT if nudge.random() < 0.5 else Command.RIGHT
             self.label = self.person.decide(driver, pose, self.progress_m, seen)
             return self.label
         self._turns += 1

@@ -20,6 +20,8 @@ Writes ``results/rules/<rule>/seed<k>/results.json`` (the benchmark's format) an
 
     .venv/bin/python benchmarks/experiments/generalization/rules.py --workers 2
 
+``--rule NAME`` scores only that rule (repeatable); ``--map KEY=VALUE`` (repeatable) drives the
+map rule on its map with that setting changed (e.g. ``--map path_radius_m=0.2``).
 ``--study FILE --condition NAME --out DIR`` scores the rules on another study's trials instead
 (that condition's tracks, loops and preset, the study's seeds), ``--repetitions N`` on the first
 N repetitions of each seed (the same repetitions as the study's first N: a repetition's seed does
@@ -88,6 +90,22 @@ class RuleController:
         return RoadRule(config) if isinstance(config, RoadRuleConfig) else FreshFeltRule(config)
 
 
+def map_settings(pairs: list[str]) -> FreshFeltConfig:
+    """The map-rule's map with ``KEY=VALUE`` settings changed (each parsed as its default's type)."""
+    base = FreshFeltConfig()
+    changes: dict[str, Any] = {}
+    for pair in pairs:
+        key, _, text = pair.partition("=")
+        if not hasattr(base, key):
+            raise SystemExit(f"--map {pair}: the fresh_felt map has no setting {key!r}")
+        default = getattr(base, key)
+        if isinstance(default, bool):
+            changes[key] = text.lower() in ("1", "true", "yes")
+        else:
+            changes[key] = type(default)(text)
+    return dataclasses.replace(base, **changes)
+
+
 def library_of(demo_seed: int, preset: str) -> RoadLibrary:
     """The road library of the paper's demonstration with ``demo_seed``."""
     with tempfile.TemporaryDirectory() as tmp:
@@ -131,7 +149,22 @@ def main() -> None:
     parser.add_argument("--condition", default="paper", help="its condition giving the trials")
     parser.add_argument("--repetitions", type=int, default=None, help="first N per seed")
     parser.add_argument("--out", type=Path, default=OUT, help="output folder")
+    parser.add_argument(
+        "--rule", action="append", choices=sorted(RULES), help="only these rules (default: both)"
+    )
+    parser.add_argument(
+        "--map",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="a setting of the map-rule's fresh_felt map other than the shipped default",
+    )
     args = parser.parse_args()
+    # The rules this run scores, set in the module before the workers fork from it.
+    for name in set(RULES) - set(args.rule or RULES):
+        del RULES[name]
+    if "map-rule" in RULES and args.map:
+        RULES["map-rule"] = dataclasses.replace(RULES["map-rule"], memory=map_settings(args.map))
     study = load_study(args.study)
     out: Path = args.out
     repetitions = args.repetitions or study.repetitions
