@@ -119,6 +119,13 @@ def main() -> None:
     parser.add_argument("--repetitions", type=int, default=2)
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--out", type=Path, default=None)
+    parser.add_argument(
+        "--first",
+        type=int,
+        default=0,
+        help="run only repetitions FIRST..N-1 of the first N (the same repetitions, seeds and"
+        " indices as a run of N; results.json then holds only those)",
+    )
     args = parser.parse_args()
     condition = next(c for c in load_study(STUDY).conditions if c.name == args.condition)
     out = args.out or HERE / "results" / args.condition
@@ -136,7 +143,22 @@ def main() -> None:
         "--repetitions", str(args.repetitions),
         "--workers", str(args.workers),
     ]  # fmt: skip
+    if args.first:
+        first = args.first
+        seeds_of = rules.repetition_seeds
+        rules.repetition_seeds = lambda seed, n: seeds_of(seed, n)[first:]
+        STATE["first"] = first
+        rules.run_repetition = offset_run_repetition
     rules.main()
+
+
+_run_repetition = rules.run_repetition
+
+
+def offset_run_repetition(job: tuple) -> dict:
+    """rules.run_repetition with the repetition's index in the full run (``--first``)."""
+    seed, index, repetition_seed, config = job
+    return _run_repetition((seed, index + STATE["first"], repetition_seed, config))
 
 
 if __name__ == "__main__":
