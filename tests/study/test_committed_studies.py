@@ -17,15 +17,18 @@ from lfd_track.study.spec import load_study
 REPO = Path(__file__).resolve().parents[2]
 EXPERIMENTS = REPO / "benchmarks" / "experiments"
 # A study file X.toml keeps its results in results/X/ beside it; tracks/ and presets/ beside a
-# study hold track and preset files it names, not studies; planned/ holds study files written but
-# not yet run.
-_TOML = sorted(p for p in EXPERIMENTS.rglob("*.toml") if p.parent.name not in ("tracks", "presets"))
+# study hold track and preset files it names, not studies; trials/ holds study files that only
+# define the trials a script drives (e.g. rules.py's --study), never run as studies; planned/
+# holds study files written but not yet run.
+_TOML = sorted(
+    p for p in EXPERIMENTS.rglob("*.toml") if p.parent.name not in ("tracks", "presets", "trials")
+)
 STUDIES = [str(p.relative_to(REPO)) for p in _TOML if p.parent.name != "planned"]
 PLANNED = [str(p.relative_to(REPO)) for p in _TOML if p.parent.name == "planned"]
 
 
 def test_every_committed_study_is_found():
-    assert len(STUDIES) == 61
+    assert len(STUDIES) == 62
 
 
 @pytest.mark.parametrize("study_file", PLANNED)
@@ -76,6 +79,9 @@ def test_every_committed_study_keeps_its_memory_and_human_settings(monkeypatch):
             assert memory.to_dict() == {"kind": old["kind"], **meant}, key
             removed = REMOVED_SETTINGS.get(memory.kind, {})
             assert {k: old[k] for k in removed} == removed, key
-            assert dataclasses.asdict(condition.config.human) == _V1["human"][human_index], key
+            human = dataclasses.asdict(condition.config.human)
+            # a human setting added since means what every human did before it: no nudges
+            assert human.pop("nudge_prob") == 0.0, key
+            assert human == _V1["human"][human_index], key
             seen.add(key)
     assert seen == set(_V1["conditions"])  # every condition of every committed study

@@ -186,7 +186,9 @@ def corners_over(lap: dict, min_turn_deg: float = 100.0) -> list[dict]:
             {
                 "negotiated": corner.label in lap["corners_negotiated"],
                 "blank_at_v": bool(steps[k, 5] <= 0.0),
-                "first_pivot": None if not pivots else ("toward" if pivots[0] == toward else "away"),
+                "first_pivot": None
+                if not pivots
+                else ("toward" if pivots[0] == toward else "away"),
             }
         )
     return rows
@@ -214,7 +216,7 @@ def main() -> None:
             " | first pivot at V (map bearing, + = toward) | pivots at V toward/away | past V [m] | blank | end from V [m] | width [m] |",
             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
         ]
-        for r in sorted(rows, key=lambda r: (-r["corner_turn_deg"])):
+        for r in sorted(rows, key=lambda r: -r["corner_turn_deg"]):
             lines.append(
                 f"| {r['repetition']} | {r['track']} | {r['direction']} | {r['bin']}"
                 f" | {r['corner']} ({r['corner_turn_deg']:.0f}°) | {r['failure']} | {r['cls']}"

@@ -1,4 +1,4 @@
-"""``benchmarks/experiments/generalization/rules.py`` on a condition of ``sharp_corners.toml``,
+"""``benchmarks/experiments/generalization/rules.py`` on a condition of ``trials/sharp_corners.toml``,
 with two additions, neither of which changes a command the rules give in the paper world:
 
 * the ``fresh_felt`` map takes the geometry of the condition's preset
@@ -36,7 +36,7 @@ from lfd_track.teaching.perception import Perception
 
 HERE = Path(__file__).resolve().parent
 RULES_PY = HERE.parent / "generalization" / "rules.py"
-STUDY = HERE / "sharp_corners.toml"
+STUDY = HERE / "trials" / "sharp_corners.toml"
 
 _spec = importlib.util.spec_from_file_location("rules", RULES_PY)
 rules = importlib.util.module_from_spec(_spec)

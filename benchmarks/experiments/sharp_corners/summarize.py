@@ -80,7 +80,9 @@ def main() -> None:
         key = lambda o: (o["repetition"], o["track"], o["direction"])  # noqa: E731
         common = set.intersection(*({key(o) for o in got[c]} for c in CONDITIONS))
         lines += ["", f"### {rule}, the {len(common)} laps all three conditions scored", ""]
-        lines += table({c: [o for o in got[c] if key(o) in common] for c in CONDITIONS}, "condition")
+        lines += table(
+            {c: [o for o in got[c] if key(o) in common] for c in CONDITIONS}, "condition"
+        )
     lines += ["", "### Map rule's failed laps by class (classify.py)", ""]
     lines += ["| condition | failed | " + " | ".join(CLASSES) + " |"]  # fmt: skip
     lines += ["|---|---|" + "---|" * len(CLASSES)]
