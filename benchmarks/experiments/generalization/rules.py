@@ -20,6 +20,11 @@ Writes ``results/rules/<rule>/seed<k>/results.json`` (the benchmark's format) an
 
     .venv/bin/python benchmarks/experiments/generalization/rules.py --workers 2
 
+The map rule's map assumes the paper's constants (its camera, 0.10 m and 22.9° per command)
+whatever the preset, where a learned controller's map takes its world's (for the paper world
+22.918° per pivot, the only difference); with another preset use
+``../sharp_corners/run_rules.py``, which gives the map the preset's geometry.
+
 ``--rule NAME`` scores only that rule (repeatable); ``--map KEY=VALUE`` (repeatable) drives the
 map rule on its map with that setting changed (e.g. ``--map path_radius_m=0.2``).
 ``--study FILE --condition NAME --out DIR`` scores the rules on another study's trials instead
