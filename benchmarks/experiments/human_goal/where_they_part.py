@@ -36,7 +36,9 @@ inputs per step in thousandths.
     .venv/bin/python benchmarks/experiments/human_goal/where_they_part.py
 
 ``--repetitions N`` (first N), ``--loops K`` (first K loops each), ``--out DIR`` (default
-``results/`` beside this file: ``where_they_part.md`` and ``.json``).
+``results/`` beside this file: ``where_they_part.md`` and ``.json``); ``--study FILE
+--condition NAME`` learns another selection study's condition on its own validation
+repetitions (written to ``where_they_part_NAME.md`` and ``.json``), e.g. round 5's winner.
 
 Length/time: about 400 lines, over this folder's usual length for the step tables and the
 checks; the full run (4 repetitions: 4 controllers learned, 80 teacher checks, 160 laps) took
@@ -329,7 +331,7 @@ def report(done: list[dict], reps: int, loops: int, wall_s: float) -> tuple[str,
     md = [f"# Where the learned policy's commands part from the map rule's ({CONDITION})", ""]
     md += [f"Seed 0, repetitions 0-{reps - 1}, {loops} validation loops each, once each way;"]
     md += [f"{wall_s / 60:.0f} min on one core: `.venv/bin/python {COMMAND}`.", ""]
-    md += ["## The learned laps against the round-3 selection study's", ""]
+    md += [f"## The learned laps against the selection study's ({STUDY.name})", ""]
     md += table(("repetition", *CHECK), [[k] + [r[c] for c in CHECK] for k, r in check.items()])
     by_turn = []
     for driver in ("learned", "rule"):
@@ -411,7 +413,18 @@ def main() -> None:
     parser.add_argument("--repetitions", type=int, default=4, help="first N of seed 0")
     parser.add_argument("--loops", type=int, default=None, help="first K loops (default 10)")
     parser.add_argument("--out", type=Path, default=HERE / "results")
+    parser.add_argument(
+        "--study", type=Path, default=STUDY, help="the selection study whose condition to learn"
+    )
+    parser.add_argument("--condition", default=CONDITION, help="its condition (the learner)")
     args = parser.parse_args()
+    global STUDY, CONDITION, STUDIED  # noqa: PLW0603 - the report reads them
+    name = "where_they_part"
+    if (args.study.resolve(), args.condition) != (STUDY, CONDITION):
+        name = f"where_they_part_{args.condition}"
+        STUDY, CONDITION = args.study.resolve(), args.condition
+        stem = STUDY.stem
+        STUDIED = STUDY.parent / "results" / stem / CONDITION / "seed0" / "results.json"
     study = load_study(STUDY)
     base = next(c for c in study.conditions if c.name == CONDITION).config
     config = dataclasses.replace(base, seed=0, repetitions=study.repetitions)
@@ -423,8 +436,8 @@ def main() -> None:
     text, data = report(done, len(seeds), loops, time.perf_counter() - t0)
     data["timing_s"] = {str(d["repetition"]): d["timing_s"] for d in done}
     args.out.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(args.out / "where_they_part.md", text)
-    atomic_write_text(args.out / "where_they_part.json", json.dumps(data, separators=(",", ":")))
+    atomic_write_text(args.out / f"{name}.md", text)
+    atomic_write_text(args.out / f"{name}.json", json.dumps(data, separators=(",", ":")))
     print(text)
 
 
