@@ -409,6 +409,7 @@ def report(done: list[dict], reps: int, loops: int, wall_s: float) -> tuple[str,
 
 
 def main() -> None:
+    global STUDY, CONDITION, STUDIED  # noqa: PLW0603 - the report reads them
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repetitions", type=int, default=4, help="first N of seed 0")
     parser.add_argument("--loops", type=int, default=None, help="first K loops (default 10)")
@@ -418,7 +419,6 @@ def main() -> None:
     )
     parser.add_argument("--condition", default=CONDITION, help="its condition (the learner)")
     args = parser.parse_args()
-    global STUDY, CONDITION, STUDIED  # noqa: PLW0603 - the report reads them
     name = "where_they_part"
     if (args.study.resolve(), args.condition) != (STUDY, CONDITION):
         name = f"where_they_part_{args.condition}"
