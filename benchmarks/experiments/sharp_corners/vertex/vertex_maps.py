@@ -168,7 +168,10 @@ def drive(repetition: int) -> list[dict]:
 def to_world(points: np.ndarray, pose: np.ndarray) -> np.ndarray:
     c, s = math.cos(pose[2]), math.sin(pose[2])
     return np.column_stack(
-        [pose[0] + c * points[:, 0] - s * points[:, 1], pose[1] + s * points[:, 0] + c * points[:, 1]]
+        [
+            pose[0] + c * points[:, 0] - s * points[:, 1],
+            pose[1] + s * points[:, 0] + c * points[:, 1],
+        ]
     )
 
 
@@ -351,7 +354,7 @@ def draw(lap: dict, k: int, f: dict, track: Any, row: dict, out_png: Path, title
         f"dV {row['dV']:.2f} m  past V {row['past']:+.2f}  lat {row['rover_lat']:+.2f} (inner+)"
         f"  heading {row['heading']:+.0f} deg (toward+)",
         "fresh: " + " ".join(f"{n.split()[0]}{'-' + n.split()[1][:4] if ' ' in n else ''}"
-                             f" {s:.0%}" for n, s in zip(CAT_NAMES, row["split"]) if s > 0.005),
+                             f" {s:.0%}" for n, s in zip(CAT_NAMES, row["split"], strict=True) if s > 0.005),
         f"out strip 1st m: {row['out_seen']} felt pts, visited {fmt(row['out_visited'])},"
         f" ahead {fmt(row['out_ahead'])}",
         f"bearing w/o out back-ext {fmt(row['b_no_outback'], '+.0f')}, w/o ext"
@@ -387,13 +390,17 @@ def verdict(tag: str, cl: dict, corner: Any, rows: list[dict]) -> str:
     """The decisive command of a failed lap and whether H1 or H2 alone would have changed it."""
     away = [i for i, r in enumerate(rows) if r["dir"] == "away"]
     if not away:
-        return f"| {tag} | {cl['cls']} | {corner.label} ({corner.turn_deg:+.0f}) | - | no away pivot |"
+        return (
+            f"| {tag} | {cl['cls']} | {corner.label} ({corner.turn_deg:+.0f}) | - | no away pivot |"
+        )
     i = away[0]
     kind = "away"
     if rows[i]["bearing"] is None:  # blank: the side came from the last fresh felt
         before = [j for j in range(i) if rows[j]["bearing"] is not None]
         if not before:
-            return f"| {tag} | {cl['cls']} | {corner.label} | {rows[i]['k']} | blank, no side seen |"
+            return (
+                f"| {tag} | {cl['cls']} | {corner.label} | {rows[i]['k']} | blank, no side seen |"
+            )
         i, kind = before[-1], "side"
     r = rows[i]
 
@@ -441,7 +448,9 @@ def main() -> None:
             with gzip.open(cache, "wb") as fh:
                 pickle.dump(got, fh)
         laps += got
-        print(f"rep {rep}: {sum(x['success'] for x in got)}/{len(got)} sharp laps lapped", flush=True)
+        print(
+            f"rep {rep}: {sum(x['success'] for x in got)}/{len(got)} sharp laps lapped", flush=True
+        )
     from lfd_track.world.track import loop_track
 
     PNG.mkdir(exist_ok=True)
