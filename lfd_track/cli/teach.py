@@ -38,6 +38,8 @@ def teach_config(args: argparse.Namespace) -> Any:
         raise LfdTrackError("--features none reads the memory inputs alone: give --memory")
     if args.online_learner is not None and not args.online:
         raise LfdTrackError("--online-learner is for --online: give --online")
+    if args.mirror and not args.online:
+        raise LfdTrackError("--mirror is for --online (the learner's cases): give --online")
     learner = args.online_learner or "ga"
     for flag, value in (
         ("--generations-per-case", args.generations_per_case),
@@ -81,6 +83,7 @@ def teach_config(args: argparse.Namespace) -> Any:
         features=args.features,
         ga_bias=args.ga_bias,
         mutation_delta=0.1 if args.mutation_delta is None else args.mutation_delta,
+        mirror=args.mirror,
         library_only=args.library_only,
         force=args.force,
         fps=args.fps,
@@ -255,6 +258,12 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         default=None,
         metavar="D",
         help="with --online (learner ga): the GA's mutation step (default 0.1, the paper's)",
+    )
+    teach.add_argument(
+        "--mirror",
+        action="store_true",
+        help="with --online: the learner fits the cases and their mirror images (left and right"
+        " swapped), as benchmark --mirror does; the recording holds the cases as taught",
     )
     teach.add_argument(
         "--library-only",

@@ -89,6 +89,9 @@ class TeachConfig:
     learner ``"bc"``)."""
     mutation_delta: float = 0.1
     """With ``online``: the GA's mutation step (``GAConfig.mutation_delta``, the paper's 0.1)."""
+    mirror: bool = False
+    """With ``online``: the learner fits the cases and their mirror images (left and right
+    swapped, :mod:`lfd_track.learning.mirror`), as the benchmark's ``--mirror`` does."""
     library_only: int = 0
     """The first N commands only build the road library and are not recorded."""
     force: bool = False
@@ -488,6 +491,8 @@ def open_session(config: TeachConfig) -> LoopSession:
             metadata["online_settings"].update(
                 learner=takeover.learner, epochs_per_case=takeover.epochs_per_case
             )
+        if config.mirror:  # likewise: written only when on
+            metadata["online_settings"]["mirror"] = True
     # As ``lfd-track demo --force``: an existing file is kept until the new recording is closed
     # (then replaced, if it holds a case); until then the recording has a name of its own.
     target = RecordingTarget(out, replace=config.force and out.exists())
@@ -570,14 +575,21 @@ def _online_parts(config: TeachConfig, n_inputs: int) -> tuple[PolicyCommander, 
     ``"bc"``), which updates its weights."""
     from ..learning.bc import BCConfig
     from ..learning.ga import GAConfig
+    from ..learning.mirror import with_mirrored
     from ..teaching.learner_feed import BCLearnerFeed, GALearnerFeed
 
     policy = PolicyCommander(None)  # no policy until the first case was learned
+    training_set = None
+    if config.mirror:
+
+        def training_set(x: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            return with_mirrored(x, a, config.memory, config.features)
+
     if config.takeover.learner == "bc":
         bc = BCConfig(bias=config.ga_bias)
         rng = np.random.default_rng(config.seed)
         epochs = config.takeover.epochs_per_case
-        return policy, BCLearnerFeed(bc, rng, epochs, policy, n_inputs)
+        return policy, BCLearnerFeed(bc, rng, epochs, policy, n_inputs, training_set)
     learner = GALearnerFeed(
         GAConfig(
             population_size=config.population_size,
@@ -588,5 +600,6 @@ def _online_parts(config: TeachConfig, n_inputs: int) -> tuple[PolicyCommander, 
         config.takeover.generations_per_case,
         policy,
         n_inputs,
+        training_set,
     )
     return policy, learner

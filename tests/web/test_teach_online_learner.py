@@ -49,6 +49,7 @@ def _teach(station, commands: list[str]) -> dict:
             ["--online", "--online-learner", "bc", "--mutation-delta", "0.2"],
             "--mutation-delta is for --online-learner ga, not bc",
         ),
+        (["--mirror"], "--mirror is for --online (the learner's cases): give --online"),
     ],
 )
 def test_the_online_learner_flag_is_refused_where_it_means_nothing(
@@ -87,3 +88,26 @@ def test_online_teaching_keeps_the_ga_by_default(open_station):
     session.close()
     settings = load_demonstration(station.out).metadata["online_settings"]
     assert "learner" not in settings and "epochs_per_case" not in settings
+    assert "mirror" not in settings  # off: the recording reads as it always did
+
+
+def test_online_teaching_with_mirror_fits_each_case_and_its_mirror_image(open_station):
+    """``--mirror``: the learner fits the cases and their mirror images, as the benchmark's
+    chosen human-taught configuration does; the recording holds only the cases as taught."""
+    flags = ["--memory", "fresh_felt", "--features", "none", "--ga-bias", "--mirror"]
+    station = open_station("--online", "--online-learner", "bc", *flags)
+    session = station.session
+    _teach(station, ["left", "left", "forward"])
+    feed = session.learner
+    x, a = feed.cases.arrays()
+    fitted_x, fitted_a = feed.training_set(x, a)
+    assert a.tolist() == [1, 1, 0]  # forward 0, left 1, right 2
+    assert fitted_a.tolist() == [1, 1, 0, 2, 2, 0]  # then the mirror images: left becomes right
+    assert fitted_x.shape == (6, 3)
+    # the map's bearing changes side in the mirror; amount and distance stay
+    assert fitted_x[3:, 0] == pytest.approx(1.0 - x[:, 0])
+    assert fitted_x[3:, 1:] == pytest.approx(x[:, 1:])
+    session.close()
+    demo = load_demonstration(station.out)
+    assert demo.metadata["online_settings"]["mirror"] is True
+    assert demo.commands.tolist() == [1, 1, 0]
