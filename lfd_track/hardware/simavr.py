@@ -405,9 +405,9 @@ class SimulatedBoard:
         deadline = time.monotonic() + timeout_s
         while True:
             text = self._log_text()
-            if text.count(marker) > before:
-                last = text[text.rindex(marker) + 1 :].split("\n", 1)[0]
-                return int(last.split()[2]) * 1e-6
+            tail = text[text.rindex(marker) + 1 :] if text.count(marker) > before else ""
+            if "\n" in tail:  # a whole line: the simulator's buffered log may end mid-line
+                return int(tail.split("\n", 1)[0].split()[2]) * 1e-6
             self._check_alive(deadline, f"write a {tag}")
             time.sleep(0.001)  # polling the log file, which has no change notification
 

@@ -245,9 +245,9 @@ class PreviousCommandMemory:
 #: Commands of path the ``fresh_felt`` map remembers (4 m of forward driving).
 _PATH_COMMANDS = 40
 #: ``fresh_felt``: weighted felt below this is no fresh felt at all (inputs 0.5, 0, 0).
-_MIN_FRESH = 1.0
+MIN_FRESH = 1.0
 #: ``fresh_felt``: fresh felt counts from this far behind the axle on ([m]; 0: ahead only).
-_BEHIND_M = 0.05
+BEHIND_M = 0.05
 #: ``fresh_felt``: the amount input is the weighted fresh felt over this (clipped to 1).
 _FULL_FRESH = 20.0
 #: ``fresh_felt`` with ``strip_link_m``: felt this close to the axle is the rover's own strip.
@@ -462,18 +462,18 @@ class FreshFeltMemory:
             self._link_newest_frame(full)
         points = self._points
         dist = np.hypot(points[:, 0], points[:, 1])
-        ahead = points[:, 0] > -_BEHIND_M
+        ahead = points[:, 0] > -BEHIND_M
         if cfg.strip_link_m:
             ahead &= self._own_strip(dist)
         reach = cfg.reach_m
         weights = self._fresh(dist < reach, ahead)
         mass = float(weights.sum())
-        if mass < _MIN_FRESH and cfg.blank_reach_m:  # nothing near: look further
+        if mass < MIN_FRESH and cfg.blank_reach_m:  # nothing near: look further
             weights = self._fresh(dist < cfg.blank_reach_m, ahead)
             mass = float(weights.sum())
             if cfg.blank_distance == "blank_reach":
                 reach = cfg.blank_reach_m
-        if mass < _MIN_FRESH:
+        if mass < MIN_FRESH:
             last = self._inputs[0] if cfg.blank_bearing == "last" else 0.5
             self._inputs = np.array([last, 0.0, 0.0])
             return

@@ -18,6 +18,7 @@ import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -90,8 +91,7 @@ class TeachConfig:
     mutation_delta: float = 0.1
     """With ``online``: the GA's mutation step (``GAConfig.mutation_delta``, the paper's 0.1)."""
     mirror: bool = False
-    """With ``online``: the learner fits the cases and their mirror images (left and right
-    swapped, :mod:`lfd_track.learning.mirror`), as the benchmark's ``--mirror`` does."""
+    """With ``online``: the learner fits the cases and their mirror images (``--mirror``)."""
     library_only: int = 0
     """The first N commands only build the road library and are not recorded."""
     force: bool = False
@@ -486,13 +486,12 @@ def open_session(config: TeachConfig) -> LoopSession:
             "window": takeover.window,
             "threshold": takeover.threshold,
             "population_size": config.population_size,
+            **({"mirror": True} if config.mirror else {}),  # written only when on, as learner
         }
         if takeover.learner != "ga":  # a recording taught with the GA reads as it always did
             metadata["online_settings"].update(
                 learner=takeover.learner, epochs_per_case=takeover.epochs_per_case
             )
-        if config.mirror:  # likewise: written only when on
-            metadata["online_settings"]["mirror"] = True
     # As ``lfd-track demo --force``: an existing file is kept until the new recording is closed
     # (then replaced, if it holds a case); until then the recording has a name of its own.
     target = RecordingTarget(out, replace=config.force and out.exists())
@@ -579,12 +578,8 @@ def _online_parts(config: TeachConfig, n_inputs: int) -> tuple[PolicyCommander, 
     from ..teaching.learner_feed import BCLearnerFeed, GALearnerFeed
 
     policy = PolicyCommander(None)  # no policy until the first case was learned
-    training_set = None
-    if config.mirror:
-
-        def training_set(x: np.ndarray, a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            return with_mirrored(x, a, config.memory, config.features)
-
+    mirrored = partial(with_mirrored, memory=config.memory, features=config.features)
+    training_set = mirrored if config.mirror else None  # what the learner fits
     if config.takeover.learner == "bc":
         bc = BCConfig(bias=config.ga_bias)
         rng = np.random.default_rng(config.seed)

@@ -72,14 +72,14 @@ def see_and_copy(self: FreshFeltMemory, values: np.ndarray, levels: Any = None) 
     cfg = self.config
     points = self._points
     dist = np.hypot(points[:, 0], points[:, 1])
-    ahead = points[:, 0] > -memory_module._BEHIND_M
+    ahead = points[:, 0] > -memory_module.BEHIND_M
     own = self._own_strip(dist) if cfg.strip_link_m else np.ones(len(dist), bool)
     weights = self._fresh(dist < cfg.reach_m, ahead & own)
     used = "reach"
-    if weights.sum() < memory_module._MIN_FRESH and cfg.blank_reach_m:
+    if weights.sum() < memory_module.MIN_FRESH and cfg.blank_reach_m:
         weights = self._fresh(dist < cfg.blank_reach_m, ahead & own)
         used = "blank_reach"
-    if weights.sum() < memory_module._MIN_FRESH:
+    if weights.sum() < memory_module.MIN_FRESH:
         used = "blank"
     kept = self._kept(self._felt > 0.0)
     STATE["snap"] = {
