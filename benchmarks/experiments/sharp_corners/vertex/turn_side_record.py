@@ -41,24 +41,14 @@ runner = vm.runner
 memory_module = vm.memory_module
 FreshFeltMemory = vm.FreshFeltMemory
 CROP_M = 1.6
-STATE: dict[str, Any] = {"snap": None, "laps": []}
+STATE: dict[str, Any] = {"snap": None}  # the laps go to vm.STATE["laps"], as vm.drive reads them
 _see = FreshFeltMemory.see
 
 
 def see_and_copy(self: Any, values: np.ndarray, levels: Any = None) -> None:
     _see(self, values, levels)
-    cfg = self.config
     points = self._points
-    dist = np.hypot(points[:, 0], points[:, 1])
-    ahead = points[:, 0] > -memory_module.BEHIND_M
-    own = self._own_strip(dist) if cfg.strip_link_m else np.ones(len(dist), bool)
-    weights = self._fresh(dist < cfg.reach_m, ahead & own)
-    used = "reach"
-    if weights.sum() < memory_module.MIN_FRESH and cfg.blank_reach_m:
-        weights = self._fresh(dist < cfg.blank_reach_m, ahead & own)
-        used = "blank_reach"
-    if weights.sum() < memory_module.MIN_FRESH:
-        used = "blank"
+    dist, _, own, weights, used = vm.fresh_weights(self)
     keep = ((self._felt >= 0.25) & (dist < CROP_M)) | (weights > 0)
     STATE["snap"] = {
         "points": points[keep].astype(np.float32),
@@ -77,18 +67,14 @@ def traced_run_trial(env: Any, controller: Any, *, seed: int | None, **kw: Any) 
     STATE["snap"] = None
 
     def on_loop_step(step: Any) -> None:
-        before = step.moment.info.get("pose")
-        after = step.info_after.get("pose")
-        mem = np.asarray(step.percept.memory, dtype=float)[-3:]
         k = len(steps)
-        steps.append([*map(float, after[:3]), float(int(step.command)), *map(float, mem),
-                      *map(float, (before if before is not None else after)[:3])])  # fmt: skip
+        steps.append(vm.step_row(step))
         if STATE["snap"] is not None:
             snaps[k] = STATE["snap"]
         STATE["snap"] = None
 
     info, trajectory, n = vm._run_trial(env, controller, seed=seed, on_loop_step=on_loop_step, **kw)
-    STATE["laps"].append({
+    vm.STATE["laps"].append({
         "track": track.name, "direction": "cw" if track.reversed else "ccw",
         "success": bool(info["success"]), "failure": info["failure"],
         "steps": np.asarray(steps, dtype=np.float64), "snaps": snaps,
@@ -103,32 +89,10 @@ def main() -> None:
     FreshFeltMemory.see = see_and_copy
     runner.run_trial = traced_run_trial
     for rep in args.repetitions:
-        vm.STATE["laps"] = STATE["laps"] = []
-        # vertex_maps.drive checks its own STATE's laps: keep them in step
-        laps = drive(rep)
+        laps = vm.drive(rep)
         with gzip.open(HERE / f"turnside_rep{rep}.pkl.gz", "wb") as fh:
             pickle.dump(laps, fh)
         print(f"rep {rep}: {sum(x['success'] for x in laps)}/{len(laps)} laps lapped", flush=True)
-
-
-def drive(repetition: int) -> list[dict]:
-    study = vm.load_study(vm.STUDY)
-    config = next(c for c in study.conditions if c.name == "paper").config
-    seed = study.seeds[0]
-    repetition_seed = vm.repetition_seeds(seed, repetition + 1)[repetition]
-    demo_seed, _, trial_seed = vm.repetition_streams(repetition_seed)
-    library = vm.rules.library_of(demo_seed, config.preset)
-    controller = vm.rules.RuleController(library, "map-rule")
-    outcomes, _ = vm.rules.run_loop_trials(
-        controller, trial_seed=trial_seed, config=config, repetition=repetition
-    )
-    laps = STATE["laps"]
-    assert len(outcomes) == len(laps)
-    for o, lap in zip(outcomes, laps, strict=True):
-        assert o.track == lap["track"] and o.success == lap["success"]
-        lap["direction"] = o.direction
-        lap["repetition"] = repetition
-    return laps
 
 
 if __name__ == "__main__":

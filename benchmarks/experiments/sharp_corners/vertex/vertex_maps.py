@@ -64,11 +64,9 @@ STATE: dict[str, Any] = {"near": False, "snap": None, "laps": [], "keep_success"
 _see = FreshFeltMemory.see
 
 
-def see_and_copy(self: FreshFeltMemory, values: np.ndarray, levels: Any = None) -> None:
-    _see(self, values, levels)
-    STATE["snap"] = None
-    if not STATE["near"]:
-        return
+def fresh_weights(self: FreshFeltMemory) -> tuple[np.ndarray, ...]:
+    """The map's points' distance, ahead and own-strip masks and fresh weights, as ``see``
+    weighs them, and which reach it used ("reach", "blank_reach" or "blank")."""
     cfg = self.config
     points = self._points
     dist = np.hypot(points[:, 0], points[:, 1])
@@ -81,6 +79,25 @@ def see_and_copy(self: FreshFeltMemory, values: np.ndarray, levels: Any = None) 
         used = "blank_reach"
     if weights.sum() < memory_module.MIN_FRESH:
         used = "blank"
+    return dist, ahead, own, weights, used
+
+
+def step_row(step: Any) -> list[float]:
+    """A traced step: pose after, command, the map's three inputs, pose before."""
+    before = step.moment.info.get("pose")
+    after = step.info_after.get("pose")
+    mem = np.asarray(step.percept.memory, dtype=float)[-3:]
+    return [*map(float, after[:3]), float(int(step.command)), *map(float, mem),
+            *map(float, (before if before is not None else after)[:3])]  # fmt: skip
+
+
+def see_and_copy(self: FreshFeltMemory, values: np.ndarray, levels: Any = None) -> None:
+    _see(self, values, levels)
+    STATE["snap"] = None
+    if not STATE["near"]:
+        return
+    points = self._points
+    dist, ahead, own, weights, used = fresh_weights(self)
     kept = self._kept(self._felt > 0.0)
     STATE["snap"] = {
         "points": points.astype(np.float32),
@@ -109,12 +126,9 @@ def traced_run_trial(env: Any, controller: Any, *, seed: int | None, **kw: Any) 
     STATE["near"] = False
 
     def on_loop_step(step: Any) -> None:
-        before = step.moment.info.get("pose")
         after = step.info_after.get("pose")
-        mem = np.asarray(step.percept.memory, dtype=float)[-3:]
         k = len(steps)
-        steps.append([*map(float, after[:3]), float(int(step.command)), *map(float, mem),
-                      *map(float, (before if before is not None else after)[:3])])  # fmt: skip
+        steps.append(step_row(step))
         if STATE["snap"] is not None:
             snaps[k] = STATE["snap"]
         STATE["near"] = bool(
