@@ -62,7 +62,9 @@ such runs, and reading the training accuracy with that baseline in mind, are the
   further); ``visited_fade_m`` lets a fresh point's weight rise linearly from 0 at
   ``path_radius_m`` from the rover's path to 1 that much further, so of two fresh patches in
   reach the one further from where the rover came from pulls harder (at the vertex of a 135°
-  corner, the outgoing strip away from the incoming one, not the corner's tip).
+  corner, the outgoing strip away from the incoming one, not the corner's tip); ``branch_side``
+  adds a fourth input, the side felt branched off the rover's strip over its last metre
+  (:mod:`~lfd_track.policy.branch_side`).
   The settings, their bounds and their defaults (the goal's chosen map: every option above on)
   are :class:`~lfd_track.policy.memory_config.FreshFeltConfig`'s;
   :meth:`~lfd_track.policy.memory_config.FreshFeltConfig.plain` is the map with them off.
@@ -95,6 +97,8 @@ import numpy as np
 
 from ..core.commands import Command
 from ..core.frame import GRID_COLUMNS, N_REGIONS
+from .branch_side import UNKNOWN as UNKNOWN_BRANCH
+from .branch_side import BranchSide
 from .features import frame_inputs
 from .map_geometry import PAPER_GEOMETRY, MapGeometry
 from .memory_config import (
@@ -320,6 +324,7 @@ class FreshFeltMemory:
             from .odometry import floor_odometry
 
             self._odometry = floor_odometry(self.geometry)
+        self._branch = BranchSide() if config.branch_side else None
         self.reset()
 
     def reset(self) -> None:
@@ -328,6 +333,9 @@ class FreshFeltMemory:
         self._felt = np.zeros(0)  # their felt levels in [0, 1]
         self._path = np.zeros((0, 2))  # places the rover has been, before the current one
         self._inputs = np.array([0.5, 0.0, 0.0])
+        self._side = UNKNOWN_BRANCH  # branch_side: the fourth input
+        if self._branch is not None:
+            self._branch.reset()
         # With strip_link_m, the links among the points' felt (bit j of row i: points i and j
         # at most strip_link_m apart, or touching regions of one frame with picture links).
         # Moving the map moves every point alike, so a pair's distance is measured once, when
@@ -421,6 +429,8 @@ class FreshFeltMemory:
         """Move the map and the path by ``command``'s ``measured`` motion (None: its nominal
         one)."""
         path = np.vstack([self._path, np.zeros((1, 2))])[-_PATH_COMMANDS:]
+        if self._branch is not None:
+            self._branch.moved(command)
         if measured is None:
             self._points = self._moved(self._points, command)
             self._path = self._moved(path, command)
@@ -460,6 +470,8 @@ class FreshFeltMemory:
         self._felt = np.concatenate([self._felt, felt])[-keep:]
         if cfg.strip_link_m:
             self._link_newest_frame(full)
+        if self._branch is not None:
+            self._side = self._branch.see(self._points, self._felt, self._path)
         points = self._points
         dist = np.hypot(points[:, 0], points[:, 1])
         ahead = points[:, 0] > -BEHIND_M
@@ -600,8 +612,11 @@ class FreshFeltMemory:
         )
 
     def inputs(self) -> np.ndarray:
-        """The memory inputs now, (3,) float64: bearing, amount, distance, each in [0, 1]."""
-        return self._inputs.copy()
+        """The memory inputs now, (3,) float64: bearing, amount, distance, each in [0, 1]; with
+        ``branch_side`` (4,): and the side felt branched off (:mod:`.branch_side`)."""
+        if self._branch is None:
+            return self._inputs.copy()
+        return np.append(self._inputs, self._side)
 
 
 @functools.lru_cache(maxsize=1)

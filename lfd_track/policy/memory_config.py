@@ -140,7 +140,8 @@ class MemoryConfig:
     kind: ClassVar[str] = ""
     """The kind's name (:data:`MEMORY_KINDS`)."""
     n_inputs: ClassVar[int] = 0
-    """Inputs the memory adds after the per-region inputs (the 40 road values)."""
+    """Inputs the memory adds after the per-region inputs (the 40 road values); an option of a
+    kind may add more to a configuration's own (``FreshFeltConfig.branch_side``)."""
 
     def __post_init__(self) -> None:
         if type(self) is MemoryConfig:
@@ -220,7 +221,8 @@ class PreviousCommandConfig(MemoryConfig):
 @dataclass(frozen=True)
 class FreshFeltConfig(MemoryConfig):
     """``kind = "fresh_felt"``: the dead-reckoned map of felt not yet driven along (three inputs:
-    bearing, amount, distance). The defaults are the goal's chosen map (round 17)."""
+    bearing, amount, distance; with ``branch_side`` a fourth, the side felt branched off). The
+    defaults are the goal's chosen map (round 17)."""
 
     kind: ClassVar[str] = "fresh_felt"
     n_inputs: ClassVar[int] = 3
@@ -319,8 +321,16 @@ class FreshFeltConfig(MemoryConfig):
         " robustness study rooms_odometry.toml compares it with nominal)",
         choices=MAP_MOTIONS,
     )
+    branch_side: bool = setting(
+        False,
+        "a fourth input: the side (1 left, 0 right, 0.5 none) where felt branched off the"
+        " rover's strip over its last metre of driving (lfd_track.policy.memory,"
+        " branch_side_value)",
+    )
 
     def _check(self) -> None:
+        # the fourth input is this configuration's own (the kind's class keeps its three)
+        object.__setattr__(self, "n_inputs", 4 if self.branch_side else 3)
         if self.blank_reach_m and self.blank_reach_m <= self.reach_m:
             raise ValueError(
                 f"memory blank_reach_m must be 0 (off) or above reach_m, got {self.blank_reach_m!r}"
@@ -334,9 +344,11 @@ class FreshFeltConfig(MemoryConfig):
         return cls(**{**{spec.name: spec.before for spec in setting_specs(cls)}, **changes})
 
     def mirror(self, inputs: np.ndarray) -> np.ndarray:
-        # the bearing changes side; amount and distance do not
+        # the bearing and the branch side change side; amount and distance do not
         out = np.array(inputs, dtype=np.float64)
         out[:, 0] = 1.0 - out[:, 0]
+        if self.branch_side:
+            out[:, 3] = 1.0 - out[:, 3]
         return out
 
 

@@ -15,6 +15,8 @@ Schema history:
   results.json schema 4: the ``fresh_felt`` map's ``geometry``, ``"paper"`` in older files).
 * **5** — the same for the ``fresh_felt`` map's ``motion`` (as results.json schema 5,
   ``"nominal"`` in older files).
+* **6** — the same for the ``fresh_felt`` map's ``branch_side`` (as results.json schema 6,
+  ``false`` in older files).
 """
 
 from __future__ import annotations
@@ -25,7 +27,7 @@ from typing import Any
 from ..benchmark.schema import config_v1_to_v2, config_v2_to_v3, config_v3_to_v4
 from ..utils.migrate import Step, VersionedJson
 
-STUDY_SCHEMA = 5
+STUDY_SCHEMA = 6
 """Schema of the study.json this version writes (``len(STUDY_STEPS) + 1``)."""
 MAX_STUDY_BYTES = 1 << 28
 """Largest study.json read."""
@@ -64,7 +66,19 @@ def study_v4_to_v5(data: dict[str, Any]) -> dict[str, Any]:
     return _each_config(data, config_v3_to_v4, 5)
 
 
-STUDY_STEPS: tuple[Step, ...] = (study_v1_to_v2, study_v2_to_v3, study_v3_to_v4, study_v4_to_v5)
+def study_v5_to_v6(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 5 -> 6: the memory settings added since (``branch_side``) in each condition's
+    ``config``."""
+    return _each_config(data, config_v3_to_v4, 6)
+
+
+STUDY_STEPS: tuple[Step, ...] = (
+    study_v1_to_v2,
+    study_v2_to_v3,
+    study_v3_to_v4,
+    study_v4_to_v5,
+    study_v5_to_v6,
+)
 """Step k turns a schema-k study.json dict into schema k + 1."""
 STUDY_FORMAT = VersionedJson("study", STUDY_STEPS, MAX_STUDY_BYTES)
 """study.json: its steps and largest size; :func:`read_study_results` (a file) and

@@ -37,6 +37,7 @@ import numpy as np
 
 from ..core.commands import Command
 from ..core.frame import GRID_COLUMNS, GRID_ROWS, N_REGIONS
+from ..policy.branch_side import side_command
 from ..policy.memory import (
     UNKNOWN_SIDE,
     FreshFeltConfig,
@@ -173,13 +174,16 @@ class FreshFeltRule:
 
     def propose(self, moment) -> Command:  # noqa: ANN001 - a teaching-loop Moment
         inputs = np.asarray(moment.policy_inputs, dtype=np.float64)
-        return self.act(inputs[-3:])  # the map's three inputs come last
+        return self.act(inputs[-self.config.memory.n_inputs :])  # the map's inputs come last
 
     def act(self, memory: np.ndarray) -> Command:
-        """The command for the ``fresh_felt`` inputs (3,): bearing, amount, distance."""
+        """The command for the ``fresh_felt`` inputs (3,): bearing, amount, distance; with the
+        map's ``branch_side`` (4,), while no fresh felt is left the rule pivots toward the side
+        felt branched off, when it gives one (else toward the side the fresh felt last lay on)."""
         if float(memory[1]) <= 0.0:  # no fresh felt
             self.blank_frames += 1
-            return self.side
+            branch = side_command(float(memory[3])) if len(memory) > 3 else None
+            return self.side if branch is None else branch
         bearing = fresh_bearing_rad(memory, self.config.memory.bearing_range_deg)
         if bearing != 0.0:
             self.side = Command.LEFT if bearing > 0 else Command.RIGHT

@@ -445,12 +445,13 @@ class ProtocolHuman:
         if self._picture is None or not self._past_library_only:
             return None
         inputs = moment.inputs
-        if inputs is None or len(inputs) < 3:  # the map's three inputs come last
+        n_map = self._picture.config.memory.n_inputs
+        if inputs is None or len(inputs) < n_map:  # the map's inputs come last
             raise ValueError(
                 "human steers_by 'picture' reads the fresh_felt map: the policy needs memory"
                 " kind 'fresh_felt'"
             )
-        return self._picture.act(np.asarray(inputs[-3:], dtype=np.float64))
+        return self._picture.act(np.asarray(inputs[-n_map:], dtype=np.float64))
 
     def _start_turnaround(self, pose: np.ndarray) -> None:
         # Turn round towards the next leg, alternating the direction at every arrival.

@@ -1,0 +1,113 @@
+"""The ``fresh_felt`` map's fourth input (``branch_side``): which side felt branched off the
+rover's strip over its last metre of driving.
+
+At a corner sharper than the camera can see round, the map's bearing of fresh felt often points
+the wrong way at the vertex (the corner's tip, read from a rover riding the strip's inner edge,
+lies to the outer side), while the felt that left the strip on the way in says which side the
+corner turns. This input carries that: 1 when the felt branched off to the left, 0 to the right,
+0.5 when it gives no side. It is a fact of the map for a learner to weigh, not a command; the
+hand-written rule on the same inputs uses it only while the map has no fresh felt
+(:class:`~lfd_track.teaching.handwritten.FreshFeltRule`).
+
+Computed at every frame from the map's own arrays (rover frame: x ahead, y left of the axle):
+
+1. the path's direction u: walking back from the axle along the places the rover has been, the
+   oldest place p within :data:`PATH_M` of path; none while ``|p|`` < :data:`MIN_PATH_M` (the
+   frame adds nothing); else u = -p / ``|p|`` and n = u turned 90° left;
+2. over felt points (level >= 0.5), s = point . u and l = point . n; the strip's centre c is the
+   felt-weighted mean of l over points with -:data:`BEHIND_M` <= s <= 0 and ``|l|`` <
+   :data:`LANE_M` (0 when their felt sums below :data:`MIN_LANE_FELT`);
+3. the frame's value b: the felt levels times the sign of l - c, summed over points with
+   0 < s <= :data:`AHEAD_M` and :data:`NEAR_M` < ``|l - c|`` < :data:`FAR_M` (felt off to one
+   side of the strip ahead);
+4. the side: the sign of the sum of b over the frames seen since the last
+   :data:`WINDOW_FORWARD` forward commands (1 m of the paper's steps), when its size exceeds
+   :data:`MIN_SUM`; else none.
+
+The estimator and its constants are those scored offline on 126 corners over 100° in
+``benchmarks/experiments/sharp_corners/vertex/turn_side.md`` (right at 76 of the 81 arrivals
+where it gives a side). Everything in it is the robot's own: its commands and its camera.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.commands import Command
+
+#: [m] path length that gives the path's direction; shorter than MIN_PATH_M: no frame value
+PATH_M, MIN_PATH_M = 0.5, 0.15
+#: [m] the strip's centre from felt between BEHIND_M behind the axle and the axle, within LANE_M
+BEHIND_M, LANE_M, MIN_LANE_FELT = 0.5, 0.5, 3.0
+#: [m] branching felt: ahead up to AHEAD_M, between NEAR_M and FAR_M off the strip's centre
+AHEAD_M, NEAR_M, FAR_M = 1.2, 0.3, 1.0
+#: forward commands the side looks back over (1 m of the paper's steps), and the sum it needs
+WINDOW_FORWARD, MIN_SUM = 10, 2.0
+#: the input's value while no side is known
+UNKNOWN = 0.5
+
+
+def path_direction(path: np.ndarray) -> np.ndarray | None:
+    """u (2,): the unit direction the rover came along its ``path`` (M, 2) of places before the
+    current one, oldest first; None while the path is too short."""
+    places = np.vstack([path, np.zeros((1, 2))])
+    steps = np.hypot(*np.diff(places, axis=0).T)
+    back = np.concatenate([[0.0], np.cumsum(steps[::-1])])  # arc length from the axle back
+    within = np.flatnonzero(back <= PATH_M)
+    p = places[::-1][within[-1]]
+    size = float(np.hypot(*p))
+    return None if size < MIN_PATH_M else -p / size
+
+
+def frame_value(points: np.ndarray, felt: np.ndarray, path: np.ndarray) -> float:
+    """b: felt branching off to the left (+) or the right (-) of the rover's strip ahead, for the
+    map's ``points`` (N, 2), their ``felt`` levels (N,) and the ``path`` (M, 2)."""
+    u = path_direction(path)
+    if u is None:
+        return 0.0
+    n = np.array([-u[1], u[0]])
+    on = felt >= 0.5
+    s, lat, w = points[on] @ u, points[on] @ n, felt[on]
+    lane = (s >= -BEHIND_M) & (s <= 0.0) & (np.abs(lat) < LANE_M)
+    lane_felt = float(w[lane].sum())
+    c = float((w[lane] * lat[lane]).sum()) / lane_felt if lane_felt >= MIN_LANE_FELT else 0.0
+    off = lat - c
+    branch = (s > 0.0) & (s <= AHEAD_M) & (np.abs(off) > NEAR_M) & (np.abs(off) < FAR_M)
+    return float((w[branch] * np.sign(off[branch])).sum())
+
+
+class BranchSide:
+    """The side input's state over an episode: the frames' values b since the last
+    :data:`WINDOW_FORWARD` forward commands."""
+
+    def __init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        """Start of an episode: no frame seen, no side."""
+        self._values: list[tuple[int, float]] = []  # (forward commands before it, b) per frame
+        self._forward = 0
+
+    def moved(self, command: int) -> None:
+        """The map moved by an executed ``command``."""
+        if command == Command.FORWARD:
+            self._forward += 1
+
+    def see(self, points: np.ndarray, felt: np.ndarray, path: np.ndarray) -> float:
+        """The input after a frame was added to the map (``points``, ``felt``, ``path`` as in
+        :func:`frame_value`): 1 left, 0 right, :data:`UNKNOWN` none."""
+        self._values.append((self._forward, frame_value(points, felt, path)))
+        self._values = [(f, b) for f, b in self._values if self._forward - f <= WINDOW_FORWARD]
+        total = sum(b for _, b in self._values)
+        if abs(total) <= MIN_SUM:
+            return UNKNOWN
+        return 1.0 if total > 0 else 0.0
+
+
+def side_command(value: float) -> Command | None:
+    """The pivot toward the side a ``branch_side`` input ``value`` gives (None: no side)."""
+    if value > UNKNOWN:
+        return Command.LEFT
+    if value < UNKNOWN:
+        return Command.RIGHT
+    return None

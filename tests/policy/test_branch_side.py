@@ -1,0 +1,130 @@
+"""The ``fresh_felt`` map's ``branch_side`` input: which side felt branched off the rover's strip,
+its mirror image, the rule on it, and a controller that reads it."""
+
+import numpy as np
+import pytest
+
+from lfd_track.core.commands import Command
+from lfd_track.core.frame import GRID_COLUMNS, GRID_ROWS, N_REGIONS
+from lfd_track.learning.mirror import mirror_cases
+from lfd_track.policy.branch_side import UNKNOWN, WINDOW_FORWARD, frame_value, side_command
+from lfd_track.policy.controller import Controller
+from lfd_track.policy.memory import FreshFeltConfig, FreshFeltMemory, memory_config, policy_inputs
+from lfd_track.teaching.handwritten import FreshFeltRule, FreshFeltRuleConfig
+from lfd_track.vision.synthetic import patch_library, synthetic_frames
+
+F, L, R = Command.FORWARD, Command.LEFT, Command.RIGHT
+BRANCH = FreshFeltConfig(branch_side=True)
+
+
+def _values(cells: set[tuple[int, int]]) -> np.ndarray:
+    """Road values (40,): felt (1.0) at the (row, column) cells, carpet elsewhere."""
+    grid = np.zeros((GRID_ROWS, GRID_COLUMNS))
+    for row, column in cells:
+        grid[row, column] = 1.0
+    return grid.reshape(N_REGIONS)
+
+
+STRIP = {(r, c) for r in range(GRID_ROWS) for c in (3, 4)}
+LEFT_BRANCH = STRIP | {(0, 0), (0, 1)}  # felt 0.4-0.56 m left of the strip, 1.3 m ahead
+RIGHT_BRANCH = STRIP | {(0, 6), (0, 7)}
+
+
+def _drive(memory: FreshFeltMemory, frames: list[set[tuple[int, int]]]) -> list[np.ndarray]:
+    """See each frame, then drive a step forward; the inputs after each frame."""
+    seen = []
+    for cells in frames:
+        memory.see(_values(cells))
+        seen.append(memory.inputs())
+        memory.note(F)
+    return seen
+
+
+def test_the_setting_adds_a_fourth_input_and_leaves_the_other_three_as_they_were():
+    assert (
+        FreshFeltConfig().n_inputs == FreshFeltConfig.n_inputs == 3
+        and not FreshFeltConfig().branch_side
+    )
+    assert BRANCH.n_inputs == 4 and policy_inputs(BRANCH, "none") == 4
+    assert memory_config({"kind": "fresh_felt", "branch_side": True}) == BRANCH
+    frames = [STRIP] * 5 + [LEFT_BRANCH] * 6 + [STRIP] * 4
+    plain = _drive(FreshFeltMemory(FreshFeltConfig()), frames)
+    with_side = _drive(FreshFeltMemory(BRANCH), frames)
+    for without, with_ in zip(plain, with_side, strict=True):
+        assert without.shape == (3,) and with_.shape == (4,)
+        np.testing.assert_array_equal(with_[:3], without)  # the same arithmetic, the same bits
+
+
+def test_felt_branching_off_to_the_left_reads_1_to_the_right_0_and_none_at_first():
+    left = _drive(FreshFeltMemory(BRANCH), [STRIP] * 5 + [LEFT_BRANCH] * 4)
+    right = _drive(FreshFeltMemory(BRANCH), [STRIP] * 5 + [RIGHT_BRANCH] * 4)
+    assert [x[3] for x in left[:5]] == [UNKNOWN] * 5  # a straight strip has no side
+    assert left[-1][3] == 1.0 and right[-1][3] == 0.0
+
+
+def test_the_side_is_forgotten_a_metre_of_driving_after_the_branch_has_passed():
+    memory = FreshFeltMemory(BRANCH)
+    seen = _drive(memory, [STRIP] * 5 + [LEFT_BRANCH] * 3 + [STRIP] * (WINDOW_FORWARD + 15))
+    assert seen[8][3] == 1.0 and seen[-1][3] == UNKNOWN  # seen 1.3 m ahead, counted from 1.2 m
+    memory.reset()  # a new episode starts with no side
+    memory.see(_values(STRIP))
+    assert memory.inputs()[3] == UNKNOWN
+
+
+def test_pivots_alone_give_no_side():
+    memory = FreshFeltMemory(BRANCH)
+    for command in (L, L, R, R, L):
+        memory.see(_values(LEFT_BRANCH))
+        memory.note(command)
+    memory.see(_values(LEFT_BRANCH))
+    assert memory.inputs()[3] == UNKNOWN  # no path behind the axle: no strip to branch off
+
+
+def test_frame_value_counts_felt_off_the_strip_ahead_by_side():
+    path = np.column_stack([-np.arange(1, 6) * 0.1, np.zeros(5)])[::-1]  # came along +x
+    strip = np.column_stack([np.linspace(-0.4, 1.0, 15), np.zeros(15)])
+    branch = np.array([[0.7, 0.5], [0.8, 0.6], [0.9, -0.5]])  # two left, one right
+    points = np.vstack([strip, branch])
+    felt = np.ones(len(points))
+    assert frame_value(points, felt, path) == pytest.approx(1.0)
+    felt[-3:] = 0.4  # below the felt level: not felt
+    assert frame_value(points, felt, path) == 0.0
+    assert frame_value(points, np.ones(len(points)), path[-1:]) == 0.0  # too little path
+
+
+def test_the_mirror_image_swaps_the_side_and_keeps_none():
+    inputs = np.array([[0.7, 0.3, 0.2, 1.0], [0.4, 0.1, 0.5, UNKNOWN], [0.5, 0.0, 0.0, 0.0]])
+    mirrored = BRANCH.mirror(inputs)
+    np.testing.assert_allclose(mirrored[:, 3], [0.0, UNKNOWN, 1.0])
+    np.testing.assert_allclose(mirrored[:, 0], 1.0 - inputs[:, 0])
+    x, y = mirror_cases(inputs, np.array([L, F, R]), memory=BRANCH, features="none")
+    np.testing.assert_allclose(x[:, 3], [0.0, UNKNOWN, 1.0])
+    assert list(y) == [R, F, L]
+
+
+def test_the_rule_pivots_toward_the_branch_side_only_while_the_map_is_blank():
+    rule = FreshFeltRule(FreshFeltRuleConfig(memory=FreshFeltConfig.plain(branch_side=True)))
+    left_felt = np.array([0.6, 0.5, 0.4])  # fresh felt 36 deg to the left
+    assert rule.act(np.append(left_felt, 0.0)) == L  # the bearing decides while felt is fresh
+    assert rule.side == L
+    blank = np.array([0.6, 0.0, 0.0])
+    assert rule.act(np.append(blank, 0.0)) == R  # blank: toward the branch side
+    assert rule.act(np.append(blank, UNKNOWN)) == L  # no side: the last side, as without it
+    assert rule.act(blank) == L  # three inputs: the rule as it was
+    assert side_command(1.0) == L and side_command(0.0) == R and side_command(UNKNOWN) is None
+
+
+def test_a_controller_reads_the_fourth_input_and_its_file_records_the_setting(tmp_path):
+    frames = synthetic_frames(np.random.default_rng(0), 6)
+    library = patch_library(frames, 32, np.random.default_rng(1))
+    weights = np.random.default_rng(2).uniform(-3, 3, 5 * 4 + 5 + 3 * 5 + 3)
+    controller = Controller(library, weights, bias=True, features="none", memory=BRANCH)
+    assert controller.n_inputs == 4
+    with pytest.raises(ValueError, match="weights"):  # a 3-input network's weights do not fit
+        Controller(library, weights[:-5], bias=True, features="none", memory=BRANCH)
+    commands = [controller.act(f) for f in frames]
+    path = tmp_path / "branch.json"
+    controller.save(path)
+    loaded = Controller.load(path)
+    assert loaded.memory == BRANCH and loaded.n_inputs == 4
+    assert [loaded.act(f) for f in frames] == commands
