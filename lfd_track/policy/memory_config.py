@@ -324,8 +324,7 @@ class FreshFeltConfig(MemoryConfig):
     branch_side: bool = setting(
         False,
         "a fourth input: the side (1 left, 0 right, 0.5 none) where felt branched off the"
-        " rover's strip over its last metre of driving (lfd_track.policy.memory,"
-        " branch_side_value)",
+        " rover's strip over its last metre of driving (lfd_track.policy.branch_side)",
     )
 
     def _check(self) -> None:

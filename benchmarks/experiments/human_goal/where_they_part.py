@@ -14,7 +14,9 @@ admitted by the teacher's check as ``run_loop_trials`` does, each lapped once ea
 shadow (computing its command on the same inputs, never steering), then driven by the rule with
 the learned policy as the shadow. Both read the same perception (the controller's frozen library
 and its map). The rule is ``FreshFeltRule`` with the picture-steering human's 20° and the shipped
-``FreshFeltConfig`` (as ``../generalization/rules.py`` builds its ``map-rule``). Per step: the
+``FreshFeltConfig`` (as ``../generalization/rules.py`` builds its ``map-rule``); for a condition
+whose map has other settings (round 7's ``branch_side``), that map (the rule then pivots toward
+the branch side while the map is blank; the tables read the map's first three inputs). Per step: the
 map's inputs (bearing, clipped to ±30° by ``bearing_range_deg``; amount of fresh felt, 0 =
 blank map; distance of its centre over ``reach_m`` = 0.6 m, 1 = beyond reach, found by the
 further look), both commands, the lap's outcome, steps to the lap's end, the loop's sharpest turn.
@@ -127,7 +129,9 @@ class Shadowed:
 
     def propose(self, moment: Any) -> Any:
         learned, rule = self.learned.propose(moment), self.rule.propose(moment)
-        self.log.append((np.array(moment.policy_inputs[-3:], dtype=float), learned, rule))
+        inputs = np.asarray(moment.policy_inputs, dtype=float)
+        n_map = RULE.memory.n_inputs  # the map's inputs come last: bearing, amount, distance first
+        self.log.append((inputs[len(inputs) - n_map :][:3], learned, rule))
         return learned if self.driver == "learned" else rule
 
 
@@ -409,7 +413,7 @@ def report(done: list[dict], reps: int, loops: int, wall_s: float) -> tuple[str,
 
 
 def main() -> None:
-    global STUDY, CONDITION, STUDIED  # noqa: PLW0603 - the report reads them
+    global STUDY, CONDITION, STUDIED, RULE  # noqa: PLW0603 - the report reads them
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repetitions", type=int, default=4, help="first N of seed 0")
     parser.add_argument("--loops", type=int, default=None, help="first K loops (default 10)")
@@ -427,6 +431,8 @@ def main() -> None:
         STUDIED = STUDY.parent / "results" / stem / CONDITION / "seed0" / "results.json"
     study = load_study(STUDY)
     base = next(c for c in study.conditions if c.name == CONDITION).config
+    if isinstance(base.memory, FreshFeltConfig):  # the rule reads the learner's own map
+        RULE = dataclasses.replace(RULE, memory=base.memory)
     config = dataclasses.replace(base, seed=0, repetitions=study.repetitions)
     loops = args.loops or config.random_loops
     assert config.random_split == "validation"
