@@ -73,7 +73,7 @@ def test_a_committed_study_md_is_what_its_migrated_jobs_pool_to(folder, monkeypa
     from lfd_track.study.summary import study_markdown
 
     committed = read_study_results(REPO / folder / "study.json")
-    (source,) = (REPO / "benchmarks").rglob(f"{committed['study']}.toml")
+    source = (REPO / folder).parents[1] / f"{committed['study']}.toml"  # results/<stem> beside it
     monkeypatch.chdir(REPO)  # as the studies were run (paths in them are relative to the root)
     study = load_study(source.relative_to(REPO))
     pooled = build_study_results(study, load_finished(study, REPO / folder))
