@@ -29,7 +29,11 @@ the BLAS pinned to one thread, ``single_thread.pin_one_thread``). The paper's ph
 do not measure: they say what one core of this machine needs, not what the phone would.
 
 Run: ``.venv/bin/python benchmarks/speed/bench_budget.py [--frames 400] [--fits 3]`` — prints a
-table and writes ``benchmarks/speed/results/budget.json``.
+table and writes ``benchmarks/speed/results/budget.json``. ``--study FILE --condition NAME
+--out FILE`` measures another configuration of method ``bc`` (its one fit after the
+demonstration) or ``hg-dagger``, e.g. round 7's winner
+(``benchmarks/experiments/human_goal/round07/selection_round7.toml``,
+``centre.afresh.loop.unrec.nudge20.branch``, written to ``results/budget_round7.json``).
 """
 
 from __future__ import annotations
@@ -159,6 +163,23 @@ def timed_fit(x: np.ndarray, a: np.ndarray, bc: Any, seed: Any, runs: int) -> tu
     return fit, statistics.median(times)
 
 
+def bc_learning(context: MethodContext, controller: Controller, runs: int) -> dict[str, Any]:
+    """CPU seconds of the repetition's one backprop fit (method ``bc``: after the
+    demonstration), run again on its recorded cases."""
+    demo = load_demonstration(context.rep_dir / "demonstration.lfdemo")
+    x0, a0 = demo.policy_inputs(context.features), np.asarray(demo.commands, dtype=np.intp)
+    cases = training_set(context, x0, a0)
+    fit, fit_s = timed_fit(*cases, context.bc, context.ga_seed, runs)
+    np.testing.assert_allclose(fit.weights, controller.weights, rtol=0, atol=WEIGHTS_ATOL)
+    return {
+        "cases": {"demonstration": int(len(a0))},
+        "fitted_cases_with_mirror_images": [int(len(cases[1]))],
+        "epochs_per_fit": context.bc.epochs,
+        "fit_after_demonstration_cpu_s": round(fit_s, 3),
+        "per_repetition_cpu_s": round(fit_s, 3),
+    }
+
+
 def hg_dagger_learning(context: MethodContext, controller: Controller, runs: int) -> dict[str, Any]:
     """CPU seconds of the repetition's two backprop fits, run again on its recorded cases."""
     features = context.features
@@ -221,13 +242,21 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=400, help="frames decided (default 400)")
     parser.add_argument("--fits", type=int, default=3, help="runs of each fit (median kept)")
+    parser.add_argument("--study", type=Path, default=STUDY, help="the study of the configuration")
+    parser.add_argument(
+        "--condition", default=CONDITION, help="its condition (method bc or hg-dagger)"
+    )
+    parser.add_argument("--out", type=Path, default=RESULTS, help="the JSON written")
     args = parser.parse_args()
+    study_path, condition_name = args.study.resolve(), args.condition
     if args.frames < 20 or args.fits < 1:
         parser.error("--frames must be >= 20 and --fits >= 1")
     pin_one_thread()
     before = load_average()
-    study = load_study(STUDY)
-    (condition,) = [c for c in study.conditions if c.name == CONDITION]
+    study = load_study(study_path)
+    (condition,) = [c for c in study.conditions if c.name == condition_name]
+    if condition.config.method not in ("bc", "hg-dagger"):
+        parser.error(f"--condition {condition_name}: method must be bc or hg-dagger")
     config = dataclasses.replace(condition.config, seed=study.seeds[0], repetitions=1)
     seed = repetition_seeds(config.seed, 1)[0]  # repetition 0 of the study's seed
     demo_seed, ga_seed, trial_seed = repetition_streams(seed)
@@ -237,7 +266,8 @@ def main() -> None:
     online_config = dataclasses.replace(config, method="online", online=OnlineConfig(learner="bc"))
     with tempfile.TemporaryDirectory() as tmp:
         rows: dict[str, Any] = {}
-        for name, cfg in (("hg-dagger", config), ("online", online_config)):
+        method = config.method
+        for name, cfg in ((method, config), ("online", online_config)):
             rep_dir = Path(tmp) / name
             rep_dir.mkdir()
             c0 = time.process_time()
@@ -259,20 +289,20 @@ def main() -> None:
                 settings=cfg.settings_of(),
                 **extra,
             )
-            timing = hg_dagger_learning if name == "hg-dagger" else online_learning
+            timing = {"bc": bc_learning, "hg-dagger": hg_dagger_learning}.get(name, online_learning)
             rows[name] = {
                 **timing(context, learned.controller, args.fits),
                 "human_commands": learned.effort["commands"],
                 "training_accuracy": round(learned.training_accuracy, 3),
                 "whole_repetition_cpu_s": round(whole_s, 2),
             }
-            if name == "hg-dagger":
+            if name == method:
                 controller = learned.controller
         decided = decisions(controller, preset, trial_seed, args.frames)
     decision_ok = decided["cpu"]["max_ms"] <= DECISION_MS
     learning_ok = {n: r["per_repetition_cpu_s"] <= LEARNING_S for n, r in rows.items()}
     cpu = decided["cpu"]
-    print(f"{CONDITION} ({STUDY.relative_to(REPO)}), one core: {cpu_model()}")
+    print(f"{condition_name} ({study_path.relative_to(REPO)}), one core: {cpu_model()}")
     print(f"{'measure':<52} {'value':>22} {'target':>9} {'met':>4}")
     line = (
         f"{cpu['median_ms']:.2f} / {cpu['p95_ms']:.2f} / {cpu['p99_ms']:.2f} / {cpu['max_ms']:.2f}"
@@ -285,7 +315,7 @@ def main() -> None:
     line = f"{w['median_ms']:.2f} / {w['p95_ms']:.2f} / {w['p99_ms']:.2f} / {w['max_ms']:.2f}"
     print(f"{'  the same, wall ms':<52} {line:>22}")
     for name, label in (
-        ("hg-dagger", "hg-dagger (bc) learning"),
+        (method, "bc learning" if method == "bc" else "hg-dagger (bc) learning"),
         ("online", "online (bc) learning"),
     ):
         value = f"{rows[name]['per_repetition_cpu_s']:.2f} s"
@@ -295,7 +325,7 @@ def main() -> None:
     print(f"load average (1, 5, 15 min): before {before}, after {after}")
     result = {
         "benchmark": "budget",
-        "configuration": f"{CONDITION} of {STUDY.relative_to(REPO)}, study seed"
+        "configuration": f"{condition_name} of {study_path.relative_to(REPO)}, study seed"
         f" {config.seed}, repetition 0",
         "cpu_model": cpu_model(),
         "caveat": (
@@ -320,8 +350,8 @@ def main() -> None:
         "fits": args.fits,
         **run_facts(before),
     }
-    atomic_write_text(RESULTS, json.dumps(result, indent=2) + "\n")
-    print(f"wrote {RESULTS}")
+    atomic_write_text(args.out, json.dumps(result, indent=2) + "\n")
+    print(f"wrote {args.out}")
 
 
 if __name__ == "__main__":
