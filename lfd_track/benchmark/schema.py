@@ -42,6 +42,8 @@ Schema history:
   lacks at what the memory did before the setting existed).
 * **6** — ``config.memory`` names the ``fresh_felt`` map's ``branch_side`` (its fourth input). A
   schema-5 file was written before it: ``false``, what every map did then (the same step).
+* **7** — ``config.memory`` names the branch side's ``branch_window``. A schema-6 file was
+  written before it: ``"forward"``, what every map did then (the same step).
 """
 
 from __future__ import annotations
@@ -52,7 +54,7 @@ from typing import Any
 from ..policy.memory_config import memory_table_from_v1
 from ..utils.migrate import Step, VersionedJson
 
-RESULTS_SCHEMA = 6
+RESULTS_SCHEMA = 7
 """Schema of the results.json this version writes (``len(RESULTS_STEPS) + 1``)."""
 MAX_RESULTS_BYTES = 1 << 28
 """Largest results.json read (a 10-repetition benchmark writes about 100 kB)."""
@@ -240,12 +242,22 @@ def results_v5_to_v6(data: dict[str, Any]) -> dict[str, Any]:
     return data
 
 
+def results_v6_to_v7(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 6 -> 7: the memory settings added since (``branch_window``), at what an older run
+    did."""
+    if "config" in data:
+        data["config"] = config_v3_to_v4(data["config"])
+    data["schema"] = 7
+    return data
+
+
 RESULTS_STEPS: tuple[Step, ...] = (
     results_v1_to_v2,
     results_v2_to_v3,
     results_v3_to_v4,
     results_v4_to_v5,
     results_v5_to_v6,
+    results_v6_to_v7,
 )
 """Step k turns a schema-k results dict into schema k + 1."""
 RESULTS_FORMAT = VersionedJson("results", RESULTS_STEPS, MAX_RESULTS_BYTES)

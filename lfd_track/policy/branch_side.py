@@ -22,7 +22,12 @@ Computed at every frame from the map's own arrays (rover frame: x ahead, y left 
    side of the strip ahead);
 4. the side: the sign of the sum of b over the frames seen since the last
    :data:`WINDOW_FORWARD` forward commands (1 m of the paper's steps), when its size exceeds
-   :data:`MIN_SUM`; else none.
+   :data:`MIN_SUM`; else none. With ``branch_window = "commands"``, over the frames that
+   followed a forward command among the last :data:`WINDOW_FORWARD` commands of any kind: a
+   frame seen after a pivot adds nothing, and pivots count toward the window, so the side
+   expires while the rover only pivots (with ``"forward"`` it never does, and every frame seen
+   while pivoting adds the whole map's branching felt again: a side that is stale after a corner
+   keeps growing; ``benchmarks/experiments/human_goal/round07/README.md``).
 
 The estimator and its constants are those scored offline on 126 corners over 100° in
 ``benchmarks/experiments/sharp_corners/vertex/turn_side.md`` (right at 76 of the 81 arrivals
@@ -80,24 +85,31 @@ class BranchSide:
     """The side input's state over an episode: the frames' values b since the last
     :data:`WINDOW_FORWARD` forward commands."""
 
-    def __init__(self) -> None:
+    def __init__(self, window: str = "forward") -> None:
+        if window not in ("forward", "commands"):
+            raise ValueError(f"branch window must be 'forward' or 'commands', got {window!r}")
+        self.window = window
         self.reset()
 
     def reset(self) -> None:
         """Start of an episode: no frame seen, no side."""
-        self._values: list[tuple[int, float]] = []  # (forward commands before it, b) per frame
-        self._forward = 0
+        self._values: list[tuple[int, float]] = []  # (commands counted before it, b) per frame
+        self._count = 0  # forward commands ("forward") or all commands ("commands") so far
+        self._after_forward = True  # the last command was a forward one (or none yet)
 
     def moved(self, command: int) -> None:
         """The map moved by an executed ``command``."""
-        if command == Command.FORWARD:
-            self._forward += 1
+        forward = command == Command.FORWARD
+        if forward or self.window == "commands":
+            self._count += 1
+        self._after_forward = forward
 
     def see(self, points: np.ndarray, felt: np.ndarray, path: np.ndarray) -> float:
         """The input after a frame was added to the map (``points``, ``felt``, ``path`` as in
         :func:`frame_value`): 1 left, 0 right, :data:`UNKNOWN` none."""
-        self._values.append((self._forward, frame_value(points, felt, path)))
-        self._values = [(f, b) for f, b in self._values if self._forward - f <= WINDOW_FORWARD]
+        if self.window == "forward" or self._after_forward:
+            self._values.append((self._count, frame_value(points, felt, path)))
+        self._values = [(f, b) for f, b in self._values if self._count - f <= WINDOW_FORWARD]
         total = sum(b for _, b in self._values)
         if abs(total) <= MIN_SUM:
             return UNKNOWN

@@ -59,6 +59,9 @@ FELT_LEVELS = ("fixed", "library")
 #: How the ``fresh_felt`` map moves at each executed command (``motion``;
 #: :mod:`lfd_track.policy.odometry`).
 MAP_MOTIONS = ("nominal", "visual")
+#: Which frames the ``fresh_felt`` map's branch side sums (``branch_window``;
+#: :mod:`lfd_track.policy.branch_side`).
+BRANCH_WINDOWS = ("forward", "commands")
 
 
 def setting(
@@ -325,6 +328,14 @@ class FreshFeltConfig(MemoryConfig):
         False,
         "a fourth input: the side (1 left, 0 right, 0.5 none) where felt branched off the"
         " rover's strip over its last metre of driving (lfd_track.policy.branch_side)",
+    )
+
+    branch_window: str = setting(
+        "forward",
+        "with branch_side: the frames the side sums, those since the last 10 forward commands"
+        " (forward) or those that followed a forward command among the last 10 commands of any"
+        " kind (commands: the side expires while the rover only pivots)",
+        choices=BRANCH_WINDOWS,
     )
 
     def _check(self) -> None:

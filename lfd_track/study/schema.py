@@ -17,6 +17,8 @@ Schema history:
   ``"nominal"`` in older files).
 * **6** — the same for the ``fresh_felt`` map's ``branch_side`` (as results.json schema 6,
   ``false`` in older files).
+* **7** — the same for the branch side's ``branch_window`` (as results.json schema 7,
+  ``"forward"`` in older files).
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ from typing import Any
 from ..benchmark.schema import config_v1_to_v2, config_v2_to_v3, config_v3_to_v4
 from ..utils.migrate import Step, VersionedJson
 
-STUDY_SCHEMA = 6
+STUDY_SCHEMA = 7
 """Schema of the study.json this version writes (``len(STUDY_STEPS) + 1``)."""
 MAX_STUDY_BYTES = 1 << 28
 """Largest study.json read."""
@@ -72,12 +74,19 @@ def study_v5_to_v6(data: dict[str, Any]) -> dict[str, Any]:
     return _each_config(data, config_v3_to_v4, 6)
 
 
+def study_v6_to_v7(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 6 -> 7: the memory settings added since (``branch_window``) in each condition's
+    ``config``."""
+    return _each_config(data, config_v3_to_v4, 7)
+
+
 STUDY_STEPS: tuple[Step, ...] = (
     study_v1_to_v2,
     study_v2_to_v3,
     study_v3_to_v4,
     study_v4_to_v5,
     study_v5_to_v6,
+    study_v6_to_v7,
 )
 """Step k turns a schema-k study.json dict into schema k + 1."""
 STUDY_FORMAT = VersionedJson("study", STUDY_STEPS, MAX_STUDY_BYTES)

@@ -128,3 +128,21 @@ def test_a_controller_reads_the_fourth_input_and_its_file_records_the_setting(tm
     loaded = Controller.load(path)
     assert loaded.memory == BRANCH and loaded.n_inputs == 4
     assert [loaded.act(f) for f in frames] == commands
+
+
+def test_with_the_commands_window_the_side_expires_while_the_rover_only_pivots():
+    frames = [STRIP] * 5 + [LEFT_BRANCH] * 4
+    forward = FreshFeltMemory(BRANCH)
+    commands = FreshFeltMemory(FreshFeltConfig(branch_side=True, branch_window="commands"))
+    for memory in (forward, commands):
+        assert _drive(memory, frames)[-1][3] == 1.0
+    sides = {"forward": [], "commands": []}
+    for _ in range(WINDOW_FORWARD + 2):  # spin in place, seeing the branch all the while
+        for name, memory in (("forward", forward), ("commands", commands)):
+            memory.note(L)
+            memory.see(_values(LEFT_BRANCH))
+            sides[name].append(memory.inputs()[3])
+    assert sides["forward"] == [1.0] * (WINDOW_FORWARD + 2)  # stale: it never expires
+    assert sides["commands"][0] == 1.0 and sides["commands"][-1] == UNKNOWN
+    with pytest.raises(ValueError, match="branch_window"):
+        FreshFeltConfig(branch_side=True, branch_window="pivots")

@@ -200,6 +200,7 @@ def test_kind_fresh_felt_alone_is_the_chosen_configurations_map(tmp_path):
         "felt_levels": "fixed",
         "motion": "nominal",
         "branch_side": False,
+        "branch_window": "forward",
     }
     # a schema-1 study with the same one line meant the map with every option off
     old = tmp_path / "old.toml"
