@@ -23,7 +23,10 @@ Writes ``results/rules/<rule>/seed<k>/results.json`` (the benchmark's format) an
 The map rule's map assumes the paper's constants (its camera, 0.10 m and 22.9° per command)
 whatever the preset, where a learned controller's map takes its world's (for the paper world
 22.918° per pivot, the only difference); with another preset use
-``../sharp_corners/run_rules.py``, which gives the map the preset's geometry.
+``../sharp_corners/run_rules.py``, which gives the map the preset's geometry. A condition with
+``room = "per_repetition"`` is driven as its jobs are: each repetition in its own room
+(``repetition_preset``), the road library of the paper's demonstration in that room, the map
+with that room's camera and motion.
 
 ``--rule NAME`` scores only that rule (repeatable); ``--map KEY=VALUE`` (repeatable) drives the
 map rule on its map with that setting changed (e.g. ``--map path_radius_m=0.2``).
@@ -47,6 +50,7 @@ from typing import Any
 from lfd_track.benchmark.config import BenchmarkConfig
 from lfd_track.benchmark.loops import merged_record
 from lfd_track.benchmark.runner import (
+    repetition_preset,
     repetition_seeds,
     repetition_streams,
     run_loop_trials,
@@ -55,6 +59,8 @@ from lfd_track.benchmark.runner import (
 from lfd_track.benchmark.tables import build_results, write_results_json
 from lfd_track.dataset import load_demonstration
 from lfd_track.demo.demonstrator import run_demonstration
+from lfd_track.envs.presets import Preset, load_preset
+from lfd_track.policy.map_geometry import MapGeometry
 from lfd_track.policy.memory_config import FreshFeltConfig
 from lfd_track.study.spec import load_study
 from lfd_track.study.stats import rate_summary
@@ -81,14 +87,16 @@ RULES = {
 
 @dataclasses.dataclass
 class RuleController:
-    """A hand-written rule driving as a controller does: a frozen library, its memory inputs."""
+    """A hand-written rule driving as a controller does: a frozen library, its memory inputs
+    (``geometry``: the map's camera and motion; None, the paper's constants)."""
 
     library: RoadLibrary
     rule: str
+    geometry: MapGeometry | None = None
 
     def perception(self) -> Perception:
         config = RULES[self.rule]
-        return Perception(self.library, "frozen", config.memory)
+        return Perception(self.library, "frozen", config.memory, geometry=self.geometry)
 
     def commander(self) -> Any:
         config = RULES[self.rule]
@@ -111,7 +119,7 @@ def map_settings(pairs: list[str]) -> FreshFeltConfig:
     return dataclasses.replace(base, **changes)
 
 
-def library_of(demo_seed: int, preset: str) -> RoadLibrary:
+def library_of(demo_seed: int, preset: str | Preset) -> RoadLibrary:
     """The road library of the paper's demonstration with ``demo_seed``."""
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / "demonstration.lfdemo"
@@ -123,21 +131,28 @@ def run_repetition(job: tuple[int, int, int, BenchmarkConfig]) -> dict[str, Any]
     """Both rules on one repetition's trials."""
     seed, index, repetition_seed, config = job
     demo_seed, _, trial_seed = repetition_streams(repetition_seed)
-    library = library_of(demo_seed, config.preset)
+    # With rooms kept per repetition, the repetition's own room (as the study's job draws it),
+    # its map with that room's camera and motion; otherwise the preset and the paper's constants.
+    preset = repetition_preset(config, repetition_seed)
+    geometry = None
+    if config.room == "per_repetition":
+        world = load_preset(preset) if isinstance(preset, str) else preset
+        geometry = MapGeometry.from_preset(world)
+    library = library_of(demo_seed, preset)
     rows = {}
     for rule in RULES:
-        controller = RuleController(library, rule)
+        controller = RuleController(library, rule, geometry)
         t0 = time.perf_counter()
         outcomes = run_trials(
             controller,
             trial_seed=trial_seed,
             test_tracks=config.test_tracks,
             trials_per_direction=config.trials_per_direction,
-            preset=config.preset,
+            preset=preset,
             repetition=index,
         )
         loops, record = run_loop_trials(
-            controller, trial_seed=trial_seed, config=config, repetition=index
+            controller, trial_seed=trial_seed, config=config, repetition=index, preset=preset
         )
         rows[rule] = {
             "outcomes": outcomes + loops,
