@@ -225,30 +225,30 @@ def results_v3_to_v4(data: dict[str, Any]) -> dict[str, Any]:
     return data
 
 
-def results_v4_to_v5(data: dict[str, Any]) -> dict[str, Any]:
-    """Schema 4 -> 5: the memory settings added since (``motion``), at what an older run did."""
+def _memory_settings_added(data: dict[str, Any], schema: int) -> dict[str, Any]:
+    """``data`` with the memory settings its ``config`` lacks at what an older run did (the step
+    3 -> 4 makes), as schema ``schema``."""
     if "config" in data:
         data["config"] = config_v3_to_v4(data["config"])
-    data["schema"] = 5
+    data["schema"] = schema
     return data
+
+
+def results_v4_to_v5(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 4 -> 5: the memory settings added since (``motion``), at what an older run did."""
+    return _memory_settings_added(data, 5)
 
 
 def results_v5_to_v6(data: dict[str, Any]) -> dict[str, Any]:
     """Schema 5 -> 6: the memory settings added since (``branch_side``), at what an older run
     did."""
-    if "config" in data:
-        data["config"] = config_v3_to_v4(data["config"])
-    data["schema"] = 6
-    return data
+    return _memory_settings_added(data, 6)
 
 
 def results_v6_to_v7(data: dict[str, Any]) -> dict[str, Any]:
     """Schema 6 -> 7: the memory settings added since (``branch_window``), at what an older run
     did."""
-    if "config" in data:
-        data["config"] = config_v3_to_v4(data["config"])
-    data["schema"] = 7
-    return data
+    return _memory_settings_added(data, 7)
 
 
 RESULTS_STEPS: tuple[Step, ...] = (

@@ -70,9 +70,10 @@ def frame_value(points: np.ndarray, felt: np.ndarray, path: np.ndarray) -> float
     u = path_direction(path)
     if u is None:
         return 0.0
-    n = np.array([-u[1], u[0]])
     on = felt >= 0.5
-    s, lat, w = points[on] @ u, points[on] @ n, felt[on]
+    x, y, w = points[on, 0], points[on, 1], felt[on]
+    # element by element (no BLAS product), so the same bits on every processor, as the map's own
+    s, lat = x * u[0] + y * u[1], y * u[0] - x * u[1]  # along u, and along n = u turned 90° left
     lane = (s >= -BEHIND_M) & (s <= 0.0) & (np.abs(lat) < LANE_M)
     lane_felt = float(w[lane].sum())
     c = float((w[lane] * lat[lane]).sum()) / lane_felt if lane_felt >= MIN_LANE_FELT else 0.0

@@ -334,13 +334,17 @@ class FreshFeltConfig(MemoryConfig):
         "forward",
         "with branch_side: the frames the side sums, those since the last 10 forward commands"
         " (forward) or those that followed a forward command among the last 10 commands of any"
-        " kind (commands: the side expires while the rover only pivots)",
+        " kind (commands: the side expires while the rover only pivots; kept: round 8's study"
+        " of the human-taught goal sets it, where it lost)",
         choices=BRANCH_WINDOWS,
     )
 
-    def _check(self) -> None:
+    def __post_init__(self) -> None:
+        super().__post_init__()
         # the fourth input is this configuration's own (the kind's class keeps its three)
         object.__setattr__(self, "n_inputs", 4 if self.branch_side else 3)
+
+    def _check(self) -> None:
         if self.blank_reach_m and self.blank_reach_m <= self.reach_m:
             raise ValueError(
                 f"memory blank_reach_m must be 0 (off) or above reach_m, got {self.blank_reach_m!r}"
