@@ -27,7 +27,11 @@ Computed at every frame from the map's own arrays (rover frame: x ahead, y left 
    frame seen after a pivot adds nothing, and pivots count toward the window, so the side
    expires while the rover only pivots (with ``"forward"`` it never does, and every frame seen
    while pivoting adds the whole map's branching felt again: a side that is stale after a corner
-   keeps growing; ``benchmarks/experiments/human_goal/round07/README.md``).
+   keeps growing; ``benchmarks/experiments/human_goal/round07/README.md``). With
+   ``branch_window = "new_felt"``, as with ``"commands"``, and each frame's value counts only
+   the felt that frame placed (the map's newest points), not the whole map's again: felt that
+   branched off is counted once for each forward step the camera sees it, not once for each
+   step it stays on the map.
 
 The estimator and its constants are those scored offline on 126 corners over 100° in
 ``benchmarks/experiments/sharp_corners/vertex/turn_side.md`` (right at 76 of the 81 arrivals
@@ -48,6 +52,8 @@ BEHIND_M, LANE_M, MIN_LANE_FELT = 0.5, 0.5, 3.0
 AHEAD_M, NEAR_M, FAR_M = 1.2, 0.3, 1.0
 #: forward commands the side looks back over (1 m of the paper's steps), and the sum it needs
 WINDOW_FORWARD, MIN_SUM = 10, 2.0
+#: which frames the side sums (``branch_window``; see the module docstring)
+WINDOWS = ("forward", "commands", "new_felt")
 #: the input's value while no side is known
 UNKNOWN = 0.5
 
@@ -87,8 +93,8 @@ class BranchSide:
     :data:`WINDOW_FORWARD` forward commands."""
 
     def __init__(self, window: str = "forward") -> None:
-        if window not in ("forward", "commands"):
-            raise ValueError(f"branch window must be 'forward' or 'commands', got {window!r}")
+        if window not in WINDOWS:
+            raise ValueError(f"branch window must be one of {WINDOWS}, got {window!r}")
         self.window = window
         self.reset()
 
@@ -101,14 +107,17 @@ class BranchSide:
     def moved(self, command: int) -> None:
         """The map moved by an executed ``command``."""
         forward = command == Command.FORWARD
-        if forward or self.window == "commands":
+        if forward or self.window != "forward":
             self._count += 1
         self._after_forward = forward
 
-    def see(self, points: np.ndarray, felt: np.ndarray, path: np.ndarray) -> float:
+    def see(self, points: np.ndarray, felt: np.ndarray, path: np.ndarray, new: int) -> float:
         """The input after a frame was added to the map (``points``, ``felt``, ``path`` as in
-        :func:`frame_value`): 1 left, 0 right, :data:`UNKNOWN` none."""
+        :func:`frame_value`; the frame placed the last ``new`` points): 1 left, 0 right,
+        :data:`UNKNOWN` none."""
         if self.window == "forward" or self._after_forward:
+            if self.window == "new_felt":
+                points, felt = points[-new:], felt[-new:]
             self._values.append((self._count, frame_value(points, felt, path)))
         self._values = [(f, b) for f, b in self._values if self._count - f <= WINDOW_FORWARD]
         total = sum(b for _, b in self._values)

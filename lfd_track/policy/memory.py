@@ -471,7 +471,7 @@ class FreshFeltMemory:
         if cfg.strip_link_m:
             self._link_newest_frame(full)
         if self._branch is not None:
-            self._side = self._branch.see(self._points, self._felt, self._path)
+            self._side = self._branch.see(self._points, self._felt, self._path, N_REGIONS)
         points = self._points
         dist = np.hypot(points[:, 0], points[:, 1])
         ahead = points[:, 0] > -BEHIND_M

@@ -146,3 +146,24 @@ def test_with_the_commands_window_the_side_expires_while_the_rover_only_pivots()
     assert sides["commands"][0] == 1.0 and sides["commands"][-1] == UNKNOWN
     with pytest.raises(ValueError, match="branch_window"):
         FreshFeltConfig(branch_side=True, branch_window="pivots")
+
+
+def test_with_the_new_felt_window_a_frame_counts_only_the_felt_it_placed():
+    from lfd_track.policy.branch_side import BranchSide
+
+    path = np.array([[-0.6, 0.0], [-0.4, 0.0], [-0.2, 0.0]])
+    strip = np.array([[x, 0.0] for x in (-0.3, -0.1, 0.2, 0.5)])
+    branch = np.array([[0.6, 0.5], [0.7, 0.5], [0.8, 0.5]])  # left of the strip, ahead
+    old, new = np.vstack([strip, branch]), strip  # the branch on the map, not in the frame
+    points, felt = np.vstack([old, new]), np.ones(len(old) + len(new))
+    sides = {}
+    for window in ("commands", "new_felt"):
+        side = BranchSide(window)
+        side.moved(F)
+        sides[window] = side.see(points, felt, path, len(new))
+    assert sides == {"commands": 1.0, "new_felt": UNKNOWN}
+    side = BranchSide("new_felt")  # the frame that placed the branch counts it
+    side.moved(F)
+    assert side.see(old, np.ones(len(old)), path, len(old)) == 1.0
+    with pytest.raises(ValueError, match="branch window"):
+        BranchSide("pivots")
