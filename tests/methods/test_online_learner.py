@@ -179,3 +179,19 @@ def test_the_benchmark_flags_run_the_chosen_learner_online(tmp_path, capsys, mon
         with pytest.raises(Stop) as stopped:
             main(["--quiet", "benchmark", "--method", "online", *flags, "--out", out])
         assert stopped.value.args == (settings, bc)
+
+
+def test_online_by_backprop_learns_the_goal_map_with_its_branch_side(tmp_path):
+    """The human-taught goal's chosen map (the branch side as a fourth input, expiring while the
+    rover only pivots) runs on the learner the robot can run while it is taught: a 4-5-3 network,
+    the demonstration recording the fourth input, the controller file its settings."""
+    memory = FreshFeltConfig(branch_side=True, branch_window="commands")
+    learned = learn_online(tmp_path, online=ONLINE_BC, **{**_context(), "memory": memory})
+    controller = learned.controller
+    assert controller.n_inputs == 4 and controller.memory == memory
+    assert len(controller.weights) == 4 * 5 + 5 + 5 * 3 + 3
+    demo = load_demonstration(tmp_path / "demonstration.lfdemo")
+    sides = np.asarray(demo.policy_inputs("none"))[:, 3]
+    assert set(np.unique(sides)) <= {0.0, 0.5, 1.0}
+    assert (sides != 0.5).any()  # the side speaks at the demonstration's corners
+    assert learned.training_accuracy >= 0.6
