@@ -21,6 +21,11 @@ strip passes felt of another leg) is what turns it round. Protocol fixed before 
 to ``results/branch_ablation.md`` beside this file.
 
     .venv/bin/python benchmarks/experiments/human_goal/round07/branch_ablation.py
+
+The same measurement of another study's condition and seed (``--study FILE --condition NAME
+--seed N --out DIR``; the outcomes "as learned" are checked against that study's committed
+``results.json`` for its repetitions): round 9's winner on its test study's seeds
+(``../round09/README.md``).
 """
 
 from __future__ import annotations
@@ -102,16 +107,25 @@ def main() -> None:
 
     cv2.setNumThreads(1)
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repetitions", type=int, default=10, help="first N of seed 0")
+    parser.add_argument("--repetitions", type=int, default=10, help="first N of the seed")
+    parser.add_argument("--study", type=Path, default=STUDY, help="the study file")
+    parser.add_argument("--condition", default=CONDITION, help="its condition")
+    parser.add_argument("--seed", type=int, default=0, help="its seed")
     parser.add_argument("--out", type=Path, default=HERE / "results")
     args = parser.parse_args()
-    study = load_study(STUDY)
-    base = next(c for c in study.conditions if c.name == CONDITION).config
-    config = dataclasses.replace(base, seed=0, repetitions=study.repetitions)
-    studied = json.loads(STUDIED.read_text(encoding="utf-8"))["outcomes"]
+    study = load_study(args.study)
+    base = next(c for c in study.conditions if c.name == args.condition).config
+    config = dataclasses.replace(base, seed=args.seed, repetitions=study.repetitions)
+    if args.study == STUDY and args.condition == CONDITION and args.seed == 0:
+        studied_path, stem = STUDIED, "branch_ablation"
+    else:
+        folder = args.study.parent / "results" / args.study.stem / args.condition
+        studied_path = folder / f"seed{args.seed}" / "results.json"
+        stem = f"branch_ablation_{args.condition}_seed{args.seed}"
+    studied = json.loads(studied_path.read_text(encoding="utf-8"))["outcomes"]
     t0 = time.perf_counter()
     rows: list[dict[str, Any]] = []
-    for index, seed in enumerate(repetition_seeds(0, args.repetitions)):
+    for index, seed in enumerate(repetition_seeds(args.seed, args.repetitions)):
         demo_seed, ga_seed, trial_seed = repetition_streams(seed)
         preset = repetition_preset(config, seed)
         calibration = calibration_for(config.memory, preset, seed)
@@ -148,9 +162,13 @@ def main() -> None:
         rows.append(row)
         print(f"repetition {index}: {time.perf_counter() - t0:.0f} s", flush=True)
     wall = time.perf_counter() - t0
-    md = ["# Round 7's winner on the training track with its branch side held at none", ""]
-    md += [f"Seed 0, repetitions 0-{len(rows) - 1}, 3 runs each way; {wall / 60:.0f} min on one"]
-    md += ["core: `.venv/bin/python benchmarks/experiments/human_goal/round07/branch_ablation.py`."]
+    md = [f"# `{args.condition}` on the training track with its branch side held at none", ""]
+    md += [f"Seed {args.seed}, repetitions 0-{len(rows) - 1}, 3 runs each way;"]
+    md += [f"{wall / 60:.0f} min on one core: `.venv/bin/python"]
+    md += ["benchmarks/experiments/human_goal/round07/branch_ablation.py`"]
+    if stem != "branch_ablation":
+        md[-1] += f" `--study {args.study} --condition {args.condition} --seed {args.seed}`"
+    md[-1] += "."
     md += ["", "| repetition | as in the study | " + " | ".join(VARIANTS) + " |"]
     md += ["|---|---|" + "---|" * len(VARIANTS)]
 
@@ -167,9 +185,9 @@ def main() -> None:
     trials = sum(r[VARIANTS[0]]["trials"] for r in rows)
     md += ["| all | | " + " | ".join(f"{totals[v]}/{trials}" for v in VARIANTS) + " |", ""]
     args.out.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(args.out / "branch_ablation.md", "\n".join(md) + "\n")
+    atomic_write_text(args.out / f"{stem}.md", "\n".join(md) + "\n")
     atomic_write_text(
-        args.out / "branch_ablation.json", json.dumps({"rows": rows, "wall_s": round(wall, 1)})
+        args.out / f"{stem}.json", json.dumps({"rows": rows, "wall_s": round(wall, 1)})
     )
     print("\n".join(md))
 
