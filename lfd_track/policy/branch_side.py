@@ -32,6 +32,11 @@ Computed at every frame from the map's own arrays (rover frame: x ahead, y left 
    the felt that frame placed (the map's newest points), not the whole map's again: felt that
    branched off is counted once for each forward step the camera sees it, not once for each
    step it stays on the map.
+   With ``branch_window = "heading"``, as with ``"commands"``, and a frame's value is also
+   forgotten once the rover has turned more than :data:`TURNED_DEG` from its heading when it saw
+   the frame (net pivots times the map's pivot angle): a side says where the felt branched off
+   relative to the rover as it was then, and after a quarter turn toward it the branch lies ahead,
+   after a quarter turn away it lies behind; either way it no longer says which way to pivot.
 
 The estimator and its constants are those scored offline on 126 corners over 100° in
 ``benchmarks/experiments/sharp_corners/vertex/turn_side.md`` (right at 76 of the 81 arrivals
@@ -39,6 +44,8 @@ where it gives a side). Everything in it is the robot's own: its commands and it
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -53,7 +60,9 @@ AHEAD_M, NEAR_M, FAR_M = 1.2, 0.3, 1.0
 #: forward commands the side looks back over (1 m of the paper's steps), and the sum it needs
 WINDOW_FORWARD, MIN_SUM = 10, 2.0
 #: which frames the side sums (``branch_window``; see the module docstring)
-WINDOWS = ("forward", "commands", "new_felt")
+WINDOWS = ("forward", "commands", "new_felt", "heading")
+#: [deg] with ``"heading"``: a frame's value is forgotten once the rover has turned more than this
+TURNED_DEG = 90.0
 #: the input's value while no side is known
 UNKNOWN = 0.5
 
@@ -92,16 +101,20 @@ class BranchSide:
     """The side input's state over an episode: the frames' values b since the last
     :data:`WINDOW_FORWARD` forward commands."""
 
-    def __init__(self, window: str = "forward") -> None:
+    def __init__(self, window: str = "forward", pivot_deg: float = 22.9) -> None:
         if window not in WINDOWS:
             raise ValueError(f"branch window must be one of {WINDOWS}, got {window!r}")
         self.window = window
+        self.pivot_deg = pivot_deg
+        """[deg] the map's turn per pivot (``"heading"``)."""
         self.reset()
 
     def reset(self) -> None:
         """Start of an episode: no frame seen, no side."""
-        self._values: list[tuple[int, float]] = []  # (commands counted before it, b) per frame
-        self._count = 0  # forward commands ("forward") or all commands ("commands") so far
+        # (commands counted before it, net pivots before it, b) per frame
+        self._values: list[tuple[int, int, float]] = []
+        self._count = 0  # forward commands ("forward") or all commands (the others) so far
+        self._turns = 0  # net pivots so far, left positive
         self._after_forward = True  # the last command was a forward one (or none yet)
 
     def moved(self, command: int) -> None:
@@ -109,6 +122,10 @@ class BranchSide:
         forward = command == Command.FORWARD
         if forward or self.window != "forward":
             self._count += 1
+        if command == Command.LEFT:
+            self._turns += 1
+        elif command == Command.RIGHT:
+            self._turns -= 1
         self._after_forward = forward
 
     def see(self, points: np.ndarray, felt: np.ndarray, path: np.ndarray, new: int) -> float:
@@ -118,9 +135,14 @@ class BranchSide:
         if self.window == "forward" or self._after_forward:
             if self.window == "new_felt":
                 points, felt = points[-new:], felt[-new:]
-            self._values.append((self._count, frame_value(points, felt, path)))
-        self._values = [(f, b) for f, b in self._values if self._count - f <= WINDOW_FORWARD]
-        total = sum(b for _, b in self._values)
+            self._values.append((self._count, self._turns, frame_value(points, felt, path)))
+        turned = TURNED_DEG / self.pivot_deg if self.window == "heading" else math.inf
+        self._values = [
+            (f, t, b)
+            for f, t, b in self._values
+            if self._count - f <= WINDOW_FORWARD and abs(self._turns - t) <= turned
+        ]
+        total = sum(b for _, _, b in self._values)
         if abs(total) <= MIN_SUM:
             return UNKNOWN
         return 1.0 if total > 0 else 0.0

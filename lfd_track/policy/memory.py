@@ -324,7 +324,11 @@ class FreshFeltMemory:
             from .odometry import floor_odometry
 
             self._odometry = floor_odometry(self.geometry)
-        self._branch = BranchSide(config.branch_window) if config.branch_side else None
+        self._branch = (
+            BranchSide(config.branch_window, self.geometry.pivot_deg)
+            if config.branch_side
+            else None
+        )
         self.reset()
 
     def reset(self) -> None:

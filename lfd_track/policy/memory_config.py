@@ -61,7 +61,7 @@ FELT_LEVELS = ("fixed", "library")
 MAP_MOTIONS = ("nominal", "visual")
 #: Which frames the ``fresh_felt`` map's branch side sums (``branch_window``;
 #: :mod:`lfd_track.policy.branch_side`).
-BRANCH_WINDOWS = ("forward", "commands", "new_felt")
+BRANCH_WINDOWS = ("forward", "commands", "new_felt", "heading")
 
 
 def setting(
@@ -336,7 +336,9 @@ class FreshFeltConfig(MemoryConfig):
         " (forward) or those that followed a forward command among the last 10 commands of any"
         " kind (commands: the side expires while the rover only pivots; kept: round 8's study"
         " of the human-taught goal sets it, where it lost); new_felt: as commands, each frame"
-        " adding only the branching felt it placed itself, not the whole map's again",
+        " adding only the branching felt it placed itself, not the whole map's again; heading:"
+        " as commands, each frame forgotten once the rover has turned more than 90 degrees"
+        " since it saw it",
         choices=BRANCH_WINDOWS,
     )
 

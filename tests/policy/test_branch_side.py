@@ -167,3 +167,25 @@ def test_with_the_new_felt_window_a_frame_counts_only_the_felt_it_placed():
     assert side.see(old, np.ones(len(old)), path, len(old)) == 1.0
     with pytest.raises(ValueError, match="branch window"):
         BranchSide("pivots")
+
+
+def test_with_the_heading_window_the_side_is_forgotten_after_a_quarter_turn():
+    """Seen, then pivoted toward: three pivots (69 degrees) keep the side, the fourth (92) ends
+    it; with "commands" it lasts until ten commands have passed. A wiggle keeps it."""
+    sides = {}
+    for window in ("commands", "heading"):
+        memory = FreshFeltMemory(FreshFeltConfig(branch_side=True, branch_window=window))
+        assert _drive(memory, [STRIP] * 5 + [LEFT_BRANCH] * 4)[-1][3] == 1.0
+        sides[window] = []
+        for _ in range(4):
+            memory.note(L)
+            memory.see(_values(LEFT_BRANCH))
+            sides[window].append(memory.inputs()[3])
+    assert sides["commands"] == [1.0] * 4
+    assert sides["heading"] == [1.0, 1.0, 1.0, UNKNOWN]
+    memory = FreshFeltMemory(FreshFeltConfig(branch_side=True, branch_window="heading"))
+    _drive(memory, [STRIP] * 5 + [LEFT_BRANCH] * 4)
+    for command in (L, R, L, R, L, R):  # net turn never past one pivot
+        memory.note(command)
+        memory.see(_values(LEFT_BRANCH))
+    assert memory.inputs()[3] == 1.0
