@@ -37,6 +37,10 @@ Computed at every frame from the map's own arrays (rover frame: x ahead, y left 
    the frame (net pivots times the map's pivot angle): a side says where the felt branched off
    relative to the rover as it was then, and after a quarter turn toward it the branch lies ahead,
    after a quarter turn away it lies behind; either way it no longer says which way to pivot.
+   With ``branch_window = "behind"``, as with ``"commands"``, and the side is forgotten (every
+   frame's value dropped) when the map's fresh felt lies more than :data:`BEHIND_DEG` off to the
+   other side: felt the rover has turned its back on, on the side opposite the one the input
+   gives, says that side is wrong (``benchmarks/experiments/human_goal/round10/README.md``).
 
 The estimator and its constants are those scored offline on 126 corners over 100° in
 ``benchmarks/experiments/sharp_corners/vertex/turn_side.md`` (right at 76 of the 81 arrivals
@@ -60,9 +64,11 @@ AHEAD_M, NEAR_M, FAR_M = 1.2, 0.3, 1.0
 #: forward commands the side looks back over (1 m of the paper's steps), and the sum it needs
 WINDOW_FORWARD, MIN_SUM = 10, 2.0
 #: which frames the side sums (``branch_window``; see the module docstring)
-WINDOWS = ("forward", "commands", "new_felt", "heading")
+WINDOWS = ("forward", "commands", "new_felt", "heading", "behind")
 #: [deg] with ``"heading"``: a frame's value is forgotten once the rover has turned more than this
 TURNED_DEG = 90.0
+#: [deg] with ``"behind"``: fresh felt further off than this, on the other side, ends the side
+BEHIND_DEG = 90.0
 #: the input's value while no side is known
 UNKNOWN = 0.5
 
@@ -146,6 +152,18 @@ class BranchSide:
         if abs(total) <= MIN_SUM:
             return UNKNOWN
         return 1.0 if total > 0 else 0.0
+
+    def contradicted(self, side: float, bearing: float) -> float:
+        """The input ``side`` (from :meth:`see`) once the map's fresh felt is at ``bearing``
+        [rad, left positive]: with ``"behind"``, :data:`UNKNOWN` (and every frame forgotten) when
+        that felt lies more than :data:`BEHIND_DEG` off to the side opposite ``side``."""
+        if self.window != "behind" or side == UNKNOWN:
+            return side
+        limit = math.radians(BEHIND_DEG)
+        if (side > UNKNOWN and bearing < -limit) or (side < UNKNOWN and bearing > limit):
+            self._values = []
+            return UNKNOWN
+        return side
 
 
 def side_command(value: float) -> Command | None:

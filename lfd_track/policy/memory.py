@@ -496,6 +496,8 @@ class FreshFeltMemory:
         centre_x = float((weights * points[:, 0]).sum()) / mass
         centre_y = float((weights * points[:, 1]).sum()) / mass
         bearing = math.atan2(centre_y, centre_x)
+        if self._branch is not None:
+            self._side = self._branch.contradicted(self._side, bearing)
         if cfg.bearing_range_deg == FULL_BEARING_RANGE_DEG:  # the same bits as before the option
             encoded = 0.5 * (1.0 + bearing / math.pi)
         else:

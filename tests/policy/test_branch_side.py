@@ -189,3 +189,26 @@ def test_with_the_heading_window_the_side_is_forgotten_after_a_quarter_turn():
         memory.note(command)
         memory.see(_values(LEFT_BRANCH))
     assert memory.inputs()[3] == 1.0
+
+
+def test_with_the_behind_window_fresh_felt_behind_on_the_other_side_ends_the_side():
+    from lfd_track.policy.branch_side import BranchSide
+
+    path = np.array([[-0.6, 0.0], [-0.4, 0.0], [-0.2, 0.0]])
+    points = np.array([[x, 0.0] for x in (-0.3, -0.1, 0.2, 0.5)] + [[0.6, 0.5], [0.7, 0.5], [0.8, 0.5]])
+    felt = np.ones(len(points))
+    sides = {}
+    for window in ("commands", "behind"):
+        side = BranchSide(window)
+        side.moved(F)
+        left = side.see(points, felt, path, len(points))
+        assert left == 1.0
+        kept = [side.contradicted(left, np.radians(b)) for b in (-60.0, 120.0, 170.0, -89.0)]
+        sides[window] = kept + [side.contradicted(left, np.radians(-120.0))]
+        side.moved(L)  # a pivot's frame adds nothing: the side is what is left
+        sides[window].append(side.see(points, felt, path, len(points)))
+    assert sides["commands"] == [1.0] * 6  # without "behind" the bearing never ends the side
+    assert sides["behind"] == [1.0, 1.0, 1.0, 1.0, UNKNOWN, UNKNOWN]  # and it stays forgotten
+    right = BranchSide("behind")
+    assert right.contradicted(0.0, np.radians(100.0)) == UNKNOWN
+    assert right.contradicted(0.0, np.radians(-170.0)) == 0.0
