@@ -351,6 +351,9 @@ class FreshFeltMemory:
         # view of the last frame that did.
         self._pending: int | None = None
         self._view: FloorView | None = None
+        self.bearing_deg: float | None = None
+        """The fresh felt's bearing after the last frame [deg, left positive], before the
+        bearing input clips it to ``bearing_range_deg``; None while the map is blank."""
         self.visual_moves = 0
         """motion = "visual": this episode's commands the map moved by the measured motion."""
         self.nominal_moves = 0
@@ -492,10 +495,12 @@ class FreshFeltMemory:
         if mass < MIN_FRESH:
             last = self._inputs[0] if cfg.blank_bearing == "last" else 0.5
             self._inputs = np.array([last, 0.0, 0.0])
+            self.bearing_deg = None
             return
         centre_x = float((weights * points[:, 0]).sum()) / mass
         centre_y = float((weights * points[:, 1]).sum()) / mass
         bearing = math.atan2(centre_y, centre_x)
+        self.bearing_deg = math.degrees(bearing)
         if self._branch is not None:
             self._side = self._branch.contradicted(self._side, bearing)
         if cfg.bearing_range_deg == FULL_BEARING_RANGE_DEG:  # the same bits as before the option

@@ -6,7 +6,8 @@ removes 4 of the 5 (``../round09/results/branch_ablation_*_seed2.md``). This scr
 two repetitions as the study does (``learn_repetition``), drives their training-track runs
 (``run_trials``, the study's world seeds; the training track only, no test loop or testing
 track), and logs the four map inputs (bearing, amount, distance of the fresh felt, branch side)
-and the command at every step; for each reversed run it writes the commands and the last 45
+and the command at every step, with the fresh felt's bearing before the input clips it to 30°
+(``FreshFeltMemory.bearing_deg``); for each reversed run it writes the commands and the last 45
 steps to ``results/reversal_trace.md``.
 
     .venv/bin/python benchmarks/experiments/human_goal/round10/reversal_trace.py
@@ -47,7 +48,12 @@ LETTERS = "FLR"
 class Logged(Wrapped):
     """The controller's own network, inputs untouched, each step's inputs and command logged."""
 
-    log: list[tuple[tuple[float, ...], int]] = dataclasses.field(default_factory=list)
+    log: list[tuple[tuple[float, ...], float | None, int]] = dataclasses.field(default_factory=list)
+    seen: Any = None
+
+    def perception(self) -> Any:
+        self.seen = super().perception()
+        return self.seen
 
     def commander(self) -> Any:
         commander = super().commander()
@@ -55,7 +61,8 @@ class Logged(Wrapped):
 
         def logged(moment: Any) -> Any:
             command = propose(moment)
-            self.log.append((tuple(float(x) for x in moment.policy_inputs), int(command)))
+            inputs = tuple(float(x) for x in moment.policy_inputs)
+            self.log.append((inputs, self.seen._memory.bearing_deg, int(command)))
             return command
 
         commander.propose = logged  # type: ignore[method-assign]
@@ -105,18 +112,14 @@ def main() -> None:
             if outcome.failure != "reversed":
                 continue
             md += ["", f"Run {number} ({outcome.direction}), reversed:", ""]
-            md += ["    " + "".join(LETTERS[c] for _, c in steps), ""]
-            md += [
-                "| step | bearing | amount | distance | side | command |",
-                "|---|---|---|---|---|---|",
-            ]
+            md += ["    " + "".join(LETTERS[c] for _, _, c in steps), ""]
+            md += ["| step | bearing | amount | distance | side | bearing [deg] | command |"]
+            md += ["|---|---|---|---|---|---|---|"]
             for i in range(max(0, len(steps) - 45), len(steps)):
-                x, c = steps[i]
-                md += [
-                    f"| {i} | "
-                    + " | ".join(f"{v:.2f}" for v in np.round(x, 2))
-                    + f" | {LETTERS[c]} |"
-                ]
+                x, raw, c = steps[i]
+                deg = "blank" if raw is None else f"{raw:+.0f}"
+                values = " | ".join(f"{v:.2f}" for v in np.round(x, 2))
+                md += [f"| {i} | {values} | {deg} | {LETTERS[c]} |"]
     md += ["", f"{(time.perf_counter() - t0) / 60:.0f} min on one core."]
     (HERE / "results").mkdir(exist_ok=True)
     atomic_write_text(HERE / "results" / "reversal_trace.md", "\n".join(md) + "\n")
