@@ -40,7 +40,12 @@ Computed at every frame from the map's own arrays (rover frame: x ahead, y left 
    With ``branch_window = "behind"``, as with ``"commands"``, and the side is forgotten (every
    frame's value dropped) when the map's fresh felt lies more than :data:`BEHIND_DEG` off to the
    other side: felt the rover has turned its back on, on the side opposite the one the input
-   gives, says that side is wrong (``benchmarks/experiments/human_goal/round10/README.md``).
+   gives, says that side is wrong (``benchmarks/experiments/human_goal/round11/README.md``).
+   With ``branch_window = "crossed"``, as with ``"commands"``, and the side is spent (every
+   frame's value dropped) once a pivot toward it has carried the fresh felt across from the
+   side's own side to the other: the rover has turned past the felt the side pointed it to
+   (``benchmarks/experiments/human_goal/round10/README.md``, the reversal trace). A corner's
+   tip read on the outer side from the start does not spend it.
 
 The estimator and its constants are those scored offline on 126 corners over 100° in
 ``benchmarks/experiments/sharp_corners/vertex/turn_side.md`` (right at 76 of the 81 arrivals
@@ -64,7 +69,7 @@ AHEAD_M, NEAR_M, FAR_M = 1.2, 0.3, 1.0
 #: forward commands the side looks back over (1 m of the paper's steps), and the sum it needs
 WINDOW_FORWARD, MIN_SUM = 10, 2.0
 #: which frames the side sums (``branch_window``; see the module docstring)
-WINDOWS = ("forward", "commands", "new_felt", "heading", "behind")
+WINDOWS = ("forward", "commands", "new_felt", "heading", "behind", "crossed")
 #: [deg] with ``"heading"``: a frame's value is forgotten once the rover has turned more than this
 TURNED_DEG = 90.0
 #: [deg] with ``"behind"``: fresh felt further off than this, on the other side, ends the side
@@ -122,6 +127,8 @@ class BranchSide:
         self._count = 0  # forward commands ("forward") or all commands (the others) so far
         self._turns = 0  # net pivots so far, left positive
         self._after_forward = True  # the last command was a forward one (or none yet)
+        self._last: int | None = None  # the last command the map moved by
+        self._bearing: float | None = None  # the fresh felt's bearing at the last frame
 
     def moved(self, command: int) -> None:
         """The map moved by an executed ``command``."""
@@ -133,6 +140,7 @@ class BranchSide:
         elif command == Command.RIGHT:
             self._turns -= 1
         self._after_forward = forward
+        self._last = command
 
     def see(self, points: np.ndarray, felt: np.ndarray, path: np.ndarray, new: int) -> float:
         """The input after a frame was added to the map (``points``, ``felt``, ``path`` as in
@@ -153,11 +161,23 @@ class BranchSide:
             return UNKNOWN
         return 1.0 if total > 0 else 0.0
 
-    def contradicted(self, side: float, bearing: float) -> float:
+    def contradicted(self, side: float, bearing: float | None) -> float:
         """The input ``side`` (from :meth:`see`) once the map's fresh felt is at ``bearing``
-        [rad, left positive]: with ``"behind"``, :data:`UNKNOWN` (and every frame forgotten) when
-        that felt lies more than :data:`BEHIND_DEG` off to the side opposite ``side``."""
-        if self.window != "behind" or side == UNKNOWN:
+        [rad, left positive; None: the map is blank]: :data:`UNKNOWN` (and every frame
+        forgotten) with ``"behind"`` when that felt lies more than :data:`BEHIND_DEG` off to the
+        side opposite ``side``, with ``"crossed"`` when a pivot toward ``side`` carried it across
+        from the side's own side to the other; else ``side``."""
+        before, self._bearing = self._bearing, bearing
+        if side == UNKNOWN or bearing is None:
+            return side
+        if self.window == "crossed":
+            toward = Command.LEFT if side > UNKNOWN else Command.RIGHT
+            sign = 1.0 if side > UNKNOWN else -1.0
+            if before is not None and self._last == toward and before * sign >= 0 > bearing * sign:
+                self._values = []
+                return UNKNOWN
+            return side
+        if self.window != "behind":
             return side
         limit = math.radians(BEHIND_DEG)
         if (side > UNKNOWN and bearing < -limit) or (side < UNKNOWN and bearing > limit):

@@ -496,6 +496,8 @@ class FreshFeltMemory:
             last = self._inputs[0] if cfg.blank_bearing == "last" else 0.5
             self._inputs = np.array([last, 0.0, 0.0])
             self.bearing_deg = None
+            if self._branch is not None:
+                self._side = self._branch.contradicted(self._side, None)
             return
         centre_x = float((weights * points[:, 0]).sum()) / mass
         centre_y = float((weights * points[:, 1]).sum()) / mass

@@ -61,7 +61,7 @@ FELT_LEVELS = ("fixed", "library")
 MAP_MOTIONS = ("nominal", "visual")
 #: Which frames the ``fresh_felt`` map's branch side sums (``branch_window``;
 #: :mod:`lfd_track.policy.branch_side`).
-BRANCH_WINDOWS = ("forward", "commands", "new_felt", "heading", "behind")
+BRANCH_WINDOWS = ("forward", "commands", "new_felt", "heading", "behind", "crossed")
 
 
 def setting(
@@ -339,7 +339,8 @@ class FreshFeltConfig(MemoryConfig):
         " adding only the branching felt it placed itself, not the whole map's again; heading:"
         " as commands, each frame forgotten once the rover has turned more than 90 degrees"
         " since it saw it; behind: as commands, the side forgotten when the map's fresh felt"
-        " lies more than 90 degrees off on the other side",
+        " lies more than 90 degrees off on the other side; crossed: as commands, the side spent"
+        " once a pivot toward it carried the fresh felt across to the other side",
         choices=BRANCH_WINDOWS,
     )
 

@@ -195,7 +195,9 @@ def test_with_the_behind_window_fresh_felt_behind_on_the_other_side_ends_the_sid
     from lfd_track.policy.branch_side import BranchSide
 
     path = np.array([[-0.6, 0.0], [-0.4, 0.0], [-0.2, 0.0]])
-    points = np.array([[x, 0.0] for x in (-0.3, -0.1, 0.2, 0.5)] + [[0.6, 0.5], [0.7, 0.5], [0.8, 0.5]])
+    points = np.array(
+        [[x, 0.0] for x in (-0.3, -0.1, 0.2, 0.5)] + [[0.6, 0.5], [0.7, 0.5], [0.8, 0.5]]
+    )
     felt = np.ones(len(points))
     sides = {}
     for window in ("commands", "behind"):
@@ -212,3 +214,40 @@ def test_with_the_behind_window_fresh_felt_behind_on_the_other_side_ends_the_sid
     right = BranchSide("behind")
     assert right.contradicted(0.0, np.radians(100.0)) == UNKNOWN
     assert right.contradicted(0.0, np.radians(-170.0)) == 0.0
+
+
+def test_with_the_crossed_window_a_pivot_across_the_fresh_felt_spends_the_side():
+    """A pivot toward the side that carries the felt from the side's own side to the other
+    spends it; the felt on the other side from the start (a corner's tip), a forward step, or a
+    blank map between do not."""
+    from lfd_track.policy.branch_side import BranchSide
+
+    path = np.array([[-0.6, 0.0], [-0.4, 0.0], [-0.2, 0.0]])
+    points = np.array(
+        [[x, 0.0] for x in (-0.3, -0.1, 0.2, 0.5)] + [[0.6, 0.5], [0.7, 0.5], [0.8, 0.5]]
+    )
+    felt = np.ones(len(points))
+
+    def run(window: str, steps: list[tuple[Command, float | None]]) -> list[float]:
+        side = BranchSide(window)
+        side.moved(F)
+        value = side.see(points, felt, path, len(points))
+        out = [side.contradicted(value, np.radians(10.0))]  # felt 10 deg left: the side's side
+        for command, bearing in steps:
+            side.moved(command)
+            value = side.see(points, felt, path, len(points))
+            out.append(side.contradicted(value, None if bearing is None else np.radians(bearing)))
+        return out
+
+    crossing = [(L, -13.0), (L, -35.0)]
+    assert run("commands", crossing) == [1.0, 1.0, 1.0]
+    assert run("crossed", crossing) == [1.0, UNKNOWN, UNKNOWN]  # spent, and stays spent
+    assert run("crossed", [(R, -13.0)]) == [1.0, 1.0]  # pivoted away: not the side's doing
+    assert run("crossed", [(F, -13.0)]) == [1.0, 1.0]  # driven on: not a pivot
+    assert run("crossed", [(L, None), (L, -13.0)]) == [1.0, 1.0, 1.0]  # blank between
+    tip = BranchSide("crossed")
+    tip.moved(F)
+    value = tip.see(points, felt, path, len(points))
+    assert [tip.contradicted(value, np.radians(b)) for b in (-20.0, -25.0)] == [1.0, 1.0]
+    tip.moved(L)
+    assert tip.contradicted(value, np.radians(-45.0)) == 1.0  # outer side from the start
