@@ -334,13 +334,14 @@ class FreshFeltConfig(MemoryConfig):
         "forward",
         "with branch_side: the frames the side sums, those since the last 10 forward commands"
         " (forward) or those that followed a forward command among the last 10 commands of any"
-        " kind (commands: the side expires while the rover only pivots; kept: round 8's study"
-        " of the human-taught goal sets it, where it lost); new_felt: as commands, each frame"
+        " kind (commands: the side expires while the rover only pivots; the human-taught goal's"
+        " choice since its round 9); new_felt: as commands, each frame"
         " adding only the branching felt it placed itself, not the whole map's again; heading:"
         " as commands, each frame forgotten once the rover has turned more than 90 degrees"
         " since it saw it; behind: as commands, the side forgotten when the map's fresh felt"
         " lies more than 90 degrees off on the other side; crossed: as commands, the side spent"
-        " once a pivot toward it carried the fresh felt across to the other side",
+        " once a pivot toward it carried the fresh felt across to the other side (the last four"
+        " are kept because rounds 9-12 of the human-taught goal's studies set them; each lost)",
         choices=BRANCH_WINDOWS,
     )
 
