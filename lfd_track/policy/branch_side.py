@@ -130,6 +130,14 @@ class BranchSide:
         self._last: int | None = None  # the last command the map moved by
         self._bearing: float | None = None  # the fresh felt's bearing at the last frame
 
+    def __copy__(self) -> BranchSide:
+        """A snapshot that the original's later frames leave as it is (its own list of values),
+        as a shallow copy of the map that holds it must be."""
+        twin = object.__new__(BranchSide)
+        twin.__dict__.update(self.__dict__)
+        twin._values = list(self._values)
+        return twin
+
     def moved(self, command: int) -> None:
         """The map moved by an executed ``command``."""
         forward = command == Command.FORWARD

@@ -89,6 +89,7 @@ following the rover's own strip) act on the same arrays step after step; the set
 
 from __future__ import annotations
 
+import copy
 import functools
 import math
 from typing import TYPE_CHECKING
@@ -330,6 +331,16 @@ class FreshFeltMemory:
             else None
         )
         self.reset()
+
+    def __copy__(self) -> FreshFeltMemory:
+        """A snapshot (the perception keeps one before each frame, and views place a copy of it
+        elsewhere): the arrays are shared, since the map replaces them and never writes them,
+        and the branch side's state is copied, since it changes in place."""
+        twin = object.__new__(FreshFeltMemory)
+        twin.__dict__.update(self.__dict__)
+        if self._branch is not None:
+            twin._branch = copy.copy(self._branch)
+        return twin
 
     def reset(self) -> None:
         """Start of an episode: nothing seen, nowhere been."""

@@ -251,3 +251,23 @@ def test_with_the_crossed_window_a_pivot_across_the_fresh_felt_spends_the_side()
     assert [tip.contradicted(value, np.radians(b)) for b in (-20.0, -25.0)] == [1.0, 1.0]
     tip.moved(L)
     assert tip.contradicted(value, np.radians(-45.0)) == 1.0  # outer side from the start
+
+
+def test_a_copy_of_the_map_is_a_snapshot_of_its_branch_side_too():
+    """The perception keeps a shallow copy of the map before each frame and shows views to
+    copies of it: what a copy sees must not change the map it was copied from."""
+    import copy
+
+    memory = FreshFeltMemory(FreshFeltConfig(branch_side=True, branch_window="commands"))
+    assert _drive(memory, [STRIP] * 5 + [LEFT_BRANCH] * 4)[-1][3] == 1.0
+    snapshot = copy.copy(memory)
+    before = memory.inputs()
+    for _ in range(WINDOW_FORWARD + 15):  # the copy drives on past the branch
+        snapshot.see(_values(STRIP))
+        snapshot.note(F)
+    snapshot.see(_values(STRIP))
+    assert snapshot.inputs()[3] == UNKNOWN
+    np.testing.assert_array_equal(memory.inputs(), before)
+    memory.note(L)  # a pivot's frame adds nothing: the side is the original's own window
+    memory.see(_values(STRIP))
+    assert memory.inputs()[3] == 1.0
