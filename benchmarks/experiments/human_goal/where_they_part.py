@@ -52,24 +52,20 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+from study_repetition import learned_repetition  # this folder (the script's own)
 
 from lfd_track.benchmark.loops import MAX_DRAWS_PER_LOOP, loop_draws, loop_facts, teacher_lap
 from lfd_track.benchmark.runner import (
-    learn_repetition,
-    repetition_preset,
     repetition_seeds,
-    repetition_streams,
     run_trial,
 )
 from lfd_track.dataset import load_demonstration
 from lfd_track.envs.track_env import LfDTrackEnv
-from lfd_track.methods.common import calibration_for
 from lfd_track.policy.controller import Controller
 from lfd_track.policy.memory import fresh_bearing_rad
 from lfd_track.policy.memory_config import FreshFeltConfig
@@ -182,20 +178,10 @@ def run_repetition(index: int, seed: int, config: Any, loops: int) -> dict:
 
     cv2.setNumThreads(1)
     t0 = time.perf_counter()
-    demo_seed, ga_seed, trial_seed = repetition_streams(seed)
-    preset = repetition_preset(config, seed)
-    calibration = calibration_for(config.memory, preset, seed)
-    with tempfile.TemporaryDirectory() as tmp:
-        learned = learn_repetition(
-            config,
-            Path(tmp),
-            demo_seed=demo_seed,
-            ga_seed=ga_seed,
-            preset=preset,
-            calibration=calibration,
-        )
-        labels = human_labels(Path(tmp))
-    controller = learned.controller
+    with learned_repetition(config, seed) as repetition:
+        labels = human_labels(repetition.folder)
+    preset, trial_seed = repetition.preset, repetition.trial_seed
+    controller = repetition.learned.controller
     controller.learn = config.keep_learning
     learning_s = time.perf_counter() - t0
     laps: list[dict] = []

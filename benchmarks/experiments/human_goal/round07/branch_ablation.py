@@ -33,7 +33,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import tempfile
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -41,14 +41,10 @@ from typing import Any
 import numpy as np
 
 from lfd_track.benchmark.runner import (
-    learn_repetition,
-    repetition_preset,
     repetition_seeds,
-    repetition_streams,
     run_trials,
 )
 from lfd_track.envs.presets import load_preset
-from lfd_track.methods.common import calibration_for
 from lfd_track.policy.branch_side import UNKNOWN
 from lfd_track.policy.controller import Controller
 from lfd_track.policy.map_geometry import MapGeometry
@@ -56,6 +52,9 @@ from lfd_track.study.spec import load_study
 from lfd_track.utils.atomic import atomic_write_text
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+from study_repetition import learned_repetition  # noqa: E402  (one folder up)
+
 STUDY = HERE / "selection_round7.toml"
 CONDITION = "centre.afresh.loop.unrec.nudge20.branch"
 STUDIED = HERE / "results" / "selection_round7" / CONDITION / "seed0" / "results.json"
@@ -126,19 +125,10 @@ def main() -> None:
     t0 = time.perf_counter()
     rows: list[dict[str, Any]] = []
     for index, seed in enumerate(repetition_seeds(args.seed, args.repetitions)):
-        demo_seed, ga_seed, trial_seed = repetition_streams(seed)
-        preset = repetition_preset(config, seed)
-        calibration = calibration_for(config.memory, preset, seed)
-        with tempfile.TemporaryDirectory() as tmp:
-            learned = learn_repetition(
-                config,
-                Path(tmp),
-                demo_seed=demo_seed,
-                ga_seed=ga_seed,
-                preset=preset,
-                calibration=calibration,
-            )
-        controller = learned.controller
+        with learned_repetition(config, seed) as repetition:
+            pass
+        preset, trial_seed = repetition.preset, repetition.trial_seed
+        controller = repetition.learned.controller
         row: dict[str, Any] = {"repetition": index}
         for variant in VARIANTS:
             driver = controller if variant == "as learned" else None

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import dataclasses
 import sys
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -25,19 +24,17 @@ from typing import Any
 import numpy as np
 
 from lfd_track.benchmark.runner import (
-    learn_repetition,
-    repetition_preset,
     repetition_seeds,
-    repetition_streams,
     run_trials,
 )
-from lfd_track.methods.common import calibration_for
 from lfd_track.study.spec import load_study
 from lfd_track.utils.atomic import atomic_write_text
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "round07"))
+sys.path.insert(0, str(HERE.parent))
 from branch_ablation import Wrapped  # noqa: E402
+from study_repetition import learned_repetition  # noqa: E402
 
 STUDY = HERE.parent / "test_round9" / "test_round9.toml"
 SEED, REPETITIONS = 2, (8, 9)
@@ -81,19 +78,10 @@ def main() -> None:
     for index, seed in enumerate(repetition_seeds(SEED, max(REPETITIONS) + 1)):
         if index not in REPETITIONS:
             continue
-        demo_seed, ga_seed, trial_seed = repetition_streams(seed)
-        preset = repetition_preset(config, seed)
-        calibration = calibration_for(config.memory, preset, seed)
-        with tempfile.TemporaryDirectory() as tmp:
-            learned = learn_repetition(
-                config,
-                Path(tmp),
-                demo_seed=demo_seed,
-                ga_seed=ga_seed,
-                preset=preset,
-                calibration=calibration,
-            )
-        driver = Logged(learned.controller, preset, hold=False)
+        with learned_repetition(config, seed) as repetition:
+            pass
+        preset, trial_seed = repetition.preset, repetition.trial_seed
+        driver = Logged(repetition.learned.controller, preset, hold=False)
         outcomes = run_trials(
             driver,
             trial_seed=trial_seed,
