@@ -10,7 +10,9 @@ divided by a temperature:
 
 where ``o`` (N, 3) are the sigmoid outputs, ``a_i`` the demonstrated command and ``c_i = 1 / n_e``
 with ``n_e`` the number of cases of that command, so each command weighs the same however often
-it was demonstrated (as Algorithm 3 normalises per category). The outputs lie in (0, 1), so
+it was demonstrated (as Algorithm 3 normalises per category). ``class_balance`` = k makes it
+``c_i = n_e ** -k``: 0 weighs every case the same (plain cross-entropy, the commands as often as
+the teacher gave them), 0.5 between the two. The outputs lie in (0, 1), so
 without a temperature the softmax could never be confident; 0.1 lets the winning output lead by
 a margin well past Algorithm 3's threshold before the loss flattens. Adam minimises it.
 """
@@ -18,6 +20,7 @@ a margin well past Algorithm 3's threshold before the loss flattens. Adam minimi
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -63,6 +66,24 @@ class BCConfig(DictConfig):
     """Give hidden and output nodes biases (223 weights instead of the paper's 215)."""
     threshold: float = 0.4
     """Output-difference threshold of the Algorithm 3 fitness reported in the history."""
+    class_balance: float = 1.0
+    """k in the case weights ``n_e ** -k`` (``n_e``: cases of the case's command): 1 each command
+    weighs the same (Algorithm 3's normalisation), 0 each case the same; in [0, 1]."""
+
+    def to_dict(self) -> dict[str, Any]:
+        """The settings as a dict; ``class_balance`` only when it is not 1 (what every fit did
+        before the setting existed), so that files written before it still match theirs."""
+        data = super().to_dict()
+        if data["class_balance"] == 1.0:
+            del data["class_balance"]
+        return data
+
+    def case_weights(self, category_weights: np.ndarray) -> np.ndarray:
+        """(N,) the loss's weight of each case from its ``category_weights`` ``1 / n_e``
+        (:func:`~lfd_track.learning.fitness.category_weights`; see :attr:`class_balance`)."""
+        if self.class_balance == 1.0:
+            return category_weights
+        return np.asarray(category_weights**self.class_balance, dtype=np.float64)
 
     def __post_init__(self) -> None:
         check_int("epochs", self.epochs, 1, 1_000_000)
@@ -79,6 +100,9 @@ class BCConfig(DictConfig):
         check_positive("init_range", self.init_range, allow_zero=True)
         check_bool("bias", self.bias)
         check_positive("threshold", self.threshold)
+        check_positive("class_balance", self.class_balance, allow_zero=True)
+        if not self.class_balance <= 1.0:
+            raise ValueError(f"class_balance must be in [0, 1], got {self.class_balance!r}")
 
 
 def bc_loss_and_gradient(
@@ -166,7 +190,7 @@ def adam_epoch(
     ``order`` None: one full-batch step on the cases as they are; else minibatches of
     ``config.batch_size`` cases taken in that order (a permutation of the cases)."""
     m, v, step = moments
-    x, a, case_weights = cases.inputs, cases.actions, cases.category_weights
+    x, a, case_weights = cases.inputs, cases.actions, config.case_weights(cases.category_weights)
     batches: list[np.ndarray | None] = [None]
     if order is not None:
         n = x.shape[0]

@@ -207,7 +207,7 @@ def fit_bc_elman(
         )
     x, a = check_cases(inputs, actions)
     starts = episode_starts(len(a), episodes)
-    case_weights = _category_weights(a)
+    case_weights = config.case_weights(_category_weights(a))
     weights = rng.uniform(
         -config.init_range, config.init_range, size=elman_weights(config.bias, x.shape[1])
     )

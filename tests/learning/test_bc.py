@@ -2,7 +2,12 @@ import numpy as np
 import pytest
 
 from lfd_track.learning.bc import BCConfig, bc_loss_and_gradient, fit_bc
-from lfd_track.learning.fitness import category_weights, imitation_fitness, training_accuracy
+from lfd_track.learning.fitness import (
+    category_weights,
+    checked_cases,
+    imitation_fitness,
+    training_accuracy,
+)
 from lfd_track.learning.ga import GAConfig, evolve
 from lfd_track.policy.mlp import mlp_forward
 
@@ -143,6 +148,46 @@ def test_config_validation_and_round_trip():
         {"temperature": -1},
         {"bias": 1},
         {"weight_decay": "x"},
+        {"class_balance": -0.5},
+        {"class_balance": 1.5},
     ):
         with pytest.raises(ValueError):
             BCConfig.from_dict(bad)
+
+
+def test_class_balance_weighs_cases_between_each_command_the_same_and_each_case_the_same():
+    """k = 1 (the default, and what every file before the setting did) is Algorithm 3's
+    normalisation and leaves ``to_dict`` as it was; k = 0 is plain cross-entropy; a fit with k = 0
+    on cases where forward is the teacher's most frequent command predicts it more often."""
+    x, actions = random_cases(6, n=60)
+    cases = checked_cases(x, actions)
+    assert "class_balance" not in BCConfig().to_dict()
+    assert BCConfig(class_balance=0.5).to_dict()["class_balance"] == 0.5
+    assert BCConfig.from_dict({"class_balance": 0}) == BCConfig(class_balance=0.0)
+    np.testing.assert_array_equal(
+        BCConfig().case_weights(cases.category_weights), category_weights(actions)
+    )
+    np.testing.assert_array_equal(
+        BCConfig(class_balance=0.0).case_weights(cases.category_weights), 1.0
+    )
+    counts = np.bincount(actions, minlength=3)
+    np.testing.assert_allclose(
+        BCConfig(class_balance=0.5).case_weights(cases.category_weights),
+        counts[actions] ** -0.5,
+        rtol=1e-12,
+    )
+    w = np.random.default_rng(7).uniform(-1, 1, 215)
+    plain, _ = bc_loss_and_gradient(w, x, actions, np.ones(actions.size), 0.1)
+    out = mlp_forward(w, x) / 0.1
+    p = np.exp(out) / np.exp(out).sum(axis=1, keepdims=True)
+    assert plain == pytest.approx(-np.log(p[np.arange(actions.size), actions]).mean(), rel=1e-12)
+
+    rng = np.random.default_rng(8)
+    x = rng.uniform(-1, 1, (200, 40))
+    actions = np.where(rng.random(200) < 0.7, 0, rng.choice([1, 2], 200))  # 70 % forward, noisy
+
+    def forward_share(k: float) -> float:
+        fit = fit_bc(x, actions, BCConfig(epochs=300, class_balance=k), np.random.default_rng(9))
+        return float(np.mean(mlp_forward(fit.weights, x).argmax(axis=1) == 0))
+
+    assert forward_share(0.0) > forward_share(1.0) + 0.05
