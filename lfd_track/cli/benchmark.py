@@ -23,7 +23,14 @@ from ..utils.outputs import refuse_undecodable, refuse_unsafe_output, shown_path
 from ..utils.signals import Terminated, interrupted_exit_code, raise_terminated
 from ..utils.staging import staged_output
 from ..world.loops import SPLITS
-from .types import EXIT_OK, EXIT_USAGE, add_map_arguments, memory_from_args, whole_number_in
+from .types import (
+    EXIT_OK,
+    EXIT_USAGE,
+    add_map_arguments,
+    memory_from_args,
+    unit_interval,
+    whole_number_in,
+)
 
 
 def _cores() -> int:
@@ -171,6 +178,14 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         " --hg-dagger-learner or --dagger-learner bc; default: none, the paper's network)",
     )
     bench.add_argument(
+        "--bc-class-balance",
+        type=unit_interval,
+        default=None,
+        metavar="K",
+        help="backprop's case weights n_e ** -K, n_e the cases of the case's command (the bc"
+        " settings, as --bc-bias; default 1: each command the same, 0: each case the same)",
+    )
+    bench.add_argument(
         "--shifted-views",
         action="store_true",
         help="learn also from each case's views from a step behind and a pivot either way,"
@@ -218,8 +233,12 @@ def run(args: argparse.Namespace) -> int:
             return EXIT_USAGE
     repetitions = 1 if args.quick and args.repetitions is None else (args.repetitions or 10)
     trials = args.trials or (1 if args.quick else 3)
-    # --bc-bias: the backprop settings with biases (a table of BenchmarkConfig, given by name).
-    backprop: dict[str, Any] = {"bc": BCConfig(bias=True)} if args.bc_bias else {}
+    # --bc-bias, --bc-class-balance: the backprop settings (a table of BenchmarkConfig, by name).
+    balance = 1.0 if args.bc_class_balance is None else args.bc_class_balance
+    backprop_flags = args.bc_bias or args.bc_class_balance is not None
+    backprop: dict[str, Any] = (
+        {"bc": BCConfig(bias=args.bc_bias, class_balance=balance)} if backprop_flags else {}
+    )
     try:  # settings that do not go together (e.g. --steers-by picture without the map) refused
         method = get_method(args.method)
         tables = {} if method.flags is None else {method.table: method.flags.settings(args)}
@@ -249,9 +268,10 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         print(f"lfd-track benchmark: {exc}", file=sys.stderr)
         return EXIT_USAGE
-    if args.bc_bias and not fits_by_backprop(config):
+    if backprop_flags and not fits_by_backprop(config):
+        flag = "--bc-bias" if args.bc_bias else "--bc-class-balance"
         print(
-            f"lfd-track benchmark: --bc-bias is for learners that use backprop (--method bc, or"
+            f"lfd-track benchmark: {flag} is for learners that use backprop (--method bc, or"
             f" --online-learner, --hg-dagger-learner or --dagger-learner bc), not {args.method}",
             file=sys.stderr,
         )

@@ -18,7 +18,15 @@ from ..policy.memory import MEMORY_KINDS
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output
 from ..utils.signals import stop_signals_interrupt
 from ..web.defaults import DEFAULT_FPS, DEFAULT_HOST, DEFAULT_PORT
-from .types import EXIT_OK, add_map_arguments, float_in, memory_from_args, port, share
+from .types import (
+    EXIT_OK,
+    add_map_arguments,
+    float_in,
+    memory_from_args,
+    port,
+    share,
+    unit_interval,
+)
 from .types import non_negative_int as _count
 from .types import positive_int as _positive_int
 
@@ -41,6 +49,8 @@ def teach_config(args: argparse.Namespace) -> Any:
     if args.mirror and not args.online:
         raise LfdTrackError("--mirror is for --online (the learner's cases): give --online")
     learner = args.online_learner or "ga"
+    if args.bc_class_balance is not None and learner != "bc":
+        raise LfdTrackError("--bc-class-balance is for --online --online-learner bc")
     for flag, value in (
         ("--generations-per-case", args.generations_per_case),
         ("--population", args.population),
@@ -83,6 +93,7 @@ def teach_config(args: argparse.Namespace) -> Any:
         features=args.features,
         ga_bias=args.ga_bias,
         mutation_delta=0.1 if args.mutation_delta is None else args.mutation_delta,
+        class_balance=1.0 if args.bc_class_balance is None else args.bc_class_balance,
         mirror=args.mirror,
         library_only=args.library_only,
         force=args.force,
@@ -251,6 +262,15 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         action="store_true",
         help="with --online: networks with biases, GA or backprop (the map-only policy kind needs"
         " them to reach steep weights)",
+    )
+    teach.add_argument(
+        "--bc-class-balance",
+        type=unit_interval,
+        default=None,
+        metavar="K",
+        help="with --online-learner bc: each case weighs n_e ** -K, n_e the cases of its command"
+        " (default 1: each command the same; 0: each case the same; the human-taught goal's"
+        " round 15 chose 0.5)",
     )
     teach.add_argument(
         "--mutation-delta",

@@ -53,6 +53,14 @@ def positive_float(text: str) -> float:
     return value
 
 
+def unit_interval(text: str) -> float:
+    """A number in [0, 1] (exponents and weights where 0 is a setting of its own)."""
+    value = _number(text)
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be in 0..1, got {text}")
+    return value
+
+
 def share(text: str) -> float:
     """A fraction in (0, 1] (agreement thresholds)."""
     value = _number(text)

@@ -1,15 +1,14 @@
 """The teaching session the web app drives: the teaching loop, stepped in a background thread.
 
-:class:`LoopSession` is an arrangement of the one teaching loop (:mod:`lfd_track.teaching`) for a
-browser: the human commander is a :class:`~lfd_track.web.commander.BrowserCommander` fed by the
-server; with ``--online`` a policy commander drives with the best individual of a GA that runs
-generations as cases arrive (the loop's learner feed), and the arbiter offers a takeover once
-the policy agrees with the human. The loop is stepped from a background thread at most once per
-control period, and only when someone has a command (the human pressed, or the policy drives).
-Observers record every case to a crash-safe ``.lfdemo``, count cases and corrections, and after
-each step the session publishes the annotated camera view and the simulator's map.
-
-Nothing moves unless the controlling page holds the lease (:class:`~lfd_track.web.contract.Lease`).
+:class:`LoopSession` arranges the one teaching loop (:mod:`lfd_track.teaching`) for a browser: the
+human commander is a :class:`~lfd_track.web.commander.BrowserCommander` fed by the server; with
+``--online`` a policy commander drives with what the loop's learner feed (the GA, or backprop)
+has learned from the cases so far, and the arbiter offers a takeover once the policy agrees with
+the human. The loop is stepped from a background thread at most once per control period, only
+when someone has a command (the human pressed, or the policy drives). Observers record every case
+to a crash-safe ``.lfdemo`` and count cases and corrections; after each step the session
+publishes the annotated camera view and the simulator's map. Nothing moves unless the controlling
+page holds the lease (:class:`~lfd_track.web.contract.Lease`).
 """
 
 from __future__ import annotations
@@ -53,8 +52,7 @@ PHASE_CORRECTION = "correction"
 
 @dataclass(frozen=True)
 class TeachConfig:
-    """What ``lfd-track teach`` asked for (the command line builds it; see
-    :mod:`lfd_track.cli.teach` for each setting's meaning)."""
+    """What ``lfd-track teach`` asked for (each setting's meaning: :mod:`lfd_track.cli.teach`)."""
 
     out: Path
     """The demonstration file to write (``.lfdemo``)."""
@@ -83,13 +81,14 @@ class TeachConfig:
     """Memory inputs recorded with every case, and their settings (one of the kinds'
     classes of :mod:`lfd_track.policy.memory_config`)."""
     features: str = "road_values"
-    """Per-region inputs of the online policy (:data:`~lfd_track.policy.features.FEATURE_SETS`;
-    ``"none"``: the memory inputs alone)."""
+    """Per-region inputs of the online policy (``features.FEATURE_SETS``; ``"none"``: memory only)."""
     ga_bias: bool = False
     """With ``online``: networks with biases (``GAConfig.bias``, or ``BCConfig.bias`` with
     learner ``"bc"``)."""
     mutation_delta: float = 0.1
     """With ``online``: the GA's mutation step (``GAConfig.mutation_delta``, the paper's 0.1)."""
+    class_balance: float = 1.0
+    """With learner ``"bc"``: backprop's ``BCConfig.class_balance`` (1: each command the same)."""
     mirror: bool = False
     """With ``online``: the learner fits the cases and their mirror images (``--mirror``)."""
     library_only: int = 0
@@ -489,8 +488,9 @@ def open_session(config: TeachConfig) -> LoopSession:
             **({"mirror": True} if config.mirror else {}),  # written only when on, as learner
         }
         if takeover.learner != "ga":  # a recording taught with the GA reads as it always did
+            balance = {} if config.class_balance == 1 else {"class_balance": config.class_balance}
             metadata["online_settings"].update(
-                learner=takeover.learner, epochs_per_case=takeover.epochs_per_case
+                learner=takeover.learner, epochs_per_case=takeover.epochs_per_case, **balance
             )
     # As ``lfd-track demo --force``: an existing file is kept until the new recording is closed
     # (then replaced, if it holds a case); until then the recording has a name of its own.
@@ -581,7 +581,7 @@ def _online_parts(config: TeachConfig, n_inputs: int) -> tuple[PolicyCommander, 
     mirrored = partial(with_mirrored, memory=config.memory, features=config.features)
     training_set = mirrored if config.mirror else None  # what the learner fits
     if config.takeover.learner == "bc":
-        bc = BCConfig(bias=config.ga_bias)
+        bc = BCConfig(bias=config.ga_bias, class_balance=config.class_balance)
         rng = np.random.default_rng(config.seed)
         epochs = config.takeover.epochs_per_case
         return policy, BCLearnerFeed(bc, rng, epochs, policy, n_inputs, training_set)

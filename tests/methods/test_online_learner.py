@@ -172,7 +172,19 @@ def test_the_benchmark_flags_run_the_chosen_learner_online(tmp_path, capsys, mon
     for method in (["--method", "online"], ["--method", "paper"], ["--method", "hg-dagger"]):
         assert main(["benchmark", *method, "--bc-bias", "--out", out]) == 2
         assert "--bc-bias is for learners that use backprop" in capsys.readouterr().err
+        assert main(["benchmark", *method, "--bc-class-balance", "0.5", "--out", out]) == 2
+        assert "--bc-class-balance is for learners that use backprop" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["benchmark", "--method", "bc", "--bc-class-balance", "1.5", "--out", out])
+    assert "must be in 0..1, got 1.5" in capsys.readouterr().err
+    balanced = ["--bc-bias", "--bc-class-balance", "0.5"]  # round 15's learner
     for flags, settings, bc in (
+        (["--online-learner", "bc", *balanced], ONLINE_BC, BCConfig(bias=True, class_balance=0.5)),
+        (
+            ["--online-learner", "bc", "--bc-class-balance", "0"],
+            ONLINE_BC,
+            BCConfig(class_balance=0),
+        ),
         (["--online-learner", "bc", "--bc-bias"], ONLINE_BC, BCConfig(bias=True)),
         ([], OnlineConfig(), BCConfig()),
     ):

@@ -11,6 +11,7 @@ from websockets.sync.client import connect
 
 from lfd_track.cli import main
 from lfd_track.dataset import load_demonstration
+from lfd_track.learning.bc import BCConfig
 from lfd_track.teaching.learner_feed import BCLearnerFeed, GALearnerFeed
 
 
@@ -50,6 +51,10 @@ def _teach(station, commands: list[str]) -> dict:
             "--mutation-delta is for --online-learner ga, not bc",
         ),
         (["--mirror"], "--mirror is for --online (the learner's cases): give --online"),
+        (
+            ["--online", "--bc-class-balance", "0.5"],
+            "--bc-class-balance is for --online --online-learner bc",
+        ),
     ],
 )
 def test_the_online_learner_flag_is_refused_where_it_means_nothing(
@@ -78,6 +83,7 @@ def test_online_teaching_by_backprop_refits_the_map_only_network_after_every_cas
     session.close()
     settings = load_demonstration(station.out).metadata["online_settings"]
     assert settings["learner"] == "bc" and settings["epochs_per_case"] == feed.epochs_per_case
+    assert "class_balance" not in settings  # the default case weights: as before the setting
 
 
 def test_online_teaching_keeps_the_ga_by_default(open_station):
@@ -93,12 +99,16 @@ def test_online_teaching_keeps_the_ga_by_default(open_station):
 
 def test_online_teaching_with_mirror_fits_each_case_and_its_mirror_image(open_station):
     """``--mirror``: the learner fits the cases and their mirror images, as the benchmark's
-    chosen human-taught configuration does; the recording holds only the cases as taught."""
+    chosen human-taught configuration does; the recording holds only the cases as taught. With
+    that configuration's case weights (``--bc-class-balance 0.5``), recorded with the settings."""
     flags = ["--memory", "fresh_felt", "--features", "none", "--ga-bias", "--mirror"]
-    station = open_station("--online", "--online-learner", "bc", *flags)
+    station = open_station(
+        "--online", "--online-learner", "bc", *flags, "--bc-class-balance", "0.5"
+    )
     session = station.session
     _teach(station, ["left", "left", "forward"])
     feed = session.learner
+    assert feed.config == BCConfig(bias=True, class_balance=0.5)
     x, a = feed.cases.arrays()
     fitted_x, fitted_a = feed.training_set(x, a)
     assert a.tolist() == [1, 1, 0]  # forward 0, left 1, right 2
@@ -110,4 +120,5 @@ def test_online_teaching_with_mirror_fits_each_case_and_its_mirror_image(open_st
     session.close()
     demo = load_demonstration(station.out)
     assert demo.metadata["online_settings"]["mirror"] is True
+    assert demo.metadata["online_settings"]["class_balance"] == 0.5
     assert demo.commands.tolist() == [1, 1, 0]
