@@ -46,6 +46,10 @@ Computed at every frame from the map's own arrays (rover frame: x ahead, y left 
    side's own side to the other: the rover has turned past the felt the side pointed it to
    (``benchmarks/experiments/human_goal/round10/README.md``, the reversal trace). A corner's
    tip read on the outer side from the start does not spend it.
+   With ``branch_window = "blank"``, as with ``"commands"``, and the input gives the side only
+   while the map has no fresh felt (none otherwise; the frames' values are kept): the input as
+   the hand-written rule on it uses it, for a learner to weigh
+   (``benchmarks/experiments/human_goal/round16/README.md``).
 
 The estimator and its constants are those scored offline on 126 corners over 100° in
 ``benchmarks/experiments/sharp_corners/vertex/turn_side.md`` (right at 76 of the 81 arrivals
@@ -69,7 +73,7 @@ AHEAD_M, NEAR_M, FAR_M = 1.2, 0.3, 1.0
 #: forward commands the side looks back over (1 m of the paper's steps), and the sum it needs
 WINDOW_FORWARD, MIN_SUM = 10, 2.0
 #: which frames the side sums (``branch_window``; see the module docstring)
-WINDOWS = ("forward", "commands", "new_felt", "heading", "behind", "crossed")
+WINDOWS = ("forward", "commands", "new_felt", "heading", "behind", "crossed", "blank")
 #: [deg] with ``"heading"``: a frame's value is forgotten once the rover has turned more than this
 TURNED_DEG = 90.0
 #: [deg] with ``"behind"``: fresh felt further off than this, on the other side, ends the side
@@ -174,10 +178,13 @@ class BranchSide:
         [rad, left positive; None: the map is blank]: :data:`UNKNOWN` (and every frame
         forgotten) with ``"behind"`` when that felt lies more than :data:`BEHIND_DEG` off to the
         side opposite ``side``, with ``"crossed"`` when a pivot toward ``side`` carried it across
-        from the side's own side to the other; else ``side``."""
+        from the side's own side to the other; with ``"blank"`` whenever the map has fresh felt
+        (its frames kept); else ``side``."""
         before, self._bearing = self._bearing, bearing
         if side == UNKNOWN or bearing is None:
             return side
+        if self.window == "blank":
+            return UNKNOWN
         if self.window == "crossed":
             toward = Command.LEFT if side > UNKNOWN else Command.RIGHT
             sign = 1.0 if side > UNKNOWN else -1.0

@@ -61,7 +61,7 @@ FELT_LEVELS = ("fixed", "library")
 MAP_MOTIONS = ("nominal", "visual")
 #: Which frames the ``fresh_felt`` map's branch side sums (``branch_window``;
 #: :mod:`lfd_track.policy.branch_side`).
-BRANCH_WINDOWS = ("forward", "commands", "new_felt", "heading", "behind", "crossed")
+BRANCH_WINDOWS = ("forward", "commands", "new_felt", "heading", "behind", "crossed", "blank")
 
 
 def setting(
@@ -340,8 +340,9 @@ class FreshFeltConfig(MemoryConfig):
         " as commands, each frame forgotten once the rover has turned more than 90 degrees"
         " since it saw it; behind: as commands, the side forgotten when the map's fresh felt"
         " lies more than 90 degrees off on the other side; crossed: as commands, the side spent"
-        " once a pivot toward it carried the fresh felt across to the other side (the last four"
-        " are kept because rounds 9-12 of the human-taught goal's studies set them; each lost)",
+        " once a pivot toward it carried the fresh felt across to the other side (these four"
+        " are kept because rounds 9-12 of the human-taught goal's studies set them; each lost);"
+        " blank: as commands, the side given only while the map has no fresh felt (round 16)",
         choices=BRANCH_WINDOWS,
     )
 

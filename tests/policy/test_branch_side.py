@@ -253,6 +253,53 @@ def test_with_the_crossed_window_a_pivot_across_the_fresh_felt_spends_the_side()
     assert tip.contradicted(value, np.radians(-45.0)) == 1.0  # outer side from the start
 
 
+def test_with_the_blank_window_the_side_is_given_only_while_the_map_is_blank():
+    """``"blank"`` gives the side as ``"commands"`` does while the map has no fresh felt, and
+    none while it has some, without forgetting it: the side is back at the next blank map."""
+    from lfd_track.policy.branch_side import BranchSide
+
+    path = np.array([[-0.6, 0.0], [-0.4, 0.0], [-0.2, 0.0]])
+    points = np.array(
+        [[x, 0.0] for x in (-0.3, -0.1, 0.2, 0.5)] + [[0.6, 0.5], [0.7, 0.5], [0.8, 0.5]]
+    )
+    felt = np.ones(len(points))
+    out = {}
+    for window in ("commands", "blank"):
+        side = BranchSide(window)
+        side.moved(F)
+        value = side.see(points, felt, path, len(points))
+        out[window] = [side.contradicted(value, b) for b in (None, 0.1, -0.3, None, 2.5, None)]
+    assert out["commands"] == [1.0] * 6
+    assert out["blank"] == [1.0, UNKNOWN, UNKNOWN, 1.0, UNKNOWN, 1.0]
+    assert BranchSide("blank").contradicted(UNKNOWN, None) == UNKNOWN  # no side: none either
+
+
+def test_the_blank_window_leaves_the_rule_on_the_map_as_it_was():
+    """The rule reads the side only while the map is blank (amount 0), where ``"blank"`` gives
+    what ``"commands"`` gives: over a run of inputs, the side replaced by none wherever the map
+    has fresh felt, the rule's commands are the same, step for step."""
+    rng = np.random.default_rng(0)
+    n = 400
+    inputs = np.column_stack(
+        [
+            rng.uniform(0, 1, n),
+            np.where(rng.random(n) < 0.3, 0.0, rng.uniform(0.05, 1, n)),  # a third blank
+            rng.uniform(0, 1, n),
+            rng.choice([0.0, UNKNOWN, 1.0], n),
+        ]
+    )
+    gated = inputs.copy()
+    gated[gated[:, 1] > 0, 3] = UNKNOWN
+    config = FreshFeltRuleConfig(memory=FreshFeltConfig.plain(branch_side=True))
+    as_given, as_blank = FreshFeltRule(config), FreshFeltRule(config)
+    commands = [(as_given.act(x), as_blank.act(y)) for x, y in zip(inputs, gated, strict=True)]
+    assert all(a == b for a, b in commands)
+    blank_turns = [
+        a for (a, _), x in zip(commands, inputs, strict=True) if x[1] == 0 and x[3] != UNKNOWN
+    ]
+    assert {L, R} <= set(blank_turns)  # the side does turn it on blank maps
+
+
 def test_a_copy_of_the_map_is_a_snapshot_of_its_branch_side_too():
     """The perception keeps a shallow copy of the map before each frame and shows views to
     copies of it: what a copy sees must not change the map it was copied from."""
