@@ -185,17 +185,17 @@ class BranchSide:
             return side
         if self.window == "blank":
             return UNKNOWN
+        sign = 1.0 if side > UNKNOWN else -1.0  # the side's own side of the bearing
         if self.window == "crossed":
             toward = Command.LEFT if side > UNKNOWN else Command.RIGHT
-            sign = 1.0 if side > UNKNOWN else -1.0
-            if before is not None and self._last == toward and before * sign >= 0 > bearing * sign:
-                self._values = []
-                return UNKNOWN
+            spent = (
+                before is not None and self._last == toward and before * sign >= 0 > bearing * sign
+            )
+        elif self.window == "behind":
+            spent = bearing * sign < -math.radians(BEHIND_DEG)
+        else:
             return side
-        if self.window != "behind":
-            return side
-        limit = math.radians(BEHIND_DEG)
-        if (side > UNKNOWN and bearing < -limit) or (side < UNKNOWN and bearing > limit):
+        if spent:
             self._values = []
             return UNKNOWN
         return side

@@ -41,6 +41,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..core.frame import N_REGIONS
+from .branch_side import WINDOWS as BRANCH_WINDOWS  # which frames the side sums
 
 #: Where the ``fresh_felt`` map's ``strip_link_m`` strip starts (``strip_from``).
 STRIP_STARTS = ("axle", "nearest")
@@ -59,9 +60,6 @@ FELT_LEVELS = ("fixed", "library")
 #: How the ``fresh_felt`` map moves at each executed command (``motion``;
 #: :mod:`lfd_track.policy.odometry`).
 MAP_MOTIONS = ("nominal", "visual")
-#: Which frames the ``fresh_felt`` map's branch side sums (``branch_window``;
-#: :mod:`lfd_track.policy.branch_side`).
-BRANCH_WINDOWS = ("forward", "commands", "new_felt", "heading", "behind", "crossed", "blank")
 
 
 def setting(

@@ -7,7 +7,13 @@ import pytest
 from lfd_track.core.commands import Command
 from lfd_track.core.frame import GRID_COLUMNS, GRID_ROWS, N_REGIONS
 from lfd_track.learning.mirror import mirror_cases
-from lfd_track.policy.branch_side import UNKNOWN, WINDOW_FORWARD, frame_value, side_command
+from lfd_track.policy.branch_side import (
+    UNKNOWN,
+    WINDOW_FORWARD,
+    BranchSide,
+    frame_value,
+    side_command,
+)
 from lfd_track.policy.controller import Controller
 from lfd_track.policy.memory import FreshFeltConfig, FreshFeltMemory, memory_config, policy_inputs
 from lfd_track.teaching.handwritten import FreshFeltRule, FreshFeltRuleConfig
@@ -28,6 +34,26 @@ def _values(cells: set[tuple[int, int]]) -> np.ndarray:
 STRIP = {(r, c) for r in range(GRID_ROWS) for c in (3, 4)}
 LEFT_BRANCH = STRIP | {(0, 0), (0, 1)}  # felt 0.4-0.56 m left of the strip, 1.3 m ahead
 RIGHT_BRANCH = STRIP | {(0, 6), (0, 7)}
+
+
+#: A map's arrays (rover frame) for the windows' own tests: the path behind the axle, the strip
+#: ahead along x, and felt 0.5 m to the left of it 0.6-0.8 m ahead.
+MAP_PATH = np.array([[-0.6, 0.0], [-0.4, 0.0], [-0.2, 0.0]])
+MAP_POINTS = np.array(
+    [[x, 0.0] for x in (-0.3, -0.1, 0.2, 0.5)] + [[0.6, 0.5], [0.7, 0.5], [0.8, 0.5]]
+)
+
+
+def _see(side: BranchSide) -> float:
+    """``side``'s input after a frame that placed all of :data:`MAP_POINTS`, all felt."""
+    return side.see(MAP_POINTS, np.ones(len(MAP_POINTS)), MAP_PATH, len(MAP_POINTS))
+
+
+def _seen_left(window: str) -> tuple[BranchSide, float]:
+    """A branch side with ``window`` after a forward step and that frame, and its input."""
+    side = BranchSide(window)
+    side.moved(F)
+    return side, _see(side)
 
 
 def _drive(memory: FreshFeltMemory, frames: list[set[tuple[int, int]]]) -> list[np.ndarray]:
@@ -149,22 +175,17 @@ def test_with_the_commands_window_the_side_expires_while_the_rover_only_pivots()
 
 
 def test_with_the_new_felt_window_a_frame_counts_only_the_felt_it_placed():
-    from lfd_track.policy.branch_side import BranchSide
-
-    path = np.array([[-0.6, 0.0], [-0.4, 0.0], [-0.2, 0.0]])
-    strip = np.array([[x, 0.0] for x in (-0.3, -0.1, 0.2, 0.5)])
-    branch = np.array([[0.6, 0.5], [0.7, 0.5], [0.8, 0.5]])  # left of the strip, ahead
-    old, new = np.vstack([strip, branch]), strip  # the branch on the map, not in the frame
+    old, new = MAP_POINTS, MAP_POINTS[:4]  # the branch on the map, not in the newest frame
     points, felt = np.vstack([old, new]), np.ones(len(old) + len(new))
     sides = {}
     for window in ("commands", "new_felt"):
         side = BranchSide(window)
         side.moved(F)
-        sides[window] = side.see(points, felt, path, len(new))
+        sides[window] = side.see(points, felt, MAP_PATH, len(new))
     assert sides == {"commands": 1.0, "new_felt": UNKNOWN}
     side = BranchSide("new_felt")  # the frame that placed the branch counts it
     side.moved(F)
-    assert side.see(old, np.ones(len(old)), path, len(old)) == 1.0
+    assert side.see(old, np.ones(len(old)), MAP_PATH, len(old)) == 1.0
     with pytest.raises(ValueError, match="branch window"):
         BranchSide("pivots")
 
@@ -192,23 +213,14 @@ def test_with_the_heading_window_the_side_is_forgotten_after_a_quarter_turn():
 
 
 def test_with_the_behind_window_fresh_felt_behind_on_the_other_side_ends_the_side():
-    from lfd_track.policy.branch_side import BranchSide
-
-    path = np.array([[-0.6, 0.0], [-0.4, 0.0], [-0.2, 0.0]])
-    points = np.array(
-        [[x, 0.0] for x in (-0.3, -0.1, 0.2, 0.5)] + [[0.6, 0.5], [0.7, 0.5], [0.8, 0.5]]
-    )
-    felt = np.ones(len(points))
     sides = {}
     for window in ("commands", "behind"):
-        side = BranchSide(window)
-        side.moved(F)
-        left = side.see(points, felt, path, len(points))
+        side, left = _seen_left(window)
         assert left == 1.0
         kept = [side.contradicted(left, np.radians(b)) for b in (-60.0, 120.0, 170.0, -89.0)]
         sides[window] = kept + [side.contradicted(left, np.radians(-120.0))]
         side.moved(L)  # a pivot's frame adds nothing: the side is what is left
-        sides[window].append(side.see(points, felt, path, len(points)))
+        sides[window].append(_see(side))
     assert sides["commands"] == [1.0] * 6  # without "behind" the bearing never ends the side
     assert sides["behind"] == [1.0, 1.0, 1.0, 1.0, UNKNOWN, UNKNOWN]  # and it stays forgotten
     right = BranchSide("behind")
@@ -220,22 +232,13 @@ def test_with_the_crossed_window_a_pivot_across_the_fresh_felt_spends_the_side()
     """A pivot toward the side that carries the felt from the side's own side to the other
     spends it; the felt on the other side from the start (a corner's tip), a forward step, or a
     blank map between do not."""
-    from lfd_track.policy.branch_side import BranchSide
-
-    path = np.array([[-0.6, 0.0], [-0.4, 0.0], [-0.2, 0.0]])
-    points = np.array(
-        [[x, 0.0] for x in (-0.3, -0.1, 0.2, 0.5)] + [[0.6, 0.5], [0.7, 0.5], [0.8, 0.5]]
-    )
-    felt = np.ones(len(points))
 
     def run(window: str, steps: list[tuple[Command, float | None]]) -> list[float]:
-        side = BranchSide(window)
-        side.moved(F)
-        value = side.see(points, felt, path, len(points))
+        side, value = _seen_left(window)
         out = [side.contradicted(value, np.radians(10.0))]  # felt 10 deg left: the side's side
         for command, bearing in steps:
             side.moved(command)
-            value = side.see(points, felt, path, len(points))
+            value = _see(side)
             out.append(side.contradicted(value, None if bearing is None else np.radians(bearing)))
         return out
 
@@ -245,9 +248,7 @@ def test_with_the_crossed_window_a_pivot_across_the_fresh_felt_spends_the_side()
     assert run("crossed", [(R, -13.0)]) == [1.0, 1.0]  # pivoted away: not the side's doing
     assert run("crossed", [(F, -13.0)]) == [1.0, 1.0]  # driven on: not a pivot
     assert run("crossed", [(L, None), (L, -13.0)]) == [1.0, 1.0, 1.0]  # blank between
-    tip = BranchSide("crossed")
-    tip.moved(F)
-    value = tip.see(points, felt, path, len(points))
+    tip, value = _seen_left("crossed")
     assert [tip.contradicted(value, np.radians(b)) for b in (-20.0, -25.0)] == [1.0, 1.0]
     tip.moved(L)
     assert tip.contradicted(value, np.radians(-45.0)) == 1.0  # outer side from the start
@@ -256,18 +257,9 @@ def test_with_the_crossed_window_a_pivot_across_the_fresh_felt_spends_the_side()
 def test_with_the_blank_window_the_side_is_given_only_while_the_map_is_blank():
     """``"blank"`` gives the side as ``"commands"`` does while the map has no fresh felt, and
     none while it has some, without forgetting it: the side is back at the next blank map."""
-    from lfd_track.policy.branch_side import BranchSide
-
-    path = np.array([[-0.6, 0.0], [-0.4, 0.0], [-0.2, 0.0]])
-    points = np.array(
-        [[x, 0.0] for x in (-0.3, -0.1, 0.2, 0.5)] + [[0.6, 0.5], [0.7, 0.5], [0.8, 0.5]]
-    )
-    felt = np.ones(len(points))
     out = {}
     for window in ("commands", "blank"):
-        side = BranchSide(window)
-        side.moved(F)
-        value = side.see(points, felt, path, len(points))
+        side, value = _seen_left(window)
         out[window] = [side.contradicted(value, b) for b in (None, 0.1, -0.3, None, 2.5, None)]
     assert out["commands"] == [1.0] * 6
     assert out["blank"] == [1.0, UNKNOWN, UNKNOWN, 1.0, UNKNOWN, 1.0]

@@ -2,7 +2,8 @@
 this folder that drive a learned controller outside the study (``where_they_part.py``,
 ``round07/branch_ablation.py``, ``round10/reversal_trace.py``): the repetition's streams, its
 world (its room with ``room = "per_repetition"``), the map's calibration there, and
-``learn_repetition`` into a temporary folder kept open while the caller reads it."""
+``learn_repetition`` into a temporary folder kept open while the caller reads it; and its runs
+on the training track alone, as the study drives them (:func:`training_runs`)."""
 
 from __future__ import annotations
 
@@ -13,7 +14,12 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-from lfd_track.benchmark.runner import learn_repetition, repetition_preset, repetition_streams
+from lfd_track.benchmark.runner import (
+    learn_repetition,
+    repetition_preset,
+    repetition_streams,
+    run_trials,
+)
 from lfd_track.methods.common import calibration_for
 
 
@@ -45,3 +51,18 @@ def learned_repetition(config: Any, seed: int) -> Iterator[StudyRepetition]:
             calibration=calibration,
         )
         yield StudyRepetition(learned, preset, trial_seed, Path(tmp))
+
+
+def training_runs(driver: Any, repetition: StudyRepetition, config: Any, index: int) -> list[Any]:
+    """The study's training-track runs of repetition ``index`` (its world seeds and trials per
+    direction; no test loop or testing track), driven by ``driver`` (the learned controller, or
+    a wrapper of it)."""
+    return run_trials(
+        driver,
+        trial_seed=repetition.trial_seed,
+        test_tracks=(),
+        trials_per_direction=config.trials_per_direction,
+        preset=repetition.preset,
+        repetition=index,
+        tracks={"training"},
+    )

@@ -40,10 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from lfd_track.benchmark.runner import (
-    repetition_seeds,
-    run_trials,
-)
+from lfd_track.benchmark.runner import repetition_seeds
 from lfd_track.envs.presets import load_preset
 from lfd_track.policy.branch_side import UNKNOWN
 from lfd_track.policy.controller import Controller
@@ -53,7 +50,7 @@ from lfd_track.utils.atomic import atomic_write_text
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
-from study_repetition import learned_repetition  # noqa: E402  (one folder up)
+from study_repetition import learned_repetition, training_runs  # noqa: E402  (one folder up)
 
 STUDY = HERE / "selection_round7.toml"
 CONDITION = "centre.afresh.loop.unrec.nudge20.branch"
@@ -127,23 +124,14 @@ def main() -> None:
     for index, seed in enumerate(repetition_seeds(args.seed, args.repetitions)):
         with learned_repetition(config, seed) as repetition:
             pass
-        preset, trial_seed = repetition.preset, repetition.trial_seed
         controller = repetition.learned.controller
         row: dict[str, Any] = {"repetition": index}
         for variant in VARIANTS:
             driver = controller if variant == "as learned" else None
             if driver is None:
-                driver = Wrapped(controller, preset, hold=variant == "branch held at none")
-            outcomes = run_trials(
-                driver,
-                trial_seed=trial_seed,
-                test_tracks=(),
-                trials_per_direction=config.trials_per_direction,
-                preset=preset,
-                repetition=index,
-                tracks={"training"},
-            )
-            row[variant] = outcome_row(outcomes)
+                hold = variant == "branch held at none"
+                driver = Wrapped(controller, repetition.preset, hold=hold)
+            row[variant] = outcome_row(training_runs(driver, repetition, config, index))
         mine = [o for o in studied if o["track"] == "training" and o["repetition"] == index]
         row["study_laps"] = sum(o["success"] for o in mine) if mine else None
         row["same_as_study"] = not mine or [(o["success"], o["steps"]) for o in mine] == [

@@ -23,10 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from lfd_track.benchmark.runner import (
-    repetition_seeds,
-    run_trials,
-)
+from lfd_track.benchmark.runner import repetition_seeds
 from lfd_track.study.spec import load_study
 from lfd_track.utils.atomic import atomic_write_text
 
@@ -34,7 +31,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "round07"))
 sys.path.insert(0, str(HERE.parent))
 from branch_ablation import Wrapped  # noqa: E402
-from study_repetition import learned_repetition  # noqa: E402
+from study_repetition import learned_repetition, training_runs  # noqa: E402
 
 STUDY = HERE.parent / "test_round9" / "test_round9.toml"
 SEED, REPETITIONS = 2, (8, 9)
@@ -80,17 +77,8 @@ def main() -> None:
             continue
         with learned_repetition(config, seed) as repetition:
             pass
-        preset, trial_seed = repetition.preset, repetition.trial_seed
-        driver = Logged(repetition.learned.controller, preset, hold=False)
-        outcomes = run_trials(
-            driver,
-            trial_seed=trial_seed,
-            test_tracks=(),
-            trials_per_direction=config.trials_per_direction,
-            preset=preset,
-            repetition=index,
-            tracks={"training"},
-        )
+        driver = Logged(repetition.learned.controller, repetition.preset, hold=False)
+        outcomes = training_runs(driver, repetition, config, index)
         md += ["", f"## Repetition {index}", ""]
         md += [", ".join(f"{o.direction} {o.failure or 'lapped'} ({o.steps})" for o in outcomes)]
         start = 0
