@@ -44,6 +44,8 @@ Schema history:
   schema-5 file was written before it: ``false``, what every map did then (the same step).
 * **7** — ``config.memory`` names the branch side's ``branch_window``. A schema-6 file was
   written before it: ``"forward"``, what every map did then (the same step).
+* **8** — ``config.memory`` names the branch side's ``branch_turn`` (a fifth input). A schema-7
+  file was written before it: ``false``, what every map did then (the same step).
 """
 
 from __future__ import annotations
@@ -54,7 +56,7 @@ from typing import Any
 from ..policy.memory_config import memory_table_from_v1
 from ..utils.migrate import Step, VersionedJson
 
-RESULTS_SCHEMA = 7
+RESULTS_SCHEMA = 8
 """Schema of the results.json this version writes (``len(RESULTS_STEPS) + 1``)."""
 MAX_RESULTS_BYTES = 1 << 28
 """Largest results.json read (a 10-repetition benchmark writes about 100 kB)."""
@@ -251,6 +253,12 @@ def results_v6_to_v7(data: dict[str, Any]) -> dict[str, Any]:
     return _memory_settings_added(data, 7)
 
 
+def results_v7_to_v8(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 7 -> 8: the memory settings added since (``branch_turn``), at what an older run
+    did."""
+    return _memory_settings_added(data, 8)
+
+
 RESULTS_STEPS: tuple[Step, ...] = (
     results_v1_to_v2,
     results_v2_to_v3,
@@ -258,6 +266,7 @@ RESULTS_STEPS: tuple[Step, ...] = (
     results_v4_to_v5,
     results_v5_to_v6,
     results_v6_to_v7,
+    results_v7_to_v8,
 )
 """Step k turns a schema-k results dict into schema k + 1."""
 RESULTS_FORMAT = VersionedJson("results", RESULTS_STEPS, MAX_RESULTS_BYTES)

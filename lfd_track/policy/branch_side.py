@@ -51,6 +51,17 @@ Computed at every frame from the map's own arrays (rover frame: x ahead, y left 
    the hand-written rule on it uses it, for a learner to weigh
    (``benchmarks/experiments/human_goal/round16/README.md``).
 
+With the map's ``branch_turn`` option, a fifth input says how far the rover has pivoted toward
+the side since the side was set (:meth:`BranchSide.turned`): the net pivots toward it since the
+frame that first gave it, times the map's pivot angle, over 360° and shifted to 0.5 (0.5: no
+turn, or no side; 0.75: a half turn toward it; 0.25: a half turn away; clipped to [0, 1]). A
+mirrored frame has the same value (the side and the pivots both change side). It is the
+side's age in heading, for a learner to weigh when a side is stale: after a corner's turn the
+side still names the corner's own side, and only how far the rover has turned since tells a
+corner not yet turned from one already turned (``benchmarks/experiments/human_goal/round17/
+README.md``). It reads the side :meth:`~BranchSide.see` gives, before :meth:`~BranchSide.
+contradicted` (with ``"blank"`` the side is kept while it is not given).
+
 The estimator and its constants are those scored offline on 126 corners over 100° in
 ``benchmarks/experiments/sharp_corners/vertex/turn_side.md`` (right at 76 of the 81 arrivals
 where it gives a side). Everything in it is the robot's own: its commands and its camera.
@@ -80,6 +91,8 @@ TURNED_DEG = 90.0
 BEHIND_DEG = 90.0
 #: the input's value while no side is known
 UNKNOWN = 0.5
+#: [deg] ``branch_turn``: the turn toward the side that moves its input from 0.5 to 1
+TURN_SCALE_DEG = 180.0
 
 
 def path_direction(path: np.ndarray) -> np.ndarray | None:
@@ -121,7 +134,7 @@ class BranchSide:
             raise ValueError(f"branch window must be one of {WINDOWS}, got {window!r}")
         self.window = window
         self.pivot_deg = pivot_deg
-        """[deg] the map's turn per pivot (``"heading"``)."""
+        """[deg] the map's turn per pivot (``"heading"``, :meth:`turned`)."""
         self.reset()
 
     def reset(self) -> None:
@@ -133,6 +146,8 @@ class BranchSide:
         self._after_forward = True  # the last command was a forward one (or none yet)
         self._last: int | None = None  # the last command the map moved by
         self._bearing: float | None = None  # the fresh felt's bearing at the last frame
+        self._set_sign = 0  # the side see() last gave: 1 left, -1 right, 0 none
+        self._set_turns = 0  # net pivots when that side was first given
 
     def __copy__(self) -> BranchSide:
         """A snapshot that the original's later frames leave as it is (its own list of values),
@@ -169,9 +184,17 @@ class BranchSide:
             if self._count - f <= WINDOW_FORWARD and abs(self._turns - t) <= turned
         ]
         total = sum(b for _, _, b in self._values)
-        if abs(total) <= MIN_SUM:
-            return UNKNOWN
-        return 1.0 if total > 0 else 0.0
+        sign = 0 if abs(total) <= MIN_SUM else (1 if total > 0 else -1)
+        if sign != self._set_sign:  # a new side (or none): its turn counts from here
+            self._set_sign, self._set_turns = sign, self._turns
+        return UNKNOWN if sign == 0 else (1.0 if sign > 0 else 0.0)
+
+    def turned(self) -> float:
+        """The ``branch_turn`` input after :meth:`see`: the net turn toward the side since the
+        frame that first gave it, as 0.5 + turn / (2 * :data:`TURN_SCALE_DEG`) clipped to
+        [0, 1]; 0.5 while no side is known."""
+        degrees = (self._turns - self._set_turns) * self._set_sign * self.pivot_deg
+        return min(1.0, max(0.0, 0.5 + degrees / (2.0 * TURN_SCALE_DEG)))
 
     def contradicted(self, side: float, bearing: float | None) -> float:
         """The input ``side`` (from :meth:`see`) once the map's fresh felt is at ``bearing``

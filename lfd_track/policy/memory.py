@@ -63,7 +63,8 @@ such runs, and reading the training accuracy with that baseline in mind, are the
   ``path_radius_m`` from the rover's path to 1 that much further, so of two fresh patches in
   reach the one further from where the rover came from pulls harder (at the vertex of a 135°
   corner, the outgoing strip away from the incoming one, not the corner's tip); ``branch_side``
-  adds a fourth input, the side felt branched off the rover's strip over its last metre
+  adds a fourth input, the side felt branched off the rover's strip over its last metre, and
+  ``branch_turn`` a fifth, how far the rover has pivoted toward that side since it was set
   (:mod:`~lfd_track.policy.branch_side`).
   The settings, their bounds and their defaults (the goal's chosen map: every option above on)
   are :class:`~lfd_track.policy.memory_config.FreshFeltConfig`'s;
@@ -349,6 +350,7 @@ class FreshFeltMemory:
         self._path = np.zeros((0, 2))  # places the rover has been, before the current one
         self._inputs = np.array([0.5, 0.0, 0.0])
         self._side = UNKNOWN_BRANCH  # branch_side: the fourth input
+        self._turn = UNKNOWN_BRANCH  # branch_turn: the fifth (no side, no turn)
         if self._branch is not None:
             self._branch.reset()
         # With strip_link_m, the links among the points' felt (bit j of row i: points i and j
@@ -490,6 +492,7 @@ class FreshFeltMemory:
             self._link_newest_frame(full)
         if self._branch is not None:
             self._side = self._branch.see(self._points, self._felt, self._path, N_REGIONS)
+            self._turn = self._branch.turned()
         points = self._points
         dist = np.hypot(points[:, 0], points[:, 1])
         ahead = points[:, 0] > -BEHIND_M
@@ -637,9 +640,12 @@ class FreshFeltMemory:
 
     def inputs(self) -> np.ndarray:
         """The memory inputs now, (3,) float64: bearing, amount, distance, each in [0, 1]; with
-        ``branch_side`` (4,): and the side felt branched off (:mod:`.branch_side`)."""
+        ``branch_side`` (4,): and the side felt branched off (:mod:`.branch_side`); with
+        ``branch_turn`` (5,): and the turn toward that side since it was set."""
         if self._branch is None:
             return self._inputs.copy()
+        if self.config.branch_turn:
+            return np.append(self._inputs, [self._side, self._turn])
         return np.append(self._inputs, self._side)
 
 

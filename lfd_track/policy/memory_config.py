@@ -222,7 +222,8 @@ class PreviousCommandConfig(MemoryConfig):
 @dataclass(frozen=True)
 class FreshFeltConfig(MemoryConfig):
     """``kind = "fresh_felt"``: the dead-reckoned map of felt not yet driven along (three inputs:
-    bearing, amount, distance; with ``branch_side`` a fourth, the side felt branched off). The
+    bearing, amount, distance; with ``branch_side`` a fourth, the side felt branched off, and with
+    ``branch_turn`` a fifth, the turn toward that side since it was set). The
     defaults are the goal's chosen map (round 17)."""
 
     kind: ClassVar[str] = "fresh_felt"
@@ -343,13 +344,22 @@ class FreshFeltConfig(MemoryConfig):
         " blank: as commands, the side given only while the map has no fresh felt (round 16)",
         choices=BRANCH_WINDOWS,
     )
+    branch_turn: bool = setting(
+        False,
+        "with branch_side: a fifth input, how far the rover has pivoted toward the side since"
+        " the side was set (0.5 + turn / 360 degrees, clipped to [0, 1]; 0.5 while no side;"
+        " lfd_track.policy.branch_side)",
+    )
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        # the fourth input is this configuration's own (the kind's class keeps its three)
-        object.__setattr__(self, "n_inputs", 4 if self.branch_side else 3)
+        # the fourth and fifth inputs are this configuration's own (the kind's class keeps its
+        # three)
+        object.__setattr__(self, "n_inputs", 3 + self.branch_side + self.branch_turn)
 
     def _check(self) -> None:
+        if self.branch_turn and not self.branch_side:
+            raise ValueError("memory branch_turn needs branch_side = true (it is the side's turn)")
         if self.blank_reach_m and self.blank_reach_m <= self.reach_m:
             raise ValueError(
                 f"memory blank_reach_m must be 0 (off) or above reach_m, got {self.blank_reach_m!r}"
@@ -363,7 +373,8 @@ class FreshFeltConfig(MemoryConfig):
         return cls(**{**{spec.name: spec.before for spec in setting_specs(cls)}, **changes})
 
     def mirror(self, inputs: np.ndarray) -> np.ndarray:
-        # the bearing and the branch side change side; amount and distance do not
+        # the bearing and the branch side change side; amount, distance and the turn toward
+        # the side do not
         out = np.array(inputs, dtype=np.float64)
         out[:, 0] = 1.0 - out[:, 0]
         if self.branch_side:

@@ -19,6 +19,8 @@ Schema history:
   ``false`` in older files).
 * **7** — the same for the branch side's ``branch_window`` (as results.json schema 7,
   ``"forward"`` in older files).
+* **8** — the same for the branch side's ``branch_turn`` (as results.json schema 8, ``false`` in
+  older files).
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ from typing import Any
 from ..benchmark.schema import config_v1_to_v2, config_v2_to_v3, config_v3_to_v4
 from ..utils.migrate import Step, VersionedJson
 
-STUDY_SCHEMA = 7
+STUDY_SCHEMA = 8
 """Schema of the study.json this version writes (``len(STUDY_STEPS) + 1``)."""
 MAX_STUDY_BYTES = 1 << 28
 """Largest study.json read."""
@@ -80,6 +82,12 @@ def study_v6_to_v7(data: dict[str, Any]) -> dict[str, Any]:
     return _each_config(data, config_v3_to_v4, 7)
 
 
+def study_v7_to_v8(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 7 -> 8: the memory settings added since (``branch_turn``) in each condition's
+    ``config``."""
+    return _each_config(data, config_v3_to_v4, 8)
+
+
 STUDY_STEPS: tuple[Step, ...] = (
     study_v1_to_v2,
     study_v2_to_v3,
@@ -87,6 +95,7 @@ STUDY_STEPS: tuple[Step, ...] = (
     study_v4_to_v5,
     study_v5_to_v6,
     study_v6_to_v7,
+    study_v7_to_v8,
 )
 """Step k turns a schema-k study.json dict into schema k + 1."""
 STUDY_FORMAT = VersionedJson("study", STUDY_STEPS, MAX_STUDY_BYTES)

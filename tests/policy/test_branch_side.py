@@ -310,3 +310,89 @@ def test_a_copy_of_the_map_is_a_snapshot_of_its_branch_side_too():
     memory.note(L)  # a pivot's frame adds nothing: the side is the original's own window
     memory.see(_values(STRIP))
     assert memory.inputs()[3] == 1.0
+
+
+TURN = FreshFeltConfig(branch_side=True, branch_window="commands", branch_turn=True)
+
+
+def test_the_turn_setting_adds_a_fifth_input_and_needs_the_side():
+    assert TURN.n_inputs == 5 and policy_inputs(TURN, "none") == 5
+    with pytest.raises(ValueError, match="branch_turn needs branch_side"):
+        FreshFeltConfig(branch_turn=True)
+    frames = [STRIP] * 5 + [LEFT_BRANCH] * 6 + [STRIP] * 4
+    side_only = FreshFeltConfig(branch_side=True, branch_window="commands")
+    four = _drive(FreshFeltMemory(side_only), frames)
+    five = _drive(FreshFeltMemory(TURN), frames)
+    for without, with_ in zip(four, five, strict=True):
+        assert with_.shape == (5,)
+        np.testing.assert_array_equal(with_[:4], without)  # the other inputs, the same bits
+        assert with_[4] == UNKNOWN  # driving straight: no turn, side or not
+
+
+def test_the_turn_input_counts_pivots_toward_the_side_since_it_was_set():
+    pivot = 22.9
+    assert BranchSide("commands", pivot).turned() == UNKNOWN  # nothing seen: no side, no turn
+    side, value = _seen_left("commands")
+    assert value == 1.0 and side.turned() == 0.5  # set now: no turn yet
+    expected = [0.5 + k * pivot / 360.0 for k in (1, 2, 3)]
+    for want in expected:
+        side.moved(L)  # toward the side; a pivot's frame adds nothing
+        assert _see(side) == 1.0
+        assert side.turned() == pytest.approx(want)
+    side.moved(R)  # back the other way: less turned toward it
+    assert _see(side) == 1.0 and side.turned() == pytest.approx(expected[1])
+    for _ in range(6):  # away, past where it was set
+        side.moved(R)
+        _see(side)
+    assert side.turned() == pytest.approx(0.5 - 4 * pivot / 360.0)
+    for _ in range(WINDOW_FORWARD):  # the side expires: no turn
+        side.moved(R)
+        _see(side)
+    assert (_see(side), side.turned()) == (UNKNOWN, UNKNOWN)
+    side.reset()
+    assert side.turned() == UNKNOWN
+
+
+def test_the_turn_input_is_clipped_and_a_new_side_starts_it_again():
+    side, _ = _seen_left("forward")  # "forward": the side never expires while pivoting
+    for _ in range(12):  # 275 degrees toward it
+        side.moved(L)
+        _see(side)
+    assert side.turned() == 1.0
+    mirrored = MAP_POINTS * [1.0, -1.0]  # felt branching off to the right now
+    for _ in range(WINDOW_FORWARD + 1):  # the left frames leave the window, the right come in
+        side.moved(F)
+        value = side.see(mirrored, np.ones(len(mirrored)), MAP_PATH, len(mirrored))
+    assert value == 0.0 and side.turned() == 0.5
+
+
+def test_the_mirror_image_keeps_the_turn_toward_the_side():
+    inputs = np.array([[0.7, 0.3, 0.2, 1.0, 0.8], [0.4, 0.1, 0.5, 0.0, 0.6]])
+    mirrored = TURN.mirror(inputs)
+    np.testing.assert_allclose(mirrored[:, 3], [0.0, 1.0])
+    np.testing.assert_allclose(mirrored[:, 4], inputs[:, 4])
+    # a left corner turned a quarter to the left is its mirror turned a quarter to the right
+    left, right = BranchSide("commands"), BranchSide("commands")
+    left.moved(F), right.moved(F)
+    assert _see(left) == 1.0
+    flipped = MAP_POINTS * [1.0, -1.0]
+    assert right.see(flipped, np.ones(len(flipped)), MAP_PATH, len(flipped)) == 0.0
+    for _ in range(4):
+        left.moved(L), right.moved(R)
+        _see(left)
+        right.see(flipped, np.ones(len(flipped)), MAP_PATH, len(flipped))
+    assert left.turned() == right.turned() > 0.5
+
+
+def test_a_controller_reads_the_fifth_input_and_its_file_records_the_setting(tmp_path):
+    frames = synthetic_frames(np.random.default_rng(0), 6)
+    library = patch_library(frames, 32, np.random.default_rng(1))
+    weights = np.random.default_rng(2).uniform(-3, 3, 5 * 5 + 5 + 3 * 5 + 3)
+    controller = Controller(library, weights, bias=True, features="none", memory=TURN)
+    assert controller.n_inputs == 5
+    commands = [controller.act(f) for f in frames]
+    path = tmp_path / "turn.json"
+    controller.save(path)
+    loaded = Controller.load(path)
+    assert loaded.memory == TURN and loaded.n_inputs == 5
+    assert [loaded.act(f) for f in frames] == commands
