@@ -207,3 +207,19 @@ def test_online_by_backprop_learns_the_goal_map_with_its_branch_side(tmp_path):
     assert set(np.unique(sides)) <= {0.0, 0.5, 1.0}
     assert (sides != 0.5).any()  # the side speaks at the demonstration's corners
     assert learned.training_accuracy >= 0.6
+
+
+def test_online_by_backprop_learns_the_map_with_the_turn_toward_the_branch_side(tmp_path):
+    """Round 17's map of the human-taught goal (a fifth input, the turn toward the branch side
+    since it was set) on the same learner: a 5-5-3 network, the demonstration recording both
+    inputs, the turn moving off 0.5 only while a side is known."""
+    memory = FreshFeltConfig(branch_side=True, branch_window="commands", branch_turn=True)
+    learned = learn_online(tmp_path, online=ONLINE_BC, **{**_context(), "memory": memory})
+    controller = learned.controller
+    assert controller.n_inputs == 5 and controller.memory == memory
+    assert len(controller.weights) == 5 * 5 + 5 + 5 * 3 + 3
+    inputs = np.asarray(load_demonstration(tmp_path / "demonstration.lfdemo").policy_inputs("none"))
+    sides, turns = inputs[:, 3], inputs[:, 4]
+    assert ((turns == 0.5) | (sides != 0.5)).all()  # no side, no turn
+    assert (turns != 0.5).any()  # the demonstrator pivots while a side is known
+    assert learned.training_accuracy >= 0.6

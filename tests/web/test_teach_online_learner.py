@@ -122,3 +122,28 @@ def test_online_teaching_with_mirror_fits_each_case_and_its_mirror_image(open_st
     assert demo.metadata["online_settings"]["mirror"] is True
     assert demo.metadata["online_settings"]["class_balance"] == 0.5
     assert demo.commands.tolist() == [1, 1, 0]
+
+
+def test_online_teaching_runs_round_17s_learner_on_its_five_map_inputs(open_station):
+    """The human-taught goal's round 17 configuration as the person teaches: backprop on the map
+    with the branch side (expiring while the rover only pivots) and the turn toward it since it
+    was set, mirrored, cases weighed n_e ** -0.5; a 5-5-3 network, both extra inputs recorded."""
+    flags = ["--memory", "fresh_felt", "--features", "none", "--ga-bias", "--mirror"]
+    map_flags = ["--branch-side", "--branch-window", "commands", "--branch-turn"]
+    station = open_station(
+        "--online", "--online-learner", "bc", *flags, *map_flags, "--bc-class-balance", "0.5"
+    )
+    session = station.session
+    _teach(station, ["forward", "forward", "left", "forward"])
+    feed = session.learner
+    assert isinstance(feed, BCLearnerFeed)
+    assert feed.weights.shape == (5 * 5 + 5 + 5 * 3 + 3,)
+    x, a = feed.cases.arrays()
+    fitted_x, _ = feed.training_set(x, a)
+    assert fitted_x.shape == (8, 5)
+    assert fitted_x[4:, 3] == pytest.approx(1.0 - x[:, 3])  # the side changes side
+    assert fitted_x[4:, 4] == pytest.approx(x[:, 4])  # the turn toward it does not
+    session.close()
+    demo = load_demonstration(station.out)
+    assert demo.metadata["memory"]["branch_turn"] is True
+    assert demo.policy_inputs("none").shape == (4, 5)
