@@ -46,6 +46,8 @@ Schema history:
   written before it: ``"forward"``, what every map did then (the same step).
 * **8** — ``config.memory`` names the branch side's ``branch_turn`` (a fifth input). A schema-7
   file was written before it: ``false``, what every map did then (the same step).
+* **9** — ``config.memory`` names where that turn counts from, ``branch_turn_from``. A schema-8
+  file was written before it: ``"set"``, what every map did then (the same step).
 """
 
 from __future__ import annotations
@@ -56,7 +58,7 @@ from typing import Any
 from ..policy.memory_config import memory_table_from_v1
 from ..utils.migrate import Step, VersionedJson
 
-RESULTS_SCHEMA = 8
+RESULTS_SCHEMA = 9
 """Schema of the results.json this version writes (``len(RESULTS_STEPS) + 1``)."""
 MAX_RESULTS_BYTES = 1 << 28
 """Largest results.json read (a 10-repetition benchmark writes about 100 kB)."""
@@ -259,6 +261,12 @@ def results_v7_to_v8(data: dict[str, Any]) -> dict[str, Any]:
     return _memory_settings_added(data, 8)
 
 
+def results_v8_to_v9(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 8 -> 9: the memory settings added since (``branch_turn_from``), at what an older
+    run did."""
+    return _memory_settings_added(data, 9)
+
+
 RESULTS_STEPS: tuple[Step, ...] = (
     results_v1_to_v2,
     results_v2_to_v3,
@@ -267,6 +275,7 @@ RESULTS_STEPS: tuple[Step, ...] = (
     results_v5_to_v6,
     results_v6_to_v7,
     results_v7_to_v8,
+    results_v8_to_v9,
 )
 """Step k turns a schema-k results dict into schema k + 1."""
 RESULTS_FORMAT = VersionedJson("results", RESULTS_STEPS, MAX_RESULTS_BYTES)

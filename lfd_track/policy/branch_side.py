@@ -60,7 +60,14 @@ side's age in heading, for a learner to weigh when a side is stale: after a corn
 side still names the corner's own side, and only how far the rover has turned since tells a
 corner not yet turned from one already turned (``benchmarks/experiments/human_goal/round17/
 README.md``). It reads the side :meth:`~BranchSide.see` gives, before :meth:`~BranchSide.
-contradicted` (with ``"blank"`` the side is kept while it is not given).
+contradicted` (with ``"blank"`` the side is kept while it is not given). On a loop the side
+is given on nearly every frame (the strip curving ahead counts as felt off to that side), so a
+side once set stays set over several corners and its turn adds them up
+(``benchmarks/experiments/human_goal/round17/results/turn_coverage.md``); with
+``branch_turn_from = "seen"`` the turn counts instead from the newest frame in the window that saw
+felt branch off on the side's side: while the rover drives on along a curve it stays near 0.5,
+and it grows while the rover pivots, since a frame seen after a pivot adds nothing
+(``"commands"``).
 
 The estimator and its constants are those scored offline on 126 corners over 100° in
 ``benchmarks/experiments/sharp_corners/vertex/turn_side.md`` (right at 76 of the 81 arrivals
@@ -93,6 +100,8 @@ BEHIND_DEG = 90.0
 UNKNOWN = 0.5
 #: [deg] ``branch_turn``: the turn toward the side that moves its input from 0.5 to 1
 TURN_SCALE_DEG = 180.0
+#: where ``branch_turn`` counts the turn from (``branch_turn_from``; see :meth:`BranchSide.turned`)
+TURN_FROM = ("set", "seen")
 
 
 def path_direction(path: np.ndarray) -> np.ndarray | None:
@@ -129,10 +138,17 @@ class BranchSide:
     """The side input's state over an episode: the frames' values b since the last
     :data:`WINDOW_FORWARD` forward commands."""
 
-    def __init__(self, window: str = "forward", pivot_deg: float = 22.9) -> None:
+    def __init__(
+        self, window: str = "forward", pivot_deg: float = 22.9, turn_from: str = "set"
+    ) -> None:
         if window not in WINDOWS:
             raise ValueError(f"branch window must be one of {WINDOWS}, got {window!r}")
+        if turn_from not in TURN_FROM:
+            raise ValueError(f"branch turn_from must be one of {TURN_FROM}, got {turn_from!r}")
         self.window = window
+        self.turn_from = turn_from
+        """:meth:`turned` counts from the frame that set the side (``"set"``) or from the newest
+        frame in the window that saw felt branch off on the side's side (``"seen"``)."""
         self.pivot_deg = pivot_deg
         """[deg] the map's turn per pivot (``"heading"``, :meth:`turned`)."""
         self.reset()
@@ -187,12 +203,15 @@ class BranchSide:
         sign = 0 if abs(total) <= MIN_SUM else (1 if total > 0 else -1)
         if sign != self._set_sign:  # a new side (or none): its turn counts from here
             self._set_sign, self._set_turns = sign, self._turns
+        if sign and self.turn_from == "seen":  # from the newest frame that saw felt that side
+            self._set_turns = next(t for _, t, b in reversed(self._values) if b * sign > 0)
         return UNKNOWN if sign == 0 else (1.0 if sign > 0 else 0.0)
 
     def turned(self) -> float:
         """The ``branch_turn`` input after :meth:`see`: the net turn toward the side since the
-        frame that first gave it, as 0.5 + turn / (2 * :data:`TURN_SCALE_DEG`) clipped to
-        [0, 1]; 0.5 while no side is known."""
+        frame that first gave it (``turn_from = "set"``) or since the newest frame in the window
+        whose felt branched off on that side (``"seen"``), as 0.5 + turn / (2 *
+        :data:`TURN_SCALE_DEG`) clipped to [0, 1]; 0.5 while no side is known."""
         degrees = (self._turns - self._set_turns) * self._set_sign * self.pivot_deg
         return min(1.0, max(0.0, 0.5 + degrees / (2.0 * TURN_SCALE_DEG)))
 

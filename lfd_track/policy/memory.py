@@ -327,7 +327,7 @@ class FreshFeltMemory:
 
             self._odometry = floor_odometry(self.geometry)
         self._branch = (
-            BranchSide(config.branch_window, self.geometry.pivot_deg)
+            BranchSide(config.branch_window, self.geometry.pivot_deg, config.branch_turn_from)
             if config.branch_side
             else None
         )

@@ -41,6 +41,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from ..core.frame import N_REGIONS
+from .branch_side import TURN_FROM as BRANCH_TURN_FROM  # where the side's turn counts from
 from .branch_side import WINDOWS as BRANCH_WINDOWS  # which frames the side sums
 
 #: Where the ``fresh_felt`` map's ``strip_link_m`` strip starts (``strip_from``).
@@ -350,6 +351,14 @@ class FreshFeltConfig(MemoryConfig):
         " the side was set (0.5 + turn / 360 degrees, clipped to [0, 1]; 0.5 while no side;"
         " lfd_track.policy.branch_side)",
     )
+    branch_turn_from: str = setting(
+        "set",
+        "with branch_turn: the turn counts from the frame that set the side (set: round 17's"
+        " input) or from the newest frame in the side's window that saw felt branch off on that"
+        " side (seen: it stays near 0.5 while the rover drives along a curve and grows while it"
+        " pivots)",
+        choices=BRANCH_TURN_FROM,
+    )
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -360,6 +369,8 @@ class FreshFeltConfig(MemoryConfig):
     def _check(self) -> None:
         if self.branch_turn and not self.branch_side:
             raise ValueError("memory branch_turn needs branch_side = true (it is the side's turn)")
+        if self.branch_turn_from != "set" and not self.branch_turn:
+            raise ValueError("memory branch_turn_from is a setting of branch_turn = true")
         if self.blank_reach_m and self.blank_reach_m <= self.reach_m:
             raise ValueError(
                 f"memory blank_reach_m must be 0 (off) or above reach_m, got {self.blank_reach_m!r}"

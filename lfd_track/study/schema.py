@@ -21,6 +21,7 @@ Schema history:
   ``"forward"`` in older files).
 * **8** — the same for the branch side's ``branch_turn`` (as results.json schema 8, ``false`` in
   older files).
+* **9** — the same for ``branch_turn_from`` (as results.json schema 9, ``"set"`` in older files).
 """
 
 from __future__ import annotations
@@ -31,7 +32,7 @@ from typing import Any
 from ..benchmark.schema import config_v1_to_v2, config_v2_to_v3, config_v3_to_v4
 from ..utils.migrate import Step, VersionedJson
 
-STUDY_SCHEMA = 8
+STUDY_SCHEMA = 9
 """Schema of the study.json this version writes (``len(STUDY_STEPS) + 1``)."""
 MAX_STUDY_BYTES = 1 << 28
 """Largest study.json read."""
@@ -88,6 +89,12 @@ def study_v7_to_v8(data: dict[str, Any]) -> dict[str, Any]:
     return _each_config(data, config_v3_to_v4, 8)
 
 
+def study_v8_to_v9(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 8 -> 9: the memory settings added since (``branch_turn_from``) in each condition's
+    ``config``."""
+    return _each_config(data, config_v3_to_v4, 9)
+
+
 STUDY_STEPS: tuple[Step, ...] = (
     study_v1_to_v2,
     study_v2_to_v3,
@@ -96,6 +103,7 @@ STUDY_STEPS: tuple[Step, ...] = (
     study_v5_to_v6,
     study_v6_to_v7,
     study_v7_to_v8,
+    study_v8_to_v9,
 )
 """Step k turns a schema-k study.json dict into schema k + 1."""
 STUDY_FORMAT = VersionedJson("study", STUDY_STEPS, MAX_STUDY_BYTES)

@@ -396,3 +396,28 @@ def test_a_controller_reads_the_fifth_input_and_its_file_records_the_setting(tmp
     loaded = Controller.load(path)
     assert loaded.memory == TURN and loaded.n_inputs == 5
     assert [loaded.act(f) for f in frames] == commands
+
+
+def test_the_turn_from_the_newest_frame_that_saw_the_branch_restarts_while_driving_on():
+    """``branch_turn_from = "seen"``: the turn counts from the newest frame in the window whose
+    felt branched off on the side's side; "set" counts from the frame that set the side."""
+    pivot = 22.9
+    seen, since_set = BranchSide("commands", pivot, "seen"), BranchSide("commands", pivot)
+    for side in (seen, since_set):
+        side.moved(F)
+        assert _see(side) == 1.0
+        for _ in range(2):  # two pivots toward it: a pivot's frame adds nothing
+            side.moved(L)
+            _see(side)
+        assert side.turned() == pytest.approx(0.5 + 2 * pivot / 360.0)
+        side.moved(F)  # a step on, and the branch seen again from the new heading
+        _see(side)
+    assert seen.turned() == 0.5  # counted again from the frame that saw it last
+    assert since_set.turned() == pytest.approx(0.5 + 2 * pivot / 360.0)  # still from the set
+    with pytest.raises(ValueError, match="turn_from"):
+        BranchSide("commands", pivot, "later")
+    with pytest.raises(ValueError, match="branch_turn_from is a setting of branch_turn"):
+        FreshFeltConfig(branch_side=True, branch_turn_from="seen")
+    config = FreshFeltConfig(branch_side=True, branch_turn=True, branch_turn_from="seen")
+    assert memory_config({"kind": "fresh_felt", **config.to_dict()}) == config
+    assert FreshFeltMemory(config)._branch.turn_from == "seen"

@@ -202,6 +202,7 @@ def test_kind_fresh_felt_alone_is_the_chosen_configurations_map(tmp_path):
         "branch_side": False,
         "branch_window": "forward",
         "branch_turn": False,
+        "branch_turn_from": "set",
     }
     # a schema-1 study with the same one line meant the map with every option off
     old = tmp_path / "old.toml"

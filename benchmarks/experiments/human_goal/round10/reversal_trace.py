@@ -11,10 +11,18 @@ and the command at every step, with the fresh felt's bearing before the input cl
 steps to ``results/reversal_trace.md``.
 
     .venv/bin/python benchmarks/experiments/human_goal/round10/reversal_trace.py
+
+``--study FILE --seed N --repetitions A,B --out FILE`` traces another frozen configuration's
+training-track runs the same way (the first condition of FILE); with the map's fifth input
+(``branch_turn``) its column is logged too. Round 17's winner:
+``--study benchmarks/experiments/human_goal/test_round17/test_round17.toml --seed 2
+--repetitions 8,9 --out benchmarks/experiments/human_goal/round17/results/reversal_trace_seed2.md``
+(and ``--seed 1 --repetitions 1``, ``reversal_trace_seed1.md``).
 """
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import sys
 import time
@@ -66,14 +74,28 @@ class Logged(Wrapped):
 def main() -> None:
     import cv2
 
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--study", type=Path, default=STUDY)
+    parser.add_argument("--seed", type=int, default=SEED)
+    parser.add_argument(
+        "--repetitions", type=lambda t: tuple(int(x) for x in t.split(",")), default=REPETITIONS
+    )
+    parser.add_argument("--out", type=Path, default=HERE / "results" / "reversal_trace.md")
+    args = parser.parse_args()
     cv2.setNumThreads(1)
-    study = load_study(STUDY)
-    config = dataclasses.replace(study.conditions[0].config, seed=SEED)
+    study = load_study(args.study)
+    condition = study.conditions[0]
+    config = dataclasses.replace(condition.config, seed=args.seed)
+    names = ["bearing", "amount", "distance", "side", "turn"][: config.memory.n_inputs]
     t0 = time.perf_counter()
-    md = ["# Where round 9's winner turns round on the training track", ""]
-    md += [f"Seed {SEED}, repetitions {REPETITIONS}; inputs (bearing, amount, distance, side)."]
-    for index, seed in enumerate(repetition_seeds(SEED, max(REPETITIONS) + 1)):
-        if index not in REPETITIONS:
+    if args.study == STUDY:
+        md = ["# Where round 9's winner turns round on the training track", ""]
+    else:
+        md = [f"# Where `{condition.name}` turns round on the training track", ""]
+        md += [f"The first condition of `{args.study.name}`.", ""]
+    md += [f"Seed {args.seed}, repetitions {args.repetitions}; inputs ({', '.join(names)})."]
+    for index, seed in enumerate(repetition_seeds(args.seed, max(args.repetitions) + 1)):
+        if index not in args.repetitions:
             continue
         with learned_repetition(config, seed) as repetition:
             pass
@@ -89,16 +111,16 @@ def main() -> None:
                 continue
             md += ["", f"Run {number} ({outcome.direction}), reversed:", ""]
             md += ["    " + "".join(LETTERS[c] for _, _, c in steps), ""]
-            md += ["| step | bearing | amount | distance | side | bearing [deg] | command |"]
-            md += ["|---|---|---|---|---|---|---|"]
+            md += [f"| step | {' | '.join(names)} | bearing [deg] | command |"]
+            md += ["|---" * (len(names) + 3) + "|"]
             for i in range(max(0, len(steps) - 45), len(steps)):
                 x, raw, c = steps[i]
                 deg = "blank" if raw is None else f"{raw:+.0f}"
                 values = " | ".join(f"{v:.2f}" for v in np.round(x, 2))
                 md += [f"| {i} | {values} | {deg} | {LETTERS[c]} |"]
     md += ["", f"{(time.perf_counter() - t0) / 60:.0f} min on one core."]
-    (HERE / "results").mkdir(exist_ok=True)
-    atomic_write_text(HERE / "results" / "reversal_trace.md", "\n".join(md) + "\n")
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(args.out, "\n".join(md) + "\n")
 
 
 if __name__ == "__main__":
