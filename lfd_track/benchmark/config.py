@@ -263,7 +263,7 @@ def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
     ``room`` is written only when it is not ``"per_episode"``: a file without it means a new
     room per episode, as every run did before the setting existed (so their files still match
     the settings that produced them); the human's ``nudge_prob`` likewise only when it is not
-    0."""
+    0, and its ``nudge_side`` only when it is not ``"random"``."""
     data: dict[str, Any] = {}
     for f in dataclasses.fields(config):
         value = getattr(config, f.name)
@@ -275,6 +275,8 @@ def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
             data[f.name] = dataclasses.asdict(value)
             if f.name == "human" and not data[f.name]["nudge_prob"]:
                 del data[f.name]["nudge_prob"]
+            if f.name == "human" and data[f.name]["nudge_side"] == "random":
+                del data[f.name]["nudge_side"]
         else:
             data[f.name] = copy.deepcopy(value)
     for method in methods():

@@ -47,6 +47,9 @@ TURNAROUND_RULES = (
 #: What the scripted human steers by while driving a leg (``HumanConfig.steers_by``).
 STEERING = ("centreline", "picture")
 
+#: Which pivot a deliberate nudge presses (``HumanConfig.nudge_side``).
+NUDGE_SIDES = ("random", "last_pivot")
+
 
 @dataclass(frozen=True)
 class HumanConfig:
@@ -96,6 +99,12 @@ class HumanConfig:
     # perturbations of DART, Laskey et al. 2017). A nudge counts as one of the human's commands.
     # Kept because the human-goal study's round 5, selection_round5.toml, sets it.
     nudge_prob: float = 0.0
+    # Which pivot a nudge presses: a random side, or the pivot the human itself last gave while
+    # driving ("last_pivot"; a random side before its first). At a corner that turns the robot
+    # further than the human would, into the states a learned policy that pivots on past the
+    # corner reaches, and records how the human gets out of them. The nudges come at the same
+    # moments either way (the same draws); only the side differs.
+    nudge_side: str = "random"
 
     def __post_init__(self) -> None:
         if not 0.0 <= self.dead_band_deg < 90.0:
@@ -116,6 +125,8 @@ class HumanConfig:
             raise ValueError("picture_turn_deg must lie in [0, 180)")
         if not (math.isfinite(self.nudge_prob) and 0.0 <= self.nudge_prob <= 0.5):
             raise ValueError(f"nudge_prob must be in [0, 0.5], got {self.nudge_prob}")
+        if self.nudge_side not in NUDGE_SIDES:
+            raise ValueError(f"nudge_side must be one of {', '.join(NUDGE_SIDES)}")
 
     @property
     def driver(self) -> DriverConfig:
@@ -278,6 +289,7 @@ class ProtocolHuman:
             np.random.default_rng(int(rng.integers(2**63))) if config.nudge_prob > 0 else None
         )
         self._nudged = False
+        self._last_pivot: Command | None = None  # the human's last pivot while driving a leg
         self.nudges = 0
         """Nudges pressed so far (commands executed, not recorded as cases)."""
         rover = rover or RoverConfig()
@@ -379,6 +391,7 @@ class ProtocolHuman:
                 self.done = True
                 return
             self._clear_memory = self.config.clear_memory_per_leg
+            self._last_pivot = None
 
     def propose(self, moment: Moment) -> Command | None:
         self._step = moment.step
@@ -423,8 +436,13 @@ class ProtocolHuman:
             ):
                 self._nudged = True
                 self.nudges += 1
-                return Command.LEFT if nudge.random() < 0.5 else Command.RIGHT
+                side = Command.LEFT if nudge.random() < 0.5 else Command.RIGHT
+                if self.config.nudge_side == "last_pivot" and self._last_pivot is not None:
+                    side = self._last_pivot
+                return side
             self.label = self.person.decide(driver, pose, self.progress_m, seen)
+            if self.label != Command.FORWARD:
+                self._last_pivot = self.label
             return self.label
         self._turns += 1
         self.phase = PHASE_TURNAROUND

@@ -48,3 +48,43 @@ def test_no_nudges_draw_nothing_and_are_left_out_of_results(tmp_path):
 def test_bad_nudge_chances_are_refused(bad):
     with pytest.raises(ValueError, match="nudge_prob"):
         HumanConfig(nudge_prob=bad)
+
+
+def test_nudges_on_the_last_pivot_press_the_pivot_the_human_last_gave(tmp_path, monkeypatch):
+    """``nudge_side = "last_pivot"``: a nudge presses the pivot the human itself last gave while
+    driving the leg (a random side before its first), so at a corner it turns the robot on past
+    where the human would stop; the setting is written to results only when not "random"."""
+    from lfd_track.core.commands import Command
+    from lfd_track.teaching.scripted import PHASE_DRIVE, ProtocolHuman
+
+    pressed: list[tuple[Command, bool, str, int]] = []
+    propose = ProtocolHuman.propose
+
+    def logged(self, moment):
+        command = propose(self, moment)
+        if command is not None:
+            pressed.append((command, self._nudged, self.phase, self.leg))
+        return command
+
+    monkeypatch.setattr(ProtocolHuman, "propose", logged)
+    human = HumanConfig(nudge_prob=0.2, nudge_side="last_pivot")
+    summary, demo = _demo(tmp_path, "last", human)
+    followed, first = 0, 0
+    last: dict[int, Command] = {}  # per leg: the human's own last pivot while driving it
+    for command, nudged, phase, leg in pressed:
+        if nudged:
+            if leg in last:
+                assert command == last[leg]
+                followed += 1
+            else:
+                first += 1
+        elif phase == PHASE_DRIVE and command != Command.FORWARD:
+            last[leg] = command
+    assert followed > 10 and summary.commands - len(demo.commands) >= followed + first
+    assert {c for c, nudged, _, _ in pressed if nudged} == {Command.LEFT, Command.RIGHT}
+    assert "nudge_side" not in config_dict(BenchmarkConfig())["human"]
+    config = dataclasses.replace(BenchmarkConfig(), human=human)
+    assert config_dict(config)["human"]["nudge_side"] == "last_pivot"
+    assert BenchmarkConfig.from_dict(config_dict(config)).human == human
+    with pytest.raises(ValueError, match="nudge_side"):
+        HumanConfig(nudge_side="left")
