@@ -82,6 +82,7 @@ def test_every_committed_study_keeps_its_memory_and_human_settings(monkeypatch):
             human = dataclasses.asdict(condition.config.human)
             # a human setting added since means what every human did before it: no nudges
             assert human.pop("nudge_prob") == 0.0, key
+            assert human.pop("nudge_side") == "random", key
             assert human == _V1["human"][human_index], key
             seen.add(key)
     assert seen == set(_V1["conditions"])  # every condition of every committed study
