@@ -9,7 +9,9 @@ paper's), 10 and 20 hidden nodes, on the map's five inputs and on its first four
 map). Each network is scored on the cases of its own demonstration (training accuracy) and on
 those of the next repetition's demonstration (other train loops: held-out accuracy). Beside
 them, a k-nearest-neighbour vote (k = 15, the same cases and mirror images) says what the inputs
-alone let any learner reach on held-out cases. Only demonstrations are read: no run of a learned
+alone let any learner reach on held-out cases, and the hand-written map rule on the same inputs
+(``FreshFeltRule`` with the map's settings, as ``../../generalization/rules.py`` drives it; it
+learns nothing) how often it gives the human's command. Only demonstrations are read: no run of a learned
 policy, no validation or test loop.
 
     .venv/bin/python benchmarks/experiments/human_goal/capacity/capacity.py
@@ -32,6 +34,8 @@ from lfd_track.learning.bc import fit_bc
 from lfd_track.learning.fitness import training_accuracy
 from lfd_track.learning.mirror import mirror_cases
 from lfd_track.study.spec import load_study
+from lfd_track.teaching.handwritten import FreshFeltRule, FreshFeltRuleConfig
+from lfd_track.teaching.scripted import HumanConfig
 from lfd_track.utils.atomic import atomic_write_text
 
 HERE = Path(__file__).resolve().parent
@@ -91,6 +95,12 @@ def main() -> None:
             for i, (_, _, fx, fa) in enumerate(sets)
         ]
         md += [f"| {label} | {K}-nearest neighbours | – | {np.mean(held):.1%} |"]
+    rule = FreshFeltRuleConfig(turn_deg=HumanConfig().picture_turn_deg, memory=config.memory)
+    agree = []
+    for x, a in demos:  # the rule's state (the side it last turned to) runs through the cases
+        acting = FreshFeltRule(rule)
+        agree.append(float(np.mean([acting.act(row) == c for row, c in zip(x, a, strict=True)])))
+    md += [f"| 4 (it reads no fifth) | the map rule, hand-written | – | {np.mean(agree):.1%} |"]
     md += ["", f"{(time.perf_counter() - t0) / 60:.0f} min on one core."]
     out = HERE / "results" / "capacity.md"
     out.parent.mkdir(exist_ok=True)
