@@ -238,44 +238,39 @@ def _memory_settings_added(data: dict[str, Any], schema: int) -> dict[str, Any]:
     return data
 
 
-def results_v4_to_v5(data: dict[str, Any]) -> dict[str, Any]:
-    """Schema 4 -> 5: the memory settings added since (``motion``), at what an older run did."""
-    return _memory_settings_added(data, 5)
+#: The memory setting each schema from 5 on added to ``config.memory`` (a file of the schema
+#: before lacks it, and means the value that does what the memory did before the setting
+#: existed: the step fills it as the step 3 -> 4 fills every one). A memory setting added later
+#: is one more entry here (and one more schema).
+MEMORY_SETTING_SINCE: dict[int, str] = {
+    5: "motion",
+    6: "branch_side",
+    7: "branch_window",
+    8: "branch_turn",
+    9: "branch_turn_from",
+}
 
 
-def results_v5_to_v6(data: dict[str, Any]) -> dict[str, Any]:
-    """Schema 5 -> 6: the memory settings added since (``branch_side``), at what an older run
-    did."""
-    return _memory_settings_added(data, 6)
+def _memory_step(schema: int) -> Step:
+    """The step ``schema - 1`` -> ``schema``: the memory settings added since
+    (:data:`MEMORY_SETTING_SINCE`), at what an older run did."""
 
+    def step(data: dict[str, Any]) -> dict[str, Any]:
+        return _memory_settings_added(data, schema)
 
-def results_v6_to_v7(data: dict[str, Any]) -> dict[str, Any]:
-    """Schema 6 -> 7: the memory settings added since (``branch_window``), at what an older run
-    did."""
-    return _memory_settings_added(data, 7)
-
-
-def results_v7_to_v8(data: dict[str, Any]) -> dict[str, Any]:
-    """Schema 7 -> 8: the memory settings added since (``branch_turn``), at what an older run
-    did."""
-    return _memory_settings_added(data, 8)
-
-
-def results_v8_to_v9(data: dict[str, Any]) -> dict[str, Any]:
-    """Schema 8 -> 9: the memory settings added since (``branch_turn_from``), at what an older
-    run did."""
-    return _memory_settings_added(data, 9)
+    step.__name__ = step.__qualname__ = f"results_v{schema - 1}_to_v{schema}"
+    step.__doc__ = (
+        f"Schema {schema - 1} -> {schema}: the memory settings added since"
+        f" (``{MEMORY_SETTING_SINCE[schema]}``), at what an older run did."
+    )
+    return step
 
 
 RESULTS_STEPS: tuple[Step, ...] = (
     results_v1_to_v2,
     results_v2_to_v3,
     results_v3_to_v4,
-    results_v4_to_v5,
-    results_v5_to_v6,
-    results_v6_to_v7,
-    results_v7_to_v8,
-    results_v8_to_v9,
+    *(_memory_step(schema) for schema in sorted(MEMORY_SETTING_SINCE)),
 )
 """Step k turns a schema-k results dict into schema k + 1."""
 RESULTS_FORMAT = VersionedJson("results", RESULTS_STEPS, MAX_RESULTS_BYTES)

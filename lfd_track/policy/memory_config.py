@@ -349,14 +349,15 @@ class FreshFeltConfig(MemoryConfig):
         False,
         "with branch_side: a fifth input, how far the rover has pivoted toward the side since"
         " the side was set (0.5 + turn / 360 degrees, clipped to [0, 1]; 0.5 while no side;"
-        " lfd_track.policy.branch_side)",
+        " lfd_track.policy.branch_side; the human-taught goal's incumbent since its round 17)",
     )
     branch_turn_from: str = setting(
         "set",
         "with branch_turn: the turn counts from the frame that set the side (set: round 17's"
         " input) or from the newest frame in the side's window that saw felt branch off on that"
         " side (seen: it stays near 0.5 while the rover drives along a curve and grows while it"
-        " pivots)",
+        " pivots; kept because round 18 of the human-taught goal's studies sets it, where it"
+        " lost)",
         choices=BRANCH_TURN_FROM,
     )
 

@@ -29,7 +29,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from ..benchmark.schema import config_v1_to_v2, config_v2_to_v3, config_v3_to_v4
+from ..benchmark.schema import (
+    MEMORY_SETTING_SINCE,
+    config_v1_to_v2,
+    config_v2_to_v3,
+    config_v3_to_v4,
+)
 from ..utils.migrate import Step, VersionedJson
 
 STUDY_SCHEMA = 9
@@ -65,45 +70,27 @@ def study_v3_to_v4(data: dict[str, Any]) -> dict[str, Any]:
     return _each_config(data, config_v3_to_v4, 4)
 
 
-def study_v4_to_v5(data: dict[str, Any]) -> dict[str, Any]:
-    """Schema 4 -> 5: the memory settings added since (``motion``) in each condition's
-    ``config``."""
-    return _each_config(data, config_v3_to_v4, 5)
+def _memory_step(schema: int) -> Step:
+    """The step ``schema - 1`` -> ``schema`` (from 5 on): the memory settings added since in each
+    condition's ``config`` (as results.json's step to that schema,
+    :data:`~lfd_track.benchmark.schema.MEMORY_SETTING_SINCE`)."""
 
+    def step(data: dict[str, Any]) -> dict[str, Any]:
+        return _each_config(data, config_v3_to_v4, schema)
 
-def study_v5_to_v6(data: dict[str, Any]) -> dict[str, Any]:
-    """Schema 5 -> 6: the memory settings added since (``branch_side``) in each condition's
-    ``config``."""
-    return _each_config(data, config_v3_to_v4, 6)
-
-
-def study_v6_to_v7(data: dict[str, Any]) -> dict[str, Any]:
-    """Schema 6 -> 7: the memory settings added since (``branch_window``) in each condition's
-    ``config``."""
-    return _each_config(data, config_v3_to_v4, 7)
-
-
-def study_v7_to_v8(data: dict[str, Any]) -> dict[str, Any]:
-    """Schema 7 -> 8: the memory settings added since (``branch_turn``) in each condition's
-    ``config``."""
-    return _each_config(data, config_v3_to_v4, 8)
-
-
-def study_v8_to_v9(data: dict[str, Any]) -> dict[str, Any]:
-    """Schema 8 -> 9: the memory settings added since (``branch_turn_from``) in each condition's
-    ``config``."""
-    return _each_config(data, config_v3_to_v4, 9)
+    step.__name__ = step.__qualname__ = f"study_v{schema - 1}_to_v{schema}"
+    step.__doc__ = (
+        f"Schema {schema - 1} -> {schema}: the memory settings added since"
+        f" (``{MEMORY_SETTING_SINCE[schema]}``) in each condition's ``config``."
+    )
+    return step
 
 
 STUDY_STEPS: tuple[Step, ...] = (
     study_v1_to_v2,
     study_v2_to_v3,
     study_v3_to_v4,
-    study_v4_to_v5,
-    study_v5_to_v6,
-    study_v6_to_v7,
-    study_v7_to_v8,
-    study_v8_to_v9,
+    *(_memory_step(schema) for schema in sorted(MEMORY_SETTING_SINCE)),
 )
 """Step k turns a schema-k study.json dict into schema k + 1."""
 STUDY_FORMAT = VersionedJson("study", STUDY_STEPS, MAX_STUDY_BYTES)

@@ -103,7 +103,8 @@ class HumanConfig:
     # driving ("last_pivot"; a random side before its first). At a corner that turns the robot
     # further than the human would, into the states a learned policy that pivots on past the
     # corner reaches, and records how the human gets out of them. The nudges come at the same
-    # moments either way (the same draws); only the side differs.
+    # moments either way (the same draws); only the side differs. Kept because the human-goal
+    # study's round 19, selection_round19.toml, sets it (it lost there).
     nudge_side: str = "random"
 
     def __post_init__(self) -> None:

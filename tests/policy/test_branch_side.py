@@ -140,20 +140,29 @@ def test_the_rule_pivots_toward_the_branch_side_only_while_the_map_is_blank():
     assert side_command(1.0) == L and side_command(0.0) == R and side_command(UNKNOWN) is None
 
 
-def test_a_controller_reads_the_fourth_input_and_its_file_records_the_setting(tmp_path):
+def _saved_and_loaded(tmp_path, memory: FreshFeltConfig, n_inputs: int) -> Controller:
+    """A controller on ``memory``'s ``n_inputs`` map inputs (random weights, biases) saved and
+    loaded again: the loaded one has the same settings and gives the same commands on the same
+    frames. The controller."""
     frames = synthetic_frames(np.random.default_rng(0), 6)
     library = patch_library(frames, 32, np.random.default_rng(1))
-    weights = np.random.default_rng(2).uniform(-3, 3, 5 * 4 + 5 + 3 * 5 + 3)
-    controller = Controller(library, weights, bias=True, features="none", memory=BRANCH)
-    assert controller.n_inputs == 4
-    with pytest.raises(ValueError, match="weights"):  # a 3-input network's weights do not fit
-        Controller(library, weights[:-5], bias=True, features="none", memory=BRANCH)
+    weights = np.random.default_rng(2).uniform(-3, 3, 5 * n_inputs + 5 + 3 * 5 + 3)
+    controller = Controller(library, weights, bias=True, features="none", memory=memory)
+    assert controller.n_inputs == n_inputs
     commands = [controller.act(f) for f in frames]
-    path = tmp_path / "branch.json"
+    path = tmp_path / "controller.json"
     controller.save(path)
     loaded = Controller.load(path)
-    assert loaded.memory == BRANCH and loaded.n_inputs == 4
+    assert loaded.memory == memory and loaded.n_inputs == n_inputs
     assert [loaded.act(f) for f in frames] == commands
+    return controller
+
+
+def test_a_controller_reads_the_fourth_input_and_its_file_records_the_setting(tmp_path):
+    controller = _saved_and_loaded(tmp_path, BRANCH, 4)
+    weights = controller.weights
+    with pytest.raises(ValueError, match="weights"):  # a 3-input network's weights do not fit
+        Controller(controller.library, weights[:-5], bias=True, features="none", memory=BRANCH)
 
 
 def test_with_the_commands_window_the_side_expires_while_the_rover_only_pivots():
@@ -385,17 +394,7 @@ def test_the_mirror_image_keeps_the_turn_toward_the_side():
 
 
 def test_a_controller_reads_the_fifth_input_and_its_file_records_the_setting(tmp_path):
-    frames = synthetic_frames(np.random.default_rng(0), 6)
-    library = patch_library(frames, 32, np.random.default_rng(1))
-    weights = np.random.default_rng(2).uniform(-3, 3, 5 * 5 + 5 + 3 * 5 + 3)
-    controller = Controller(library, weights, bias=True, features="none", memory=TURN)
-    assert controller.n_inputs == 5
-    commands = [controller.act(f) for f in frames]
-    path = tmp_path / "turn.json"
-    controller.save(path)
-    loaded = Controller.load(path)
-    assert loaded.memory == TURN and loaded.n_inputs == 5
-    assert [loaded.act(f) for f in frames] == commands
+    _saved_and_loaded(tmp_path, TURN, 5)
 
 
 def test_the_turn_from_the_newest_frame_that_saw_the_branch_restarts_while_driving_on():
