@@ -137,12 +137,13 @@ def wait_until(
 
 #: Where the results that pass through BLAS (matrix products, whose last bits depend on the
 #: OpenBLAS kernel and so on the CPU) leave the package: the GA's stacked network outputs, every
-#: network forward pass, and the road-value correlations of the road library.
+#: network forward pass (the fitness module's own, and the one every policy's
+#: ``ensemble_forward`` makes: controllers, commanders, training accuracy), and the road-value
+#: correlations of the road library.
 BLAS_RESULTS = (
     ("lfd_track.learning.fitness", "population_outputs"),
     ("lfd_track.learning.fitness", "mlp_forward"),
-    ("lfd_track.policy.controller", "mlp_forward"),
-    ("lfd_track.teaching.commanders", "mlp_forward"),
+    ("lfd_track.policy.mlp", "mlp_forward"),
     ("lfd_track.vision.road_library", "similarity_matrix"),
 )
 
@@ -178,11 +179,15 @@ class PerturbedBLAS:
     def __enter__(self) -> PerturbedBLAS:
         import importlib
 
-        for module_name, name in BLAS_RESULTS:
-            module = importlib.import_module(module_name)
-            original = getattr(module, name)
-            self._saved.append((module, name, original))
-            setattr(module, name, self._wrap(f"{module_name}.{name}", original))
+        try:
+            for module_name, name in BLAS_RESULTS:
+                module = importlib.import_module(module_name)
+                original = getattr(module, name)
+                self._saved.append((module, name, original))
+                setattr(module, name, self._wrap(f"{module_name}.{name}", original))
+        except BaseException:
+            self.__exit__()  # a missing name: put back what was patched, then fail
+            raise
         return self
 
     def _wrap(self, key: str, original: Callable[..., Any]) -> Callable[..., Any]:

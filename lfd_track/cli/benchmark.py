@@ -18,6 +18,7 @@ from ..learning.bc import BCConfig
 from ..methods import get_method, method_names, methods
 from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
 from ..policy.memory import MEMORY_KINDS
+from ..policy.mlp import MAX_MEMBERS
 from ..teaching.scripted import STEERING, TURNAROUND_RULES
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output, shown_path
 from ..utils.signals import Terminated, interrupted_exit_code, raise_terminated
@@ -186,6 +187,15 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         " settings, as --bc-bias; default 1: each command the same, 0: each case the same)",
     )
     bench.add_argument(
+        "--bc-ensemble",
+        type=whole_number_in(1, MAX_MEMBERS),
+        default=None,
+        metavar="K",
+        help="backprop fits K networks from their own starting weights and drives by the mean of"
+        f" their outputs (the bc settings, as --bc-bias; default 1: one network; at most"
+        f" {MAX_MEMBERS})",
+    )
+    bench.add_argument(
         "--shifted-views",
         action="store_true",
         help="learn also from each case's views from a step behind and a pivot either way,"
@@ -233,11 +243,17 @@ def run(args: argparse.Namespace) -> int:
             return EXIT_USAGE
     repetitions = 1 if args.quick and args.repetitions is None else (args.repetitions or 10)
     trials = args.trials or (1 if args.quick else 3)
-    # --bc-bias, --bc-class-balance: the backprop settings (a table of BenchmarkConfig, by name).
+    # --bc-bias, --bc-class-balance, --bc-ensemble: the backprop settings (a table of
+    # BenchmarkConfig, by name).
     balance = 1.0 if args.bc_class_balance is None else args.bc_class_balance
-    backprop_flags = args.bc_bias or args.bc_class_balance is not None
+    ensemble = 1 if args.bc_ensemble is None else args.bc_ensemble
+    backprop_flags = (
+        args.bc_bias or args.bc_class_balance is not None or args.bc_ensemble is not None
+    )
     backprop: dict[str, Any] = (
-        {"bc": BCConfig(bias=args.bc_bias, class_balance=balance)} if backprop_flags else {}
+        {"bc": BCConfig(bias=args.bc_bias, class_balance=balance, ensemble=ensemble)}
+        if backprop_flags
+        else {}
     )
     try:  # settings that do not go together (e.g. --steers-by picture without the map) refused
         method = get_method(args.method)
@@ -269,7 +285,13 @@ def run(args: argparse.Namespace) -> int:
         print(f"lfd-track benchmark: {exc}", file=sys.stderr)
         return EXIT_USAGE
     if backprop_flags and not fits_by_backprop(config):
-        flag = "--bc-bias" if args.bc_bias else "--bc-class-balance"
+        flag = (
+            "--bc-bias"
+            if args.bc_bias
+            else "--bc-class-balance"
+            if args.bc_class_balance is not None
+            else "--bc-ensemble"
+        )
         print(
             f"lfd-track benchmark: {flag} is for learners that use backprop (--method bc, or"
             f" --online-learner, --hg-dagger-learner or --dagger-learner bc), not {args.method}",

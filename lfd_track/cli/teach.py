@@ -15,6 +15,7 @@ from ..errors import LfdTrackError
 from ..methods.online import ONLINE_LEARNERS, OnlineConfig
 from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
 from ..policy.memory import MEMORY_KINDS
+from ..policy.mlp import MAX_MEMBERS
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output
 from ..utils.signals import stop_signals_interrupt
 from ..web.defaults import DEFAULT_FPS, DEFAULT_HOST, DEFAULT_PORT
@@ -26,6 +27,7 @@ from .types import (
     port,
     share,
     unit_interval,
+    whole_number_in,
 )
 from .types import non_negative_int as _count
 from .types import positive_int as _positive_int
@@ -51,6 +53,8 @@ def teach_config(args: argparse.Namespace) -> Any:
     learner = args.online_learner or "ga"
     if args.bc_class_balance is not None and learner != "bc":
         raise LfdTrackError("--bc-class-balance is for --online --online-learner bc")
+    if args.bc_ensemble is not None and learner != "bc":
+        raise LfdTrackError("--bc-ensemble is for --online --online-learner bc")
     for flag, value in (
         ("--generations-per-case", args.generations_per_case),
         ("--population", args.population),
@@ -94,6 +98,7 @@ def teach_config(args: argparse.Namespace) -> Any:
         ga_bias=args.ga_bias,
         mutation_delta=0.1 if args.mutation_delta is None else args.mutation_delta,
         class_balance=1.0 if args.bc_class_balance is None else args.bc_class_balance,
+        ensemble=1 if args.bc_ensemble is None else args.bc_ensemble,
         mirror=args.mirror,
         library_only=args.library_only,
         force=args.force,
@@ -271,6 +276,15 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         help="with --online-learner bc: each case weighs n_e ** -K, n_e the cases of its command"
         " (default 1: each command the same; 0: each case the same; the human-taught goal's"
         " round 15 chose 0.5)",
+    )
+    teach.add_argument(
+        "--bc-ensemble",
+        type=whole_number_in(1, MAX_MEMBERS),
+        default=None,
+        metavar="K",
+        help="with --online-learner bc: the controller written at the end is K networks fitted"
+        " from their own starting weights, driving by the mean of their outputs (default 1; while"
+        " teaching, the policy that may take over is one network)",
     )
     teach.add_argument(
         "--mutation-delta",

@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from ..core.config import DictConfig
-from ..policy.mlp import N_HIDDEN, N_OUTPUTS, check_hidden, n_weights, sigmoid
+from ..policy.mlp import MAX_MEMBERS, N_HIDDEN, N_OUTPUTS, check_hidden, n_weights, sigmoid
 from .fitness import Cases, checked_cases, population_fitness
 from .result import (
     LearnerFit,
@@ -69,13 +69,23 @@ class BCConfig(DictConfig):
     class_balance: float = 1.0
     """k in the case weights ``n_e ** -k`` (``n_e``: cases of the case's command): 1 each command
     weighs the same (Algorithm 3's normalisation), 0 each case the same; in [0, 1]."""
+    ensemble: int = 1
+    """Networks fitted to the same cases, each from its own starting weights (drawn in turn from
+    the same generator, so the first is the single fit's), driving by the mean of their outputs
+    (:func:`~lfd_track.policy.mlp.ensemble_forward`); 1: one network. At most
+    :data:`~lfd_track.policy.mlp.MAX_MEMBERS`. On one demonstration the starting weights alone
+    move a policy's laps more than the demonstration does
+    (``benchmarks/experiments/human_goal/round20/``)."""
 
     def to_dict(self) -> dict[str, Any]:
-        """The settings as a dict; ``class_balance`` only when it is not 1 (what every fit did
-        before the setting existed), so that files written before it still match theirs."""
+        """The settings as a dict; ``class_balance`` only when it is not 1 and ``ensemble`` only
+        when it is not 1 (what every fit did before each setting existed), so that files written
+        before them still match theirs."""
         data = super().to_dict()
         if data["class_balance"] == 1.0:
             del data["class_balance"]
+        if data["ensemble"] == 1:
+            del data["ensemble"]
         return data
 
     def case_weights(self, category_weights: np.ndarray) -> np.ndarray:
@@ -103,6 +113,7 @@ class BCConfig(DictConfig):
         check_positive("class_balance", self.class_balance, allow_zero=True)
         if not self.class_balance <= 1.0:
             raise ValueError(f"class_balance must be in [0, 1], got {self.class_balance!r}")
+        check_int("ensemble", self.ensemble, 1, MAX_MEMBERS)
 
 
 def bc_loss_and_gradient(
@@ -227,6 +238,10 @@ def fit_bc(
     fitness of the weights after epoch ``e + 1`` (one network per epoch, so it is also that
     epoch's best).
 
+    With ``config.ensemble`` = k > 1 the k networks are fitted one after the other, each from
+    the generator's next starting weights (the first is the single fit), and the weights are
+    (k, W); ``history`` is then the mean of the networks' histories.
+
     ``hidden``: nodes of the hidden layer, the paper's 5 unless a wider network is asked for
     (40-``hidden``-3; the fit is otherwise the same).
     """
@@ -235,6 +250,22 @@ def fit_bc(
     config = check_config(config, BCConfig, "fit_bc")
     hidden = check_hidden(hidden)
     cases = checked_cases(inputs, actions)  # checked once; the epochs use the checked arrays
+    fits = [_fit_one(cases, config, rng, hidden) for _ in range(config.ensemble)]
+    weights = fits[0][0] if len(fits) == 1 else np.stack([w for w, _ in fits])
+    history = np.mean([h for _, h in fits], axis=0) if len(fits) > 1 else fits[0][1]
+    return LearnerFit(
+        weights=weights,
+        fitness=float(history[-1]),
+        history=history,
+        learner="bc",
+        config=config.to_dict(),
+    )
+
+
+def _fit_one(
+    cases: Cases, config: BCConfig, rng: np.random.Generator, hidden: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """One network's weights after the last epoch and its history (:func:`fit_bc`)."""
     n = cases.inputs.shape[0]
     weights = initial_weights(config.bias, config.init_range, rng, cases.inputs.shape[1], hidden)
     moments = (np.zeros_like(weights), np.zeros_like(weights), 0)
@@ -247,10 +278,4 @@ def fit_bc(
             weights[None], cases, config.threshold, bias=config.bias, hidden=hidden
         )
         history[epoch] = fitness[0]
-    return LearnerFit(
-        weights=weights,
-        fitness=float(history[-1]),
-        history=history,
-        learner="bc",
-        config=config.to_dict(),
-    )
+    return weights, history

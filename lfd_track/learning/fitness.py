@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..policy.mlp import N_HIDDEN, N_INPUTS, N_OUTPUTS, mlp_forward, n_weights
+from ..policy.mlp import N_HIDDEN, N_INPUTS, N_OUTPUTS, ensemble_forward, mlp_forward, n_weights
 from .result import check_actions, check_cases, check_weights
 
 # For expected action e, the two other outputs in index order ("first/second position other
@@ -236,13 +236,18 @@ def training_accuracy(
 ) -> float:
     """Share of cases where the network's largest output is the demonstrated command.
 
-    ``weights`` (W,), ``inputs`` (N, 40) road values (plus memory inputs), ``actions`` (N,)
-    commands 0/1/2; checked as :func:`imitation_fitness` checks them. ``hidden``: hidden nodes
-    of the network (the paper's 5).
+    ``weights`` (W,), or (k, W) for an ensemble driving by its networks' mean outputs
+    (:func:`~lfd_track.policy.mlp.ensemble_forward`); ``inputs`` (N, 40) road values (plus
+    memory inputs), ``actions`` (N,) commands 0/1/2; checked as :func:`imitation_fitness` checks
+    them. ``hidden``: hidden nodes of the network (the paper's 5).
     """
     x, a = check_cases(inputs, actions)
-    if np.ndim(weights) != 1:
-        raise ValueError(f"weights must be one network, (W,), got shape {np.shape(weights)}")
-    w, bias = check_weights(np.asarray(weights)[None], x.shape[1], None, hidden)
-    predicted = mlp_forward(w[0], x, bias=bias, hidden=hidden).argmax(axis=1)
+    if np.ndim(weights) not in (1, 2):
+        raise ValueError(
+            f"weights must be one network, (W,), or an ensemble, (k, W), got shape"
+            f" {np.shape(weights)}"
+        )
+    w, bias = check_weights(np.atleast_2d(np.asarray(weights)), x.shape[1], None, hidden)
+    members = w[0] if np.ndim(weights) == 1 else w
+    predicted = ensemble_forward(members, x, bias=bias, hidden=hidden).argmax(axis=1)
     return float((predicted == a).mean())

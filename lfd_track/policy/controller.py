@@ -3,9 +3,10 @@
 ``act(frame)`` runs the paper's autonomous loop for one frame: road values (Algorithm 2) → MLP →
 the command with the largest output (an exact tie keeps the previous command).
 
-The file (schema 7) is one JSON object with the keys ``format``, ``schema_version``,
+The file (schema 8) is one JSON object with the keys ``format``, ``schema_version``,
 ``policy_kind`` (``"mlp-sigmoid"``: the 40-5-3 sigmoid network, or ``"elman-sigmoid"``),
-``layer_sizes``, ``bias``, ``weights``, ``road_library``, ``learner`` (what trained it: ``"ga"``,
+``layer_sizes``, ``bias``, ``weights`` (one network's, or with an ensemble k lists of them:
+:attr:`Controller.members`), ``road_library``, ``learner`` (what trained it: ``"ga"``,
 ``"bc"``, ``"cma-es"``, ... or null), ``learner_config`` (the learner's settings as a JSON object,
 or null), ``seed``, ``fitness_history``, ``learn``, ``features`` (the per-region feature set's
 name, :mod:`lfd_track.policy.features`), ``memory`` (every memory setting,
@@ -31,12 +32,17 @@ off, becomes the full table with the same meaning
 (:func:`~lfd_track.policy.memory_config.memory_table_from_v1`); schema 5 gains ``frame_size:
 [640, 480]`` (the only frame size before); schema 6 gains ``map_geometry``: a ``fresh_felt`` map
 then had the paper's constants (the paper preset's camera, 0.10 m, 22.9°), and its memory table
-``geometry = "paper"``. The checksum of a file of
+``geometry = "paper"``; schema 7 is schema 8 with one network (schema 8 lets ``weights`` hold an
+ensemble's, so a build that cannot drive one names the schema instead of the weights). The checksum of a file of
 schema 2 or later is checked before it is migrated.
 
 Policy kind ``"elman-sigmoid"`` (:mod:`lfd_track.policy.elman`) is an Elman network: its 5
 previous hidden activations are 5 more inputs after all the others, so its ``layer_sizes`` are
 ``[n + 5, 5, 3]`` and its weights the MLP layout of ``n + 5`` inputs.
+
+An ensemble (``weights`` of shape (k, W), 2 <= k <= :data:`~lfd_track.policy.mlp.MAX_MEMBERS`:
+k networks of the same layout, e.g. backprop's ``ensemble`` fits) drives by the mean of its
+networks' outputs (:func:`~lfd_track.policy.mlp.ensemble_forward`); an Elman network is one.
 
 A network with another hidden width than the paper's 5 (``hidden``, e.g. 40-20-3 fitted by
 backprop) says so in ``layer_sizes`` (``[40, 20, 3]``); older files load and drive as they did.
@@ -78,11 +84,12 @@ from .map_geometry import PAPER_GEOMETRY, MapGeometry
 from .memory import FreshFeltConfig, MemoryConfig, policy_inputs
 from .mlp import (
     MAX_HIDDEN,
+    MAX_MEMBERS,
     N_HIDDEN,
     check_hidden,
     check_numbers,
+    ensemble_forward,
     layer_sizes,
-    mlp_forward,
     n_weights,
     select_action,
 )
@@ -105,7 +112,8 @@ class Controller:
 
     Args:
         library: the road library (frozen unless ``learn``); must hold at least one model.
-        weights: (215,) MLP weights, or (223,) with ``bias=True``; finite, |w| <= 1e6.
+        weights: (215,) MLP weights, or (223,) with ``bias=True``; finite, |w| <= 1e6; or (k, W)
+            for an ensemble of k such networks (2..MAX_MEMBERS), driving by their mean outputs.
         bias: whether the weights include node biases.
         learner: what produced the weights ("ga", "bc", "cma-es", "online", "hg-dagger", ...),
             stored for the record.
@@ -170,7 +178,13 @@ class Controller:
             )
         n_inputs = policy_inputs(memory, features) + context
         w = np.array(weights, dtype=np.float64, copy=True)
-        if w.shape != (n_weights(bias, n_inputs, hidden),):
+        if w.ndim == 2 and w.shape[0] == 1:
+            w = w[0]  # an ensemble of one is its network
+        if w.ndim == 2 and policy_kind == "elman-sigmoid":
+            raise ValueError("an Elman network is one network, not an ensemble")
+        if w.ndim == 2 and not 2 <= w.shape[0] <= MAX_MEMBERS:
+            raise ValueError(f"an ensemble holds 2..{MAX_MEMBERS} networks, got {w.shape[0]}")
+        if w.ndim not in (1, 2) or w.shape[-1] != n_weights(bias, n_inputs, hidden):
             raise ValueError(
                 f"expected {n_weights(bias, n_inputs, hidden)} weights for {n_inputs} inputs"
                 + ("" if hidden == N_HIDDEN else f" and {hidden} hidden nodes")
@@ -276,6 +290,11 @@ class Controller:
         )
 
     @property
+    def members(self) -> int:
+        """Networks of the policy: 1, or k for an ensemble driving by their mean outputs."""
+        return 1 if self.weights.ndim == 1 else int(self.weights.shape[0])
+
+    @property
     def _context(self) -> int:
         return N_CONTEXT if self.policy_kind == "elman-sigmoid" else 0
 
@@ -364,7 +383,7 @@ class Controller:
             self._previous = self._elman.step(values)
             self.last_outputs = self._elman.last_outputs
             return self._previous
-        outputs = mlp_forward(self.weights, values[None], hidden=self.hidden)[0]
+        outputs = ensemble_forward(self.weights, values[None], hidden=self.hidden)[0]
         self.last_outputs = outputs
         self._previous = select_action(outputs, self._previous)
         return self._previous
@@ -460,15 +479,28 @@ class Controller:
         if not isinstance(bias, bool):
             raise ValueError("'bias' must be true or false")
         weights = data["weights"]
-        if not isinstance(weights, list) or not all(_is_finite_number(w) for w in weights):
-            raise ValueError("'weights' must be a list of finite numbers")
-        if len(weights) != n_weights(bias, n_inputs, hidden):
-            raise ValueError(
-                f"expected {n_weights(bias, n_inputs, hidden)} weights for layer_sizes {expected}"
-                f" {'with' if bias else 'without'} biases, got {len(weights)}"
-            )
-        if any(abs(w) > MAX_ABS_WEIGHT for w in weights):
-            raise ValueError(f"'weights' must lie within +-{MAX_ABS_WEIGHT:g}")
+        networks = (
+            weights
+            if isinstance(weights, list) and weights and all(isinstance(w, list) for w in weights)
+            else [weights]
+        )
+        if len(networks) > 1 and kind == "elman-sigmoid":
+            raise ValueError("an Elman network is one network, not an ensemble")
+        if not 1 <= len(networks) <= MAX_MEMBERS:
+            raise ValueError(f"'weights' must hold 1..{MAX_MEMBERS} networks, got {len(networks)}")
+        for net in networks:
+            if not isinstance(net, list) or not all(_is_finite_number(w) for w in net):
+                raise ValueError(
+                    "'weights' must be a list of finite numbers (or, for an ensemble, a list of"
+                    " such lists)"
+                )
+            if len(net) != n_weights(bias, n_inputs, hidden):
+                raise ValueError(
+                    f"expected {n_weights(bias, n_inputs, hidden)} weights for layer_sizes"
+                    f" {expected} {'with' if bias else 'without'} biases, got {len(net)}"
+                )
+            if any(abs(w) > MAX_ABS_WEIGHT for w in net):
+                raise ValueError(f"'weights' must lie within +-{MAX_ABS_WEIGHT:g}")
         library = RoadLibrary.from_dict(data["road_library"])
         if library.n_models == 0:
             raise ValueError("the road library is empty (a controller cannot see the road)")

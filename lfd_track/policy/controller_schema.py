@@ -17,7 +17,7 @@ from .features import DEFAULT_FEATURES
 from .map_geometry import PAPER_GEOMETRY
 from .memory_config import memory_table_from_v1
 
-CONTROLLER_SCHEMA = 7
+CONTROLLER_SCHEMA = 8
 """Schema every controller file is written in (older ones are migrated on reading)."""
 _KEYS_V2 = (
     "format",
@@ -55,6 +55,7 @@ SCHEMA_KEYS: dict[int, tuple[str, ...]] = {
     5: (*_KEYS_V2[:-1], "features", "memory", "checksum"),
     6: (*_KEYS_V2[:-1], "features", "memory", "frame_size", "checksum"),
     7: (*_KEYS_V2[:-1], "features", "memory", "frame_size", "map_geometry", "checksum"),
+    8: (*_KEYS_V2[:-1], "features", "memory", "frame_size", "map_geometry", "checksum"),
 }
 
 
@@ -100,6 +101,15 @@ def _from_schema6(data: dict[str, Any]) -> dict[str, Any]:
     }
 
 
+def _from_schema7(data: dict[str, Any]) -> dict[str, Any]:
+    """Schema 7 -> 8: the same keys; a schema 7 file holds one network (schema 8's ``weights``
+    may hold an ensemble's, and one that does is not a schema 7 file)."""
+    weights = data["weights"]
+    if isinstance(weights, list) and any(isinstance(w, list) for w in weights):
+        raise ValueError("a schema 7 controller holds one network (an ensemble needs schema 8)")
+    return dict(data)
+
+
 #: One migration per schema step: ``MIGRATIONS[k]`` turns the contents of a schema-k file into
 #: those of a schema k + 1 file meaning the same controller.
 MIGRATIONS: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {
@@ -109,6 +119,7 @@ MIGRATIONS: dict[int, Callable[[dict[str, Any]], dict[str, Any]]] = {
     4: _from_schema4,
     5: _from_schema5,
     6: _from_schema6,
+    7: _from_schema7,
 }
 
 

@@ -116,6 +116,26 @@ def mlp_forward(
     return out[0] if single_net else out
 
 
+MAX_MEMBERS = 64
+"""Most networks an ensemble may hold."""
+
+
+def ensemble_forward(
+    weights: np.ndarray,
+    inputs: np.ndarray,
+    *,
+    bias: bool | None = None,
+    hidden: int = N_HIDDEN,
+) -> np.ndarray:
+    """Outputs of a policy: one network's (``weights`` (W,), exactly :func:`mlp_forward`), or
+    the mean of an ensemble's (``weights`` (k, W): k networks of the same layout, each fitted
+    from its own starting weights; :attr:`~lfd_track.learning.bc.BCConfig.ensemble`).
+    Returns (N, 3), or (3,) when ``inputs`` is 1-D."""
+    w = np.asarray(weights, dtype=np.float64)
+    out = mlp_forward(w, inputs, bias=bias, hidden=hidden)
+    return out if w.ndim == 1 else out.mean(axis=0)
+
+
 def select_action(outputs: np.ndarray, previous: int | None = None) -> int:
     """Index of the largest of the 3 outputs (0 forward, 1 left, 2 right).
 

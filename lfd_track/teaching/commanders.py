@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 import numpy as np
 
 from ..core.commands import Command
-from ..policy.mlp import N_HIDDEN, mlp_forward, select_action
+from ..policy.mlp import N_HIDDEN, ensemble_forward, select_action
 
 if TYPE_CHECKING:
     from .types import Moment
@@ -44,7 +44,8 @@ class PolicyCommander:
     """A 40-5-3 MLP driving from road values (paper §4.2.3): the largest output wins.
 
     An exact tie keeps the previous command. ``weights`` may be replaced between steps (a learner
-    updating the policy); ``None`` weights mean there is no policy yet (proposes ``None``).
+    updating the policy); ``None`` weights mean there is no policy yet (proposes ``None``);
+    (k, W) weights are an ensemble, driving by the mean of its networks' outputs.
     ``hidden``: nodes of the hidden layer (the paper's 5; a wider network says so).
     """
 
@@ -67,7 +68,7 @@ class PolicyCommander:
         if self.weights is None:
             return None
         values = np.asarray(values, dtype=np.float64)[None]
-        outputs = mlp_forward(self.weights, values, hidden=self.hidden)[0]
+        outputs = ensemble_forward(self.weights, values, hidden=self.hidden)[0]
         self.last_outputs = outputs
         self._previous = select_action(outputs, self._previous)
         return Command(self._previous)

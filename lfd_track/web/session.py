@@ -89,6 +89,10 @@ class TeachConfig:
     """With ``online``: the GA's mutation step (``GAConfig.mutation_delta``, the paper's 0.1)."""
     class_balance: float = 1.0
     """With learner ``"bc"``: backprop's ``BCConfig.class_balance`` (1: each command the same)."""
+    ensemble: int = 1
+    """With learner ``"bc"``: backprop's ``BCConfig.ensemble``, recorded for the controller fitted
+    from the recording (networks fitted from their own starting weights); the policy that may
+    take over while teaching is one network."""
     mirror: bool = False
     """With ``online``: the learner fits the cases and their mirror images (``--mirror``)."""
     library_only: int = 0
@@ -489,6 +493,8 @@ def open_session(config: TeachConfig) -> LoopSession:
         }
         if takeover.learner != "ga":  # a recording taught with the GA reads as it always did
             balance = {} if config.class_balance == 1 else {"class_balance": config.class_balance}
+            if config.ensemble != 1:
+                balance["ensemble"] = config.ensemble
             metadata["online_settings"].update(
                 learner=takeover.learner, epochs_per_case=takeover.epochs_per_case, **balance
             )
@@ -581,7 +587,9 @@ def _online_parts(config: TeachConfig, n_inputs: int) -> tuple[PolicyCommander, 
     mirrored = partial(with_mirrored, memory=config.memory, features=config.features)
     training_set = mirrored if config.mirror else None  # what the learner fits
     if config.takeover.learner == "bc":
-        bc = BCConfig(bias=config.ga_bias, class_balance=config.class_balance)
+        bc = BCConfig(
+            bias=config.ga_bias, class_balance=config.class_balance, ensemble=config.ensemble
+        )
         rng = np.random.default_rng(config.seed)
         epochs = config.takeover.epochs_per_case
         return policy, BCLearnerFeed(bc, rng, epochs, policy, n_inputs, training_set)

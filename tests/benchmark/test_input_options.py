@@ -67,7 +67,7 @@ def test_hg_dagger_learns_and_drives_with_colour_and_the_previous_command(tmp_pa
     assert main([*args, "--features", COLOUR, "--out", str(out)]) == 0
     evolved = Controller.load(out)
     assert evolved.features == COLOUR and evolved.memory == PREVIOUS
-    assert evolved.to_dict()["schema_version"] == 7
+    assert evolved.to_dict()["schema_version"] == 8
 
 
 def test_bc_learns_the_colour_features_and_the_run_records_them(tmp_path):

@@ -146,7 +146,7 @@ def test_benchmark_runs_the_memory_pipeline_from_flags(tmp_path):
     assert results["config"]["mirror"] is True
     assert results["demonstrations"][0]["turnarounds"] == ["right", "left", "right", "left"]
     controller = json.loads((out / "repetitions" / "rep_00" / "controller.json").read_text())
-    assert controller["schema_version"] == 7 and controller["layer_sizes"] == [41, 5, 3]
+    assert controller["schema_version"] == 8 and controller["layer_sizes"] == [41, 5, 3]
     assert (
         "**Beyond the paper's pipeline**: the network also reads memory inputs"
         in (out / "report.md").read_text()

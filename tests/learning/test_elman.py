@@ -99,7 +99,7 @@ def test_an_elman_controller_reloads_and_drives_the_same(tmp_path, library):
     result = evolve_elman(x, a, GAConfig(generations=10), np.random.default_rng(2))
     controller = Controller.from_evolution(library, result, seed=2, policy_kind="elman-sigmoid")
     data = controller.to_dict()
-    assert data["policy_kind"] == "elman-sigmoid" and data["schema_version"] == 7
+    assert data["policy_kind"] == "elman-sigmoid" and data["schema_version"] == 8
     assert data["layer_sizes"] == [45, 5, 3]
     path = tmp_path / "elman.json"
     controller.save(path)

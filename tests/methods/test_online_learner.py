@@ -14,8 +14,9 @@ from lfd_track.errors import FileFormatError
 from lfd_track.learning.bc import BCConfig
 from lfd_track.learning.learners import learner_for
 from lfd_track.learning.mirror import with_mirrored
-from lfd_track.methods import MethodContext, OnlineConfig, learn_online
+from lfd_track.methods import MethodContext, OnlineConfig, learn_baseline, learn_online
 from lfd_track.methods.baseline import controller_of_fit
+from lfd_track.policy.controller import Controller
 from lfd_track.policy.memory import FreshFeltConfig
 from lfd_track.study.spec import load_study
 
@@ -174,6 +175,12 @@ def test_the_benchmark_flags_run_the_chosen_learner_online(tmp_path, capsys, mon
         assert "--bc-bias is for learners that use backprop" in capsys.readouterr().err
         assert main(["benchmark", *method, "--bc-class-balance", "0.5", "--out", out]) == 2
         assert "--bc-class-balance is for learners that use backprop" in capsys.readouterr().err
+        assert main(["benchmark", *method, "--bc-ensemble", "5", "--out", out]) == 2
+        assert "--bc-ensemble is for learners that use backprop" in capsys.readouterr().err
+    for wrong, problem in (("0", "must be at least 1, got 0"), ("65", "must be at most 64")):
+        with pytest.raises(SystemExit):
+            main(["benchmark", "--method", "bc", "--bc-ensemble", wrong, "--out", out])
+        assert problem in capsys.readouterr().err
     with pytest.raises(SystemExit):
         main(["benchmark", "--method", "bc", "--bc-class-balance", "1.5", "--out", out])
     assert "must be in 0..1, got 1.5" in capsys.readouterr().err
@@ -186,6 +193,11 @@ def test_the_benchmark_flags_run_the_chosen_learner_online(tmp_path, capsys, mon
             BCConfig(class_balance=0),
         ),
         (["--online-learner", "bc", "--bc-bias"], ONLINE_BC, BCConfig(bias=True)),
+        (
+            ["--online-learner", "bc", *balanced, "--bc-ensemble", "5"],  # round 20's learner
+            ONLINE_BC,
+            BCConfig(bias=True, class_balance=0.5, ensemble=5),
+        ),
         ([], OnlineConfig(), BCConfig()),
     ):
         with pytest.raises(Stop) as stopped:
@@ -223,3 +235,29 @@ def test_online_by_backprop_learns_the_map_with_the_turn_toward_the_branch_side(
     assert ((turns == 0.5) | (sides != 0.5)).all()  # no side, no turn
     assert (turns != 0.5).any()  # the demonstrator pivots while a side is known
     assert learned.training_accuracy >= 0.6
+
+
+def test_an_ensemble_of_backprop_fits_is_the_controller_online_and_offline(tmp_path):
+    """Round 20's learner: the final fit is k networks from their own starting weights (the
+    first the single fit's), written in the controller file and driving by their mean outputs;
+    the bc method (offline, after the demonstration) writes the same ensemble for its cases."""
+    ensemble = BCConfig(epochs=300, bias=True, class_balance=0.5, ensemble=3)
+    context = {**_context(), "bc": ensemble}
+    learned = learn_online(tmp_path / "online", online=ONLINE_BC, **context)
+    controller = learned.controller
+    assert controller.members == 3 and controller.weights.shape == (3, 3 * 5 + 5 + 5 * 3 + 3)
+    assert controller.learner_config["bc"]["ensemble"] == 3
+    demo = load_demonstration(tmp_path / "online" / "demonstration.lfdemo")
+    x, a = with_mirrored(demo.policy_inputs("none"), demo.commands, context["memory"], "none")
+    single = learner_for(dataclasses.replace(ensemble, ensemble=1)).fit(
+        x, a, np.random.default_rng(context["ga_seed"])
+    )
+    np.testing.assert_allclose(controller.weights[0], single.weights, rtol=0, atol=1e-9)
+    assert learned.training_accuracy >= 0.6
+    controller.save(tmp_path / "ensemble.json")
+    loaded = Controller.load(tmp_path / "ensemble.json")
+    assert loaded.members == 3
+    rest = {k: v for k, v in context.items() if k != "bc"}
+    offline = learn_baseline(tmp_path / "bc", **rest, learner=ensemble)
+    assert offline.controller.members == 3 and offline.controller.learner == "bc"
+    assert offline.controller.learner_config["ensemble"] == 3

@@ -44,7 +44,7 @@ def test_saved_and_loaded_controller_acts_identically(trained, tmp_path):
     np.testing.assert_array_equal(outs, loaded.last_outputs)
     assert len(set(acts)) > 1  # the comparison means something
     data = json.loads(path.read_text())
-    assert data["schema_version"] == 7 and data["layer_sizes"] == [40, 5, 3]
+    assert data["schema_version"] == 8 and data["layer_sizes"] == [40, 5, 3]
     assert data["policy_kind"] == "mlp-sigmoid" and data["learner"] == "ga"
     assert data["checksum"] == checksum(data) and len(data["checksum"]) == 64
     assert data["bias"] is False and len(data["weights"]) == 215
@@ -100,7 +100,7 @@ def test_truncated_file_fails_clearly(trained, tmp_path):
     "edit, match",
     [
         (lambda d: d["weights"].pop(), "expected 215 weights.*got 214"),
-        (lambda d: d.update(schema_version=8), "schema version 8 is not supported"),
+        (lambda d: d.update(schema_version=9), "schema version 9 is not supported"),
         (lambda d: d.pop("road_library"), "missing key 'road_library'"),
         (lambda d: d.update(extra=1), "unknown key 'extra'"),
         (lambda d: d.update(layer_sizes=[40, 6, 3]), "layer_sizes"),

@@ -31,7 +31,7 @@ def test_the_frame_size_is_saved_and_read_back(tmp_path):
     half = _controller((320, 240))
     half.save(tmp_path / "c.json")
     data = json.loads((tmp_path / "c.json").read_text())
-    assert data["schema_version"] == 7 and data["frame_size"] == [320, 240]
+    assert data["schema_version"] == 8 and data["frame_size"] == [320, 240]
     assert Controller.load(tmp_path / "c.json").frame_size == (320, 240)
     assert half.relabelled("x", None).frame_size == (320, 240)
 

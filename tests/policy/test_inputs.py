@@ -296,13 +296,13 @@ def test_cma_es_learns_the_colour_features(tmp_path, library):
 def test_the_file_records_every_option(tmp_path, library):
     w40 = np.zeros(215)
     plain = Controller(library, w40).to_dict()
-    assert plain["schema_version"] == 7 and plain["features"] == "road_values"
+    assert plain["schema_version"] == 8 and plain["features"] == "road_values"
     assert plain["memory"] is None
     memory = Controller(library, np.zeros(5 * 43 + 15), memory=PREVIOUS).to_dict()
-    assert memory["schema_version"] == 7 and memory["features"] == "road_values"
+    assert memory["schema_version"] == 8 and memory["features"] == "road_values"
     assert memory["memory"] == {"kind": "previous_command"}
     colour = Controller(library, np.zeros(5 * 160 + 15), features=COLOUR).to_dict()
-    assert colour["schema_version"] == 7
+    assert colour["schema_version"] == 8
     assert colour["features"] == COLOUR and colour["memory"] is None
     assert colour["layer_sizes"] == [160, 5, 3]
     both = Controller(library, np.zeros(5 * 163 + 15), features=COLOUR, memory=PREVIOUS)
@@ -312,7 +312,7 @@ def test_the_file_records_every_option(tmp_path, library):
     with pytest.raises(ValueError, match="features must be one of"):
         Controller(library, w40, features="colour")
     alone = Controller(library, np.zeros(5 * 3 + 15), features="none", memory=PREVIOUS).to_dict()
-    assert alone["schema_version"] == 7 and alone["features"] == "none"
+    assert alone["schema_version"] == 8 and alone["features"] == "none"
     assert alone["layer_sizes"] == [3, 5, 3] and alone["memory"]["kind"] == "previous_command"
     with pytest.raises(ValueError, match="features 'none' .* needs a memory"):
         Controller(library, np.zeros(15), features="none")

@@ -209,7 +209,7 @@ def test_a_memory_controller_saves_its_memory_and_loads(tmp_path):
     path = tmp_path / "c.json"
     controller.save(path)
     data = json.loads(path.read_text())
-    assert data["schema_version"] == 7 and data["layer_sizes"] == [41, 5, 3]
+    assert data["schema_version"] == 8 and data["layer_sizes"] == [41, 5, 3]
     assert data["memory"] == {"kind": "last_bend"}
     loaded = Controller.load(path)
     assert loaded.memory == LAST_BEND and loaded.n_inputs == 41

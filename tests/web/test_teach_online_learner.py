@@ -55,6 +55,10 @@ def _teach(station, commands: list[str]) -> dict:
             ["--online", "--bc-class-balance", "0.5"],
             "--bc-class-balance is for --online --online-learner bc",
         ),
+        (
+            ["--online", "--bc-ensemble", "5"],
+            "--bc-ensemble is for --online --online-learner bc",
+        ),
     ],
 )
 def test_the_online_learner_flag_is_refused_where_it_means_nothing(
@@ -103,12 +107,20 @@ def test_online_teaching_with_mirror_fits_each_case_and_its_mirror_image(open_st
     that configuration's case weights (``--bc-class-balance 0.5``), recorded with the settings."""
     flags = ["--memory", "fresh_felt", "--features", "none", "--ga-bias", "--mirror"]
     station = open_station(
-        "--online", "--online-learner", "bc", *flags, "--bc-class-balance", "0.5"
+        "--online",
+        "--online-learner",
+        "bc",
+        *flags,
+        "--bc-class-balance",
+        "0.5",
+        "--bc-ensemble",
+        "5",
     )
     session = station.session
     _teach(station, ["left", "left", "forward"])
     feed = session.learner
-    assert feed.config == BCConfig(bias=True, class_balance=0.5)
+    assert feed.config == BCConfig(bias=True, class_balance=0.5, ensemble=5)
+    assert feed.weights.ndim == 1  # while teaching, the policy that may take over is one network
     x, a = feed.cases.arrays()
     fitted_x, fitted_a = feed.training_set(x, a)
     assert a.tolist() == [1, 1, 0]  # forward 0, left 1, right 2
@@ -121,6 +133,7 @@ def test_online_teaching_with_mirror_fits_each_case_and_its_mirror_image(open_st
     demo = load_demonstration(station.out)
     assert demo.metadata["online_settings"]["mirror"] is True
     assert demo.metadata["online_settings"]["class_balance"] == 0.5
+    assert demo.metadata["online_settings"]["ensemble"] == 5
     assert demo.commands.tolist() == [1, 1, 0]
 
 
