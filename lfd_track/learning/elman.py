@@ -200,6 +200,8 @@ def fit_bc_elman(
     if not isinstance(rng, np.random.Generator):
         raise ValueError("fit_bc_elman needs a numpy Generator (rng) so that runs are reproducible")
     config = check_config(config, BCConfig, "fit_bc_elman")
+    if config.ensemble != 1:
+        raise ValueError("an Elman network is one network: backprop's ensemble must be 1")
     if config.batch_size != 0:
         raise ValueError(
             "backprop through time fits whole episodes: the BC batch_size must be 0 for an Elman"

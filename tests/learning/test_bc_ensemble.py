@@ -8,6 +8,7 @@ import pytest
 
 from lfd_track.errors import FileFormatError
 from lfd_track.learning.bc import BCConfig, fit_bc
+from lfd_track.learning.elman import fit_bc_elman
 from lfd_track.learning.fitness import training_accuracy
 from lfd_track.policy.controller import Controller, checksum
 from lfd_track.policy.mlp import MAX_MEMBERS, ensemble_forward, mlp_forward, n_weights
@@ -142,3 +143,11 @@ def test_a_schema_7_file_of_one_network_still_loads(library_and_frames, tmp_path
     path.write_text(json.dumps(data))
     loaded = Controller.load(path)
     assert loaded.members == 1 and loaded.weights.tobytes() == weights.tobytes()
+
+
+def test_an_elman_network_is_not_fitted_as_an_ensemble():
+    x, a = _cases(12)
+    with pytest.raises(ValueError, match="Elman network is one network"):
+        fit_bc_elman(
+            x, a, BCConfig(epochs=2, ensemble=2), np.random.default_rng(0), episodes=np.array([0])
+        )
