@@ -137,13 +137,15 @@ def wait_until(
 
 #: Where the results that pass through BLAS (matrix products, whose last bits depend on the
 #: OpenBLAS kernel and so on the CPU) leave the package: the GA's stacked network outputs, every
-#: network forward pass (the fitness module's own, and the one every policy's
-#: ``ensemble_forward`` makes: controllers, commanders, training accuracy), and the road-value
-#: correlations of the road library.
+#: network forward pass (the fitness module's own, and each policy's ``ensemble_forward``:
+#: training accuracy, controllers, commanders), and the road-value correlations of the road
+#: library.
 BLAS_RESULTS = (
     ("lfd_track.learning.fitness", "population_outputs"),
     ("lfd_track.learning.fitness", "mlp_forward"),
-    ("lfd_track.policy.mlp", "mlp_forward"),
+    ("lfd_track.learning.fitness", "ensemble_forward"),
+    ("lfd_track.policy.controller", "ensemble_forward"),
+    ("lfd_track.teaching.commanders", "ensemble_forward"),
     ("lfd_track.vision.road_library", "similarity_matrix"),
 )
 

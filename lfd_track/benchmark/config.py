@@ -160,6 +160,8 @@ class BenchmarkConfig:
                 f"policy_kind '{self.policy_kind}' is trained by the methods"
                 f" {', '.join(trainers)}, not '{self.method}'"
             )
+        if self.policy_kind == "elman-sigmoid" and self.bc.ensemble != 1:
+            raise ValueError("an Elman network is one network: backprop's ensemble must be 1")
         if self.policy_kind == "elman-sigmoid" and self.shifted_views:
             raise ValueError(
                 "shifted_views have no place in the driven sequence an Elman network learns"

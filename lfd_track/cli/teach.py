@@ -282,9 +282,10 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         type=whole_number_in(1, MAX_MEMBERS),
         default=None,
         metavar="K",
-        help="with --online-learner bc: the controller written at the end is K networks fitted"
-        " from their own starting weights, driving by the mean of their outputs (default 1; while"
-        " teaching, the policy that may take over is one network)",
+        help="with --online-learner bc: recorded in the recording's online settings, for a"
+        " controller fitted from it later as K networks from their own starting weights that"
+        " drive by the mean of their outputs (default 1); while teaching, the policy that may"
+        " take over is one network",
     )
     teach.add_argument(
         "--mutation-delta",

@@ -237,7 +237,8 @@ def training_accuracy(
     """Share of cases where the network's largest output is the demonstrated command.
 
     ``weights`` (W,), or (k, W) for an ensemble driving by its networks' mean outputs
-    (:func:`~lfd_track.policy.mlp.ensemble_forward`); ``inputs`` (N, 40) road values (plus
+    (:func:`~lfd_track.policy.mlp.ensemble_forward`; a GA population is not one: score its
+    networks one by one); ``inputs`` (N, 40) road values (plus
     memory inputs), ``actions`` (N,) commands 0/1/2; checked as :func:`imitation_fitness` checks
     them. ``hidden``: hidden nodes of the network (the paper's 5).
     """

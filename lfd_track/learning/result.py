@@ -3,7 +3,8 @@
 A learner turns demonstration cases (road values and the commands given) into the weights of the
 paper's 40-5-3 sigmoid network (see :mod:`lfd_track.policy.mlp` for the weight order). Whatever
 the learner optimises internally, :attr:`LearnerFit.fitness` is the paper's Algorithm 3 imitation
-fitness of the returned weights, so learners can be compared on one scale.
+fitness of the returned weights (for backprop's ensemble, the mean of its networks'), so learners
+can be compared on one scale.
 """
 
 from __future__ import annotations
@@ -24,11 +25,14 @@ class LearnerFit:
     """Outcome of a baseline learner (:func:`~lfd_track.learning.bc.fit_bc`, ...)."""
 
     weights: np.ndarray
-    """The learned network, (215,) float64, or (223,) with biases."""
+    """The learned network, (215,) float64, or (223,) with biases; for backprop's ensemble
+    (``BCConfig.ensemble`` = k > 1) the k networks, (k, W)."""
     fitness: float
-    """Algorithm 3 imitation fitness of ``weights`` on the training cases (lower is better)."""
+    """Algorithm 3 imitation fitness of ``weights`` on the training cases (lower is better); for
+    an ensemble the mean of its networks' fitnesses (not that of their averaged outputs)."""
     history: np.ndarray
-    """Best Algorithm 3 fitness of each epoch or generation, (epochs or generations,) float64."""
+    """Best Algorithm 3 fitness of each epoch or generation, (epochs or generations,) float64;
+    for an ensemble the mean of its networks' histories."""
     learner: str
     """Name of the learner, e.g. ``"bc"`` or ``"cma-es"``."""
     config: dict[str, Any]

@@ -488,7 +488,8 @@ class Controller:
             raise ValueError("an Elman network is one network, not an ensemble")
         if not 1 <= len(networks) <= MAX_MEMBERS:
             raise ValueError(f"'weights' must hold 1..{MAX_MEMBERS} networks, got {len(networks)}")
-        for net in networks:
+        for index, net in enumerate(networks):
+            which = "" if len(networks) == 1 else f" (network {index + 1} of {len(networks)})"
             if not isinstance(net, list) or not all(_is_finite_number(w) for w in net):
                 raise ValueError(
                     "'weights' must be a list of finite numbers (or, for an ensemble, a list of"
@@ -497,7 +498,7 @@ class Controller:
             if len(net) != n_weights(bias, n_inputs, hidden):
                 raise ValueError(
                     f"expected {n_weights(bias, n_inputs, hidden)} weights for layer_sizes"
-                    f" {expected} {'with' if bias else 'without'} biases, got {len(net)}"
+                    f" {expected} {'with' if bias else 'without'} biases, got {len(net)}{which}"
                 )
             if any(abs(w) > MAX_ABS_WEIGHT for w in net):
                 raise ValueError(f"'weights' must lie within +-{MAX_ABS_WEIGHT:g}")

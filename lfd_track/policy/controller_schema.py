@@ -102,11 +102,8 @@ def _from_schema6(data: dict[str, Any]) -> dict[str, Any]:
 
 
 def _from_schema7(data: dict[str, Any]) -> dict[str, Any]:
-    """Schema 7 -> 8: the same keys; a schema 7 file holds one network (schema 8's ``weights``
-    may hold an ensemble's, and one that does is not a schema 7 file)."""
-    weights = data["weights"]
-    if isinstance(weights, list) and any(isinstance(w, list) for w in weights):
-        raise ValueError("a schema 7 controller holds one network (an ensemble needs schema 8)")
+    """Schema 7 -> 8: the same keys; a file before schema 8 holds one network (schema 8's
+    ``weights`` may hold an ensemble's; :func:`migrate` refuses an older file that does)."""
     return dict(data)
 
 
@@ -147,6 +144,11 @@ def migrate(data: dict[str, Any]) -> dict[str, Any]:
             )
     if version == 3 and data["memory"] is None:
         raise ValueError("a schema 3 controller must name its memory kind")
+    weights = data["weights"]
+    if version < 8 and isinstance(weights, list) and any(isinstance(w, list) for w in weights):
+        raise ValueError(
+            f"a schema {version} controller holds one network (an ensemble needs schema 8)"
+        )
     while version < CONTROLLER_SCHEMA:
         data = MIGRATIONS[version](data)
         version += 1

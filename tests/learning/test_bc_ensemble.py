@@ -104,12 +104,21 @@ def _edited(path, data, edit):
 @pytest.mark.parametrize(
     "edit, match",
     [
-        (lambda d: d["weights"][1].pop(), "expected 215 weights.*got 214"),
+        (lambda d: d["weights"][1].pop(), "expected 215 weights.*got 214 .network 2 of 2."),
         (lambda d: d["weights"].__setitem__(1, 0.5), "list of finite numbers"),
         (lambda d: d["weights"][0].__setitem__(0, 1e300), r"within \+-1e\+06"),
         (lambda d: d.update(weights=[[0.0] * 215] * (MAX_MEMBERS + 1)), "1..64 networks"),
         (lambda d: d.update(schema_version=7), "a schema 7 controller holds one network"),
-        (lambda d: d.update(policy_kind="elman-sigmoid"), "layer_sizes|one network"),
+        (
+            lambda d: (d.pop("map_geometry"), d.update(schema_version=6)),
+            "a schema 6 controller holds one network",
+        ),
+        (
+            lambda d: d.update(
+                policy_kind="elman-sigmoid", layer_sizes=[45, 5, 3], weights=[[0.0] * 240] * 2
+            ),
+            "an Elman network is one network",
+        ),
     ],
 )
 def test_a_damaged_ensemble_file_fails_in_one_line(library_and_frames, tmp_path, edit, match):
@@ -151,3 +160,10 @@ def test_an_elman_network_is_not_fitted_as_an_ensemble():
         fit_bc_elman(
             x, a, BCConfig(epochs=2, ensemble=2), np.random.default_rng(0), episodes=np.array([0])
         )
+
+
+def test_a_benchmark_refuses_an_elman_ensemble_before_it_runs():
+    from lfd_track.benchmark.config import BenchmarkConfig
+
+    with pytest.raises(ValueError, match="Elman network is one network"):
+        BenchmarkConfig(method="bc", policy_kind="elman-sigmoid", bc=BCConfig(ensemble=3))

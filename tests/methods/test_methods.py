@@ -136,12 +136,12 @@ def test_a_repetition_decides_the_same_when_blas_rounds_otherwise(quick_paper, t
     folder, reference = quick_paper
     with PerturbedBLAS(seed=2024, ulps=4) as perturbed:
         result = run_repetition(0, QUICK_SEED, QUICK_PAPER, str(tmp_path))
-    # every path was perturbed: the GA's fitness, the policy's forward pass (the training
-    # accuracy, and the trials' policy: a commander of the teaching loop) and the road values of
-    # demonstration and trials
+    # every path was perturbed: the GA's fitness, the training accuracy, the trials' policy (a
+    # commander of the teaching loop) and the road values of demonstration and trials
     assert set(perturbed.calls) >= {
         "lfd_track.learning.fitness.population_outputs",
-        "lfd_track.policy.mlp.mlp_forward",
+        "lfd_track.learning.fitness.ensemble_forward",
+        "lfd_track.teaching.commanders.ensemble_forward",
         "lfd_track.vision.road_library.similarity_matrix",
     }, perturbed.calls
     assert _decisions(result, tmp_path) == _decisions(reference, folder)
