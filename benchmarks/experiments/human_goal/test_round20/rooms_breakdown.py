@@ -1,0 +1,136 @@
+"""What breaks in rooms: each of the 30 kept rooms' laps (round 20's winner and the map rule on
+the same map) beside the room's drawn settings, and which settings part the rooms that lap 85 %
+of their loops from those that do not.
+
+Reads only committed results (``results/test_rooms20/`` and
+``../test_round9/results/rules_rooms/``) and redraws each repetition's room as the study drew it
+(``repetition_preset``); nothing is run or chosen on it.
+
+    .venv/bin/python benchmarks/experiments/human_goal/test_round20/rooms_breakdown.py
+
+writes ``results/rooms_breakdown.md`` (a few seconds).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from lfd_track.benchmark.runner import repetition_preset, repetition_seeds
+from lfd_track.study.spec import load_study
+from lfd_track.utils.atomic import atomic_write_text
+
+HERE = Path(__file__).resolve().parent
+STUDY = HERE / "test_rooms20.toml"
+LEARNED = HERE / "results" / "test_rooms20" / "rooms.round20+visual"
+RULE = HERE.parent / "test_round9" / "results" / "rules_rooms" / "map-rule"
+
+
+def laps(folder: Path) -> dict[tuple[int, int], dict[str, list[int]]]:
+    """Per (seed, repetition): [laps, trials] of the loops and of the testing track."""
+    out: dict[tuple[int, int], dict[str, list[int]]] = {}
+    for path in sorted(folder.glob("seed*/results.json")):
+        data = json.loads(path.read_text())
+        for o in data["outcomes"]:
+            if o["track"] == "training":
+                continue
+            kind = "testing" if o["track"] == "testing" else "loops"
+            cell = out.setdefault(
+                (data["seed"], o["repetition"]), {"loops": [0, 0], "testing": [0, 0]}
+            )
+            cell[kind][0] += o["failure"] is None
+            cell[kind][1] += 1
+    return out
+
+
+def settings(preset) -> dict[str, float]:  # noqa: ANN001 - a Preset
+    """The drawn settings that vary between rooms, as numbers."""
+    felt = np.asarray(preset.appearance.felt_rgb, dtype=float)
+    carpet = np.asarray(preset.appearance.carpet_rgb, dtype=float)
+    return {
+        "felt-carpet contrast": float(np.linalg.norm(felt - carpet)),
+        "ambient light": preset.lighting.ambient,
+        "light pool": preset.lighting.pool_strength,
+        "shadow darkness": preset.lighting.shadow_darkness,
+        "exposure target": preset.sensor.exposure_target,
+        "sensor noise": preset.sensor.noise_std,
+        "white-balance cast": preset.sensor.white_balance_cast,
+        "camera pitch [deg]": preset.camera.pitch_deg,
+        "camera height [m]": preset.camera.height_m,
+        "vertical fov [deg]": preset.camera.vfov_deg,
+        "slip noise": preset.rover.slip_noise_std,
+        "motor asymmetry": preset.rover.motor_asymmetry_std,
+    }
+
+
+def main() -> None:
+    study = load_study(STUDY)
+    config = study.conditions[0].config
+    learned, rule = laps(LEARNED), laps(RULE)
+    rows = []
+    for seed in study.seeds:
+        for index, rep_seed in enumerate(repetition_seeds(seed, study.repetitions)):
+            room = settings(repetition_preset(config, rep_seed))
+            rows.append(((seed, index), room, learned[(seed, index)], rule[(seed, index)]))
+    names = list(rows[0][1])
+    md = ["# What breaks in rooms (round 20's winner, 30 kept rooms)", ""]
+    md += ["Loop laps and testing laps per room, the learned policy and the map rule on the same"]
+    md += ["map; the room's drawn settings beside them.", ""]
+    md += [
+        "| seed, rep | learned loops | rule loops | learned testing | rule testing | "
+        + " | ".join(names)
+        + " |"
+    ]
+    md += ["|---" * (5 + len(names)) + "|"]
+    for (seed, index), room, mine, theirs in sorted(
+        rows, key=lambda r: r[2]["loops"][0] / r[2]["loops"][1]
+    ):
+        cells = " | ".join(f"{room[n]:.3g}" for n in names)
+        md += [
+            f"| {seed}, {index} | {mine['loops'][0]}/{mine['loops'][1]} | "
+            f"{theirs['loops'][0]}/{theirs['loops'][1]} | {mine['testing'][0]}/6 | "
+            f"{theirs['testing'][0]}/6 | {cells} |"
+        ]
+    good = [r for r in rows if r[2]["loops"][0] >= 0.85 * r[2]["loops"][1]]
+    bad = [r for r in rows if r[2]["loops"][0] < 0.85 * r[2]["loops"][1]]
+    md += ["", f"Rooms at 85 % of their loop laps: {len(good)}; under: {len(bad)}. Mean of each"]
+    md += ["setting in the two groups, and the rank correlation (Spearman) of each setting with"]
+    md += ["the learned policy's loop share over all 30 rooms:", ""]
+    md += [
+        "| setting | rooms at 85 % | rooms under | Spearman with loop share |",
+        "|---|---|---|---|",
+    ]
+    share = np.array([r[2]["loops"][0] / r[2]["loops"][1] for r in rows])
+
+    def ranks(v: np.ndarray) -> np.ndarray:
+        order = np.argsort(v, kind="stable")
+        out = np.empty(len(v))
+        out[order] = np.arange(len(v))
+        for value in np.unique(v):  # ties share their mean rank
+            out[v == value] = out[v == value].mean()
+        return out
+
+    for n in names:
+        values = np.array([r[1][n] for r in rows])
+        rho = float(np.corrcoef(ranks(values), ranks(share))[0, 1])
+        md += [
+            f"| {n} | {np.mean([r[1][n] for r in good]):.3g} | "
+            f"{np.mean([r[1][n] for r in bad]):.3g} | {rho:+.2f} |"
+        ]
+    rule_share = np.array([r[3]["loops"][0] / r[3]["loops"][1] for r in rows])
+    rho = float(np.corrcoef(ranks(rule_share), ranks(share))[0, 1])
+    md += [
+        "",
+        f"Spearman between the learned policy's and the rule's loop share per room: {rho:+.2f}",
+    ]
+    md += ["(each room drives its own draw of 10 test loops, the same for both, so a room's share"]
+    md += ["mixes its settings with how sharp its loops are)."]
+    out = HERE / "results" / "rooms_breakdown.md"
+    atomic_write_text(out, "\n".join(md) + "\n")
+    print("\n".join(md))
+
+
+if __name__ == "__main__":
+    main()
