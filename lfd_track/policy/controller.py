@@ -63,7 +63,6 @@ A policy does not import its trainer: the GA appears here only as a type for ``f
 from __future__ import annotations
 
 import json
-import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -77,7 +76,15 @@ from ..teaching.perception import Perception
 from ..utils.atomic import atomic_write_text
 from ..utils.files import parse_json_file_text, read_regular_text
 from ..vision.road_library import RoadLibrary
-from .controller_schema import CONTROLLER_SCHEMA, checksum, migrate
+from .controller_schema import (
+    CONTROLLER_SCHEMA,
+    MAX_ABS_WEIGHT,
+    check_ga_config,
+    checksum,
+    file_networks,
+    is_finite_number,
+    migrate,
+)
 from .elman import N_CONTEXT, ElmanCommander, ElmanState
 from .features import DEFAULT_FEATURES, FEATURE_SETS, check_features
 from .map_geometry import PAPER_GEOMETRY, MapGeometry
@@ -100,9 +107,6 @@ if TYPE_CHECKING:
 CONTROLLER_FORMAT = "lfd-track-controller"
 POLICY_KINDS = ("mlp-sigmoid", "elman-sigmoid")
 """Policy kinds this version of lfd-track can run."""
-MAX_ABS_WEIGHT = 1e6
-"""Largest weight magnitude accepted: beyond it every sigmoid is saturated (a road value is at
-most 1 and a layer has at most 40 inputs), so larger values only come from a damaged file."""
 MAX_FILE_BYTES = 256 << 20
 """Largest controller file read (a 100-model library at 256 bins is a few MB)."""
 
@@ -478,30 +482,12 @@ class Controller:
         bias = data["bias"]
         if not isinstance(bias, bool):
             raise ValueError("'bias' must be true or false")
-        weights = data["weights"]
-        networks = (
-            weights
-            if isinstance(weights, list) and weights and all(isinstance(w, list) for w in weights)
-            else [weights]
+        networks = file_networks(
+            data["weights"],
+            kind,
+            n_weights(bias, n_inputs, hidden),
+            f"layer_sizes {expected} {'with' if bias else 'without'} biases",
         )
-        if len(networks) > 1 and kind == "elman-sigmoid":
-            raise ValueError("an Elman network is one network, not an ensemble")
-        if not 1 <= len(networks) <= MAX_MEMBERS:
-            raise ValueError(f"'weights' must hold 1..{MAX_MEMBERS} networks, got {len(networks)}")
-        for index, net in enumerate(networks):
-            which = "" if len(networks) == 1 else f" (network {index + 1} of {len(networks)})"
-            if not isinstance(net, list) or not all(_is_finite_number(w) for w in net):
-                raise ValueError(
-                    "'weights' must be a list of finite numbers (or, for an ensemble, a list of"
-                    " such lists)"
-                )
-            if len(net) != n_weights(bias, n_inputs, hidden):
-                raise ValueError(
-                    f"expected {n_weights(bias, n_inputs, hidden)} weights for layer_sizes"
-                    f" {expected} {'with' if bias else 'without'} biases, got {len(net)}{which}"
-                )
-            if any(abs(w) > MAX_ABS_WEIGHT for w in net):
-                raise ValueError(f"'weights' must lie within +-{MAX_ABS_WEIGHT:g}")
         library = RoadLibrary.from_dict(data["road_library"])
         if library.n_models == 0:
             raise ValueError("the road library is empty (a controller cannot see the road)")
@@ -510,7 +496,7 @@ class Controller:
         if learner_config is not None and not isinstance(learner_config, dict):
             raise ValueError("'learner_config' must be a JSON object or null")
         if learner == "ga" and learner_config is not None:
-            _check_ga_config(learner_config, bias)
+            check_ga_config(learner_config, bias)
         seed = data["seed"]
         if seed is not None and (
             isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**64
@@ -519,7 +505,7 @@ class Controller:
         history = data["fitness_history"]
         if history is not None and (
             not isinstance(history, list)
-            or not all(_is_finite_number(f) and f >= 0 for f in history)
+            or not all(is_finite_number(f) and f >= 0 for f in history)
         ):
             raise ValueError("'fitness_history' must be a list of non-negative numbers or null")
         learn = data["learn"]
@@ -537,7 +523,7 @@ class Controller:
             )
         return cls(
             library,
-            np.asarray(weights, dtype=np.float64),
+            np.asarray(networks[0] if len(networks) == 1 else networks, dtype=np.float64),
             bias=bias,
             learner=learner,
             learner_config=learner_config,
@@ -588,34 +574,3 @@ def _check_library(library: Any) -> None:
             f"library must be a RoadLibrary, got {type(library).__name__} (a saved road library"
             " loads with RoadLibrary.from_dict, a saved controller with Controller.load(path))"
         )
-
-
-def _check_ga_config(config: dict[str, Any], bias: bool) -> None:
-    """Plausibility of a GA's settings without importing the GA (a policy never imports its
-    trainer): known keys, numbers where numbers belong, and the same ``bias`` as the weights."""
-    counts = ("population_size", "generations", "tournament_size", "elitism")
-    rates = ("mutation_rate", "mutation_delta", "init_range", "threshold")
-    unknown = sorted(set(config) - {*counts, *rates, "bias"})
-    if unknown:
-        raise ValueError(f"unknown GA config key '{unknown[0]}'")
-    for name in counts:
-        value = config.get(name, 0)
-        if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 10**9:
-            raise ValueError(f"GA config {name} must be an integer in 0..1e9, got {value!r}")
-    for name in rates:
-        value = config.get(name, 0.0)
-        if not _is_finite_number(value) or value < 0:
-            raise ValueError(f"GA config {name} must be a non-negative number, got {value!r}")
-    if not config.get("mutation_rate", 0.0) <= 1.0:
-        raise ValueError("GA config mutation_rate must be in [0, 1]")
-    if "bias" in config and config["bias"] != bias:
-        raise ValueError("'bias' disagrees with the GA config's bias")
-
-
-def _is_finite_number(value: Any) -> bool:
-    if not isinstance(value, (int, float)) or isinstance(value, bool):
-        return False
-    try:
-        return math.isfinite(float(value))
-    except OverflowError:  # an integer too large for a float
-        return False

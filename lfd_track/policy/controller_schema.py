@@ -1,4 +1,5 @@
-"""The controller file's schemas: the keys of each, and one migration per schema step.
+"""The controller file's schemas: the keys of each, one migration per schema step, and the checks
+of the fields a file holds as plain JSON (its weights, a GA's settings).
 
 A file of schema k is turned into one of schema k + 1 meaning the same controller by
 ``MIGRATIONS[k]`` (:func:`migrate` runs them up to :data:`CONTROLLER_SCHEMA`, after checking the
@@ -10,15 +11,20 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 from collections.abc import Callable, Mapping
 from typing import Any
 
 from .features import DEFAULT_FEATURES
 from .map_geometry import PAPER_GEOMETRY
 from .memory_config import memory_table_from_v1
+from .mlp import MAX_MEMBERS
 
 CONTROLLER_SCHEMA = 8
 """Schema every controller file is written in (older ones are migrated on reading)."""
+MAX_ABS_WEIGHT = 1e6
+"""Largest weight magnitude accepted: beyond it every sigmoid is saturated (a road value is at
+most 1 and a layer has at most 40 inputs), so larger values only come from a damaged file."""
 _KEYS_V2 = (
     "format",
     "schema_version",
@@ -160,3 +166,60 @@ def checksum(contents: Mapping[str, Any]) -> str:
     body = {k: v for k, v in contents.items() if k != "checksum"}
     text = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
+
+
+def file_networks(weights: Any, kind: str, size: int, layout: str) -> list[list[Any]]:
+    """The networks a (migrated) file's ``weights`` holds: one list of ``size`` finite numbers
+    within :data:`MAX_ABS_WEIGHT`, or for an ensemble 2..:data:`MAX_MEMBERS` such lists (not
+    for an Elman network, ``kind`` ``"elman-sigmoid"``); ``ValueError`` naming ``layout`` (the
+    layer sizes and biases the file states) otherwise."""
+    nested = isinstance(weights, list) and weights and all(isinstance(w, list) for w in weights)
+    networks = weights if nested else [weights]
+    if len(networks) > 1 and kind == "elman-sigmoid":
+        raise ValueError("an Elman network is one network, not an ensemble")
+    if not 1 <= len(networks) <= MAX_MEMBERS:
+        raise ValueError(f"'weights' must hold 1..{MAX_MEMBERS} networks, got {len(networks)}")
+    for index, net in enumerate(networks):
+        which = "" if len(networks) == 1 else f" (network {index + 1} of {len(networks)})"
+        if not isinstance(net, list) or not all(is_finite_number(w) for w in net):
+            raise ValueError(
+                "'weights' must be a list of finite numbers (or, for an ensemble, a list of such"
+                " lists)"
+            )
+        if len(net) != size:
+            raise ValueError(f"expected {size} weights for {layout}, got {len(net)}{which}")
+        if any(abs(w) > MAX_ABS_WEIGHT for w in net):
+            raise ValueError(f"'weights' must lie within +-{MAX_ABS_WEIGHT:g}")
+    return networks
+
+
+def check_ga_config(config: dict[str, Any], bias: bool) -> None:
+    """Plausibility of a GA's settings without importing the GA (a policy never imports its
+    trainer): known keys, numbers where numbers belong, and the same ``bias`` as the weights."""
+    counts = ("population_size", "generations", "tournament_size", "elitism")
+    rates = ("mutation_rate", "mutation_delta", "init_range", "threshold")
+    unknown = sorted(set(config) - {*counts, *rates, "bias"})
+    if unknown:
+        raise ValueError(f"unknown GA config key '{unknown[0]}'")
+    for name in counts:
+        value = config.get(name, 0)
+        if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 10**9:
+            raise ValueError(f"GA config {name} must be an integer in 0..1e9, got {value!r}")
+    for name in rates:
+        value = config.get(name, 0.0)
+        if not is_finite_number(value) or value < 0:
+            raise ValueError(f"GA config {name} must be a non-negative number, got {value!r}")
+    if not config.get("mutation_rate", 0.0) <= 1.0:
+        raise ValueError("GA config mutation_rate must be in [0, 1]")
+    if "bias" in config and config["bias"] != bias:
+        raise ValueError("'bias' disagrees with the GA config's bias")
+
+
+def is_finite_number(value: Any) -> bool:
+    """Whether ``value`` is a JSON number (int or float, not bool) with a finite float value."""
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
+        return False
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:  # an integer too large for a float
+        return False

@@ -90,9 +90,7 @@ class TeachConfig:
     class_balance: float = 1.0
     """With learner ``"bc"``: backprop's ``BCConfig.class_balance`` (1: each command the same)."""
     ensemble: int = 1
-    """With learner ``"bc"``: backprop's ``BCConfig.ensemble``, recorded for the controller fitted
-    from the recording (networks fitted from their own starting weights); the policy that may
-    take over while teaching is one network."""
+    """With learner ``"bc"``: ``BCConfig.ensemble``, recorded only (the policy is one network)."""
     mirror: bool = False
     """With ``online``: the learner fits the cases and their mirror images (``--mirror``)."""
     library_only: int = 0
@@ -492,9 +490,8 @@ def open_session(config: TeachConfig) -> LoopSession:
             **({"mirror": True} if config.mirror else {}),  # written only when on, as learner
         }
         if takeover.learner != "ga":  # a recording taught with the GA reads as it always did
-            balance = {} if config.class_balance == 1 else {"class_balance": config.class_balance}
-            if config.ensemble != 1:
-                balance["ensemble"] = config.ensemble
+            bc = {"class_balance": config.class_balance, "ensemble": config.ensemble}
+            balance = {k: v for k, v in bc.items() if v != 1}  # the settings given, as learner
             metadata["online_settings"].update(
                 learner=takeover.learner, epochs_per_case=takeover.epochs_per_case, **balance
             )
@@ -586,23 +583,17 @@ def _online_parts(config: TeachConfig, n_inputs: int) -> tuple[PolicyCommander, 
     policy = PolicyCommander(None)  # no policy until the first case was learned
     mirrored = partial(with_mirrored, memory=config.memory, features=config.features)
     training_set = mirrored if config.mirror else None  # what the learner fits
+    rng = np.random.default_rng(config.seed)
     if config.takeover.learner == "bc":
         bc = BCConfig(
             bias=config.ga_bias, class_balance=config.class_balance, ensemble=config.ensemble
         )
-        rng = np.random.default_rng(config.seed)
         epochs = config.takeover.epochs_per_case
         return policy, BCLearnerFeed(bc, rng, epochs, policy, n_inputs, training_set)
-    learner = GALearnerFeed(
-        GAConfig(
-            population_size=config.population_size,
-            bias=config.ga_bias,
-            mutation_delta=config.mutation_delta,
-        ),
-        np.random.default_rng(config.seed),
-        config.takeover.generations_per_case,
-        policy,
-        n_inputs,
-        training_set,
+    ga = GAConfig(
+        population_size=config.population_size,
+        bias=config.ga_bias,
+        mutation_delta=config.mutation_delta,
     )
-    return policy, learner
+    steps = config.takeover.generations_per_case
+    return policy, GALearnerFeed(ga, rng, steps, policy, n_inputs, training_set)
