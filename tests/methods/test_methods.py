@@ -324,6 +324,42 @@ def test_hg_dagger_by_backprop_fits_the_bc_network_again_after_every_round(tmp_p
         HGDaggerConfig(learner="cma-es")
 
 
+def test_hg_dagger_and_dagger_by_backprop_learn_an_ensemble(tmp_path):
+    """With backprop's ensemble (``BCConfig.ensemble``) the interventions' rounds and DAgger's
+    rounds are driven by, and end with, k networks driving by their mean outputs."""
+    from lfd_track.learning.bc import BCConfig
+    from lfd_track.methods import learn_dagger
+    from lfd_track.methods.dagger import DaggerConfig
+    from lfd_track.policy.memory import FreshFeltConfig
+
+    demo_seed, ga_seed, _ = _seeds(0)
+    bc = BCConfig(epochs=100, bias=True, ensemble=2)
+    kwargs = dict(demo_seed=demo_seed, ga_seed=ga_seed, preset="paper", bc=bc)
+    learned = learn_hg_dagger(
+        tmp_path / "hg",
+        **kwargs,
+        human=HumanConfig(clear_memory_per_leg=True),
+        memory=FreshFeltConfig(),
+        features="none",
+        mirror=True,
+        ga=GAConfig(generations=2),
+        hg=HGDaggerConfig(rounds=1, learner="bc"),
+    )
+    assert learned.controller.members == 2
+    assert learned.controller.learner_config["bc"]["ensemble"] == 2
+    assert 0.0 <= learned.training_accuracy <= 1.0
+    dagger = learn_dagger(
+        tmp_path / "dagger",
+        **kwargs,
+        human=HumanConfig(legs=1),
+        ga=GAConfig(generations=2),
+        dagger=DaggerConfig(rounds=1, learner="bc"),
+    )
+    assert dagger.controller.members == 2
+    dagger.controller.save(tmp_path / "dagger.json")
+    assert Controller.load(tmp_path / "dagger.json").members == 2
+
+
 def test_method_settings_round_trip_and_refuse_unknown_keys():
     online = OnlineConfig(window=6, threshold=0.5)
     assert OnlineConfig.from_dict(online.to_dict()) == online
