@@ -247,9 +247,12 @@ def run(args: argparse.Namespace) -> int:
     # BenchmarkConfig, by name).
     balance = 1.0 if args.bc_class_balance is None else args.bc_class_balance
     ensemble = 1 if args.bc_ensemble is None else args.bc_ensemble
-    backprop_flags = (
-        args.bc_bias or args.bc_class_balance is not None or args.bc_ensemble is not None
-    )
+    backprop_given = {
+        "--bc-bias": args.bc_bias,
+        "--bc-class-balance": args.bc_class_balance is not None,
+        "--bc-ensemble": args.bc_ensemble is not None,
+    }
+    backprop_flags = any(backprop_given.values())
     backprop: dict[str, Any] = (
         {"bc": BCConfig(bias=args.bc_bias, class_balance=balance, ensemble=ensemble)}
         if backprop_flags
@@ -285,13 +288,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"lfd-track benchmark: {exc}", file=sys.stderr)
         return EXIT_USAGE
     if backprop_flags and not fits_by_backprop(config):
-        flag = (
-            "--bc-bias"
-            if args.bc_bias
-            else "--bc-class-balance"
-            if args.bc_class_balance is not None
-            else "--bc-ensemble"
-        )
+        flag = next(name for name, on in backprop_given.items() if on)
         print(
             f"lfd-track benchmark: {flag} is for learners that use backprop (--method bc, or"
             f" --online-learner, --hg-dagger-learner or --dagger-learner bc), not {args.method}",

@@ -251,8 +251,15 @@ def fit_bc(
     hidden = check_hidden(hidden)
     cases = checked_cases(inputs, actions)  # checked once; the epochs use the checked arrays
     fits = [_fit_one(cases, config, rng, hidden) for _ in range(config.ensemble)]
-    weights = fits[0][0] if len(fits) == 1 else np.stack([w for w, _ in fits])
-    history = np.mean([h for _, h in fits], axis=0) if len(fits) > 1 else fits[0][1]
+    if len(fits) == 1:
+        return bc_fit(*fits[0], config)
+    weights = np.stack([w for w, _ in fits])
+    return bc_fit(weights, np.mean([h for _, h in fits], axis=0), config)
+
+
+def bc_fit(weights: np.ndarray, history: np.ndarray, config: BCConfig) -> LearnerFit:
+    """The :class:`LearnerFit` of backprop's ``weights`` (one network, or an ensemble's) whose
+    Algorithm 3 fitness per epoch is ``history``; the fit's fitness is its last epoch's."""
     return LearnerFit(
         weights=weights,
         fitness=float(history[-1]),

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..policy.elman import N_CONTEXT, elman_sequence, elman_weights
 from ..policy.mlp import N_HIDDEN, N_OUTPUTS, sigmoid
-from .bc import BCConfig, adam_step
+from .bc import BCConfig, adam_step, bc_fit
 from .fitness import _OTHERS, _category_weights, _check_threshold
 from .ga import EvolutionResult, GAConfig, ga_ask, ga_init, ga_result, ga_tell
 from .result import LearnerFit, check_cases, check_config
@@ -226,10 +226,4 @@ def fit_bc_elman(
     history[-1] = sequence_fitness(weights[None], x, a, starts, config.threshold, bias=config.bias)[
         0
     ]
-    return LearnerFit(
-        weights=weights,
-        fitness=float(history[-1]),
-        history=history,
-        learner="bc",
-        config=config.to_dict(),
-    )
+    return bc_fit(weights, history, config)

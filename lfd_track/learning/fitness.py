@@ -249,6 +249,5 @@ def training_accuracy(
             f" {np.shape(weights)}"
         )
     w, bias = check_weights(np.atleast_2d(np.asarray(weights)), x.shape[1], None, hidden)
-    members = w[0] if np.ndim(weights) == 1 else w
-    predicted = ensemble_forward(members, x, bias=bias, hidden=hidden).argmax(axis=1)
+    predicted = ensemble_forward(w, x, bias=bias, hidden=hidden).argmax(axis=1)  # one: its own
     return float((predicted == a).mean())
