@@ -1,6 +1,6 @@
-"""Rounds 21-24 read lap by lap: each world against the paper world on the very same laps.
+"""Rounds 21-26 read lap by lap: each world against the paper world on the very same laps.
 
-Every world of rounds 21-24 drives the same 200 validation laps (seed 100, repetitions 0-9, ten
+Every world of rounds 21-26 on seed 100 drives the same 200 validation laps (seed 100, repetitions 0-9, ten
 loops once each way), so two worlds can be compared lap by lap: the laps one world laps and the
 other does not (lost) and the other way round (gained). With ``n`` such discordant laps the net
 difference moves by about ``sqrt(n)`` between draws of the same worlds (the sign test's spread);
@@ -20,7 +20,7 @@ from pathlib import Path
 HERE = Path(__file__).resolve().parent
 GOAL = HERE.parent
 OUT = HERE / "results"
-R21, R22, R23 = (GOAL / f"round{k}" / "results" for k in (21, 22, 23))
+R21, R22, R23, R26 = (GOAL / f"round{k}" / "results" for k in (21, 22, 23, 26))
 R24 = HERE / "results"
 #: (label, baseline folder, world folder): the learned policy, then the rule on the same map.
 PAIRS = [
@@ -54,6 +54,16 @@ PAIRS = [
         R21 / "rooms_round21/rooms.round20+visual",
         R21 / "rooms_round21/rooms.round20+visual+levels",
     ),
+    (
+        "learned, full room: without its cast (round 26)",
+        R22 / "room_parts/rooms.round20+visual",
+        R26 / "cast/rooms_nocast.round20+visual",
+    ),
+    (
+        "learned, look only: without its cast (round 26)",
+        R22 / "room_parts/look.round20+visual",
+        R26 / "cast/look_nocast.round20+visual",
+    ),
     ("rule: look only", R22 / "rules_paper", R22 / "rules_look"),
     ("rule: mount and treads only", R22 / "rules_paper", R22 / "rules_mount"),
     ("rule: camera only", R22 / "rules_paper", R23 / "rules_camera"),
@@ -61,6 +71,12 @@ PAIRS = [
     ("rule: full room", R22 / "rules_paper", R22 / "rules_rooms"),
     ("rule, look only: library levels", R22 / "rules_look", R23 / "rules_levels_look"),
     ("rule, full room: library levels", R22 / "rules_rooms", R23 / "rules_levels_rooms"),
+    (
+        "rule, full room: without its cast (round 26)",
+        R22 / "rules_rooms",
+        R26 / "rules_rooms_nocast",
+    ),
+    ("rule, look only: without its cast (round 26)", R22 / "rules_look", R26 / "rules_look_nocast"),
     ("rule, paper world: nominal motion", R22 / "rules_paper", R24 / "rules_nominal_paper"),
     ("rule, look only: nominal motion", R22 / "rules_look", R24 / "rules_nominal_look"),
 ]
@@ -78,7 +94,7 @@ def laps(folder: Path) -> dict[tuple, bool]:
 
 def main() -> None:
     lines = [
-        "# Rounds 21-24 lap by lap against the same laps elsewhere",
+        "# Rounds 21-26 lap by lap against the same laps elsewhere",
         "",
         "Of the 200 validation laps: lapped in the first world and not in the second (lost), the",
         "other way round (gained); z = net / sqrt(lost + gained).",
