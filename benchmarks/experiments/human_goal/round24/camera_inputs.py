@@ -41,6 +41,7 @@ from lfd_track.study.spec import load_study
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))
+from room_measures import repetition_laps, write_page  # noqa: E402
 from study_repetition import learned_repetition  # noqa: E402
 
 OUT = HERE / "results"
@@ -49,9 +50,6 @@ WORLDS = {
     "camera": (HERE.parent / "round23" / "room_quarters.toml", "camera.round20+visual"),
 }
 INPUTS = ("bearing", "amount", "distance", "branch side")
-#: The learned policy's laps per room (of 20) in the paper world and the camera-only rooms.
-PAPER_LAPS = [20, 19, 20, 16, 17, 20, 19, 20, 19, 18]
-CAMERA_LAPS = [20, 20, 20, 15, 15, 20, 16, 17, 20, 18]
 
 
 def _cases(job: tuple[str, int, int]) -> tuple[str, int, np.ndarray, np.ndarray, np.ndarray]:
@@ -77,6 +75,11 @@ def main() -> None:
         got = {(w, i): (m, c, p) for w, i, m, c, p in pool.map(_cases, jobs)}
     paper_all = np.concatenate([got[("paper", i)][0] for i in range(10)])
     spread = paper_all.std(axis=0)
+    paper_laps = repetition_laps(HERE.parent / "round22/results/room_parts/paper.round20+visual")
+    camera_laps = repetition_laps(
+        HERE.parent / "round23/results/room_quarters/camera.round20+visual"
+    )
+    lost = [paper_laps[i][0] - camera_laps[i][0] for i in range(10)]
     rows, changes, matched, total = [], [], 0, 0
     for i in range(10):
         (mp, cp, pp), (mc, cc, pc) = got[("paper", i)], got[("camera", i)]
@@ -96,7 +99,7 @@ def main() -> None:
         rows.append(
             f"| {i} | {len(cp)} / {len(cc)} | {int(keep.sum())} | "
             + " | ".join(f"{v:.2f}" for v in per)
-            + f" | {PAPER_LAPS[i] - CAMERA_LAPS[i]:+d} |"
+            + f" | {lost[i]:+d} |"
         )
     pooled = np.concatenate(changes).mean(axis=0) / spread
     verdicts = []
@@ -120,7 +123,11 @@ def main() -> None:
         + " | laps lost by the learned policy |",
         "|---|---|---|" + "---|" * len(INPUTS) + "---|",
         *rows,
-        "| pooled | | " + str(matched) + " | " + " | ".join(f"{v:.2f}" for v in pooled) + " | +7 |",
+        "| pooled | | "
+        + str(matched)
+        + " | "
+        + " | ".join(f"{v:.2f}" for v in pooled)
+        + f" | {sum(lost):+d} |",
         "",
         "Spread in the paper world's cases: "
         + ", ".join(f"{n} {s:.3f}" for n, s in zip(INPUTS, spread, strict=True))
@@ -128,9 +135,7 @@ def main() -> None:
         "",
         "**By the rule:** " + "; ".join(verdicts) + ".",
     ]
-    OUT.mkdir(parents=True, exist_ok=True)
-    (OUT / "camera_inputs.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    print("\n".join(lines))
+    write_page(OUT / "camera_inputs.md", lines)
 
 
 if __name__ == "__main__":

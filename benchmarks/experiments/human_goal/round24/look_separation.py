@@ -30,7 +30,6 @@ Writes ``results/look_separation.json`` and ``results/look_separation.md``.
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import json
 import sys
 from concurrent.futures import ProcessPoolExecutor
@@ -43,29 +42,33 @@ from lfd_track.benchmark.runner import repetition_preset, repetition_seeds
 from lfd_track.study.spec import load_study
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+from room_measures import (  # noqa: E402
+    repetition_laps,
+    robustness_felt_levels,
+    spearman,
+    write_page,
+)
+
 OUT = HERE / "results"
 STUDY = HERE.parent / "round22" / "room_parts.toml"
 LOOK = "look.round20+visual"
-#: Round 22's laps per room (of 20), repetitions 0-9: the paper world and the look-only rooms,
-#: the learned policy and the rule (../round22/README.md).
-LEARNED = {
-    "paper": [20, 19, 20, 16, 17, 20, 19, 20, 19, 18],
-    "look": [18, 20, 20, 14, 15, 20, 16, 20, 20, 16],
-}
-RULE = {
-    "paper": [20, 18, 20, 14, 15, 20, 15, 20, 19, 19],
-    "look": [19, 20, 19, 12, 15, 20, 16, 19, 17, 14],
-}
+#: Round 22's results: the learned policy's (one folder per condition) and the rule's.
+ROUND22 = HERE.parent / "round22" / "results"
 
 
-def _felt_levels_module() -> Any:
-    path = HERE.parents[1] / "robustness" / "felt_levels.py"
-    spec = importlib.util.spec_from_file_location("robustness_felt_levels", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
+def _loss() -> np.ndarray:
+    """Per room (repetitions 0-9): loop laps in the paper world minus in the look-only room,
+    the learned policy's and the rule's summed (round 22's committed results)."""
+    folders = {
+        "learned": (ROUND22 / "room_parts/paper.round20+visual", ROUND22 / f"room_parts/{LOOK}"),
+        "rule": (ROUND22 / "rules_paper", ROUND22 / "rules_look"),
+    }
+    loss = np.zeros(10)
+    for paper, look in folders.values():
+        before, after = repetition_laps(paper), repetition_laps(look)
+        loss += [before[k][0] - after[k][0] for k in range(10)]
+    return loss
 
 
 def _worlds() -> list[tuple[str, Any]]:
@@ -77,17 +80,8 @@ def _worlds() -> list[tuple[str, Any]]:
 
 def _one(item: tuple[str, Any]) -> tuple[str, dict[str, Any]]:
     name, world = item
-    result = _felt_levels_module().separation(world)
+    result = robustness_felt_levels().separation(world)
     return name, result
-
-
-def _ranks(values: np.ndarray) -> np.ndarray:
-    order = np.argsort(values, kind="stable")
-    ranks = np.empty(len(values))
-    ranks[order] = np.arange(len(values))
-    for v in np.unique(values):  # ties share their mean rank
-        ranks[values == v] = ranks[values == v].mean()
-    return ranks
 
 
 def main() -> None:
@@ -102,9 +96,9 @@ def main() -> None:
         json.dumps(results, indent=1, default=float) + "\n", encoding="utf-8"
     )
     paper = results["paper"]["scores"]["fixed"]["share_right"]
-    loss = np.array(LEARNED["paper"]) - LEARNED["look"] + np.array(RULE["paper"]) - RULE["look"]
+    loss = _loss()
     right = np.array([results[f"look{k}"]["scores"]["fixed"]["share_right"] for k in range(10)])
-    rho = float(np.corrcoef(_ranks(right), _ranks(loss.astype(float)))[0, 1])
+    rho = spearman(right, loss)
     lines = [
         "# Felt/carpet separation of the road values in round 22's look-only rooms",
         "",
@@ -140,8 +134,7 @@ def main() -> None:
         f" {right.mean():.3f} against the paper world's {paper:.3f} ({100 * mean_gap:+.1f} points"
         f" under it). **By the rule: {verdict}.**",
     ]
-    (OUT / "look_separation.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    print("\n".join(lines))
+    write_page(OUT / "look_separation.md", lines)
 
 
 if __name__ == "__main__":

@@ -13,56 +13,47 @@ Writes ``results/paired_laps.md``.
 
 from __future__ import annotations
 
-import json
 import math
+import sys
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 GOAL = HERE.parent
+sys.path.insert(0, str(GOAL))
+from room_measures import loop_laps, write_page  # noqa: E402
+
 OUT = HERE / "results"
 R21, R22, R23, R26 = (GOAL / f"round{k}" / "results" for k in (21, 22, 23, 26))
 R24 = HERE / "results"
+
+
+def learned(folder: Path, world: str) -> Path:
+    """The results of round 20's winner with the measured motion in ``world`` under ``folder``."""
+    return folder / f"{world}.round20+visual"
+
+
+PARTS, QUARTERS, CAST = R22 / "room_parts", R23 / "room_quarters", R26 / "cast"
 #: (label, baseline folder, world folder): the learned policy, then the rule on the same map.
 PAIRS = [
-    (
-        "learned: look only",
-        R22 / "room_parts/paper.round20+visual",
-        R22 / "room_parts/look.round20+visual",
-    ),
-    (
-        "learned: mount and treads only",
-        R22 / "room_parts/paper.round20+visual",
-        R22 / "room_parts/mount.round20+visual",
-    ),
-    (
-        "learned: camera only",
-        R22 / "room_parts/paper.round20+visual",
-        R23 / "room_quarters/camera.round20+visual",
-    ),
-    (
-        "learned: treads only",
-        R22 / "room_parts/paper.round20+visual",
-        R23 / "room_quarters/treads.round20+visual",
-    ),
-    (
-        "learned: full room",
-        R22 / "room_parts/paper.round20+visual",
-        R22 / "room_parts/rooms.round20+visual",
-    ),
+    ("learned: look only", learned(PARTS, "paper"), learned(PARTS, "look")),
+    ("learned: mount and treads only", learned(PARTS, "paper"), learned(PARTS, "mount")),
+    ("learned: camera only", learned(PARTS, "paper"), learned(QUARTERS, "camera")),
+    ("learned: treads only", learned(PARTS, "paper"), learned(QUARTERS, "treads")),
+    ("learned: full room", learned(PARTS, "paper"), learned(PARTS, "rooms")),
     (
         "learned, full room: library levels (round 21)",
-        R21 / "rooms_round21/rooms.round20+visual",
+        learned(R21 / "rooms_round21", "rooms"),
         R21 / "rooms_round21/rooms.round20+visual+levels",
     ),
     (
         "learned, full room: without its cast (round 26)",
-        R22 / "room_parts/rooms.round20+visual",
-        R26 / "cast/rooms_nocast.round20+visual",
+        learned(PARTS, "rooms"),
+        learned(CAST, "rooms_nocast"),
     ),
     (
         "learned, look only: without its cast (round 26)",
-        R22 / "room_parts/look.round20+visual",
-        R26 / "cast/look_nocast.round20+visual",
+        learned(PARTS, "look"),
+        learned(CAST, "look_nocast"),
     ),
     ("rule: look only", R22 / "rules_paper", R22 / "rules_look"),
     ("rule: mount and treads only", R22 / "rules_paper", R22 / "rules_mount"),
@@ -82,16 +73,6 @@ PAIRS = [
 ]
 
 
-def laps(folder: Path) -> dict[tuple, bool]:
-    """Each loop lap's success, keyed by (repetition, loop, direction, trial)."""
-    out: dict[tuple, bool] = {}
-    for path in sorted(folder.rglob("results.json")):
-        for o in json.loads(path.read_text(encoding="utf-8"))["outcomes"]:
-            if o["track"] not in ("training", "testing"):
-                out[(o["repetition"], o["track"], o["direction"], o.get("trial", 0))] = o["success"]
-    return out
-
-
 def main() -> None:
     lines = [
         "# Rounds 21-26 lap by lap against the same laps elsewhere",
@@ -103,7 +84,7 @@ def main() -> None:
         "|---|---|---|---|---|---|---|",
     ]
     for label, first, second in PAIRS:
-        a, b = laps(first), laps(second)
+        a, b = loop_laps(first), loop_laps(second)
         if set(a) != set(b) or len(a) != 200:
             raise SystemExit(f"{label}: the two folders do not hold the same 200 laps")
         lost = sum(a[k] and not b[k] for k in a)
@@ -113,9 +94,7 @@ def main() -> None:
             f"| {label} | {sum(a.values())} | {sum(b.values())} | {lost} | {gained}"
             f" | {gained - lost:+d} | {z:+.1f} |"
         )
-    OUT.mkdir(parents=True, exist_ok=True)
-    (OUT / "paired_laps.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    print("\n".join(lines))
+    write_page(OUT / "paired_laps.md", lines)
 
 
 if __name__ == "__main__":

@@ -19,7 +19,6 @@ Writes ``results/room_dissection.md`` (some 40 s per world on two workers).
 from __future__ import annotations
 
 import argparse
-import json
 import re
 import subprocess
 import sys
@@ -27,6 +26,9 @@ import tempfile
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+from room_measures import repetition_laps  # noqa: E402
+
 REPO = HERE.parents[3]
 STUDY = HERE / "rooms_round25.toml"
 RULES = REPO / "benchmarks" / "experiments" / "generalization" / "rules.py"
@@ -49,19 +51,6 @@ WORLDS = [
     ("sensor: vignetting only", HERE / "presets/look_vignetting.toml"),
 ]
 MAP = ["branch_side=true", "branch_window=commands", "motion=visual"]
-
-
-def _laps(folder: Path) -> dict[int, list[int]]:
-    """Per repetition: [loop laps, training-track runs] lapped."""
-    out: dict[int, list[int]] = {}
-    for path in folder.rglob("results.json"):
-        for o in json.loads(path.read_text(encoding="utf-8"))["outcomes"]:
-            row = out.setdefault(o["repetition"], [0, 0])
-            if o["track"] == "training":
-                row[1] += int(o["success"])
-            elif o["track"] != "testing":
-                row[0] += int(o["success"])
-    return out
 
 
 def main() -> None:
@@ -91,7 +80,7 @@ def main() -> None:
             command += [arg for pair in MAP for arg in ("--map", pair)]
             command += ["--out", str(out), "--workers", str(args.workers)]
             subprocess.run(command, check=True, capture_output=True, cwd=REPO)
-            laps = _laps(out)
+            laps = repetition_laps(out)
             lines.append(f"| {label} | {laps[0][0]} | {laps[0][1]} | {laps[1][0]} | {laps[1][1]} |")
             print(lines[-1], flush=True)
     (HERE / "results").mkdir(exist_ok=True)

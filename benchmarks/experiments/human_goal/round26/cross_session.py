@@ -24,7 +24,6 @@ Writes ``results/cross_session.md`` (well under a minute on two workers).
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import sys
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -41,20 +40,13 @@ from lfd_track.vision.road_library import RoadLibrary
 from lfd_track.world.driver import CentrelineDriver
 
 HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent))
+from room_measures import robustness_felt_levels, write_page  # noqa: E402
+
 OUT = HERE / "results"
 STUDY = HERE.parent / "round22" / "room_parts.toml"
 SESSIONS = (0, 1, 2, 3, 4)
 CORRECTIONS = ("none", "session grey world")
-
-
-def _felt_levels_module() -> Any:
-    path = HERE.parents[1] / "robustness" / "felt_levels.py"
-    spec = importlib.util.spec_from_file_location("robustness_felt_levels", path)
-    assert spec is not None and spec.loader is not None
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    spec.loader.exec_module(module)
-    return module
 
 
 class _SessionBalance:
@@ -75,7 +67,7 @@ class _SessionBalance:
 
 def _scores(job: tuple[str, Any, str]) -> tuple[str, str, list[float]]:
     name, world, correction = job
-    fl = _felt_levels_module()
+    fl = robustness_felt_levels()
     env = LfDTrackEnv(track="testing", preset=world)
     obs, info = env.reset(seed=0)
     driver = CentrelineDriver(env.track)
@@ -145,9 +137,7 @@ def main() -> None:
             f"{c}: session 0 mean {np.mean(taught):.3f}; sessions 1-4 mean {np.mean(pooled):.3f},"
             f" worst {min(pooled):.3f}."
         )
-    OUT.mkdir(parents=True, exist_ok=True)
-    (OUT / "cross_session.md").write_text("\n".join(lines) + "\n", encoding="utf-8")
-    print("\n".join(lines))
+    write_page(OUT / "cross_session.md", lines)
 
 
 if __name__ == "__main__":

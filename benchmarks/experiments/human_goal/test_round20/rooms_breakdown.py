@@ -14,6 +14,7 @@ writes ``results/rooms_breakdown.md`` (a few seconds).
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +22,9 @@ import numpy as np
 from lfd_track.benchmark.runner import repetition_preset, repetition_seeds
 from lfd_track.study.spec import load_study
 from lfd_track.utils.atomic import atomic_write_text
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from room_measures import spearman  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 STUDY = HERE / "test_rooms20.toml"
@@ -104,23 +108,15 @@ def main() -> None:
     ]
     share = np.array([r[2]["loops"][0] / r[2]["loops"][1] for r in rows])
 
-    def ranks(v: np.ndarray) -> np.ndarray:
-        order = np.argsort(v, kind="stable")
-        out = np.empty(len(v))
-        out[order] = np.arange(len(v))
-        for value in np.unique(v):  # ties share their mean rank
-            out[v == value] = out[v == value].mean()
-        return out
-
     for n in names:
         values = np.array([r[1][n] for r in rows])
-        rho = float(np.corrcoef(ranks(values), ranks(share))[0, 1])
+        rho = spearman(values, share)
         md += [
             f"| {n} | {np.mean([r[1][n] for r in good]):.3g} | "
             f"{np.mean([r[1][n] for r in bad]):.3g} | {rho:+.2f} |"
         ]
     rule_share = np.array([r[3]["loops"][0] / r[3]["loops"][1] for r in rows])
-    rho = float(np.corrcoef(ranks(rule_share), ranks(share))[0, 1])
+    rho = spearman(rule_share, share)
     md += [
         "",
         f"Spearman between the learned policy's and the rule's loop share per room: {rho:+.2f}",

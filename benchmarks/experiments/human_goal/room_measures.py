@@ -1,0 +1,83 @@
+"""What the rooms rounds' scripts of this folder share (``round24/``, ``round25/``, ``round26/``,
+``test_round20/rooms_breakdown.py``): reading a results folder's laps, a rank correlation, the
+robustness study's ground-truth scoring of road values, and writing a result page.
+
+A script puts this folder on ``sys.path`` (as for ``study_repetition.py``) and imports from here.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.util
+import json
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+
+from lfd_track.utils.atomic import atomic_write_text
+
+HERE = Path(__file__).resolve().parent
+#: The robustness study's script whose ground truth (``felt_share``, ``felt_level``) and
+#: within-session score (``separation``) the rounds reuse.
+FELT_LEVELS_SCRIPT = HERE.parent / "robustness" / "felt_levels.py"
+
+
+def loop_laps(folder: Path) -> dict[tuple, bool]:
+    """Each loop lap's success under ``folder`` (every ``results.json`` in it, a study condition's
+    or a rules run's), keyed by (repetition, loop, direction, trial): the training track and the
+    testing track left out."""
+    out: dict[tuple, bool] = {}
+    for path in sorted(folder.rglob("results.json")):
+        for o in json.loads(path.read_text(encoding="utf-8"))["outcomes"]:
+            if o["track"] not in ("training", "testing"):
+                out[(o["repetition"], o["track"], o["direction"], o.get("trial", 0))] = o["success"]
+    return out
+
+
+def repetition_laps(folder: Path) -> dict[int, tuple[int, int]]:
+    """Per repetition under ``folder``: (loop laps lapped, training-track runs lapped)."""
+    loops: dict[int, int] = {}
+    training: dict[int, int] = {}
+    for path in sorted(folder.rglob("results.json")):
+        for o in json.loads(path.read_text(encoding="utf-8"))["outcomes"]:
+            counts = training if o["track"] == "training" else loops
+            if o["track"] != "testing":
+                counts[o["repetition"]] = counts.get(o["repetition"], 0) + int(o["success"])
+    return {
+        r: (loops.get(r, 0), training.get(r, 0)) for r in sorted(loops.keys() | training.keys())
+    }
+
+
+def spearman(a: np.ndarray, b: np.ndarray) -> float:
+    """Spearman's rank correlation of ``a`` and ``b`` (ties share their mean rank)."""
+    return float(np.corrcoef(_ranks(np.asarray(a)), _ranks(np.asarray(b)))[0, 1])
+
+
+def _ranks(values: np.ndarray) -> np.ndarray:
+    order = np.argsort(values, kind="stable")
+    ranks = np.empty(len(values))
+    ranks[order] = np.arange(len(values))
+    for v in np.unique(values):  # ties share their mean rank
+        ranks[values == v] = ranks[values == v].mean()
+    return ranks
+
+
+@functools.cache
+def robustness_felt_levels() -> ModuleType:
+    """``../robustness/felt_levels.py`` loaded as a module (it is a script, not a package)."""
+    spec = importlib.util.spec_from_file_location("robustness_felt_levels", FELT_LEVELS_SCRIPT)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def write_page(path: Path, lines: list[str]) -> None:
+    """Write a result page (markdown lines) atomically, creating its folder, and print it."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    text = "\n".join(lines) + "\n"
+    atomic_write_text(path, text)
+    print(text, end="")
