@@ -58,6 +58,9 @@ BLANK_DISTANCES = ("blank_reach", "reach")
 MAP_GEOMETRIES = ("world", "paper", "calibrated")
 #: How the ``fresh_felt`` map tells felt from carpet in the road values (``felt_levels``).
 FELT_LEVELS = ("fixed", "library")
+#: How a driving session's frames are colour balanced before the road library reads them
+#: (``colour_balance``; :mod:`lfd_track.vision.colour_balance`).
+COLOUR_BALANCES = ("none", "safe_box")
 #: How the ``fresh_felt`` map moves at each executed command (``motion``;
 #: :mod:`lfd_track.policy.odometry`).
 MAP_MOTIONS = ("nominal", "visual")
@@ -315,6 +318,14 @@ class FreshFeltConfig(MemoryConfig):
         " world's levels) or library (levels read from the road values the library gave in the"
         " world it runs in, lfd_track.vision.felt_levels)",
         choices=FELT_LEVELS,
+    )
+    colour_balance: str = setting(
+        "none",
+        "driving with a finished library: none (frames as the camera gives them) or safe_box"
+        " (each camera session's colour gains matched so that the safe box's felt has the"
+        " library's felt colour, lfd_track.vision.colour_balance; the road values and the map"
+        " read the balanced frames)",
+        choices=COLOUR_BALANCES,
     )
     motion: str = setting(
         "nominal",

@@ -42,6 +42,7 @@ from ..policy.memory import (
     memory_for,
     policy_inputs,
 )
+from ..vision.colour_balance import SafeBoxBalance
 from ..vision.felt_levels import RoadValueLevels
 from ..vision.road_library import RoadLibrary
 
@@ -151,6 +152,14 @@ class Perception:
         )
         """The road values' felt and carpet levels read so far (None: fixed levels)."""
         self._levels_used: tuple[float, float] | None = None  # at the last perceived frame
+        # A map with colour_balance = "safe_box" balances a driving session's frames.
+        self.balance: SafeBoxBalance | None = (
+            SafeBoxBalance()
+            if isinstance(memory, FreshFeltConfig) and memory.colour_balance == "safe_box"
+            else None
+        )
+        """This camera session's colour balance (None: frames as they come); it acts only while
+        the rule is ``frozen`` (a finished library, the reference it matches)."""
         if world_geometry is not None and self.map_geometry is not None:
             _report_geometry(self.map_geometry, world_geometry)
 
@@ -203,9 +212,13 @@ class Perception:
         if self._expected_shape is not None and frame.shape != self._expected_shape:
             self._report_size(frame)
         learn = self.would_learn(box_on_felt)
+        seen = frame
+        if self.balance is not None and self._rule == "frozen":
+            self.balance.update(frame, self.library)
+            seen = self.balance.apply(frame)
         if learn:
-            self.library.learn(frame)
-        histograms = self.library.region_histograms(frame)
+            self.library.learn(seen)
+        histograms = self.library.region_histograms(seen)
         values = self.library.road_values_from_histograms(
             histograms, update_statistics=self._rule != "frozen"
         )
@@ -242,9 +255,9 @@ class Perception:
         The road values come from the library as it is (nothing learned, nothing counted), the
         memory inputs from the memory as it was before the last frame, placed there
         (:meth:`~lfd_track.policy.memory.FreshFeltMemory.place_before`) and shown ``frame``.
-        Nothing in this perception changes.
+        Nothing in this perception changes (a colour balance applies its gains as they are).
         """
-        histograms = self.library.region_histograms(frame)
+        histograms = self.library.region_histograms(self._balanced(frame))
         values = self.library.road_values_from_histograms(histograms, update_statistics=False)
         memory = np.zeros(0)
         if self._memory_before is not None:  # set with the memory, None without one
@@ -282,8 +295,15 @@ class Perception:
         )
 
     def look(self, frame: np.ndarray) -> np.ndarray:
-        """Road values (40,) float64 of a frame without touching the library (no counts)."""
-        return self.library.road_values(frame, update_statistics=False)
+        """Road values (40,) float64 of a frame without touching the library (no counts; a
+        colour balance applies its gains as they are)."""
+        return self.library.road_values(self._balanced(frame), update_statistics=False)
+
+    def _balanced(self, frame: np.ndarray) -> np.ndarray:
+        """``frame`` with this session's colour gains (itself without a balance at work)."""
+        if self.balance is None or self._rule != "frozen":
+            return frame
+        return self.balance.apply(frame)
 
 
 def _report_geometry(learned: MapGeometry, world: MapGeometry) -> None:

@@ -198,6 +198,7 @@ def test_kind_fresh_felt_alone_is_the_chosen_configurations_map(tmp_path):
         "visited_fade_m": 0.3,
         "geometry": "paper",
         "felt_levels": "fixed",
+        "colour_balance": "none",
         "motion": "nominal",
         "branch_side": False,
         "branch_window": "forward",

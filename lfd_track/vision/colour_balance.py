@@ -1,0 +1,125 @@
+"""A camera session's colour balance, matched to the road library's felt.
+
+A phone sets its white balance anew in every camera session: the same felt comes out a few per
+cent redder in one session and bluer in the next (the simulated camera's ``white_balance_cast``,
+:mod:`lfd_track.render.camera`). A road library taught in one session reads the felt of another
+session with a shifted colour, and its road values drop or, on a carpet of a near colour, rise.
+
+:class:`SafeBoxBalance` estimates the session's channel gains from the picture alone, anchored on
+what the library already knows: the library's models are histograms of the safe box on the felt
+(Algorithm 1), so the safe box of a frame that shows felt should have the colour of the model it
+matches best. Each frame:
+
+1. the safe box of the frame as the camera gave it is compared with the model nearest it in
+   brightness (the felt in a light pool or in a shadow): the mean R, G and B of the two
+   histograms (normalised the same way, so their binning and scaling cancel), as log ratios with
+   the brightness removed (their mean over the channels). The model is not picked by its
+   histogram's similarity: that favours models whose colour happens to be shifted as this
+   session's is, and would leave part of the cast in place;
+2. the frame is a sample of the felt if no channel differs by more than :data:`MAX_LOG_GAIN`
+   and, once :data:`SETTLE_SAMPLES` samples are in, none lies further than
+   :data:`MAX_LOG_SPREAD` from their median (a safe box on the carpet differs by more, and
+   differently from frame to frame; a run starts with its safe box on the felt);
+3. the gains are the inverse of the samples' median ratio: they bring the session's felt to the
+   library's colour. Only the colour is corrected, not the brightness (the camera's exposure
+   already follows the scene, and a darker model may be felt in a shadow).
+
+Frames are then scaled per channel by the gains (a lookup table) before the library reads them.
+The balance works for a finished library only (a perception whose rule is ``frozen``): while a
+library learns, the session it learns in is its reference. Nothing is stored, the reference is
+the library itself, so a controller file needs no new data, and each driving session (a new
+:class:`~lfd_track.teaching.perception.Perception`) starts from gains 1.
+
+Measured across camera sessions of the paper world and ten rooms drawn from the ``randomized``
+ranges: ``benchmarks/experiments/human_goal/round26/cross_session.py``.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from .road_library import RoadLibrary
+
+#: Largest colour difference [natural log of a channel's ratio, brightness removed] a sample may
+#: show from its model: about 35 % in one channel, beyond any camera session's cast (a safe box
+#: on the carpet usually differs more).
+MAX_LOG_GAIN = 0.3
+#: Once :data:`SETTLE_SAMPLES` samples are in, a sample must also lie this close [log ratio, each
+#: channel] to their median: felt samples of one session agree within a few hundredths, a safe
+#: box on the carpet or half on it does not.
+MAX_LOG_SPREAD = 0.08
+#: Samples after which :data:`MAX_LOG_SPREAD` applies (a run starts with its safe box on the felt).
+SETTLE_SAMPLES = 5
+#: Samples kept for the median (the most recent; a session's cast does not change).
+MAX_SAMPLES = 2000
+
+
+def histogram_means(hists: np.ndarray) -> np.ndarray:
+    """Mean level of the R, G, B histograms of models, (..., 5, bins) -> (..., 3) float64 in
+    [0, 256): each bin at its centre, weighted by its (normalised) height."""
+    h = np.asarray(hists, dtype=np.float64)[..., :3, :]
+    bins = h.shape[-1]
+    centres = (np.arange(bins) + 0.5) * (256.0 / bins)
+    total = h.sum(axis=-1)
+    return np.asarray(h @ centres / np.where(total > 0, total, 1.0))
+
+
+class SafeBoxBalance:
+    """The colour gains of one camera session (see the module docstring)."""
+
+    def __init__(self) -> None:
+        self._samples: list[np.ndarray] = []
+        self._log_gains = np.zeros(3)
+        self._models: tuple[np.ndarray, np.ndarray] | None = None  # models, their log colours
+        self._table: np.ndarray | None = None  # (1, 256, 3) uint8 levels; None: identity
+
+    @property
+    def gains(self) -> np.ndarray:
+        """The channel gains applied to frames, (3,) float64 (ones until a sample is in)."""
+        return np.exp(self._log_gains)
+
+    @property
+    def samples(self) -> int:
+        """Frames counted as felt samples so far."""
+        return len(self._samples)
+
+    def update(self, frame: np.ndarray, library: RoadLibrary) -> None:
+        """Count ``frame`` (RGB uint8, as the camera gave it) as a sample if its safe box shows
+        felt the library knows; the gains follow the samples' median."""
+        if not library.n_models:
+            return
+        box = library.safe_box_model(frame)
+        box_log = np.log(np.maximum(histogram_means(box), 1.0))
+        models_log = self._models_log(library)
+        best = int(np.argmin(np.abs(models_log.mean(axis=1) - box_log.mean())))
+        ratio = box_log - models_log[best]
+        ratio -= ratio.mean()
+        if np.max(np.abs(ratio)) > MAX_LOG_GAIN:
+            return
+        if (
+            len(self._samples) >= SETTLE_SAMPLES
+            and np.max(np.abs(ratio + self._log_gains)) > MAX_LOG_SPREAD
+        ):
+            return
+        self._samples.append(ratio)
+        if len(self._samples) > MAX_SAMPLES:
+            del self._samples[0]
+        log_gains = -np.median(np.asarray(self._samples), axis=0)
+        self._log_gains = log_gains - log_gains.mean()
+        levels = np.arange(256, dtype=np.float64)[:, None] * np.exp(self._log_gains)[None, :]
+        self._table = np.clip(np.rint(levels), 0, 255).astype(np.uint8).reshape(1, 256, 3)
+
+    def _models_log(self, library: RoadLibrary) -> np.ndarray:
+        """Log mean R, G, B of the library's models, (n_models, 3) (kept while they are)."""
+        models = library.models()
+        if self._models is None or not np.array_equal(self._models[0], models):
+            self._models = (models, np.log(np.maximum(histogram_means(models), 1.0)))
+        return self._models[1]
+
+    def apply(self, frame: np.ndarray) -> np.ndarray:
+        """``frame`` (RGB uint8, (H, W, 3)) scaled per channel by :attr:`gains` (the frame
+        itself while the gains are all 1)."""
+        if self._table is None:
+            return frame
+        return np.asarray(cv2.LUT(frame, self._table))
