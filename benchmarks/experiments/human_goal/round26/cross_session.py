@@ -14,7 +14,10 @@ level (the fixed levels) lies on the right side of 0.5.
 Beside no correction, one simple candidate for the next design: each session's frames scaled per
 channel by the session's running mean colour (grey world over the session), in teaching and in
 reading. Exploratory: nothing is decided on it; it says whether the score sees the sessions and
-how far the simplest correction goes.
+how far the simplest correction goes. Added with round 27: the design built since,
+``colour_balance = "safe_box"`` (``lfd_track/vision/colour_balance.py``): teaching as without a
+correction, and each session's views read by a frozen perception with the balance, which
+estimates that session's gains from the views it is shown, in order.
 
     .venv/bin/python benchmarks/experiments/human_goal/round26/cross_session.py --workers 2
 
@@ -46,7 +49,7 @@ from room_measures import robustness_felt_levels, write_page  # noqa: E402
 OUT = HERE / "results"
 STUDY = HERE.parent / "round22" / "room_parts.toml"
 SESSIONS = (0, 1, 2, 3, 4)
-CORRECTIONS = ("none", "session grey world")
+CORRECTIONS = ("none", "session grey world", "safe-box balance")
 
 
 class _SessionBalance:
@@ -72,7 +75,7 @@ def _scores(job: tuple[str, Any, str]) -> tuple[str, str, list[float]]:
     obs, info = env.reset(seed=0)
     driver = CentrelineDriver(env.track)
     perception = Perception(RoadLibrary(), "careful", FreshFeltConfig())
-    balance = _SessionBalance(correction != "none")
+    balance = _SessionBalance(correction == "session grey world")
     poses = []
     for _ in range(env.max_steps):
         pose = np.asarray(info["pose"])
@@ -89,10 +92,17 @@ def _scores(job: tuple[str, Any, str]) -> tuple[str, str, list[float]]:
             view_env = LfDTrackEnv(track="testing", preset=world)
             view_env.reset(seed=session)
         rng = np.random.default_rng(5)
-        balance = _SessionBalance(correction != "none")
+        balance = _SessionBalance(correction == "session grey world")
+        reader = Perception(
+            perception.library, "frozen", FreshFeltConfig(colour_balance="safe_box")
+        )
         right = total = 0
         for pose in poses[::2]:
-            values = perception.look(balance(view_env.view_from(pose, rng)))
+            view = balance(view_env.view_from(pose, rng))
+            if correction == "safe-box balance":
+                values = reader.perceive(view).values
+            else:
+                values = perception.look(view)
             share = fl.felt_share(view_env, pose)
             level = fl.felt_level(values, None)
             felt, carpet = share >= 0.75, share <= 0.25
