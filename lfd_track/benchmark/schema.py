@@ -48,6 +48,9 @@ Schema history:
   file was written before it: ``false``, what every map did then (the same step).
 * **9** — ``config.memory`` names where that turn counts from, ``branch_turn_from``. A schema-8
   file was written before it: ``"set"``, what every map did then (the same step).
+* **10** — ``config.memory`` names the ``fresh_felt`` map's ``colour_balance`` (how a driving
+  session's frames are balanced: :mod:`lfd_track.vision.colour_balance`). A schema-9 file was
+  written before it: ``"none"``, what every run did then (the same step).
 """
 
 from __future__ import annotations
@@ -58,7 +61,7 @@ from typing import Any
 from ..policy.memory_config import memory_table_from_v1
 from ..utils.migrate import Step, VersionedJson
 
-RESULTS_SCHEMA = 9
+RESULTS_SCHEMA = 10
 """Schema of the results.json this version writes (``len(RESULTS_STEPS) + 1``)."""
 MAX_RESULTS_BYTES = 1 << 28
 """Largest results.json read (a 10-repetition benchmark writes about 100 kB)."""
@@ -248,6 +251,7 @@ MEMORY_SETTING_SINCE: dict[int, str] = {
     7: "branch_window",
     8: "branch_turn",
     9: "branch_turn_from",
+    10: "colour_balance",
 }
 
 

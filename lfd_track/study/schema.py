@@ -22,6 +22,8 @@ Schema history:
 * **8** — the same for the branch side's ``branch_turn`` (as results.json schema 8, ``false`` in
   older files).
 * **9** — the same for ``branch_turn_from`` (as results.json schema 9, ``"set"`` in older files).
+* **10** — the same for ``colour_balance`` (as results.json schema 10, ``"none"`` in older
+  files).
 """
 
 from __future__ import annotations
@@ -37,7 +39,7 @@ from ..benchmark.schema import (
 )
 from ..utils.migrate import Step, VersionedJson
 
-STUDY_SCHEMA = 9
+STUDY_SCHEMA = 10
 """Schema of the study.json this version writes (``len(STUDY_STEPS) + 1``)."""
 MAX_STUDY_BYTES = 1 << 28
 """Largest study.json read."""

@@ -1,7 +1,7 @@
-"""Rounds 21-26 read lap by lap: each world against the paper world on the very same laps.
+"""Rounds 21-27 read lap by lap: each world against the paper world on the very same laps.
 
-Every world of rounds 21-26 on seed 100 drives the same 200 validation laps (seed 100, repetitions 0-9, ten
-loops once each way), so two worlds can be compared lap by lap: the laps one world laps and the
+Every world of rounds 21-27 on one seed drives the same 200 validation laps (that seed,
+repetitions 0-9, ten loops once each way; seed 100, and seed 101 for rounds 25 and 27), so two worlds can be compared lap by lap: the laps one world laps and the
 other does not (lost) and the other way round (gained). With ``n`` such discordant laps the net
 difference moves by about ``sqrt(n)`` between draws of the same worlds (the sign test's spread);
 ``z`` = net / sqrt(n). Reads the committed results only; runs nothing.
@@ -23,7 +23,7 @@ sys.path.insert(0, str(GOAL))
 from room_measures import loop_laps, write_page  # noqa: E402
 
 OUT = HERE / "results"
-R21, R22, R23, R26 = (GOAL / f"round{k}" / "results" for k in (21, 22, 23, 26))
+R21, R22, R23, R25, R26, R27 = (GOAL / f"round{k}" / "results" for k in (21, 22, 23, 25, 26, 27))
 R24 = HERE / "results"
 
 
@@ -33,6 +33,7 @@ def learned(folder: Path, world: str) -> Path:
 
 
 PARTS, QUARTERS, CAST = R22 / "room_parts", R23 / "room_quarters", R26 / "cast"
+BALANCE = R27 / "balance" / "rooms.round20+visual+balance"
 #: (label, baseline folder, world folder): the learned policy, then the rule on the same map.
 PAIRS = [
     ("learned: look only", learned(PARTS, "paper"), learned(PARTS, "look")),
@@ -55,6 +56,21 @@ PAIRS = [
         learned(PARTS, "look"),
         learned(CAST, "look_nocast"),
     ),
+    (
+        "learned, full room: colour balance (round 27, seed 100)",
+        learned(PARTS, "rooms"),
+        BALANCE / "seed100",
+    ),
+    (
+        "learned, full room: colour balance (round 27, seed 101)",
+        learned(R25 / "rooms_round25", "rooms"),
+        BALANCE / "seed101",
+    ),
+    (
+        "learned, paper world: colour balance (round 27)",
+        learned(PARTS, "paper"),
+        R27 / "balance_paper" / "paper.round20+visual+balance",
+    ),
     ("rule: look only", R22 / "rules_paper", R22 / "rules_look"),
     ("rule: mount and treads only", R22 / "rules_paper", R22 / "rules_mount"),
     ("rule: camera only", R22 / "rules_paper", R23 / "rules_camera"),
@@ -68,6 +84,16 @@ PAIRS = [
         R26 / "rules_rooms_nocast",
     ),
     ("rule, look only: without its cast (round 26)", R22 / "rules_look", R26 / "rules_look_nocast"),
+    (
+        "rule, full room: colour balance (round 27, seed 100)",
+        R22 / "rules_rooms",
+        R27 / "rules_balance" / "map-rule" / "seed100",
+    ),
+    (
+        "rule, full room: colour balance (round 27, seed 101)",
+        R25 / "rules_rooms",
+        R27 / "rules_balance" / "map-rule" / "seed101",
+    ),
     ("rule, paper world: nominal motion", R22 / "rules_paper", R24 / "rules_nominal_paper"),
     ("rule, look only: nominal motion", R22 / "rules_look", R24 / "rules_nominal_look"),
 ]
@@ -75,7 +101,7 @@ PAIRS = [
 
 def main() -> None:
     lines = [
-        "# Rounds 21-26 lap by lap against the same laps elsewhere",
+        "# Rounds 21-27 lap by lap against the same laps elsewhere",
         "",
         "Of the 200 validation laps: lapped in the first world and not in the second (lost), the",
         "other way round (gained); z = net / sqrt(lost + gained).",

@@ -3,16 +3,20 @@ the same map) beside the room's drawn settings, and which settings part the room
 of their loops from those that do not.
 
 Reads only committed results (``results/test_rooms20/`` and
-``../test_round9/results/rules_rooms/``) and redraws each repetition's room as the study drew it
-(``repetition_preset``); nothing is run or chosen on it.
+``../test_round9/results/rules_rooms/``; with ``--round 27``, round 27's winner and the rule on
+its map with the same colour balance, ``../test_round27/results/test_rooms27/`` and
+``../test_round27/results/rules_rooms27/``) and redraws each repetition's room as the study drew
+it (``repetition_preset``); nothing is run or chosen on it.
 
-    .venv/bin/python benchmarks/experiments/human_goal/test_round20/rooms_breakdown.py
+    .venv/bin/python benchmarks/experiments/human_goal/test_round20/rooms_breakdown.py [--round 27]
 
-writes ``results/rooms_breakdown.md`` (a few seconds).
+writes ``results/rooms_breakdown.md`` (``../test_round27/results/rooms_breakdown.md``; a few
+seconds).
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from pathlib import Path
@@ -27,9 +31,24 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from room_measures import spearman  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
-STUDY = HERE / "test_rooms20.toml"
-LEARNED = HERE / "results" / "test_rooms20" / "rooms.round20+visual"
-RULE = HERE.parent / "test_round9" / "results" / "rules_rooms" / "map-rule"
+ROUND27 = HERE.parent / "test_round27"
+#: Per round: (title, study file, the learned policy's results, the rule's, the page written).
+ROUNDS = {
+    "20": (
+        "round 20's winner",
+        HERE / "test_rooms20.toml",
+        HERE / "results" / "test_rooms20" / "rooms.round20+visual",
+        HERE.parent / "test_round9" / "results" / "rules_rooms" / "map-rule",
+        HERE / "results" / "rooms_breakdown.md",
+    ),
+    "27": (
+        "round 27's winner, with the colour balance",
+        ROUND27 / "test_rooms27.toml",
+        ROUND27 / "results" / "test_rooms27" / "rooms.round20+visual+balance",
+        ROUND27 / "results" / "rules_rooms27" / "map-rule",
+        ROUND27 / "results" / "rooms_breakdown.md",
+    ),
+}
 
 
 def laps(folder: Path) -> dict[tuple[int, int], dict[str, list[int]]]:
@@ -70,16 +89,19 @@ def settings(preset) -> dict[str, float]:  # noqa: ANN001 - a Preset
 
 
 def main() -> None:
-    study = load_study(STUDY)
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--round", choices=sorted(ROUNDS), default="20")
+    title, study_file, learned_folder, rule_folder, out = ROUNDS[parser.parse_args().round]
+    study = load_study(study_file)
     config = study.conditions[0].config
-    learned, rule = laps(LEARNED), laps(RULE)
+    learned, rule = laps(learned_folder), laps(rule_folder)
     rows = []
     for seed in study.seeds:
         for index, rep_seed in enumerate(repetition_seeds(seed, study.repetitions)):
             room = settings(repetition_preset(config, rep_seed))
             rows.append(((seed, index), room, learned[(seed, index)], rule[(seed, index)]))
     names = list(rows[0][1])
-    md = ["# What breaks in rooms (round 20's winner, 30 kept rooms)", ""]
+    md = [f"# What breaks in rooms ({title}, 30 kept rooms)", ""]
     md += ["Loop laps and testing laps per room, the learned policy and the map rule on the same"]
     md += ["map; the room's drawn settings beside them.", ""]
     md += [
@@ -123,7 +145,6 @@ def main() -> None:
     ]
     md += ["(each room drives its own draw of 10 test loops, the same for both, so a room's share"]
     md += ["mixes its settings with how sharp its loops are)."]
-    out = HERE / "results" / "rooms_breakdown.md"
     atomic_write_text(out, "\n".join(md) + "\n")
     print("\n".join(md))
 
