@@ -62,7 +62,8 @@ def histogram_means(hists: np.ndarray) -> np.ndarray:
     bins = h.shape[-1]
     centres = (np.arange(bins) + 0.5) * (256.0 / bins)
     total = h.sum(axis=-1)
-    return np.asarray(h @ centres / np.where(total > 0, total, 1.0))
+    # An element-wise product and sum, not a matrix product: the same bits on every processor.
+    return np.asarray((h * centres).sum(axis=-1) / np.where(total > 0, total, 1.0))
 
 
 class SafeBoxBalance:
