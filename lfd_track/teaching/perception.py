@@ -212,10 +212,9 @@ class Perception:
         if self._expected_shape is not None and frame.shape != self._expected_shape:
             self._report_size(frame)
         learn = self.would_learn(box_on_felt)
-        seen = frame
         if self.balance is not None and self._rule == "frozen":
             self.balance.update(frame, self.library)
-            seen = self.balance.apply(frame)
+        seen = self._balanced(frame)
         if learn:
             self.library.learn(seen)
         histograms = self.library.region_histograms(seen)

@@ -39,7 +39,10 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from .histograms import histogram_means
 from .road_library import RoadLibrary
+
+__all__ = ["SafeBoxBalance", "histogram_means"]
 
 #: Largest colour difference [natural log of a channel's ratio, brightness removed] a sample may
 #: show from its model: about 35 % in one channel, beyond any camera session's cast (a safe box
@@ -55,24 +58,14 @@ SETTLE_SAMPLES = 5
 MAX_SAMPLES = 2000
 
 
-def histogram_means(hists: np.ndarray) -> np.ndarray:
-    """Mean level of the R, G, B histograms of models, (..., 5, bins) -> (..., 3) float64 in
-    [0, 256): each bin at its centre, weighted by its (normalised) height."""
-    h = np.asarray(hists, dtype=np.float64)[..., :3, :]
-    bins = h.shape[-1]
-    centres = (np.arange(bins) + 0.5) * (256.0 / bins)
-    total = h.sum(axis=-1)
-    # An element-wise product and sum, not a matrix product: the same bits on every processor.
-    return np.asarray((h * centres).sum(axis=-1) / np.where(total > 0, total, 1.0))
-
-
 class SafeBoxBalance:
     """The colour gains of one camera session (see the module docstring)."""
 
     def __init__(self) -> None:
         self._samples: list[np.ndarray] = []
         self._log_gains = np.zeros(3)
-        self._models: tuple[np.ndarray, np.ndarray] | None = None  # models, their log colours
+        # The library's model colours and their logs (recomputed only when the library changes).
+        self._models: tuple[np.ndarray, np.ndarray] | None = None
         self._table: np.ndarray | None = None  # (1, 256, 3) uint8 levels; None: identity
 
     @property
@@ -112,10 +105,10 @@ class SafeBoxBalance:
         self._table = np.clip(np.rint(levels), 0, 255).astype(np.uint8).reshape(1, 256, 3)
 
     def _models_log(self, library: RoadLibrary) -> np.ndarray:
-        """Log mean R, G, B of the library's models, (n_models, 3) (kept while they are)."""
-        models = library.models()
-        if self._models is None or not np.array_equal(self._models[0], models):
-            self._models = (models, np.log(np.maximum(histogram_means(models), 1.0)))
+        """Log mean R, G, B of the library's models, (n_models, 3)."""
+        means = library.model_means()  # the same array while the models are the same
+        if self._models is None or self._models[0] is not means:
+            self._models = (means, np.log(np.maximum(means, 1.0)))
         return self._models[1]
 
     def apply(self, frame: np.ndarray) -> np.ndarray:

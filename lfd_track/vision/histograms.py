@@ -331,3 +331,14 @@ def similarity_matrix(
             corr[flat] = 1.0
     # The mean over the channels as ``ndarray.mean`` takes it, without its Python wrapper.
     return np.add.reduce(corr, axis=0) / corr.shape[0]
+
+
+def histogram_means(hists: np.ndarray) -> np.ndarray:
+    """Mean level of the R, G, B histograms of models, (..., 5, bins) -> (..., 3) float64 in
+    [0, 256): each bin at its centre, weighted by its (normalised) height."""
+    h = np.asarray(hists, dtype=np.float64)[..., :3, :]
+    bins = h.shape[-1]
+    centres = (np.arange(bins) + 0.5) * (256.0 / bins)
+    total = h.sum(axis=-1)
+    # An element-wise product and sum, not a matrix product: the same bits on every processor.
+    return np.asarray((h * centres).sum(axis=-1) / np.where(total > 0, total, 1.0))

@@ -30,6 +30,7 @@ from .histograms import (
     centred_unit,
     check_bins,
     check_frame,
+    histogram_means,
     patch_histograms,
     similarity_matrix,
 )
@@ -140,6 +141,8 @@ class RoadLibrary:
         self._types: list[_RoadType] = []
         self._grid = GridHistogrammer(self.bins)
         self._cache: tuple[tuple[np.ndarray, np.ndarray], np.ndarray] | None = None
+        # model_means() and the _cache it was computed with.
+        self._means: tuple[object, np.ndarray] | None = None
         # Counter updates of road-value frames not yet written into the types and examples:
         # how many frames, and the regions each model won over them (model order). Written
         # before anything reads the counters or changes the models.
@@ -231,6 +234,17 @@ class RoadLibrary:
         if not self._types:
             return np.zeros((0, N_CHANNELS, self.bins), dtype=np.float32)
         return np.stack([e.model for t in self._types for e in t.examples])
+
+    def model_means(self) -> np.ndarray:
+        """Mean R, G, B level of each model's histograms (:func:`histogram_means`), (n_models, 3)
+        float64, read-only: the same array until the models change (kept with the prepared
+        models Algorithm 2 compares with)."""
+        prepared = self._stacked()
+        if self._means is None or self._means[0] is not prepared:
+            means = histogram_means(self.models())
+            means.flags.writeable = False
+            self._means = (prepared, means)
+        return self._means[1]
 
     def type_statistics(self) -> list[tuple[int, int]]:
         """``(selections, comparisons)`` of each type, in order."""
