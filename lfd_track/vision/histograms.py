@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import weakref
 from concurrent.futures import ThreadPoolExecutor
+from typing import Any
 
 import cv2
 import numpy as np
@@ -147,6 +148,17 @@ class GridHistogrammer:
         self._out = np.empty((N_REGIONS, N_CHANNELS, self.bins), dtype=np.float32)
         self._layout(FRAME_HEIGHT, FRAME_WIDTH)
         self._executor: ThreadPoolExecutor | None = None
+
+    def __getstate__(self) -> dict[str, Any]:
+        """Only the settings and the frame size: the buffers are views into one another, which a
+        pickle or copy would turn into separate arrays that no longer receive the counts."""
+        return {"bins": self.bins, "threads": self._threads, "shape": self._shape}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__init__(state["bins"], state["threads"])  # type: ignore[misc]
+        height, width = state["shape"][:2]
+        if (height, width) != (FRAME_HEIGHT, FRAME_WIDTH):
+            self._layout(height, width)
 
     def _layout(self, height: int, width: int) -> None:
         """Buffers and region views for frames of ``height`` x ``width`` (the grid keeps its 8 x

@@ -76,3 +76,19 @@ def test_bad_bins_rejected():
         GridHistogrammer(0)
     with pytest.raises(ValueError, match="bins"):
         GridHistogrammer(257)
+
+
+@pytest.mark.parametrize("size", [(480, 640), (240, 320)])
+@pytest.mark.parametrize("threads", [1, 2])
+def test_a_pickled_or_copied_grid_counts_what_the_original_counts(frames, size, threads):
+    """The counting buffers are views into one another; a pickle (a controller sent to a worker
+    process) or a deep copy must not cut them apart, or the counts stop reaching the output."""
+    import copy
+    import pickle
+
+    shaped = [cv2.resize(f, size[::-1], interpolation=cv2.INTER_AREA) for f in frames[:3]]
+    grid = GridHistogrammer(32, threads=threads)
+    grid.counts(shaped[0])  # laid out for this frame size before it is copied
+    for twin in (pickle.loads(pickle.dumps(grid)), copy.deepcopy(grid)):
+        for frame in shaped:
+            np.testing.assert_array_equal(twin.counts(frame), grid.counts(frame))
