@@ -155,8 +155,10 @@ class GridHistogrammer:
         return {"bins": self.bins, "threads": self._threads, "shape": self._shape}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
-        self.__init__(state["bins"], state["threads"])  # type: ignore[misc]
-        height, width = state["shape"][:2]
+        # A pickle written before this method holds the whole instance dictionary.
+        threads = state["threads"] if "threads" in state else state["_threads"]
+        self.__init__(state["bins"], threads)  # type: ignore[misc]
+        height, width = (state["shape"] if "shape" in state else state["_shape"])[:2]
         if (height, width) != (FRAME_HEIGHT, FRAME_WIDTH):
             self._layout(height, width)
 

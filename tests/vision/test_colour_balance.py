@@ -146,3 +146,20 @@ def test_the_perception_balances_only_a_finished_librarys_frames(taught):
     assert np.array_equal(
         frozen.look(obs), library.road_values(frozen.balance.apply(obs), update_statistics=False)
     )
+
+
+def test_frames_are_scaled_exactly_as_the_lookup_table_says():
+    """The gains are applied as a per-channel scale where that gives every level as the rounded
+    table does, by the table elsewhere: either way each pixel gets the table's level."""
+    rng = np.random.default_rng(5)
+    frame = rng.integers(0, 256, (480, 640, 3), dtype=np.uint8)
+    balance = SafeBoxBalance()
+    for _ in range(400):
+        log_gains = rng.uniform(-0.3, 0.3, 3)
+        balance._use(log_gains - log_gains.mean())
+        gains = np.exp(balance._log_gains)
+        table = np.clip(np.rint(np.arange(256.0)[:, None] * gains), 0, 255).astype(np.uint8)
+        expected = np.stack([table[frame[..., c], c] for c in range(3)], axis=-1)
+        assert np.array_equal(balance.apply(frame), expected)  # whichever way this CPU takes
+        balance._scale = None  # the table's way
+        assert np.array_equal(balance.apply(frame), expected)
