@@ -37,7 +37,8 @@ inputs per step in thousandths.
 
     .venv/bin/python benchmarks/experiments/human_goal/where_they_part.py
 
-``--repetitions N`` (first N), ``--loops K`` (first K loops each), ``--out DIR`` (default
+``--seed S`` (one of the study's seeds; default 0), ``--repetitions N`` (its first N),
+``--loops K`` (first K loops each), ``--out DIR`` (default
 ``results/`` beside this file: ``where_they_part.md`` and ``.json``); ``--study FILE
 --condition NAME`` learns another selection study's condition on its own validation
 repetitions (written to ``where_they_part_NAME.md`` and ``.json``), e.g. round 5's winner.
@@ -96,6 +97,8 @@ COLUMNS += ("learned pivots, rule forward", "opposite pivots", "learned pivots a
 LABEL_REGIONS = ("map blank", "0-10° off", "10-20° off", "20-30° off", "30° or more off")
 PHASES = {"drive": "demonstration, driving", "turnaround": "demonstration, turn-arounds"}
 PHASES |= {"intervention": "interventions", "correction": "interventions"}
+#: The human's labels on a blank map while the branch side gives a side (``human_labels``' key).
+BRANCH_LABELS = "blank map, branch side given"
 CHECK = ("laps", "lapped here", "lapped in the study", "same outcome", "same steps")
 
 
@@ -127,7 +130,9 @@ class Shadowed:
         learned, rule = self.learned.propose(moment), self.rule.propose(moment)
         inputs = np.asarray(moment.policy_inputs, dtype=float)
         n_map = RULE.memory.n_inputs  # the map's inputs come last: bearing, amount, distance first
-        self.log.append((inputs[len(inputs) - n_map :][:3], learned, rule))
+        memory = inputs[len(inputs) - n_map :]
+        branch = float(memory[3]) if n_map > 3 and RULE.memory.branch_side else 0.5
+        self.log.append((memory[:3], learned, rule, branch))
         return learned if self.driver == "learned" else rule
 
 
@@ -137,9 +142,10 @@ def lap_record(name: str, direction: str, driver: str, info: dict, log: list) ->
     return dict(
         track=name, direction=direction, driver=driver, success=bool(info["success"]),
         failure=failure, steps=len(log), sharpest_turn_deg=round(float(sharpest), 1),
-        turn_bin=turn_bin(sharpest), inputs=np.array([x for x, _, _ in log]).reshape(-1, 3),
-        learned="".join(LETTERS[int(c)] for _, c, _ in log),
-        rule="".join(LETTERS[int(c)] for _, _, c in log),
+        turn_bin=turn_bin(sharpest), inputs=np.array([x for x, *_ in log]).reshape(-1, 3),
+        learned="".join(LETTERS[int(c)] for _, c, *_ in log),
+        rule="".join(LETTERS[int(c)] for _, _, c, _ in log),
+        branch=np.array([b for *_, b in log]),
     )  # fmt: skip
 
 
@@ -158,6 +164,20 @@ def human_labels(folder: Path) -> dict[str, dict[str, list[int]]]:
         demo = load_demonstration(path)
         mem, cmd = np.asarray(demo.memory, dtype=float), np.asarray(demo.commands)
         phases = np.asarray(demo.phases)
+        if RULE.memory.branch_side and mem.shape[1] > 3:  # blank map, the branch side given
+            side = mem[:, 3]
+            given = (mem[:, 1] <= 0.0) & (side != 0.5)
+            toward_side = ((cmd == 1) & (side > 0.5)) | ((cmd == 2) & (side < 0.5))
+            away_side = ((cmd == 1) & (side < 0.5)) | ((cmd == 2) & (side > 0.5))
+            for phase in sorted(set(phases)):
+                m = (phases == phase) & given
+                row = out.setdefault(BRANCH_LABELS, {}).setdefault(
+                    PHASES.get(phase, phase), [0] * 4
+                )
+                counts = (m, m & (cmd == 0), m & toward_side, m & away_side)
+                out[BRANCH_LABELS][PHASES.get(phase, phase)] = [
+                    a + int(b.sum()) for a, b in zip(row, counts, strict=True)
+                ]
         bearing = np.degrees([fresh_bearing_rad(x, RULE.memory.bearing_range_deg) for x in mem])
         ab, sat = np.abs(bearing), (mem[:, 0] <= 0.0) | (mem[:, 0] >= 1.0)
         region = np.select([mem[:, 1] <= 0.0, sat, ab < 10, ab < 20], [0, 4, 1, 2], 3)
@@ -249,6 +269,7 @@ def step_table(laps: list[dict]) -> dict[str, np.ndarray]:
         "success": np.concatenate([[lap["success"]] * lap["steps"] for lap in laps]),
         "to_end": np.concatenate([np.arange(lap["steps"], 0, -1) for lap in laps]),
         "turn": np.concatenate([[lap["turn_bin"]] * lap["steps"] for lap in laps]),
+        "branch": np.concatenate([lap["branch"] for lap in laps]),
     }
 
 
@@ -310,16 +331,18 @@ def pct(x: float | None) -> str:
     return "–" if x is None else f"{100 * x:.0f} %"
 
 
-def report(done: list[dict], reps: int, loops: int, wall_s: float) -> tuple[str, dict]:
+def report(
+    done: list[dict], reps: int, loops: int, wall_s: float, seed: int = 0
+) -> tuple[str, dict]:
     laps = [lap for d in done for lap in d["laps"]]
     check = check_against_study(laps)
     out: dict[str, Any] = dict(
-        study=str(STUDY.relative_to(HERE)), condition=CONDITION, seed=0, repetitions=reps,
+        study=str(STUDY.relative_to(HERE)), condition=CONDITION, seed=seed, repetitions=reps,
         loops_per_repetition=loops, rule=dataclasses.asdict(RULE), wall_s=round(wall_s, 1),
         check_against_study=check, by_driver={},
     )  # fmt: skip
     md = [f"# Where the learned policy's commands part from the map rule's ({CONDITION})", ""]
-    md += [f"Seed 0, repetitions 0-{reps - 1}, {loops} validation loops each, once each way;"]
+    md += [f"Seed {seed}, repetitions 0-{reps - 1}, {loops} validation loops each, once each way;"]
     md += [f"{wall_s / 60:.0f} min on one core: `.venv/bin/python {COMMAND}`.", ""]
     md += [f"## The learned laps against the selection study's ({STUDY.name})", ""]
     md += table(("repetition", *CHECK), [[k] + [r[c] for c in CHECK] for k, r in check.items()])
@@ -342,9 +365,9 @@ def report(done: list[dict], reps: int, loops: int, wall_s: float) -> tuple[str,
     labels: dict[str, dict[str, list[int]]] = {}
     for d in done:
         for group, rows in d["human_labels"].items():
-            acc = labels.setdefault(group, {r: [0] * 4 for r in LABEL_REGIONS})
+            acc = labels.setdefault(group, {})
             for r, counts in rows.items():
-                acc[r] = [a + b for a, b in zip(acc[r], counts, strict=True)]
+                acc[r] = [a + b for a, b in zip(acc.get(r, [0] * 4), counts, strict=True)]
     out["human_labels"] = labels
     md += ["", "## The human's commands the network was fitted to, by where the fresh felt lay", ""]
     md += ["Cases of the repetitions' demonstrations and interventions (before mirroring);"]
@@ -354,9 +377,43 @@ def report(done: list[dict], reps: int, loops: int, wall_s: float) -> tuple[str,
         [
             [group, r, c[0]] + [pct(x / c[0] if c[0] else None) for x in c[1:]]
             for group, rows in labels.items()
+            if group != BRANCH_LABELS
             for r, c in rows.items()
         ],
     )
+    if BRANCH_LABELS in labels:
+        md += ["", "## On a blank map while the branch side gives a side", ""]
+        md += ["The human's commands the network was fitted to (before mirroring):", ""]
+        md += table(
+            ("source", "cases", "forward", "toward the branch side", "away from it"),
+            [
+                [group, c[0]] + [pct(x / c[0] if c[0] else None) for x in c[1:]]
+                for group, c in labels[BRANCH_LABELS].items()
+            ],
+        )
+        md += ["", "Each driver's and its shadow's commands at those steps, by the loop's sharpest"]
+        md += ["turn and the lap's outcome:", ""]
+        rows = []
+        for driver in ("learned", "rule"):
+            t = step_table([x for x in laps if x["driver"] == driver])
+            given = (t["amount"] <= 0.0) & (t["branch"] != 0.5)
+            cases = {
+                "all laps": given,
+                "sharpest > 135°": given & (t["turn"] == TURN_BIN_LABELS[-1]),
+            }
+            cases |= {"failed laps": given & ~t["success"].astype(bool)}
+            for case, m in cases.items():
+                for who in ("learned", "rule"):
+                    c, side = t[who][m], t["branch"][m]
+                    toward = ((c == 1) & (side > 0.5)) | ((c == 2) & (side < 0.5))
+                    away = ((c == 1) & (side < 0.5)) | ((c == 2) & (side > 0.5))
+                    n = int(m.sum())
+                    rows.append(
+                        [f"{driver} drives", case, who, n]
+                        + [pct(float(v.mean()) if n else None) for v in (c == 0, toward, away)]
+                    )
+        out["branch_side_steps"] = rows
+        md += table(("laps", "steps", "command of", "steps n", "forward", "toward", "away"), rows)
     for driver, title in (
         ("learned", "the learned policy drives, the rule shadows"),
         ("rule", "the rule drives, the learned policy shadows"),
@@ -391,8 +448,9 @@ def report(done: list[dict], reps: int, loops: int, wall_s: float) -> tuple[str,
             for k, r in list(rows.items())[1:2] + list(rows.items())[3:7]
         ]
     stored = [
-        {k: v for k, v in lap.items() if k != "inputs"}
+        {k: v for k, v in lap.items() if k not in ("inputs", "branch")}
         | {n: [round(1000 * float(x)) for x in lap["inputs"][:, i]] for i, n in enumerate(INPUTS)}
+        | {"branch_in": [round(1000 * float(x)) for x in lap["branch"]]}
         for lap in laps
     ]  # the map's inputs per step, in thousandths
     return "\n".join(md) + "\n", out | {"laps": stored}
@@ -401,7 +459,8 @@ def report(done: list[dict], reps: int, loops: int, wall_s: float) -> tuple[str,
 def main() -> None:
     global STUDY, CONDITION, STUDIED, RULE  # noqa: PLW0603 - the report reads them
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--repetitions", type=int, default=4, help="first N of seed 0")
+    parser.add_argument("--repetitions", type=int, default=4, help="first N of the seed's")
+    parser.add_argument("--seed", type=int, default=0, help="the study's seed (default 0)")
     parser.add_argument("--loops", type=int, default=None, help="first K loops (default 10)")
     parser.add_argument("--out", type=Path, default=HERE / "results")
     parser.add_argument(
@@ -414,18 +473,20 @@ def main() -> None:
         name = f"where_they_part_{args.condition}"
         STUDY, CONDITION = args.study.resolve(), args.condition
         stem = STUDY.stem
-        STUDIED = STUDY.parent / "results" / stem / CONDITION / "seed0" / "results.json"
+        STUDIED = STUDY.parent / "results" / stem / CONDITION / f"seed{args.seed}" / "results.json"
     study = load_study(STUDY)
     base = next(c for c in study.conditions if c.name == CONDITION).config
     if isinstance(base.memory, FreshFeltConfig):  # the rule reads the learner's own map
         RULE = dataclasses.replace(RULE, memory=base.memory)
-    config = dataclasses.replace(base, seed=0, repetitions=study.repetitions)
+    if args.seed not in study.seeds:
+        parser.error(f"--seed {args.seed}: the study runs seeds {study.seeds}")
+    config = dataclasses.replace(base, seed=args.seed, repetitions=study.repetitions)
     loops = args.loops or config.random_loops
     assert config.random_split == "validation"
     t0 = time.perf_counter()
-    seeds = repetition_seeds(0, study.repetitions)[: args.repetitions]
+    seeds = repetition_seeds(args.seed, study.repetitions)[: args.repetitions]
     done = [run_repetition(i, s, config, loops) for i, s in enumerate(seeds)]
-    text, data = report(done, len(seeds), loops, time.perf_counter() - t0)
+    text, data = report(done, len(seeds), loops, time.perf_counter() - t0, args.seed)
     data["timing_s"] = {str(d["repetition"]): d["timing_s"] for d in done}
     args.out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(args.out / f"{name}.md", text)
