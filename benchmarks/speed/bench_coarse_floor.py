@@ -46,7 +46,7 @@ from lfd_track.utils.atomic import atomic_write_text
 from lfd_track.vision.road_library import RoadLibrary
 
 REPO = Path(__file__).resolve().parents[2]
-CHOSEN = REPO / "benchmarks" / "experiments" / "goal" / "chosen.toml"
+CHOSEN = REPO / "benchmarks" / "experiments" / "goal" / "distilled.toml"
 RESULTS = Path(__file__).resolve().parent / "results" / "coarse_floor.json"
 COARSE_METRES_PER_PX = 0.004
 

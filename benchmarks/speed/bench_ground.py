@@ -5,7 +5,7 @@ repetition), so painting them is a fixed cost of every job, whatever the camera.
 training track, the testing track and one procedural loop (``random:test:0``), each floor from its
 own seed, ``--rounds`` times; min and median per track, in wall and in CPU (this thread's) time.
 ``--tracks`` times other tracks instead (e.g. ``notch bolt step arrow zed``, the unseen loops of
-``benchmarks/experiments/goal/chosen.toml``). Everything runs on one thread
+``benchmarks/experiments/goal/distilled.toml``). Everything runs on one thread
 (``single_thread.pin_one_thread``).
 
 With ``--baseline-rev REV`` the ``build_ground`` of ``lfd_track/render/texture.py`` at git revision

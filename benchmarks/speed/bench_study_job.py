@@ -1,7 +1,7 @@
 """End to end: one study job of the chosen configuration with the full camera and with the
 half-size one (preset ``paper_fast``), on one thread in one process, one after the other.
 
-The job is what ``benchmarks/experiments/goal/chosen.toml`` runs per seed: one seed
+The job is what ``benchmarks/experiments/goal/distilled.toml`` runs per seed: one seed
 (``--seed``, default 0) x 10 repetitions (a demonstration by the picture-steering human, the
 network fitted by backprop, then 3 runs each way on the training track and 3 laps each way on the
 testing track and the five unseen loops), run by ``run_benchmark`` with one worker in this
@@ -30,7 +30,7 @@ from lfd_track.benchmark.runner import run_benchmark
 from lfd_track.study.spec import load_study
 
 REPO = Path(__file__).resolve().parents[2]
-CHOSEN = REPO / "benchmarks" / "experiments" / "goal" / "chosen.toml"
+CHOSEN = REPO / "benchmarks" / "experiments" / "goal" / "distilled.toml"
 RESULTS = Path(__file__).resolve().parent / "results" / "study_job.json"
 
 

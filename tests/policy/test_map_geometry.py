@@ -37,7 +37,7 @@ from lfd_track.study.spec import load_study
 from lfd_track.teaching.perception import Perception
 
 REPO = Path(__file__).resolve().parents[2]
-CHOSEN = REPO / "benchmarks" / "experiments" / "goal" / "chosen.toml"
+CHOSEN = REPO / "benchmarks" / "experiments" / "goal" / "distilled.toml"
 STORED = (
     REPO / "benchmarks/experiments/goal/round07/results/selection_round7"
     / "hg-dagger.r1+fresh.last+picture/seed0/results.json"

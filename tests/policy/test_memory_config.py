@@ -26,7 +26,7 @@ from lfd_track.policy.memory_config import (
 from lfd_track.study.spec import load_study
 
 REPO = Path(__file__).resolve().parents[2]
-CHOSEN = REPO / "benchmarks" / "experiments" / "goal" / "chosen.toml"
+CHOSEN = REPO / "benchmarks" / "experiments" / "goal" / "distilled.toml"
 NUMBERS = [
     (cls, spec)
     for cls in MEMORY_CONFIGS.values()

@@ -1,6 +1,6 @@
 """Which of the policy's possible inputs explain the centreline human's commands?
 
-The chosen configuration (``../goal/chosen.toml``) reads only the ``fresh_felt`` map and was
+The chosen configuration (``../goal/distilled.toml``) reads only the ``fresh_felt`` map and was
 taught by a rule on that very map. Taught by the paper's human model instead (pure pursuit on the
 true centreline 0.35 m ahead, dead-band 15°, 10 % reaction delays, 3 % lapses), a learner can take
 up only what of the human's commands its inputs explain. For the first demonstration of

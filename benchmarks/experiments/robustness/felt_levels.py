@@ -77,7 +77,7 @@ TEACHERS = ("centreline", "picture/fixed", "picture/library") + (
 #: Commands after which a demonstration counts as lost (the study's limit is 1000; every
 #: demonstration that finished here took under 300).
 LOST_AFTER = 600
-#: The chosen configuration's human (benchmarks/experiments/goal/chosen.toml).
+#: The chosen configuration's human (benchmarks/experiments/goal/distilled.toml).
 HUMAN = HumanConfig(
     steers_by="picture", reaction_delay_prob=0.0, lapse_prob=0.0, max_commands=LOST_AFTER
 )
