@@ -37,6 +37,9 @@ inputs per step in thousandths.
 
     .venv/bin/python benchmarks/experiments/human_goal/where_they_part.py
 
+``--test-split`` with a frozen configuration's study on the test split (e.g.
+``../goal/chosen.toml``): the rule beside the learned policy on those trials, reading the same
+inputs, chosen on nothing (written to ``where_they_part_STUDY_NAME_seedS.md`` and ``.json``).
 ``--seed S`` (one of the study's seeds; default 0), ``--repetitions N`` (its first N),
 ``--loops K`` (first K loops each), ``--out DIR`` (default
 ``results/`` beside this file: ``where_they_part.md`` and ``.json``); ``--study FILE
@@ -99,6 +102,7 @@ PHASES = {"drive": "demonstration, driving", "turnaround": "demonstration, turn-
 PHASES |= {"intervention": "interventions", "correction": "interventions"}
 #: The human's labels on a blank map while the branch side gives a side (``human_labels``' key).
 BRANCH_LABELS = "blank map, branch side given"
+SPLIT = "validation"  # the procedural loops' split the study drives (the report names it)
 CHECK = ("laps", "lapped here", "lapped in the study", "same outcome", "same steps")
 
 
@@ -342,7 +346,7 @@ def report(
         check_against_study=check, by_driver={},
     )  # fmt: skip
     md = [f"# Where the learned policy's commands part from the map rule's ({CONDITION})", ""]
-    md += [f"Seed {seed}, repetitions 0-{reps - 1}, {loops} validation loops each, once each way;"]
+    md += [f"Seed {seed}, repetitions 0-{reps - 1}, {loops} {SPLIT} loops each, once each way;"]
     md += [f"{wall_s / 60:.0f} min on one core: `.venv/bin/python {COMMAND}`.", ""]
     md += [f"## The learned laps against the selection study's ({STUDY.name})", ""]
     md += table(("repetition", *CHECK), [[k] + [r[c] for c in CHECK] for k, r in check.items()])
@@ -457,10 +461,15 @@ def report(
 
 
 def main() -> None:
-    global STUDY, CONDITION, STUDIED, RULE  # noqa: PLW0603 - the report reads them
+    global STUDY, CONDITION, STUDIED, RULE, SPLIT  # noqa: PLW0603 - the report reads them
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repetitions", type=int, default=4, help="first N of the seed's")
     parser.add_argument("--seed", type=int, default=0, help="the study's seed (default 0)")
+    parser.add_argument(
+        "--test-split",
+        action="store_true",
+        help="a frozen configuration's study on the test split: the rule beside it, no choice",
+    )
     parser.add_argument("--loops", type=int, default=None, help="first K loops (default 10)")
     parser.add_argument("--out", type=Path, default=HERE / "results")
     parser.add_argument(
@@ -472,6 +481,8 @@ def main() -> None:
     if (args.study.resolve(), args.condition) != (STUDY, CONDITION):
         name = f"where_they_part_{args.condition}"
         STUDY, CONDITION = args.study.resolve(), args.condition
+        if args.test_split:
+            name = f"where_they_part_{STUDY.stem}_{args.condition}_seed{args.seed}"
         stem = STUDY.stem
         STUDIED = STUDY.parent / "results" / stem / CONDITION / f"seed{args.seed}" / "results.json"
     study = load_study(STUDY)
@@ -482,7 +493,9 @@ def main() -> None:
         parser.error(f"--seed {args.seed}: the study runs seeds {study.seeds}")
     config = dataclasses.replace(base, seed=args.seed, repetitions=study.repetitions)
     loops = args.loops or config.random_loops
-    assert config.random_split == "validation"
+    if config.random_split != "validation" and not args.test_split:
+        parser.error(f"{STUDY.name} drives {config.random_split} loops: --test-split to score")
+    SPLIT = config.random_split
     t0 = time.perf_counter()
     seeds = repetition_seeds(args.seed, study.repetitions)[: args.repetitions]
     done = [run_repetition(i, s, config, loops) for i, s in enumerate(seeds)]
