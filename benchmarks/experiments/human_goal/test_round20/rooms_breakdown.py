@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -145,6 +146,36 @@ def main() -> None:
     ]
     md += ["(each room drives its own draw of 10 test loops, the same for both, so a room's share"]
     md += ["mixes its settings with how sharp its loops are)."]
+    md += ["", "## The bar of 85 % in every room, against chance", ""]
+    md += ["If every room lapped at the pooled rate p, a room's n loop laps would be binomial: the"]
+    md += ["rooms expected at 85 % of their laps, and the spread of the rooms' laps against the"]
+    md += ["binomial's (a larger spread: rooms, with their loops, differ beyond chance):", ""]
+    md += ["| driver | pooled p | rooms at 85 % | expected at p | laps' variance | binomial's |"]
+    md += ["|---|---|---|---|---|---|"]
+    for driver, column in (("learned", 2), ("rule", 3)):
+        done = np.array([r[column]["loops"][0] for r in rows])
+        n = rows[0][column]["loops"][1]
+        p = float(done.sum()) / (n * len(rows))
+        need = math.ceil(0.85 * n)
+        at_bar = sum(math.comb(n, k) * p**k * (1 - p) ** (n - k) for k in range(need, n + 1))
+        md += [
+            f"| {driver} | {p:.3f} | {int((done >= need).sum())} of {len(rows)} |"
+            f" {len(rows) * at_bar:.1f} | {done.var():.2f} | {n * p * (1 - p):.2f} |"
+        ]
+    md += [
+        "",
+        "All 30 rooms at 85 % with probability 0.9 would take, with no spread beyond chance,",
+    ]
+    reach = next(
+        q / 1000
+        for q in range(850, 1000)
+        if sum(
+            math.comb(20, k) * (q / 1000) ** k * (1 - q / 1000) ** (20 - k) for k in range(17, 21)
+        )
+        ** 30
+        >= 0.9
+    )
+    md += [f"a pooled rate of {reach:.3f} over 20 laps a room."]
     atomic_write_text(out, "\n".join(md) + "\n")
     print("\n".join(md))
 
