@@ -56,6 +56,9 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import os
+import shlex
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -103,6 +106,8 @@ PHASES |= {"intervention": "interventions", "correction": "interventions"}
 #: The human's labels on a blank map while the branch side gives a side (``human_labels``' key).
 BRANCH_LABELS = "blank map, branch side given"
 SPLIT = "validation"  # the procedural loops' split the study drives (the report names it)
+#: The command line's arguments after the script's name, as the report quotes them.
+ARGS = "".join(f" {shlex.quote(a)}" for a in sys.argv[1:])
 CHECK = ("laps", "lapped here", "lapped in the study", "same outcome", "same steps")
 
 
@@ -341,13 +346,13 @@ def report(
     laps = [lap for d in done for lap in d["laps"]]
     check = check_against_study(laps)
     out: dict[str, Any] = dict(
-        study=str(STUDY.relative_to(HERE)), condition=CONDITION, seed=seed, repetitions=reps,
+        study=os.path.relpath(STUDY, HERE), condition=CONDITION, seed=seed, repetitions=reps,
         loops_per_repetition=loops, rule=dataclasses.asdict(RULE), wall_s=round(wall_s, 1),
         check_against_study=check, by_driver={},
     )  # fmt: skip
     md = [f"# Where the learned policy's commands part from the map rule's ({CONDITION})", ""]
     md += [f"Seed {seed}, repetitions 0-{reps - 1}, {loops} {SPLIT} loops each, once each way;"]
-    md += [f"{wall_s / 60:.0f} min on one core: `.venv/bin/python {COMMAND}`.", ""]
+    md += [f"{wall_s / 60:.0f} min on one core: `.venv/bin/python {COMMAND}{ARGS}`.", ""]
     md += [f"## The learned laps against the selection study's ({STUDY.name})", ""]
     md += table(("repetition", *CHECK), [[k] + [r[c] for c in CHECK] for k, r in check.items()])
     by_turn = []
