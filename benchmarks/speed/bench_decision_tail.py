@@ -32,6 +32,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 from single_thread import load_average, pin_one_thread, run_facts
 
@@ -52,7 +53,7 @@ from lfd_track.utils.atomic import atomic_write_text
 REPO = Path(__file__).resolve().parents[2]
 STUDY = REPO / "benchmarks" / "experiments" / "goal" / "chosen.toml"
 RESULTS = Path(__file__).resolve().parent / "results" / "decision_tail.json"
-SHIPPED = (odometry._COARSE_TURNS_DEG, odometry._ITERATIONS)
+SHIPPED = (odometry.COARSE_TURNS_DEG, odometry.ECC_ITERATIONS)
 VARIANTS = {
     "shipped": SHIPPED,
     "2 starts": ((0.0, -4.0), SHIPPED[1]),
@@ -110,7 +111,7 @@ def recorded_drive(controller: Any, preset: Any, seed: int) -> list[tuple[Any, l
 def replay(controller: Any, episodes: list) -> dict[str, np.ndarray]:
     """Per frame: decision ms, the motion step's ms, ECC fits run; and the commands."""
     fits, arrive_ms = [0], [0.0]
-    ecc, arrive = odometry._ecc, FreshFeltMemory.arrive
+    ecc, arrive = cv2.findTransformECC, FreshFeltMemory.arrive
 
     def counted(*args: Any, **kwargs: Any) -> Any:
         fits[0] += 1
@@ -122,7 +123,7 @@ def replay(controller: Any, episodes: list) -> dict[str, np.ndarray]:
         arrive_ms[0] = (time.process_time_ns() - t0) / 1e6
         return out
 
-    odometry._ecc = counted  # type: ignore[assignment]
+    cv2.findTransformECC = counted  # every ECC fit the registration runs
     FreshFeltMemory.arrive = timed  # type: ignore[method-assign]
     rows: list[tuple[float, float, int, int]] = []
     try:
@@ -142,7 +143,7 @@ def replay(controller: Any, episodes: list) -> dict[str, np.ndarray]:
                 if i >= WARM_UP:
                     rows.append((spent, arrive_ms[0], fits[0], int(command)))
     finally:
-        odometry._ecc, FreshFeltMemory.arrive = ecc, arrive  # type: ignore[method-assign]
+        cv2.findTransformECC, FreshFeltMemory.arrive = ecc, arrive  # type: ignore[method-assign]
     data = np.array(rows)
     return {"ms": data[:, 0], "arrive_ms": data[:, 1], "fits": data[:, 2], "commands": data[:, 3]}
 
@@ -168,11 +169,11 @@ def main() -> None:
     runs: dict[str, list[dict[str, np.ndarray]]] = {name: [] for name in VARIANTS}
     for _ in range(args.rounds):
         for name, (turns, iterations) in VARIANTS.items():
-            odometry._COARSE_TURNS_DEG, odometry._ITERATIONS = turns, iterations
+            odometry.COARSE_TURNS_DEG, odometry.ECC_ITERATIONS = turns, iterations
             try:
                 runs[name].append(replay(controller, episodes))
             finally:
-                odometry._COARSE_TURNS_DEG, odometry._ITERATIONS = SHIPPED
+                odometry.COARSE_TURNS_DEG, odometry.ECC_ITERATIONS = SHIPPED
     for run in runs["shipped"]:  # the shipped replay decides as the drive did
         assert np.array_equal(run["commands"], recorded)
     table: dict[str, Any] = {}

@@ -46,7 +46,15 @@ import numpy as np
 from ..core.camera_model import CameraModel, floor_view_maps
 from .map_geometry import MapGeometry
 
-__all__ = ["FloorMotion", "FloorOdometry", "FloorView", "PlanarMotion", "floor_odometry"]
+__all__ = [
+    "COARSE_TURNS_DEG",
+    "ECC_ITERATIONS",
+    "FloorMotion",
+    "FloorOdometry",
+    "FloorView",
+    "PlanarMotion",
+    "floor_odometry",
+]
 
 #: Least ECC correlation of a fit whose motion is trusted [-] (matched views of felt and carpet
 #: mostly give 0.9-0.99, views of little but carpet down to 0.3; a fit that slid off a plausible
@@ -69,10 +77,12 @@ _TEMPLATE_TO_M = 0.75  # [m] and ends this far beyond it
 _SHADING_SIGMA_M = 0.04  # [m] high-pass scale: keeps felt edges and carpet, drops shading
 _COARSE = 2  # the first fit works on blocks of 2 x 2 view pixels
 #: Turns tried around the nominal one on the coarse views [deg], in this order (a forward command
-#: of a rover slipping 0.10 turns it up to some 10 deg).
-_COARSE_TURNS_DEG = (0.0, -4.0, 4.0, -8.0, 8.0)
+#: of a rover slipping 0.10 turns it up to some 10 deg). Read at every fit, as is
+#: :data:`ECC_ITERATIONS` (``benchmarks/speed/bench_decision_tail.py`` times other values).
+COARSE_TURNS_DEG = (0.0, -4.0, 4.0, -8.0, 8.0)
 _GOOD_START = 0.8  # a plausible coarse fit this good needs no further start
-_ITERATIONS = 30  # ECC iterations per fit at most
+#: ECC iterations per fit at most.
+ECC_ITERATIONS = 30
 _EPSILON = 1e-4  # ECC stops when the correlation grows less than this
 #: ECC's own Gaussian blur [px] per scale: wider on the coarse views, whose fit must reach
 #: further (from a nominal pivot 2 deg off, a 3 px blur there can lose the match).
@@ -250,7 +260,7 @@ class FloorOdometry:
         # The best fit over the starts: a motion the rover can have made before any other (a
         # turn traded for a sideways shift can match a strip's straight edges as well).
         best: tuple[bool, float, np.ndarray] | None = None
-        for extra in _COARSE_TURNS_DEG:
+        for extra in COARSE_TURNS_DEG:
             start = PlanarMotion(guess.forward_m, guess.left_m, guess.turn_deg + extra)
             fit = _ecc(template, before.coarse, coarse, start.matrix())
             if fit is None:
@@ -317,7 +327,7 @@ def _ecc(
     matrix ``start`` (:meth:`PlanarMotion.matrix`); the correlation and the fitted motion matrix,
     or None when the fit fails."""
     warp = (scale.view_from_floor @ start @ scale.floor_from_template)[:2].astype(np.float32)
-    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, _ITERATIONS, _EPSILON)
+    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, ECC_ITERATIONS, _EPSILON)
     try:
         correlation, warp = cv2.findTransformECC(
             template, image, warp, cv2.MOTION_EUCLIDEAN, criteria, scale.mask, scale.blur
