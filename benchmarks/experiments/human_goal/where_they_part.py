@@ -164,6 +164,14 @@ def table(head: tuple[str, ...], rows: list[list[Any]]) -> list[str]:
     return lines + ["| " + " | ".join(str(x) for x in row) + " |" for row in rows]
 
 
+def pivots(command: np.ndarray, left: np.ndarray, right: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Masks of the pivots toward a side and away from it, the side left or right at each step
+    (commands 1 left, 2 right)."""
+    toward = ((command == 1) & left) | ((command == 2) & right)
+    away = ((command == 1) & right) | ((command == 2) & left)
+    return toward, away
+
+
 def human_labels(folder: Path) -> dict[str, dict[str, list[int]]]:
     """The human's commands the network was fitted to (the demonstration, the interventions), by
     where the fresh felt lay: [cases, forward, toward the felt's side, away from it] per region
@@ -176,22 +184,19 @@ def human_labels(folder: Path) -> dict[str, dict[str, list[int]]]:
         if RULE.memory.branch_side and mem.shape[1] > 3:  # blank map, the branch side given
             side = mem[:, 3]
             given = (mem[:, 1] <= 0.0) & (side != 0.5)
-            toward_side = ((cmd == 1) & (side > 0.5)) | ((cmd == 2) & (side < 0.5))
-            away_side = ((cmd == 1) & (side < 0.5)) | ((cmd == 2) & (side > 0.5))
+            toward_side, away_side = pivots(cmd, side > 0.5, side < 0.5)
+            by_phase = out.setdefault(BRANCH_LABELS, {})
             for phase in sorted(set(phases)):
                 m = (phases == phase) & given
-                row = out.setdefault(BRANCH_LABELS, {}).setdefault(
-                    PHASES.get(phase, phase), [0] * 4
-                )
                 counts = (m, m & (cmd == 0), m & toward_side, m & away_side)
-                out[BRANCH_LABELS][PHASES.get(phase, phase)] = [
+                row = by_phase.get(PHASES.get(phase, phase), [0] * 4)
+                by_phase[PHASES.get(phase, phase)] = [
                     a + int(b.sum()) for a, b in zip(row, counts, strict=True)
                 ]
         bearing = np.degrees([fresh_bearing_rad(x, RULE.memory.bearing_range_deg) for x in mem])
         ab, sat = np.abs(bearing), (mem[:, 0] <= 0.0) | (mem[:, 0] >= 1.0)
         region = np.select([mem[:, 1] <= 0.0, sat, ab < 10, ab < 20], [0, 4, 1, 2], 3)
-        toward = ((cmd == 1) & (bearing > 0)) | ((cmd == 2) & (bearing < 0))
-        away = ((cmd == 1) & (bearing < 0)) | ((cmd == 2) & (bearing > 0))
+        toward, away = pivots(cmd, bearing > 0, bearing < 0)
         for phase in sorted(set(phases)):
             rows = out.setdefault(PHASES.get(phase, phase), {r: [0] * 4 for r in LABEL_REGIONS})
             for k, name in enumerate(LABEL_REGIONS):
@@ -321,7 +326,7 @@ def regions(t: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
 def parting(t: dict[str, np.ndarray], m: np.ndarray) -> dict[str, Any]:
     """Steps, agreement, how often each pivots and the ways of parting among the steps ``m``."""
     lc, rc, b = t["learned"][m], t["rule"][m], t["bearing"][m]
-    away = ((lc == 1) & (b < 0)) | ((lc == 2) & (b > 0))  # from the side the fresh felt lies on
+    _, away = pivots(lc, b > 0, b < 0)  # from the side the fresh felt lies on
     shares: tuple[np.ndarray, ...] = (
         lc == rc,
         lc != 0,
@@ -414,8 +419,7 @@ def report(
             for case, m in cases.items():
                 for who in ("learned", "rule"):
                     c, side = t[who][m], t["branch"][m]
-                    toward = ((c == 1) & (side > 0.5)) | ((c == 2) & (side < 0.5))
-                    away = ((c == 1) & (side < 0.5)) | ((c == 2) & (side > 0.5))
+                    toward, away = pivots(c, side > 0.5, side < 0.5)
                     n = int(m.sum())
                     rows.append(
                         [f"{driver} drives", case, who, n]

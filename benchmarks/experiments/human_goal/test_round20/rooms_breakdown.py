@@ -89,6 +89,14 @@ def settings(preset) -> dict[str, float]:  # noqa: ANN001 - a Preset
     }
 
 
+BAR = 0.85  # the goal's share of loop laps in every room
+
+
+def at_least(k: int, n: int, p: float) -> float:
+    """The chance of at least ``k`` successes in ``n`` trials of chance ``p`` (binomial)."""
+    return sum(math.comb(n, i) * p**i * (1 - p) ** (n - i) for i in range(k, n + 1))
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--round", choices=sorted(ROUNDS), default="20")
@@ -152,30 +160,20 @@ def main() -> None:
     md += ["binomial's (a larger spread: rooms, with their loops, differ beyond chance):", ""]
     md += ["| driver | pooled p | rooms at 85 % | expected at p | laps' variance | binomial's |"]
     md += ["|---|---|---|---|---|---|"]
+    n = rows[0][2]["loops"][1]  # loop laps per room
+    need = math.ceil(BAR * n)
     for driver, column in (("learned", 2), ("rule", 3)):
         done = np.array([r[column]["loops"][0] for r in rows])
-        n = rows[0][column]["loops"][1]
         p = float(done.sum()) / (n * len(rows))
-        need = math.ceil(0.85 * n)
-        at_bar = sum(math.comb(n, k) * p**k * (1 - p) ** (n - k) for k in range(need, n + 1))
         md += [
             f"| {driver} | {p:.3f} | {int((done >= need).sum())} of {len(rows)} |"
-            f" {len(rows) * at_bar:.1f} | {done.var():.2f} | {n * p * (1 - p):.2f} |"
+            f" {len(rows) * at_least(need, n, p):.1f} | {done.var():.2f} | {n * p * (1 - p):.2f} |"
         ]
-    md += [
-        "",
-        "All 30 rooms at 85 % with probability 0.9 would take, with no spread beyond chance,",
-    ]
     reach = next(
-        q / 1000
-        for q in range(850, 1000)
-        if sum(
-            math.comb(20, k) * (q / 1000) ** k * (1 - q / 1000) ** (20 - k) for k in range(17, 21)
-        )
-        ** 30
-        >= 0.9
+        q / 1000 for q in range(850, 1000) if at_least(need, n, q / 1000) ** len(rows) >= 0.9
     )
-    md += [f"a pooled rate of {reach:.3f} over 20 laps a room."]
+    md += ["", f"All {len(rows)} rooms at 85 % with probability 0.9 would take, with no spread"]
+    md += [f"beyond chance, a pooled rate of {reach:.3f} over {n} laps a room."]
     atomic_write_text(out, "\n".join(md) + "\n")
     print("\n".join(md))
 
