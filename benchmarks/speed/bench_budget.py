@@ -104,6 +104,24 @@ def percentiles(values_ms: list[float]) -> dict[str, float]:
     }
 
 
+def first_repetition_config(study_path: Path, condition_name: str) -> Any:
+    """The condition's ``BenchmarkConfig`` for one repetition of the study's first seed."""
+    study = load_study(study_path)
+    (condition,) = [c for c in study.conditions if c.name == condition_name]
+    return dataclasses.replace(condition.config, seed=study.seeds[0], repetitions=1)
+
+
+def repetition_zero(config: Any) -> tuple[int, int, int, Any, dict[str, Any]]:
+    """Repetition 0 of ``config``'s seed as the study's job has it: its demonstration, GA and
+    trial seeds, its world and ``learn_repetition``'s calibration argument (if any)."""
+    seed = repetition_seeds(config.seed, 1)[0]
+    demo_seed, ga_seed, trial_seed = repetition_streams(seed)
+    preset = repetition_preset(config, seed)
+    calibration = calibration_for(config.memory, preset, seed)
+    extra = {} if calibration is None else {"calibration": calibration}
+    return demo_seed, ga_seed, trial_seed, preset, extra
+
+
 def decisions(controller: Controller, preset: Any, seed: int, frames: int) -> dict[str, Any]:
     """Drive ``controller`` on the testing track (each way in turn) until ``frames`` frames were
     decided; the CPU and wall milliseconds of each frame-to-command step."""
@@ -253,16 +271,10 @@ def main() -> None:
         parser.error("--frames must be >= 20 and --fits >= 1")
     pin_one_thread()
     before = load_average()
-    study = load_study(study_path)
-    (condition,) = [c for c in study.conditions if c.name == condition_name]
-    if condition.config.method not in ("bc", "hg-dagger"):
+    config = first_repetition_config(study_path, condition_name)
+    if config.method not in ("bc", "hg-dagger"):
         parser.error(f"--condition {condition_name}: method must be bc or hg-dagger")
-    config = dataclasses.replace(condition.config, seed=study.seeds[0], repetitions=1)
-    seed = repetition_seeds(config.seed, 1)[0]  # repetition 0 of the study's seed
-    demo_seed, ga_seed, trial_seed = repetition_streams(seed)
-    preset = repetition_preset(config, seed)
-    calibration = calibration_for(config.memory, preset, seed)
-    extra = {} if calibration is None else {"calibration": calibration}
+    demo_seed, ga_seed, trial_seed, preset, extra = repetition_zero(config)
     online_config = dataclasses.replace(config, method="online", online=OnlineConfig(learner="bc"))
     with tempfile.TemporaryDirectory() as tmp:
         rows: dict[str, Any] = {}

@@ -25,7 +25,6 @@ and writes ``benchmarks/speed/results/decision_tail.json``.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import tempfile
 import time
@@ -34,20 +33,14 @@ from typing import Any
 
 import cv2
 import numpy as np
+from bench_budget import first_repetition_config, percentiles, repetition_zero
 from single_thread import load_average, pin_one_thread, run_facts
 
 import lfd_track.policy.odometry as odometry
-from lfd_track.benchmark.runner import (
-    learn_repetition,
-    repetition_preset,
-    repetition_seeds,
-    repetition_streams,
-)
+from lfd_track.benchmark.runner import learn_repetition
 from lfd_track.envs.track_env import LfDTrackEnv
-from lfd_track.methods.common import calibration_for
 from lfd_track.policy.map_geometry import MapGeometry
 from lfd_track.policy.memory import FreshFeltMemory
-from lfd_track.study.spec import load_study
 from lfd_track.utils.atomic import atomic_write_text
 
 REPO = Path(__file__).resolve().parents[2]
@@ -66,14 +59,8 @@ WARM_UP = 5  # first decisions of each replay left out (first calls allocate)
 
 def learned_controller() -> tuple[Any, Any, int]:
     """The goal's ``paper`` controller of study seed 0, repetition 0, its world and trial seed."""
-    study = load_study(STUDY)
-    (condition,) = [c for c in study.conditions if c.name == "paper"]
-    config = dataclasses.replace(condition.config, seed=study.seeds[0], repetitions=1)
-    seed = repetition_seeds(config.seed, 1)[0]
-    demo_seed, ga_seed, trial_seed = repetition_streams(seed)
-    preset = repetition_preset(config, seed)
-    calibration = calibration_for(config.memory, preset, seed)
-    extra = {} if calibration is None else {"calibration": calibration}
+    config = first_repetition_config(STUDY, "paper")
+    demo_seed, ga_seed, trial_seed, preset, extra = repetition_zero(config)
     with tempfile.TemporaryDirectory() as tmp:
         learned = learn_repetition(
             config, Path(tmp), demo_seed=demo_seed, ga_seed=ga_seed, preset=preset, **extra
@@ -148,14 +135,6 @@ def replay(controller: Any, episodes: list) -> dict[str, np.ndarray]:
     return {"ms": data[:, 0], "arrive_ms": data[:, 1], "fits": data[:, 2], "commands": data[:, 3]}
 
 
-def spread(values: np.ndarray) -> dict[str, float]:
-    return {
-        "median_ms": round(float(np.median(values)), 3),
-        "p95_ms": round(float(np.percentile(values, 95)), 3),
-        "max_ms": round(float(values.max()), 3),
-    }
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=4, help="replays of each variant")
@@ -181,7 +160,7 @@ def main() -> None:
     for name, done in runs.items():
         ms = np.concatenate([r["ms"] for r in done])
         step = np.concatenate([r["arrive_ms"] for r in done])
-        table[name] = {"decision": spread(ms), "motion_step": spread(step)}
+        table[name] = {"decision": percentiles(ms), "motion_step": percentiles(step)}
         d, s = table[name]["decision"], table[name]["motion_step"]
         print(
             f"{name:<18} {d['median_ms']:>10.2f} / {d['p95_ms']:.2f} / {d['max_ms']:.2f}"
@@ -190,7 +169,7 @@ def main() -> None:
     shipped = runs["shipped"]
     ms, fits = (np.concatenate([r[k] for r in shipped]) for k in ("ms", "fits"))
     by_fits = {
-        str(int(k)): {"frames": int((fits == k).sum()), **spread(ms[fits == k])}
+        str(int(k)): {"frames": int((fits == k).sum()), **percentiles(ms[fits == k])}
         for k in np.unique(fits)
     }
     print(
