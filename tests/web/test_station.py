@@ -51,16 +51,33 @@ def as_controller(browser: Any, url: str) -> Any:
     return page
 
 
-def settled(session: Any, cases: int) -> dict[str, Any]:
-    """The status once ``cases`` cases are recorded and no command is left to run."""
-    return wait_until(
-        lambda: (
-            (s := session.status())["cases"] == cases
-            and not session.commander.pending
-            and not s["driving"]  # the step is over, every observer has seen it
-            and s
-        ),
-        f"{cases} cases",
+def settled(session: Any, cases: int, count: str = "cases") -> dict[str, Any]:
+    """The status once ``cases`` cases (or, with ``count="steps"``, commands) are recorded and no
+    command is left to run; one more than that fails at once, showing the status."""
+    try:
+        status = wait_until(
+            lambda: (
+                (s := session.status())[count] >= cases
+                and not session.commander.pending
+                and not s["driving"]  # the step is over, every observer has seen it
+                and s
+            ),
+            f"{cases} {count}",
+        )
+    except AssertionError as exc:
+        raise AssertionError(f"{exc}; status {session.status()}") from None
+    assert status[count] == cases, status
+    return status
+
+
+def tap(page: Any, command: str) -> None:
+    """A quick tap on the page's ``command`` button: its press and its release leave the page in
+    one task, as the raw-socket tests send them. ``page.click`` sends the two as separate browser
+    inputs; on a loaded machine they can reach the page a control period apart, and the station
+    then rightly repeats the held command (tests that use real input give it a longer period)."""
+    page.locator(f'[data-command="{command}"]').evaluate(
+        """button => { for (const type of ["pointerdown", "pointerup"])
+            button.dispatchEvent(new PointerEvent(type, {bubbles: true, cancelable: true})); }"""
     )
 
 
@@ -74,7 +91,9 @@ def http_get(url: str) -> tuple[int, bytes]:
 
 
 def test_three_forward_clicks_record_three_cases(browser, open_station) -> None:
-    station = open_station()
+    # Real clicks and keys: a period of 0.5 s keeps a click from counting as a held button even
+    # when its mouse-up reaches the page late.
+    station = open_station("--period", "0.5")
     page = as_controller(browser, station.url)
     assert page.locator("#camera").get_attribute("src").startswith("blob:")
     for _ in range(3):
@@ -105,17 +124,13 @@ def test_library_only_commands_build_the_library_without_cases(browser, open_sta
     station = open_station("--library-only", "2")
     page = as_controller(browser, station.url)
     for _ in range(3):
-        page.click('[data-command="forward"]')
-        wait_until(lambda: not station.session.commander.pending, "the command to run")
-    status = wait_until(
-        lambda: (s := station.session.status())["steps"] == 3 and not s["driving"] and s,
-        "3 steps",
-    )
+        tap(page, "forward")
+    status = settled(station.session, 3, count="steps")
     assert status["cases"] == 1 and status["library_models"] == 3
 
 
 def test_a_phone_drives_by_touch(browser, open_station) -> None:
-    station = open_station()
+    station = open_station("--period", "0.5")  # real touches, as in the test of clicks
     page = open_page(
         browser, station.url, viewport={"width": 390, "height": 844}, has_touch=True, is_mobile=True
     )
@@ -140,7 +155,7 @@ def test_the_live_view_runs_at_5_frames_per_second_or_more(browser, open_station
 def test_pausing_learning_keeps_the_library_from_growing(browser, open_station) -> None:
     station = open_station()
     page = as_controller(browser, station.url)
-    page.click('[data-command="forward"]')
+    tap(page, "forward")
     models = settled(station.session, 1)["library_models"]
     assert models == 1
     toggle = page.locator('[data-action="pause-learning"]')
@@ -148,12 +163,12 @@ def test_pausing_learning_keeps_the_library_from_growing(browser, open_station) 
     wait_until(lambda: station.session.status()["learning_paused"], "learning paused")
     wait_until(lambda: toggle.get_attribute("aria-pressed") == "true", "the switch to show it")
     for _ in range(3):
-        page.click('[data-command="forward"]')
+        tap(page, "forward")
     status = settled(station.session, 4)
     assert status["library_models"] == models
     toggle.click()
     wait_until(lambda: not station.session.status()["learning_paused"], "learning resumed")
-    page.click('[data-command="forward"]')
+    tap(page, "forward")
     assert settled(station.session, 5)["library_models"] > models  # learning again
     demo = load_demonstration(station.out)
     assert demo.learned.tolist() == [True, False, False, False, True]
@@ -167,13 +182,13 @@ def test_the_rule_pauses_learning_while_the_safe_box_is_off_the_felt(
     station = open_station("--track", str(track))
     page = as_controller(browser, station.url)
     for given in range(1, 5):  # four pivots: about 90 degrees, the safe box sees carpet
-        page.click('[data-command="left"]')
+        tap(page, "left")
         settled(station.session, given)
     status = station.session.status()
     assert status["learning_auto_paused"] and not status["learning_paused"]
     wait_until(lambda: "by the rule" in page.locator("#learning").inner_text(), "the page's note")
     models = status["library_models"]
-    page.click('[data-command="left"]')
+    tap(page, "left")
     assert settled(station.session, 5)["library_models"] == models
     assert not load_demonstration(station.out).learned[-1]
 
@@ -293,7 +308,7 @@ def test_a_token_is_required_on_every_request_and_the_websocket(browser, open_st
     assert refused.value.response.status_code == 403
     assert station.session.status()["steps"] == 0  # no motion
     page = as_controller(browser, station.url)  # the printed URL carries the token
-    page.click('[data-command="forward"]')
+    tap(page, "forward")
     assert settled(station.session, 1)["steps"] == 1
 
 
@@ -311,7 +326,7 @@ def test_online_takeover_then_a_human_command_is_a_correction(
     takeover = page.locator('[data-action="takeover"]')
     assert takeover.is_visible() and takeover.is_disabled()  # no policy before the first case
     for given in range(1, 16):  # demonstrate until the station offers the takeover
-        page.click('[data-command="forward"]')
+        tap(page, "forward")
         status = settled(session, given)
         if status["takeover_offered"]:
             break
@@ -325,7 +340,7 @@ def test_online_takeover_then_a_human_command_is_a_correction(
     wait_until(lambda: session.status()["steps"] >= steps + 2, "the policy's own commands")
     assert session.status()["cases"] == given  # the policy's commands are not teaching cases
     wait_until(lambda: page.locator("#mode").inner_text() == "policy drives", "the page's badge")
-    page.click('[data-command="left"]')  # the human takes control back
+    tap(page, "left")  # the human takes control back
     status = wait_until(lambda: (s := session.status())["corrections"] == 1 and s, "the correction")
     assert status["mode"] == "human" and status["cases"] == given + 1
     code, body = http_get(station.url + "api/status")
