@@ -51,6 +51,9 @@ Schema history:
 * **10** — ``config.memory`` names the ``fresh_felt`` map's ``colour_balance`` (how a driving
   session's frames are balanced: :mod:`lfd_track.vision.colour_balance`). A schema-9 file was
   written before it: ``"none"``, what every run did then (the same step).
+* **11** — ``config.memory`` names how the map's measured motion is searched for,
+  ``registration`` (:data:`lfd_track.policy.odometry.REGISTRATIONS`). A schema-10 file was
+  written before it: ``"full"``, what every run did then (the same step).
 """
 
 from __future__ import annotations
@@ -61,7 +64,7 @@ from typing import Any
 from ..policy.memory_config import memory_table_from_v1
 from ..utils.migrate import Step, VersionedJson
 
-RESULTS_SCHEMA = 10
+RESULTS_SCHEMA = 11
 """Schema of the results.json this version writes (``len(RESULTS_STEPS) + 1``)."""
 MAX_RESULTS_BYTES = 1 << 28
 """Largest results.json read (a 10-repetition benchmark writes about 100 kB)."""
@@ -252,6 +255,7 @@ MEMORY_SETTING_SINCE: dict[int, str] = {
     8: "branch_turn",
     9: "branch_turn_from",
     10: "colour_balance",
+    11: "registration",
 }
 
 

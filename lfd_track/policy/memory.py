@@ -325,7 +325,7 @@ class FreshFeltMemory:
         if config.motion == "visual":
             from .odometry import floor_odometry
 
-            self._odometry = floor_odometry(self.geometry)
+            self._odometry = floor_odometry(self.geometry, config.registration)
         self._branch = (
             BranchSide(config.branch_window, self.geometry.pivot_deg, config.branch_turn_from)
             if config.branch_side

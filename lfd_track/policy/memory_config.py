@@ -64,6 +64,9 @@ COLOUR_BALANCES = ("none", "safe_box")
 #: How the ``fresh_felt`` map moves at each executed command (``motion``;
 #: :mod:`lfd_track.policy.odometry`).
 MAP_MOTIONS = ("nominal", "visual")
+#: How hard ``motion = "visual"`` searches each command's motion (``registration``;
+#: :data:`lfd_track.policy.odometry.REGISTRATIONS`).
+MAP_REGISTRATIONS = ("full", "quick")
 
 
 def setting(
@@ -335,6 +338,14 @@ class FreshFeltConfig(MemoryConfig):
         " robustness study rooms_odometry.toml compares it with nominal)",
         choices=MAP_MOTIONS,
     )
+    registration: str = setting(
+        "full",
+        "with motion visual: how hard each command's motion is searched for, full (five"
+        " starting turns, 30 iterations per fit) or quick (the nominal turn alone, 15"
+        " iterations: a decision that fits the 5 ms budget on one core,"
+        " lfd_track.policy.odometry)",
+        choices=MAP_REGISTRATIONS,
+    )
     branch_side: bool = setting(
         False,
         "a fourth input: the side (1 left, 0 right, 0.5 none) where felt branched off the"
@@ -379,6 +390,8 @@ class FreshFeltConfig(MemoryConfig):
         object.__setattr__(self, "n_inputs", 3 + self.branch_side + self.branch_turn)
 
     def _check(self) -> None:
+        if self.registration != "full" and self.motion != "visual":
+            raise ValueError('memory registration is a setting of motion = "visual"')
         if self.branch_turn and not self.branch_side:
             raise ValueError("memory branch_turn needs branch_side = true (it is the side's turn)")
         if self.branch_turn_from != "set" and not self.branch_turn:

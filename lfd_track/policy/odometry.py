@@ -18,7 +18,9 @@ contrast and brightness) finds it, first on views of 16 mm pixels from the comma
 motion and, unless that fits well, from turns 4° and 8° either side of it (a slipping forward
 command turns the rover up to some 10°; the best correlation among the motions the rover can
 have made wins: a turn traded for a sideways shift can match a strip's straight edges too),
-then on the 8 mm views from there. The fit's correlation and its distance from the nominal
+then on the 8 mm views from there (``registration = "full"``; ``"quick"`` tries the nominal motion
+alone and stops each fit after 15 iterations, for a decision that must fit a budget: see
+:data:`REGISTRATIONS`). The fit's correlation and its distance from the nominal
 motion say whether it is trusted (:attr:`FloorMotion.reliable`).
 
 What the floor offers to match: the felt's edges (sharp, but a straight edge says nothing of a
@@ -49,10 +51,12 @@ from .map_geometry import MapGeometry
 __all__ = [
     "COARSE_TURNS_DEG",
     "ECC_ITERATIONS",
+    "REGISTRATIONS",
     "FloorMotion",
     "FloorOdometry",
     "FloorView",
     "PlanarMotion",
+    "Registration",
     "floor_odometry",
 ]
 
@@ -77,12 +81,30 @@ _TEMPLATE_TO_M = 0.75  # [m] and ends this far beyond it
 _SHADING_SIGMA_M = 0.04  # [m] high-pass scale: keeps felt edges and carpet, drops shading
 _COARSE = 2  # the first fit works on blocks of 2 x 2 view pixels
 #: Turns tried around the nominal one on the coarse views [deg], in this order (a forward command
-#: of a rover slipping 0.10 turns it up to some 10 deg). Read at every fit, as is
-#: :data:`ECC_ITERATIONS` (``benchmarks/speed/bench_decision_tail.py`` times other values).
+#: of a rover slipping 0.10 turns it up to some 10 deg): the ``full`` registration's.
 COARSE_TURNS_DEG = (0.0, -4.0, 4.0, -8.0, 8.0)
 _GOOD_START = 0.8  # a plausible coarse fit this good needs no further start
-#: ECC iterations per fit at most.
+#: ECC iterations per fit at most: the ``full`` registration's.
 ECC_ITERATIONS = 30
+
+
+@dataclass(frozen=True)
+class Registration:
+    """How hard a motion is searched for: the turns tried around the nominal one on the coarse
+    views [deg], in order, and the ECC iterations per fit at most (coarse and fine alike)."""
+
+    turns_deg: tuple[float, ...]
+    iterations: int
+
+
+#: The registrations by name (the ``fresh_felt`` map's ``registration`` setting), read at every
+#: fit. ``full`` searches five starts of 30 iterations (the map's motion since it existed);
+#: ``quick`` one start of 15, some 1.5 ms less at the 95th percentile of a decision
+#: (``benchmarks/speed/bench_decision_tail.py``), for the encapsulated budget.
+REGISTRATIONS: dict[str, Registration] = {
+    "full": Registration(COARSE_TURNS_DEG, ECC_ITERATIONS),
+    "quick": Registration((0.0,), 15),
+}
 _EPSILON = 1e-4  # ECC stops when the correlation grows less than this
 #: ECC's own Gaussian blur [px] per scale: wider on the coarse views, whose fit must reach
 #: further (from a nominal pivot 2 deg off, a 3 px blur there can lose the match).
@@ -193,9 +215,15 @@ class _Scale:
 
 class FloorOdometry:
     """The rover's motion between two frames of the camera of ``geometry`` (see the module
-    docstring). Only the camera of ``geometry`` is read; its motion is the caller's guess."""
+    docstring). Only the camera of ``geometry`` is read; its motion is the caller's guess.
+    ``registration`` names how hard each motion is searched for (:data:`REGISTRATIONS`)."""
 
-    def __init__(self, geometry: MapGeometry) -> None:
+    def __init__(self, geometry: MapGeometry, registration: str = "full") -> None:
+        if registration not in REGISTRATIONS:
+            raise ValueError(
+                f"registration must be one of {', '.join(REGISTRATIONS)}, got {registration!r}"
+            )
+        self.registration = registration
         camera = geometry.camera()
         model = CameraModel(camera)
         footprint = model.footprint(np.zeros(3))
@@ -260,9 +288,10 @@ class FloorOdometry:
         # The best fit over the starts: a motion the rover can have made before any other (a
         # turn traded for a sideways shift can match a strip's straight edges as well).
         best: tuple[bool, float, np.ndarray] | None = None
-        for extra in COARSE_TURNS_DEG:
+        search = REGISTRATIONS[self.registration]
+        for extra in search.turns_deg:
             start = PlanarMotion(guess.forward_m, guess.left_m, guess.turn_deg + extra)
-            fit = _ecc(template, before.coarse, coarse, start.matrix())
+            fit = _ecc(template, before.coarse, coarse, start.matrix(), search.iterations)
             if fit is None:
                 continue
             ranked = (_plausible(_motion_of(fit[1]), guess), fit[0], fit[1])
@@ -274,7 +303,7 @@ class FloorOdometry:
             return FloorMotion(guess, -1.0, texture, guess)
         fine = self._scales[1]
         template = np.ascontiguousarray(after.fine[fine.rows, fine.cols])
-        refined = _ecc(template, before.fine, fine, best[2])
+        refined = _ecc(template, before.fine, fine, best[2], search.iterations)
         correlation, matrix = refined if refined is not None else best[1:]
         return FloorMotion(_motion_of(matrix), float(correlation), texture, guess)
 
@@ -284,10 +313,10 @@ class FloorOdometry:
 
 
 @functools.lru_cache(maxsize=8)
-def floor_odometry(geometry: MapGeometry) -> FloorOdometry:
-    """The :class:`FloorOdometry` of ``geometry``'s camera (built once per geometry: it holds
-    the view's maps and nothing that changes)."""
-    return FloorOdometry(geometry)
+def floor_odometry(geometry: MapGeometry, registration: str = "full") -> FloorOdometry:
+    """The :class:`FloorOdometry` of ``geometry``'s camera with ``registration`` (built once per
+    pair: it holds the view's maps and nothing that changes)."""
+    return FloorOdometry(geometry, registration)
 
 
 def _eroded(seen: np.ndarray) -> np.ndarray:
@@ -321,13 +350,13 @@ def _template_rect(
 
 
 def _ecc(
-    template: np.ndarray, image: np.ndarray, scale: _Scale, start: np.ndarray
+    template: np.ndarray, image: np.ndarray, scale: _Scale, start: np.ndarray, iterations: int
 ) -> tuple[float, np.ndarray] | None:
     """ECC fit of ``template`` (after) onto ``image`` (before) at ``scale`` from the motion
-    matrix ``start`` (:meth:`PlanarMotion.matrix`); the correlation and the fitted motion matrix,
-    or None when the fit fails."""
+    matrix ``start`` (:meth:`PlanarMotion.matrix`) in at most ``iterations``; the correlation and
+    the fitted motion matrix, or None when the fit fails."""
     warp = (scale.view_from_floor @ start @ scale.floor_from_template)[:2].astype(np.float32)
-    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, ECC_ITERATIONS, _EPSILON)
+    criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, iterations, _EPSILON)
     try:
         correlation, warp = cv2.findTransformECC(
             template, image, warp, cv2.MOTION_EUCLIDEAN, criteria, scale.mask, scale.blur

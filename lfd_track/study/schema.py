@@ -24,6 +24,7 @@ Schema history:
 * **9** — the same for ``branch_turn_from`` (as results.json schema 9, ``"set"`` in older files).
 * **10** — the same for ``colour_balance`` (as results.json schema 10, ``"none"`` in older
   files).
+* **11** — the same for ``registration`` (as results.json schema 11, ``"full"`` in older files).
 """
 
 from __future__ import annotations
@@ -39,7 +40,7 @@ from ..benchmark.schema import (
 )
 from ..utils.migrate import Step, VersionedJson
 
-STUDY_SCHEMA = 10
+STUDY_SCHEMA = 11
 """Schema of the study.json this version writes (``len(STUDY_STEPS) + 1``)."""
 MAX_STUDY_BYTES = 1 << 28
 """Largest study.json read."""

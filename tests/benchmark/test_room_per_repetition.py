@@ -136,3 +136,15 @@ def test_room_round_trips_through_results_and_study(tmp_path: Path) -> None:
     (job,) = load_study(study).jobs()
     assert job.config.room == "per_repetition"
     assert expected_config(job)["room"] == "per_repetition"
+
+
+def test_the_half_camera_rooms_are_the_full_cameras_rooms() -> None:
+    # randomized_fast draws the same rooms from the same seeds; only the frames are smaller.
+    fast = dataclasses.replace(ROOM, preset="randomized_fast")
+    for seed in repetition_seeds(0, 3):
+        full, half = repetition_preset(ROOM, seed), repetition_preset(fast, seed)
+        assert isinstance(full, Preset) and isinstance(half, Preset)
+        assert half.camera.scale == 0.5 and full.camera.scale == 1.0
+        same = dataclasses.replace(half, name=full.name, source=full.source)
+        same = dataclasses.replace(same, camera=dataclasses.replace(half.camera, scale=1.0))
+        assert same == full

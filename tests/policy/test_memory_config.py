@@ -200,6 +200,7 @@ def test_kind_fresh_felt_alone_is_the_chosen_configurations_map(tmp_path):
         "felt_levels": "fixed",
         "colour_balance": "none",
         "motion": "nominal",
+        "registration": "full",
         "branch_side": False,
         "branch_window": "forward",
         "branch_turn": False,

@@ -52,11 +52,12 @@ def _drive(preset: str) -> list[tuple[np.ndarray, np.ndarray, int, PlanarMotion]
     return out
 
 
+@pytest.mark.parametrize("registration", ["full", "quick"])
 @pytest.mark.parametrize("preset", ["paper", SLIP])
-def test_the_motion_between_frames_matches_the_true_one(preset: str) -> None:
+def test_the_motion_between_frames_matches_the_true_one(preset: str, registration: str) -> None:
     # Every command's turn within 0.5 deg and its shift within 1 cm of the rover's true motion,
     # where the nominal motion is further off (slip: a forward command turns the rover too).
-    odometry = FloorOdometry(PAPER_GEOMETRY)
+    odometry = FloorOdometry(PAPER_GEOMETRY, registration)
     nominal_turn_errors = []
     for before, after, command, truth in _drive(preset):
         found = odometry.between(before, after, NOMINAL[command])
@@ -66,6 +67,32 @@ def test_the_motion_between_frames_matches_the_true_one(preset: str) -> None:
         assert found.motion.left_m == pytest.approx(truth.left_m, abs=0.01)
         nominal_turn_errors.append(abs(NOMINAL[command].turn_deg - truth.turn_deg))
     assert max(nominal_turn_errors) > 1.0  # the nominal motion is off by more than that
+
+
+@pytest.mark.parametrize(
+    ("registration", "fits", "iterations"), [("full", 6, 30), ("quick", 2, 15)]
+)
+def test_a_registration_fits_from_its_starts_with_its_iterations(
+    monkeypatch: pytest.MonkeyPatch, registration: str, fits: int, iterations: int
+) -> None:
+    # A motion no start fits well (a bare floor and a shifted copy of the training track) runs
+    # every start of the registration and then the fine fit, each with its iteration cap.
+    import cv2
+
+    calls = []
+    ecc = cv2.findTransformECC
+
+    def counted(*args):
+        calls.append(args[4][1])  # the criteria's iteration count
+        return ecc(*args)
+
+    monkeypatch.setattr(cv2, "findTransformECC", counted)
+    before, after, _, _ = _drive("paper")[0]
+    odometry = FloorOdometry(PAPER_GEOMETRY, registration)
+    odometry.between(before, after, PlanarMotion(0.0, 0.05, 20.0))  # far from the truth
+    assert len(calls) == fits and set(calls) == {iterations}
+    with pytest.raises(ValueError, match="registration must be one of full, quick"):
+        FloorOdometry(PAPER_GEOMETRY, "thorough")
 
 
 def test_a_floor_without_texture_is_not_trusted() -> None:
