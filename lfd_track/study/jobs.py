@@ -10,6 +10,7 @@ job's report, so an interrupted study loses at most the jobs that were running.
 from __future__ import annotations
 
 import json
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -64,6 +65,20 @@ def expected_config(job: Job) -> dict[str, Any]:
     return json.loads(results_json_text({"config": config_dict(job.config)}))["config"]
 
 
+def same_settings(stored: Any, expected: dict[str, Any]) -> bool:
+    """Whether a stored results.json ``config`` holds the settings ``expected``: equal, with a
+    preset path read in its normal form (``round/planned/../presets/a.toml`` names the file
+    ``round/presets/a.toml`` names, so a study file moved out of ``planned/`` keeps its results)."""
+
+    def normal(config: Any) -> Any:
+        preset = config.get("preset") if isinstance(config, dict) else None
+        if isinstance(preset, str) and "/" in preset:
+            return {**config, "preset": os.path.normpath(preset)}
+        return config
+
+    return bool(normal(stored) == normal(expected))
+
+
 def finished_results(out: Path, job: Job) -> dict[str, Any] | None:
     """The job's results if it finished earlier, else None.
 
@@ -94,7 +109,9 @@ def finished_results(out: Path, job: Job) -> dict[str, Any] | None:
         raise FileFormatError(path, f"unreadable results ({first_line(exc)}); {rerun}") from None
     if isinstance(results, dict):
         results = migrate_results(results, path)  # an older schema is read as the current one
-    if not isinstance(results, dict) or results.get("config") != expected_config(job):
+    if not isinstance(results, dict) or not same_settings(
+        results.get("config"), expected_config(job)
+    ):
         raise FileFormatError(
             path,
             f"was run with other settings than condition '{job.condition}' now has "

@@ -65,6 +65,7 @@ corner); with ``check_names`` this is checked when the file is loaded.
 from __future__ import annotations
 
 import dataclasses
+import os
 import re
 import typing
 from dataclasses import dataclass
@@ -416,13 +417,14 @@ def _show(value: Any) -> str:
 
 
 def _relative_to(value: Any, study_path: Path) -> Any:
-    """Preset or track paths (not bare names) are relative to the study file's folder."""
+    """Preset or track paths (not bare names) are relative to the study file's folder (as a
+    normal path: ``planned/../presets/a.toml`` is ``presets/a.toml``)."""
     if isinstance(value, list):
         return [_relative_to(v, study_path) for v in value]
     if isinstance(value, str) and ("/" in value or value.endswith(".toml")):
         candidate = Path(value)
         if not candidate.is_absolute():
-            return str(study_path.parent / candidate)
+            return os.path.normpath(study_path.parent / candidate)
     return value
 
 

@@ -107,6 +107,31 @@ def test_changed_settings_under_an_old_name_are_refused(tiny_study, tmp_path):
         run_study(load_study(write_study(tmp_path)), copy)
 
 
+def test_a_study_file_moved_beside_its_preset_keeps_its_results(tmp_path):
+    # Written in planned/ (preset "../presets/p.toml"), run, then moved out beside presets/
+    # (preset "presets/p.toml"): the same file, so its finished jobs are its own.
+    from lfd_track.study.jobs import expected_config, finished_results, job_folder, same_settings
+
+    (tmp_path / "presets").mkdir()
+    (tmp_path / "presets" / "p.toml").write_text('name = "p"\n')
+    (tmp_path / "planned").mkdir()
+    planned = write_study(
+        tmp_path / "planned", TINY_STUDY.replace('preset = "paper"', 'preset = "../presets/p.toml"')
+    )
+    job = load_study(planned).jobs()[0]
+    assert "/planned/" not in job.config.preset  # read in its normal form
+    stored = {**expected_config(job), "preset": str(tmp_path / "planned/../presets/p.toml")}
+    folder = job_folder(tmp_path / "out", job)
+    folder.mkdir(parents=True)
+    (folder / RESULTS_FILE).write_text(json.dumps({**job_results(job), "config": stored}))
+    moved = write_study(
+        tmp_path, TINY_STUDY.replace('preset = "paper"', 'preset = "presets/p.toml"')
+    )
+    assert finished_results(tmp_path / "out", load_study(moved).jobs()[0]) is not None
+    other = {**stored, "preset": str(tmp_path / "presets/q.toml")}
+    assert not same_settings(other, expected_config(job))
+
+
 def test_cli_is_quiet_when_piped_and_prints_the_summary(tiny_study):
     path, out, _ = tiny_study
     done = subprocess.run(
