@@ -138,13 +138,27 @@ def test_room_round_trips_through_results_and_study(tmp_path: Path) -> None:
     assert expected_config(job)["room"] == "per_repetition"
 
 
-def test_the_half_camera_rooms_are_the_full_cameras_rooms() -> None:
-    # randomized_fast draws the same rooms from the same seeds; only the frames are smaller.
-    fast = dataclasses.replace(ROOM, preset="randomized_fast")
+@pytest.mark.parametrize(
+    ("preset", "scale"),
+    [
+        ("randomized_fast", 0.5),
+        (
+            str(
+                Path(__file__).resolve().parents[2]
+                / "benchmarks/experiments/human_goal/round29/presets/randomized_quarter.toml"
+            ),
+            0.25,
+        ),
+    ],
+)
+def test_the_smaller_cameras_rooms_are_the_full_cameras_rooms(preset: str, scale: float) -> None:
+    # randomized_fast (and round 29's quarter camera) draw the same rooms from the same seeds;
+    # only the frames are smaller.
+    smaller = dataclasses.replace(ROOM, preset=preset)
     for seed in repetition_seeds(0, 3):
-        full, half = repetition_preset(ROOM, seed), repetition_preset(fast, seed)
-        assert isinstance(full, Preset) and isinstance(half, Preset)
-        assert half.camera.scale == 0.5 and full.camera.scale == 1.0
-        same = dataclasses.replace(half, name=full.name, source=full.source)
-        same = dataclasses.replace(same, camera=dataclasses.replace(half.camera, scale=1.0))
+        full, small = repetition_preset(ROOM, seed), repetition_preset(smaller, seed)
+        assert isinstance(full, Preset) and isinstance(small, Preset)
+        assert small.camera.scale == scale and full.camera.scale == 1.0
+        same = dataclasses.replace(small, name=full.name, source=full.source)
+        same = dataclasses.replace(same, camera=dataclasses.replace(small.camera, scale=1.0))
         assert same == full

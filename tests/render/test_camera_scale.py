@@ -33,6 +33,22 @@ def test_half_camera_takes_320_by_240_frames_from_the_paper_fast_preset():
     assert obs.shape == (240, 320, 3) and obs.dtype == np.uint8
 
 
+def test_round_29s_quarter_camera_is_the_paper_world_at_160_by_120():
+    # benchmarks/experiments/human_goal/round29/presets/paper_quarter.toml: paper_fast's scaling
+    # one step further, every other value the paper's.
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    quarter = load_preset(
+        str(root / "benchmarks/experiments/human_goal/round29/presets/paper_quarter.toml")
+    )
+    paper = load_preset("paper")
+    assert (quarter.camera.frame_width_px, quarter.camera.frame_height_px) == (160, 120)
+    assert dataclasses.replace(quarter.camera, scale=1.0) == paper.camera
+    for section in ("rover", "sensor", "appearance", "lighting", "episode"):
+        assert getattr(quarter, section) == getattr(paper, section), section
+
+
 def test_same_view_image_centre_and_corners_see_the_same_floor_points():
     full, half = CameraModel(), CameraModel(HALF)
     assert half.focal_px == pytest.approx(full.focal_px / 2)
