@@ -342,7 +342,7 @@ class FreshFeltConfig(MemoryConfig):
         "full",
         "with motion visual: how hard each command's motion is searched for, full (five"
         " starting turns, 30 iterations per fit) or quick (the nominal turn alone, 15"
-        " iterations: a decision that fits the 5 ms budget on one core,"
+        " iterations: a cheaper decision, for the robot's budget on one core,"
         " lfd_track.policy.odometry)",
         choices=MAP_REGISTRATIONS,
     )

@@ -99,8 +99,9 @@ class Registration:
 
 #: The registrations by name (the ``fresh_felt`` map's ``registration`` setting), read at every
 #: fit. ``full`` searches five starts of 30 iterations (the map's motion since it existed);
-#: ``quick`` one start of 15, some 1.5 ms less at the 95th percentile of a decision
-#: (``benchmarks/speed/bench_decision_tail.py``), for the encapsulated budget.
+#: ``quick`` one start of 15, about 1 ms less at the 95th percentile of a decision on the paper
+#: camera (``benchmarks/speed/bench_decision_tail.py``: 4.9 against 5.9 ms), for the encapsulated
+#: budget.
 REGISTRATIONS: dict[str, Registration] = {
     "full": Registration(COARSE_TURNS_DEG, ECC_ITERATIONS),
     "quick": Registration((0.0,), 15),
