@@ -40,10 +40,12 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import functools
 import json
 import statistics
 import tempfile
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -122,15 +124,19 @@ def repetition_zero(config: Any) -> tuple[int, int, int, Any, dict[str, Any]]:
     return demo_seed, ga_seed, trial_seed, preset, extra
 
 
-def decisions(controller: Controller, preset: Any, seed: int, frames: int) -> dict[str, Any]:
-    """Drive ``controller`` on the testing track (each way in turn) until ``frames`` frames were
-    decided; the CPU and wall milliseconds of each frame-to-command step."""
+def drive(
+    controller: Controller, preset: Any, seed: int, frames: int, decided: Callable[..., Any]
+) -> tuple[list[dict[str, Any]], tuple[int, ...]]:
+    """Drive ``controller`` on the testing track (each way in turn) until ``frames`` frames past
+    the first :data:`WARM_UP_FRAMES` were decided. Each frame's decision (the perception, the
+    policy's command and the perception's note of it) runs as ``decided(decide, timed)``, which
+    calls ``decide()`` (it returns the command) and returns what it returned; ``timed`` is False
+    for the warm-up frames. The episodes (direction, steps, how each ended) and the frame shape."""
     rng = np.random.default_rng(seed)
-    cpu_ms: list[float] = []
-    wall_ms: list[float] = []
     episodes: list[dict[str, Any]] = []
-    untimed = WARM_UP_FRAMES  # first-call allocations are not a frame's cost
-    while len(cpu_ms) < frames:
+    timed = -WARM_UP_FRAMES  # first-call allocations are not a frame's cost
+    shape: tuple[int, ...] = ()
+    while timed < frames:
         reverse = len(episodes) % 2 == 1
         env = LfDTrackEnv(track="testing", reverse=reverse, preset=preset)
         perception = controller.perception(
@@ -141,29 +147,51 @@ def decisions(controller: Controller, preset: Any, seed: int, frames: int) -> di
         perception.start_episode()
         commander.reset()
         steps, done = 0, False
-        while not done and len(cpu_ms) < frames:
-            c0, t0 = time.process_time_ns(), time.perf_counter_ns()
-            percept = perception.perceive(frame, info.get("safe_box_on_felt"))
-            command = commander.act_on_values(percept.inputs)
-            perception.note(command)
-            c1, t1 = time.process_time_ns(), time.perf_counter_ns()
-            if untimed:
-                untimed -= 1
-            else:
-                cpu_ms.append((c1 - c0) / 1e6)
-                wall_ms.append((t1 - t0) / 1e6)
+        while not done and timed < frames:
+            box = info.get("safe_box_on_felt")
+            command = decided(
+                functools.partial(_decide, perception, commander, frame, box), timed >= 0
+            )
+            timed += 1
             frame, _, terminated, truncated, info = env.step(int(command))
             steps += 1
             done = terminated or truncated
+        shape = frame.shape
         if not done:
             end = "enough frames"
         else:
             end = "lap" if info["success"] else f"failure: {info['failure']}"
         episodes.append({"direction": "cw" if reverse else "ccw", "steps": steps, "end": end})
         env.close()
+    return episodes, shape
+
+
+def _decide(perception: Any, commander: Any, frame: np.ndarray, box: Any) -> Any:
+    """One frame's decision as the teaching loop runs it: perceive, act, note the command."""
+    command = commander.act_on_values(perception.perceive(frame, box).inputs)
+    perception.note(command)
+    return command
+
+
+def decisions(controller: Controller, preset: Any, seed: int, frames: int) -> dict[str, Any]:
+    """:func:`drive` ``frames`` frames; the CPU and wall milliseconds of each frame-to-command
+    step."""
+    cpu_ms: list[float] = []
+    wall_ms: list[float] = []
+
+    def timed_decision(decide: Callable[[], Any], timed: bool) -> Any:
+        c0, t0 = time.process_time_ns(), time.perf_counter_ns()
+        command = decide()
+        c1, t1 = time.process_time_ns(), time.perf_counter_ns()
+        if timed:
+            cpu_ms.append((c1 - c0) / 1e6)
+            wall_ms.append((t1 - t0) / 1e6)
+        return command
+
+    episodes, shape = drive(controller, preset, seed, frames, timed_decision)
     return {
         "frames": len(cpu_ms),
-        "frame_shape": list(frame.shape),
+        "frame_shape": list(shape),
         "episodes": episodes,
         "cpu": percentiles(cpu_ms),
         "wall": percentiles(wall_ms),

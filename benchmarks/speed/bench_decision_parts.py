@@ -3,8 +3,9 @@
 ``bench_budget.py`` says whether a configuration decides within 5 ms on one core;
 ``bench_decision_tail.py`` times other registrations on the goal's recorded frames. This one
 drives a study condition's first controller (study seed, repetition 0, as ``bench_budget.py``
-learns it) on the testing track, each way in turn, until ``--frames`` frames were decided, and
-times each part of every decision with the process's CPU clock:
+learns it) on the testing track, each way in turn, until ``--frames`` frames were decided (as
+``bench_budget.py`` drives it: ``drive``), and times each part of every decision with the
+process's CPU clock:
 
 * ``histograms`` — the road library's region histograms of the frame;
 * ``road values`` — the frame's road values from them;
@@ -33,12 +34,10 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from bench_budget import first_repetition_config, percentiles, repetition_zero
+from bench_budget import drive, first_repetition_config, percentiles, repetition_zero
 from single_thread import load_average, pin_one_thread, run_facts
 
 from lfd_track.benchmark.runner import learn_repetition
-from lfd_track.envs.track_env import LfDTrackEnv
-from lfd_track.policy.map_geometry import MapGeometry
 from lfd_track.policy.memory import FreshFeltMemory
 from lfd_track.policy.odometry import FloorOdometry
 from lfd_track.utils.atomic import atomic_write_text
@@ -46,7 +45,6 @@ from lfd_track.vision.colour_balance import SafeBoxBalance
 from lfd_track.vision.road_library import RoadLibrary
 
 REPO = Path(__file__).resolve().parents[2]
-WARM_UP = 5  # first decisions of each episode left out (first calls allocate)
 SLOWEST = 12  # frames listed part by part
 #: (class, method, part): the parts timed; a part named twice adds up.
 PARTS = (
@@ -106,35 +104,19 @@ def main() -> None:
     rows: list[list[float]] = []  # per frame: decision ms, GC runs, each part's ms
     originals = timed_parts(spent)
     gc.callbacks.append(count)
-    rng = np.random.default_rng(trial_seed)
+
+    def timed_decision(decide: Any, timed: bool) -> Any:
+        spent.clear()
+        runs = collections[0]
+        t0 = time.process_time_ns()
+        command = decide()
+        ms = (time.process_time_ns() - t0) / 1e6
+        if timed:
+            rows.append([ms, collections[0] - runs, *(spent.get(n, 0.0) for n in names)])
+        return command
+
     try:
-        episode = 0
-        while len(rows) < args.frames:
-            env = LfDTrackEnv(track="testing", reverse=episode % 2 == 1, preset=preset)
-            episode += 1
-            perception = controller.perception(
-                "frozen", world_geometry=MapGeometry.from_preset(env.base_preset)
-            )
-            commander = controller.commander()
-            frame, info = env.reset(seed=int(rng.integers(2**62)))
-            perception.start_episode()
-            commander.reset()
-            done, step = False, 0
-            while not done and len(rows) < args.frames:
-                spent.clear()
-                runs = collections[0]
-                t0 = time.process_time_ns()
-                command = commander.act_on_values(
-                    perception.perceive(frame, info.get("safe_box_on_felt")).inputs
-                )
-                perception.note(command)
-                ms = (time.process_time_ns() - t0) / 1e6
-                if step >= WARM_UP:
-                    rows.append([ms, collections[0] - runs, *(spent.get(n, 0.0) for n in names)])
-                step += 1
-                frame, _, terminated, truncated, info = env.step(int(command))
-                done = terminated or truncated
-            env.close()
+        drive(controller, preset, trial_seed, args.frames, timed_decision)
     finally:
         gc.callbacks.remove(count)
         for cls, name, method in originals:
