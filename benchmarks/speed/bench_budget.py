@@ -124,6 +124,23 @@ def repetition_zero(config: Any) -> tuple[int, int, int, Any, dict[str, Any]]:
     return demo_seed, ga_seed, trial_seed, preset, extra
 
 
+def start_episode(
+    controller: Controller, preset: Any, reverse: bool, rng: np.random.Generator
+) -> tuple[LfDTrackEnv, Any, Any, np.ndarray, dict[str, Any]]:
+    """A testing-track episode (``reverse``: clockwise) reset with a seed drawn from ``rng``,
+    and ``controller``'s frozen perception and commander started for it: ``(env, perception,
+    commander, frame, info)``."""
+    env = LfDTrackEnv(track="testing", reverse=reverse, preset=preset)
+    perception = controller.perception(
+        "frozen", world_geometry=MapGeometry.from_preset(env.base_preset)
+    )
+    commander = controller.commander()
+    frame, info = env.reset(seed=int(rng.integers(2**62)))
+    perception.start_episode()
+    commander.reset()
+    return env, perception, commander, frame, info
+
+
 def drive(
     controller: Controller, preset: Any, seed: int, frames: int, decided: Callable[..., Any]
 ) -> tuple[list[dict[str, Any]], tuple[int, ...]]:
@@ -138,14 +155,7 @@ def drive(
     shape: tuple[int, ...] = ()
     while timed < frames:
         reverse = len(episodes) % 2 == 1
-        env = LfDTrackEnv(track="testing", reverse=reverse, preset=preset)
-        perception = controller.perception(
-            "frozen", world_geometry=MapGeometry.from_preset(env.base_preset)
-        )
-        commander = controller.commander()
-        frame, info = env.reset(seed=int(rng.integers(2**62)))
-        perception.start_episode()
-        commander.reset()
+        env, perception, commander, frame, info = start_episode(controller, preset, reverse, rng)
         steps, done = 0, False
         while not done and timed < frames:
             box = info.get("safe_box_on_felt")

@@ -33,12 +33,11 @@ from typing import Any
 
 import cv2
 import numpy as np
-from bench_budget import first_repetition_config, percentiles, repetition_zero
+from bench_budget import first_repetition_config, percentiles, repetition_zero, start_episode
 from single_thread import load_average, pin_one_thread, run_facts
 
 import lfd_track.policy.odometry as odometry
 from lfd_track.benchmark.runner import learn_repetition
-from lfd_track.envs.track_env import LfDTrackEnv
 from lfd_track.policy.map_geometry import MapGeometry
 from lfd_track.policy.memory import FreshFeltMemory
 from lfd_track.utils.atomic import atomic_write_text
@@ -74,14 +73,7 @@ def recorded_drive(controller: Any, preset: Any, seed: int) -> list[tuple[Any, l
     rng = np.random.default_rng(seed)
     episodes = []
     for reverse in (False, True):
-        env = LfDTrackEnv(track="testing", reverse=reverse, preset=preset)
-        perception = controller.perception(
-            "frozen", world_geometry=MapGeometry.from_preset(env.base_preset)
-        )
-        commander = controller.commander()
-        frame, info = env.reset(seed=int(rng.integers(2**62)))
-        perception.start_episode()
-        commander.reset()
+        env, perception, commander, frame, info = start_episode(controller, preset, reverse, rng)
         frames, commands, done = [], [], False
         while not done:
             frames.append((frame.copy(), info.get("safe_box_on_felt")))

@@ -343,7 +343,8 @@ class FreshFeltConfig(MemoryConfig):
         "with motion visual: how hard each command's motion is searched for, full (five"
         " starting turns, 30 iterations per fit) or quick (the nominal turn alone, 15"
         " iterations: a cheaper decision, for the robot's budget on one core,"
-        " lfd_track.policy.odometry)",
+        " lfd_track.policy.odometry; kept: rounds 28 and 29 of the human-taught goal's studies"
+        " set it, neither chosen)",
         choices=MAP_REGISTRATIONS,
     )
     branch_side: bool = setting(
