@@ -123,8 +123,8 @@ class SafeBoxBalance:
         # three-channel lookup; used only where it gives every level exactly as the table does.
         scale = np.diag(np.exp(self._log_gains))
         exact = all(
-            np.array_equal(cv2.transform(levels, scale), self._table[0, levels[..., 0]])
-            for levels in _LEVELS
+            np.array_equal(cv2.transform(probe, scale), self._table[0, probe[..., 0]])
+            for probe in _LEVELS
         )
         self._scale = scale if exact else None
 
