@@ -66,7 +66,7 @@ COLOUR_BALANCES = ("none", "safe_box")
 MAP_MOTIONS = ("nominal", "visual")
 #: How hard ``motion = "visual"`` searches each command's motion (``registration``;
 #: :data:`lfd_track.policy.odometry.REGISTRATIONS`).
-MAP_REGISTRATIONS = ("full", "quick")
+MAP_REGISTRATIONS = ("full", "quick", "coarse")
 
 
 def setting(
@@ -342,9 +342,9 @@ class FreshFeltConfig(MemoryConfig):
         "full",
         "with motion visual: how hard each command's motion is searched for, full (five"
         " starting turns, 30 iterations per fit) or quick (the nominal turn alone, 15"
-        " iterations: a cheaper decision, for the robot's budget on one core,"
-        " lfd_track.policy.odometry; kept: rounds 28 and 29 of the human-taught goal's studies"
-        " set it, neither chosen)",
+        " iterations: a cheaper decision, for the robot's budget on one core) or coarse (as"
+        " quick, without the fine fit: cheaper still), lfd_track.policy.odometry; kept: rounds"
+        " 28 to 30 of the human-taught goal's studies set it)",
         choices=MAP_REGISTRATIONS,
     )
     branch_side: bool = setting(

@@ -19,8 +19,8 @@ motion and, unless that fits well, from turns 4° and 8° either side of it (a s
 command turns the rover up to some 10°; the best correlation among the motions the rover can
 have made wins: a turn traded for a sideways shift can match a strip's straight edges too),
 then on the 8 mm views from there (``registration = "full"``; ``"quick"`` tries the nominal motion
-alone and stops each fit after 15 iterations, for a decision that must fit a budget: see
-:data:`REGISTRATIONS`). The fit's correlation and its distance from the nominal
+alone and stops each fit after 15 iterations, and ``"coarse"`` does so and keeps the 16 mm fit
+without the 8 mm one, for a decision that must fit a budget: see :data:`REGISTRATIONS`). The fit's correlation and its distance from the nominal
 motion say whether it is trusted (:attr:`FloorMotion.reliable`).
 
 What the floor offers to match: the felt's edges (sharp, but a straight edge says nothing of a
@@ -91,20 +91,25 @@ ECC_ITERATIONS = 30
 @dataclass(frozen=True)
 class Registration:
     """How hard a motion is searched for: the turns tried around the nominal one on the coarse
-    views [deg], in order, and the ECC iterations per fit at most (coarse and fine alike)."""
+    views [deg], in order, the ECC iterations per fit at most (coarse and fine alike), and
+    whether the best coarse fit is refined on the fine views."""
 
     turns_deg: tuple[float, ...]
     iterations: int
+    fine: bool = True
 
 
 #: The registrations by name (the ``fresh_felt`` map's ``registration`` setting), read at every
 #: fit. ``full`` searches five starts of 30 iterations (the map's motion since it existed);
 #: ``quick`` one start of 15, about 1 ms less at the 95th percentile of a decision on the paper
 #: camera (``benchmarks/speed/bench_decision_tail.py``: 4.9 against 5.9 ms), for the encapsulated
-#: budget.
+#: budget; ``coarse`` the same start without the fine fit (on the half-size camera's decision
+#: about 0.6 ms less on average, its fine fit's share; the turn it finds some four times further
+#: off the true one, ``tests/policy/test_odometry.py`` holds it within 2 deg).
 REGISTRATIONS: dict[str, Registration] = {
     "full": Registration(COARSE_TURNS_DEG, ECC_ITERATIONS),
     "quick": Registration((0.0,), 15),
+    "coarse": Registration((0.0,), 15, fine=False),
 }
 _EPSILON = 1e-4  # ECC stops when the correlation grows less than this
 #: ECC's own Gaussian blur [px] per scale: wider on the coarse views, whose fit must reach
@@ -302,6 +307,8 @@ class FloorOdometry:
                 break
         if best is None:
             return FloorMotion(guess, -1.0, texture, guess)
+        if not search.fine:
+            return FloorMotion(_motion_of(best[2]), best[1], texture, guess)
         fine = self._scales[1]
         template = np.ascontiguousarray(after.fine[fine.rows, fine.cols])
         refined = _ecc(template, before.fine, fine, best[2], search.iterations)
