@@ -28,7 +28,8 @@ the BLAS pinned to one thread, ``single_thread.pin_one_thread``). The paper's ph
 1 GHz core; this machine's core (recorded in the results) is faster, by an amount these numbers
 do not measure: they say what one core of this machine needs, not what the phone would.
 
-Run: ``.venv/bin/python benchmarks/speed/bench_budget.py [--frames 400] [--fits 3]`` — prints a
+Run: ``.venv/bin/python benchmarks/speed/bench_budget.py [--frames 400] [--fits 3] [--cpu K]``
+(``--cpu``: the process pinned to core K, "one core" taken literally) — prints a
 table and writes ``benchmarks/speed/results/budget.json``. ``--study FILE --condition NAME
 --out FILE`` measures another configuration of method ``bc`` (its one fit after the
 demonstration) or ``hg-dagger``, e.g. round 7's winner
@@ -50,7 +51,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from single_thread import load_average, pin_one_thread, run_facts
+from single_thread import load_average, pin_core, pin_one_thread, run_facts
 
 from lfd_track.benchmark.runner import (
     learn_repetition,
@@ -303,10 +304,15 @@ def main() -> None:
         "--condition", default=CONDITION, help="its condition (method bc or hg-dagger)"
     )
     parser.add_argument("--out", type=Path, default=RESULTS, help="the JSON written")
+    parser.add_argument("--cpu", type=int, default=None, help="pin the process to core K")
     args = parser.parse_args()
     study_path, condition_name = args.study.resolve(), args.condition
     if args.frames < 20 or args.fits < 1:
         parser.error("--frames must be >= 20 and --fits >= 1")
+    try:
+        pin_core(args.cpu)
+    except ValueError as error:
+        parser.error(f"--cpu: {error}")
     pin_one_thread()
     before = load_average()
     config = first_repetition_config(study_path, condition_name)
@@ -398,6 +404,7 @@ def main() -> None:
         },
         "frames_asked": args.frames,
         "fits": args.fits,
+        "pinned_to_core": args.cpu,
         **run_facts(before),
     }
     atomic_write_text(args.out, json.dumps(result, indent=2) + "\n")

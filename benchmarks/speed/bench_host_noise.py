@@ -26,14 +26,13 @@ from __future__ import annotations
 import argparse
 import json
 import multiprocessing
-import os
 import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from bench_budget import percentiles
-from single_thread import load_average, pin_one_thread, run_facts
+from single_thread import load_average, pin_core, pin_one_thread, run_facts
 
 from lfd_track.envs.track_env import LfDTrackEnv
 from lfd_track.utils.atomic import atomic_write_text
@@ -96,10 +95,10 @@ def main() -> None:
         parser.error("--samples >= 20, --target-ms in 0.1..100 and --busy in 0..8")
     if not 1 <= args.runs <= 20 or (args.repeats is not None and not 1 <= args.repeats <= 100):
         parser.error("--runs must be in 1..20 and --repeats in 1..100")
-    if args.cpu is not None:
-        if args.cpu not in os.sched_getaffinity(0):
-            parser.error(f"--cpu {args.cpu}: not one of this process's cores")
-        os.sched_setaffinity(0, {args.cpu})
+    try:
+        pin_core(args.cpu)
+    except ValueError as error:
+        parser.error(f"--cpu: {error}")
     pin_one_thread()
     frame = fixed_frame(args.preset)
     grid = GridHistogrammer(BINS, threads=1)

@@ -31,6 +31,17 @@ def pin_one_thread() -> None:
     threadpool_limits(limits=1)
 
 
+def pin_core(core: int | None) -> None:
+    """Pin this process to CPU ``core`` (``os.sched_setaffinity``; None: leave it free). Raises
+    ``ValueError`` naming the cores it may use when ``core`` is not one of them."""
+    if core is None:
+        return
+    allowed = sorted(os.sched_getaffinity(0))
+    if core not in allowed:
+        raise ValueError(f"core {core} is not one of this process's cores {allowed}")
+    os.sched_setaffinity(0, {core})
+
+
 def machine() -> dict[str, Any]:
     """Versions, the BLAS kernel (lfd_track.utils.provenance), the thread settings in force, and the
     machine's processor count."""
