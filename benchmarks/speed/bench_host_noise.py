@@ -26,6 +26,7 @@ from __future__ import annotations
 import argparse
 import json
 import multiprocessing
+import os
 import time
 from pathlib import Path
 from typing import Any
@@ -41,8 +42,10 @@ from lfd_track.vision.histograms import GridHistogrammer
 BINS = 32  # the road library's bins per channel
 
 
-def spin(stop: Any) -> None:
-    """A busy process: spins until ``stop`` is set."""
+def spin(stop: Any, cores: set[int]) -> None:
+    """A busy process free to run on ``cores`` (not the measuring process's pinned one alone):
+    spins until ``stop`` is set."""
+    os.sched_setaffinity(0, cores)
     while not stop.is_set():
         pass
 
@@ -95,6 +98,7 @@ def main() -> None:
         parser.error("--samples >= 20, --target-ms in 0.1..100 and --busy in 0..8")
     if not 1 <= args.runs <= 20 or (args.repeats is not None and not 1 <= args.repeats <= 100):
         parser.error("--runs must be in 1..20 and --repeats in 1..100")
+    cores = os.sched_getaffinity(0)  # the busy processes' cores, whatever this one is pinned to
     try:
         pin_core(args.cpu)
     except ValueError as error:
@@ -108,7 +112,7 @@ def main() -> None:
     # the machine's speed at that moment).
     repeats = args.repeats or repeats_for(grid, frame, args.target_ms)
     stop = multiprocessing.Event()
-    busy = [multiprocessing.Process(target=spin, args=(stop,)) for _ in range(args.busy)]
+    busy = [multiprocessing.Process(target=spin, args=(stop, cores)) for _ in range(args.busy)]
     for process in busy:
         process.start()
     before = load_average()
