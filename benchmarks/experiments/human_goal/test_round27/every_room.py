@@ -19,7 +19,6 @@ Run: ``.venv/bin/python benchmarks/experiments/human_goal/test_round27/every_roo
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 from collections import Counter
@@ -28,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from room_measures import spearman, write_page  # noqa: E402
+from room_measures import loop_laps, spearman, write_page  # noqa: E402
 
 from lfd_track.benchmark.loops import loop_facts  # noqa: E402
 from lfd_track.world.loops import turn_bin  # noqa: E402
@@ -43,15 +42,14 @@ BINS = ("<=60", "60-100", "100-135", ">135")
 Key = tuple[int, int]  # (study seed, repetition)
 
 
-def outcomes(study: str) -> dict[Key, list[dict]]:
-    """Each repetition's loop-lap outcomes in a study's results (the training and testing tracks
-    left out)."""
-    out: dict[Key, list[dict]] = {}
-    for path in sorted((RESULTS / study).glob("*/seed*/results.json")):
-        seed = int(path.parent.name.removeprefix("seed"))
-        for o in json.loads(path.read_text(encoding="utf-8"))["outcomes"]:
-            if o["track"] not in ("training", "testing"):
-                out.setdefault((seed, o["repetition"]), []).append(o)
+def outcomes(study: str) -> dict[Key, dict[tuple, bool]]:
+    """Each repetition's loop laps in a study's results, (loop, direction, trial) -> success
+    (``room_measures.loop_laps`` per seed)."""
+    out: dict[Key, dict[tuple, bool]] = {}
+    for folder in sorted((RESULTS / study).glob("*/seed*")):
+        seed = int(folder.name.removeprefix("seed"))
+        for (repetition, *lap), success in loop_laps(folder).items():
+            out.setdefault((seed, repetition), {})[tuple(lap)] = success
     return out
 
 
@@ -83,10 +81,10 @@ def main() -> None:
         keys = sorted(
             k
             for k in paper.keys() & rooms.keys()
-            if {o["track"] for o in paper[k]} == {o["track"] for o in rooms[k]}
+            if {lap[0] for lap in paper[k]} == {lap[0] for lap in rooms[k]}
         )
-        x = np.array([sum(o["success"] for o in paper[k]) for k in keys])
-        y = np.array([sum(o["success"] for o in rooms[k]) for k in keys])
+        x = np.array([sum(paper[k].values()) for k in keys])
+        y = np.array([sum(rooms[k].values()) for k in keys])
         p_paper, p_rooms = x.sum() / (LAPS * len(keys)), y.sum() / (LAPS * len(keys))
         expected = (
             f"{len(keys) * at_least(LAPS, p_paper, BAR):.1f} /"
@@ -101,12 +99,12 @@ def main() -> None:
         )
         for world, laps, at_bar in (("paper", paper, a), ("rooms", rooms, b)):
             for key, ok in zip(keys, at_bar, strict=True):
-                for o in laps[key]:
-                    if o["track"] not in facts:
-                        facts[o["track"]] = turn_bin(loop_facts(o["track"])[0])
-                    label = facts[o["track"]]
+                for (loop, *_), success in laps[key].items():
+                    if loop not in facts:
+                        facts[loop] = turn_bin(loop_facts(loop)[0])
+                    label = facts[loop]
                     laps_in[world][label] += 1
-                    if not o["success"]:
+                    if not success:
                         lost[world][label] += 1
                         if not ok:
                             short[world][label] += 1
