@@ -20,6 +20,8 @@ import threading
 from collections.abc import Callable, Sequence
 from typing import Any
 
+import numpy as np
+
 from ..errors import LfdTrackError
 from ..policy.controller import Controller
 from ..policy.map_geometry import MapGeometry, hardware_geometry
@@ -223,20 +225,38 @@ def _cmd_drive(args: argparse.Namespace) -> int:
         )
         loop.reset()
         step = 0
-        while args.steps is None or step < args.steps:
-            info = loop.step().info_after
-            step += 1
-            print(
-                f"step {step}: {info['command']} (board {info['board_state']}, "
-                f"rtt {info['link']['rtt_ms']:.0f} ms)",
-                flush=True,
-            )
-            if loop.terminated:
-                return _fail(f"stopped after {step} steps: {info['error']}")
+        decisions: list[float] = []
+        try:
+            while args.steps is None or step < args.steps:
+                done = loop.step()
+                info = done.info_after
+                step += 1
+                decisions.append(done.decision_ms or 0.0)
+                print(
+                    f"step {step}: {info['command']} (board {info['board_state']}, "
+                    f"rtt {info['link']['rtt_ms']:.0f} ms, decision {decisions[-1]:.1f} ms)",
+                    flush=True,
+                )
+                if loop.terminated:
+                    return _fail(f"stopped after {step} steps: {info['error']}")
+        finally:
+            if decisions:
+                print(_decision_summary(decisions), flush=True)
         print(f"done: {step} steps; motors stopped")
         return EXIT_OK
     finally:
         env.close()
+
+
+def _decision_summary(decisions_ms: Sequence[float]) -> str:
+    """One line: the frame-to-command times of a drive (wall clock, this machine) against the
+    decision budget of 5 ms."""
+    ms = np.asarray(decisions_ms, dtype=np.float64)
+    median, p99 = np.percentile(ms, [50, 99])
+    return (
+        f"frame to command over {len(ms)} steps: median {median:.1f} / p99 {p99:.1f} / max"
+        f" {ms.max():.1f} ms (wall clock on this machine; the decision budget is 5 ms)"
+    )
 
 
 # --------------------------------------------------------------------------------------- demo

@@ -7,6 +7,7 @@ station can call it whenever its human pushed a command, a benchmark calls :meth
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -131,6 +132,7 @@ class TeachingLoop:
         reset = getattr(self.human, "memory_reset", None)
         if reset is not None and reset():  # the human's script starts a leg afresh
             self.perception.start_episode()
+        started = time.perf_counter_ns()
         percept = self.perception.perceive(self.frame, self.info.get("safe_box_on_felt"))
         moment = Moment(
             step=self._episode_steps,
@@ -143,8 +145,11 @@ class TeachingLoop:
         human = self.human.propose(moment) if self.human is not None else None
         policy = self.policy.propose(moment) if self.policy is not None else None
         decision = self.arbiter.decide(human, policy)
+        decision_ms = (time.perf_counter_ns() - started) / 1e6
         if decision.command is None:
-            return Step(moment, percept, human, policy, decision, is_case=False)
+            return Step(
+                moment, percept, human, policy, decision, is_case=False, decision_ms=decision_ms
+            )
         is_case = decision.driver == "human" and bool(getattr(self.human, "records", True))
         frame, _, terminated, truncated, info = self.env.step(int(decision.command))
         self.perception.note(decision.command)
@@ -159,7 +164,10 @@ class TeachingLoop:
         c.corrections += decision.correction
         c.takeovers += decision.takeover
         c.cases += is_case
-        step = Step(moment, percept, human, policy, decision, is_case, info_after=info)
+        step = Step(
+            moment, percept, human, policy, decision, is_case, info_after=info,
+            decision_ms=decision_ms,
+        )  # fmt: skip
         for observer in self.observers:
             observer.observe(step)
         return step

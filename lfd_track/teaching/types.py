@@ -61,6 +61,10 @@ class Step:
     """The human drove this step and it counts as a teaching case."""
     info_after: dict[str, Any] = field(default_factory=dict)
     """The env's info after the command was executed (empty when nothing was executed)."""
+    decision_ms: float | None = None
+    """Wall-clock milliseconds from the frame to the command: the perception, the commanders'
+    proposals and the arbiter (None for a step where nobody was asked). On a robot this is the
+    latency the decision adds; ``benchmarks/speed/bench_budget.py`` measures its CPU time."""
 
     @property
     def command(self) -> Command | None:

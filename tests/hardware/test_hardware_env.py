@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import _thread
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -318,6 +319,10 @@ def test_cli_drive_runs_a_controller_file(controller_file: Path, capsys) -> None
     out = capsys.readouterr().out
     assert code == 0, out
     assert out.count("step ") == 3 and board.drives()[-1] == "S"
+    # Each step says how long its decision took, and the drive ends with their spread against
+    # the budget.
+    assert len(re.findall(r"^step \d: .*, decision [0-9.]+ ms\)$", out, re.MULTILINE)) == 3
+    assert "frame to command over 3 steps: median " in out and "the decision budget is 5 ms" in out
 
 
 def test_cli_user_errors_are_one_line(tmp_path: Path, capsys) -> None:

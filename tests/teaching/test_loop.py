@@ -1,5 +1,7 @@
 import threading
+import time
 
+import gymnasium as gym
 import numpy as np
 import pytest
 from lfd_test_support import library_with_road
@@ -126,3 +128,42 @@ def test_a_release_during_perception_still_runs_the_command_the_frame_was_percei
     assert loop.step().command is None and not buttons.pending  # released: the robot waits
     assert library.type_statistics() == after
     env.close()
+
+
+class _SlowPolicy:
+    """A policy commander that takes ``seconds`` of wall clock to propose FORWARD."""
+
+    def __init__(self, seconds: float) -> None:
+        self.seconds = seconds
+
+    def reset(self) -> None:
+        pass
+
+    def propose(self, moment):
+        end = time.perf_counter() + self.seconds
+        while time.perf_counter() < end:
+            pass
+        return Command.FORWARD
+
+
+class _SlowSteps(gym.Wrapper):
+    """An env whose every step takes 0.3 s more of wall clock."""
+
+    def step(self, action):
+        time.sleep(0.3)
+        return self.env.step(action)
+
+
+def test_a_step_records_the_time_from_its_frame_to_its_command():
+    # The step's decision time covers the perception and the commanders' proposals (here a
+    # policy that spins for 30 ms), not the env's execution of the command (here 0.3 s more).
+    library, _ = library_with_road()
+    env = _SlowSteps(LfDTrackEnv(track="training"))
+    loop = TeachingLoop(
+        env, Perception(library, "frozen"), Arbiter("policy"), policy=_SlowPolicy(0.03)
+    )
+    loop.reset(seed=3)
+    step = loop.step()
+    env.close()
+    assert step.command == Command.FORWARD and step.decision_ms is not None
+    assert 30.0 <= step.decision_ms < 300.0
