@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import argparse
 import gc
-import json
 import tempfile
 import time
 from pathlib import Path
@@ -35,12 +34,11 @@ from typing import Any
 
 import numpy as np
 from bench_budget import drive, first_repetition_config, percentiles, repetition_zero
-from single_thread import load_average, pin_one_thread, run_facts
+from single_thread import load_average, pin_one_thread, run_facts, write_results
 
 from lfd_track.benchmark.runner import learn_repetition
 from lfd_track.policy.memory import FreshFeltMemory
 from lfd_track.policy.odometry import FloorOdometry
-from lfd_track.utils.atomic import atomic_write_text
 from lfd_track.vision.colour_balance import SafeBoxBalance
 from lfd_track.vision.road_library import RoadLibrary
 
@@ -157,9 +155,7 @@ def main() -> None:
         "slowest_frames": slowest,
         **run_facts(before),
     }
-    atomic_write_text(args.out, json.dumps(result, indent=2) + "\n")
-    print(f"load average (1, 5, 15 min): before {before}, after {load_average()}")
-    print(f"wrote {args.out}")
+    write_results(args.out, result, before)
 
 
 if __name__ == "__main__":

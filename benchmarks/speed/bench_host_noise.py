@@ -24,7 +24,6 @@ Run: ``.venv/bin/python benchmarks/speed/bench_host_noise.py [--target-ms 2.7 | 
 from __future__ import annotations
 
 import argparse
-import json
 import multiprocessing
 import os
 import time
@@ -33,10 +32,9 @@ from typing import Any
 
 import numpy as np
 from bench_budget import percentiles
-from single_thread import load_average, pin_core, pin_one_thread, run_facts
+from single_thread import load_average, pin_core, pin_one_thread, run_facts, write_results
 
 from lfd_track.envs.track_env import LfDTrackEnv
-from lfd_track.utils.atomic import atomic_write_text
 from lfd_track.vision.histograms import GridHistogrammer
 
 BINS = 32  # the road library's bins per channel
@@ -153,9 +151,7 @@ def main() -> None:
         "runs": runs,
         **run_facts(before),
     }
-    atomic_write_text(args.out, json.dumps(result, indent=2) + "\n")
-    print(f"load average (1, 5, 15 min): before {before}, after {load_average()}")
-    print(f"wrote {args.out}")
+    write_results(args.out, result, before)
 
 
 if __name__ == "__main__":

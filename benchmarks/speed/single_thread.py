@@ -7,6 +7,7 @@ thread (``cv2.setNumThreads(1)``) and the BLAS behind numpy limited to one threa
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 from pathlib import Path
@@ -15,6 +16,7 @@ from typing import Any
 import cv2
 from threadpoolctl import threadpool_limits
 
+from lfd_track.utils.atomic import atomic_write_text
 from lfd_track.utils.provenance import environment
 
 REPO = Path(__file__).resolve().parents[2]
@@ -72,6 +74,14 @@ def source_state(root: Path = REPO) -> dict[str, object]:
         "commit": git("rev-parse", "HEAD").strip() or None,
         "uncommitted": [line[3:] for line in dirty.splitlines()],
     }
+
+
+def write_results(path: Path, result: dict[str, Any], load_before: list[float]) -> None:
+    """Write a benchmark's ``result`` as JSON to ``path`` (atomically), and print the load
+    average before and now and where it went."""
+    atomic_write_text(path, json.dumps(result, indent=2) + "\n")
+    print(f"load average (1, 5, 15 min): before {load_before}, after {load_average()}")
+    print(f"wrote {path}")
 
 
 def run_facts(load_before: list[float]) -> dict[str, Any]:
