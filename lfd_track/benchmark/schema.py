@@ -54,6 +54,9 @@ Schema history:
 * **11** — ``config.memory`` names how the map's measured motion is searched for,
   ``registration`` (:data:`lfd_track.policy.odometry.REGISTRATIONS`). A schema-10 file was
   written before it: ``"full"``, what every run did then (the same step).
+* **12** — ``config.memory`` names what the map's visited felt is measured from,
+  ``visited_from``. A schema-11 file was written before it: ``"path"``, what every run did then
+  (the same step).
 """
 
 from __future__ import annotations
@@ -64,7 +67,7 @@ from typing import Any
 from ..policy.memory_config import memory_table_from_v1
 from ..utils.migrate import Step, VersionedJson
 
-RESULTS_SCHEMA = 11
+RESULTS_SCHEMA = 12
 """Schema of the results.json this version writes (``len(RESULTS_STEPS) + 1``)."""
 MAX_RESULTS_BYTES = 1 << 28
 """Largest results.json read (a 10-repetition benchmark writes about 100 kB)."""
@@ -256,6 +259,7 @@ MEMORY_SETTING_SINCE: dict[int, str] = {
     9: "branch_turn_from",
     10: "colour_balance",
     11: "registration",
+    12: "visited_from",
 }
 
 

@@ -65,7 +65,11 @@ such runs, and reading the training accuracy with that baseline in mind, are the
   corner, the outgoing strip away from the incoming one, not the corner's tip); ``branch_side``
   adds a fourth input, the side felt branched off the rover's strip over its last metre, and
   ``branch_turn`` a fifth, how far the rover has pivoted toward that side since it was set
-  (:mod:`~lfd_track.policy.branch_side`).
+  (:mod:`~lfd_track.policy.branch_side`); ``visited_from = "strip"`` also counts felt within
+  ``path_radius_m`` of the centre of the felt abeam just behind the axle, marked after each
+  forward command, as visited, so that a strip the rover rode along one edge is visited across
+  its width (its far half stays fresh otherwise, and at a hairpin a turning rover can stop on it
+  and drive back).
   The settings, their bounds and their defaults (the goal's chosen map: every option above on)
   are :class:`~lfd_track.policy.memory_config.FreshFeltConfig`'s;
   :meth:`~lfd_track.policy.memory_config.FreshFeltConfig.plain` is the map with them off.
@@ -250,6 +254,11 @@ class PreviousCommandMemory:
 
 #: Commands of path the ``fresh_felt`` map remembers (4 m of forward driving).
 _PATH_COMMANDS = 40
+#: [m] ``fresh_felt`` with ``visited_from = "strip"``: the strip's centre abeam is the felt-weighted
+#: mean of the felt points from ``_ABEAM_X_M[0]`` to ``_ABEAM_X_M[1]`` ahead of the axle (behind
+#: it: seen by earlier frames) and within ``_ABEAM_LANE_M`` to either side, when their felt sums
+#: to at least ``_ABEAM_MIN_FELT``.
+_ABEAM_X_M, _ABEAM_LANE_M, _ABEAM_MIN_FELT = (-0.3, -0.1), 0.45, 3.0
 #: ``fresh_felt``: weighted felt below this is no fresh felt at all (inputs 0.5, 0, 0).
 MIN_FRESH = 1.0
 #: ``fresh_felt``: fresh felt counts from this far behind the axle on ([m]; 0: ahead only).
@@ -348,6 +357,10 @@ class FreshFeltMemory:
         self._points = np.zeros((0, 2))  # the remembered frames' floor points, oldest first
         self._felt = np.zeros(0)  # their felt levels in [0, 1]
         self._path = np.zeros((0, 2))  # places the rover has been, before the current one
+        # visited_from = "strip": the strip's centres abeam after forward commands, and whether
+        # the last command the map moved by was a forward one
+        self._centres = np.zeros((0, 2))
+        self._forward = False
         self._inputs = np.array([0.5, 0.0, 0.0])
         self._side = UNKNOWN_BRANCH  # branch_side: the fourth input
         self._turn = UNKNOWN_BRANCH  # branch_turn: the fifth (no side, no turn)
@@ -451,12 +464,15 @@ class FreshFeltMemory:
         path = np.vstack([self._path, np.zeros((1, 2))])[-_PATH_COMMANDS:]
         if self._branch is not None:
             self._branch.moved(command)
+        self._forward = command == Command.FORWARD
         if measured is None:
             self._points = self._moved(self._points, command)
             self._path = self._moved(path, command)
+            self._centres = self._moved(self._centres, command)
         else:
             self._points = measured.move_points(self._points)
             self._path = measured.move_points(path)
+            self._centres = measured.move_points(self._centres)
 
     def place_before(self, command: Command | int) -> None:
         """The rover stands where ``command`` would bring it here from: one step behind for a
@@ -469,10 +485,12 @@ class FreshFeltMemory:
         if cmd == Command.FORWARD:
             back = np.array([self._step, 0.0])
             self._points, self._path = self._points + back, self._path + back
+            self._centres = self._centres + back
             return
         undo = Command.RIGHT if cmd == Command.LEFT else Command.LEFT
         self._points = self._moved(self._points, undo)
         self._path = self._moved(self._path, undo)
+        self._centres = self._moved(self._centres, undo)
 
     def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
         """Add a frame's road values (40,) to the map and compute the inputs. ``levels``:
@@ -493,6 +511,9 @@ class FreshFeltMemory:
         if self._branch is not None:
             self._side = self._branch.see(self._points, self._felt, self._path, N_REGIONS)
             self._turn = self._branch.turned()
+        if cfg.visited_from == "strip" and self._forward:
+            self._mark_strip_centre()
+        self._forward = False
         points = self._points
         dist = np.hypot(points[:, 0], points[:, 1])
         ahead = points[:, 0] > -BEHIND_M
@@ -532,6 +553,19 @@ class FreshFeltMemory:
             ]
         )
 
+    def _mark_strip_centre(self) -> None:
+        """With ``visited_from = "strip"``: add the centre of the felt abeam just behind the axle
+        (:data:`_ABEAM_X_M`) to the places whose felt counts as visited, when there is felt
+        enough there."""
+        x, y = self._points[:, 0], self._points[:, 1]
+        abeam = (x >= _ABEAM_X_M[0]) & (x <= _ABEAM_X_M[1]) & (np.abs(y) <= _ABEAM_LANE_M)
+        weights = self._felt * abeam
+        mass = float(weights.sum())
+        if mass < _ABEAM_MIN_FELT:
+            return
+        centre = [float((weights * x).sum()) / mass, float((weights * y).sum()) / mass]
+        self._centres = np.vstack([self._centres, centre])[-_PATH_COMMANDS:]
+
     def _kept(self, where: np.ndarray) -> np.ndarray | None:
         """(N,) float64: how much of the felt of each map point ``where`` (N,) bool is fresh for
         having lain away from every place the rover has been — 0 within ``path_radius_m`` of one,
@@ -541,6 +575,8 @@ class FreshFeltMemory:
             return None
         kept = np.zeros(len(self._points))
         chosen, path = self._points[where], self._path
+        if len(self._centres):
+            path = np.vstack([path, self._centres])
         gap_x = chosen[:, 0, None] - path[None, :, 0]
         gap_y = chosen[:, 1, None] - path[None, :, 1]
         nearest = (gap_x * gap_x + gap_y * gap_y).min(axis=1)

@@ -67,6 +67,8 @@ MAP_MOTIONS = ("nominal", "visual")
 #: How hard ``motion = "visual"`` searches each command's motion (``registration``;
 #: :data:`lfd_track.policy.odometry.REGISTRATIONS`).
 MAP_REGISTRATIONS = ("full", "quick", "coarse")
+#: Where the ``fresh_felt`` map's visited felt is measured from (``visited_from``).
+VISITED_FROM = ("path", "strip")
 
 
 def setting(
@@ -305,6 +307,14 @@ class FreshFeltConfig(MemoryConfig):
         low=0.0,
         high=2.0,
         before=0.0,
+    )
+    visited_from: str = setting(
+        "path",
+        "what felt within path_radius_m of counts as visited: path (the places the rover's axle"
+        " has been) or strip (those and, after each forward command, the centre of the felt"
+        " abeam just behind the axle, so a strip ridden along one edge is visited across its"
+        " width; round 31 of the human-taught goal's studies)",
+        choices=VISITED_FROM,
     )
     geometry: str = setting(
         "world",

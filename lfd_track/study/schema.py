@@ -25,6 +25,7 @@ Schema history:
 * **10** — the same for ``colour_balance`` (as results.json schema 10, ``"none"`` in older
   files).
 * **11** — the same for ``registration`` (as results.json schema 11, ``"full"`` in older files).
+* **12** — the same for ``visited_from`` (as results.json schema 12, ``"path"`` in older files).
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ from ..benchmark.schema import (
 )
 from ..utils.migrate import Step, VersionedJson
 
-STUDY_SCHEMA = 11
+STUDY_SCHEMA = 12
 """Schema of the study.json this version writes (``len(STUDY_STEPS) + 1``)."""
 MAX_STUDY_BYTES = 1 << 28
 """Largest study.json read."""

@@ -381,3 +381,40 @@ def test_picture_links_join_the_far_rows_a_strip_link_cannot_reach():
     assert plain.config.to_dict()["strip_picture_links"] is False
     with pytest.raises(ValueError, match="memory strip_picture_links must be true or false"):
         FreshFeltConfig.plain(strip_picture_links=1)
+
+
+def _strip_values(x: float, y: float, heading: float) -> np.ndarray:
+    """Road values of the paper camera at pose (x, y, heading) over a 0.30 m strip from x = 0 to
+    1.6 m whose centre runs 0.35 m left of the line y = 0 (felt 1, carpet 0)."""
+    points = region_floor_points()
+    cos, sin = math.cos(heading), math.sin(heading)
+    wx = x + cos * points[:, 0] - sin * points[:, 1]
+    wy = y + sin * points[:, 0] + cos * points[:, 1]
+    return ((np.abs(wy - 0.35) <= 0.15) & (wx >= 0.0) & (wx <= 1.6)).astype(np.float64)
+
+
+@pytest.mark.parametrize("visited_from", ["path", "strip"])
+def test_a_strip_ridden_along_its_edge_is_visited_across_its_width_only_from_the_strip(
+    visited_from,
+):
+    # The rover drives along y = 0, the strip's right edge lying 0.2 m to its left, then turns
+    # round on the spot. Measured from its path alone the strip's far half (0.35-0.5 m off) is
+    # fresh, and the map points the turned rover back along it; with visited_from = "strip" the
+    # centres of the felt abeam make the whole strip visited, and the map is blank.
+    memory = FreshFeltMemory(FreshFeltConfig(visited_from=visited_from, geometry="paper"))
+    x, heading = 0.0, 0.0
+    memory.see(_strip_values(x, 0.0, heading))
+    for _ in range(12):
+        memory.note(F)
+        x += 0.1
+        memory.see(_strip_values(x, 0.0, heading))
+    amounts = []
+    for _ in range(8):  # 183 degrees
+        memory.note(L)
+        heading += math.radians(PIVOT_DEG)
+        memory.see(_strip_values(x, 0.0, heading))
+        amounts.append(memory.inputs()[1])
+    if visited_from == "path":
+        assert min(amounts[-3:]) > 0.1 and memory.bearing_deg < -30.0  # back along, to the right
+    else:
+        assert amounts[-2:] == [0.0, 0.0] and memory.bearing_deg is None
