@@ -1,0 +1,117 @@
+"""The map rule with the map's visited felt told by the track itself: does that binding lift the
+sharp corners? (part 8 of ``README.md``)
+
+Drives ``../generalization/rules.py`` unchanged (its arguments are passed on) with one change
+to the ``fresh_felt`` map: which felt counts as visited. The map measures it from the places the
+rover's axle has been (felt within ``path_radius_m`` of them, faded over ``visited_fade_m``);
+here a felt point of the map is fresh exactly when the track's centreline nearest to where it
+lies on the floor is still ahead of the rover along the track (the rover's progress, as the
+episode measures it), and visited when it is behind. Where the map places its points is its own
+(dead reckoning or the measured motion); they are carried to the floor by the rover's true pose.
+At a hairpin the outgoing strip then stays fresh however close it runs to the incoming one, and
+the incoming strip is visited across its whole width. Everything else (the camera, the road
+library, the strip links, the reach, the branch side, the rule) is the map rule's own.
+
+This is an oracle, for a measurement only: a robot does not know the track.
+
+    .venv/bin/python benchmarks/experiments/sharp_corners/oracle_visited.py --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --out benchmarks/experiments/sharp_corners/results/oracle_visited/rooms --workers 2
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from lfd_track.envs.track_env import LfDTrackEnv
+from lfd_track.policy.memory import FreshFeltConfig, FreshFeltMemory, memory_for
+from lfd_track.teaching import perception as perception_module
+from lfd_track.world.track import Track
+
+HERE = Path(__file__).resolve().parent
+RULES_PY = HERE.parent / "generalization" / "rules.py"
+
+#: The episode the map sees now: its track, the rover's pose and progress after the last step.
+NOW: dict[str, Any] = {"track": None, "pose": None, "progress_m": 0.0}
+
+
+def _remember(env: LfDTrackEnv, info: dict[str, Any]) -> None:
+    NOW["track"], NOW["pose"], NOW["progress_m"] = env.track, info["pose"], info["progress_m"]
+
+
+_reset, _step = LfDTrackEnv.reset, LfDTrackEnv.step
+
+
+def reset(self: LfDTrackEnv, **kw: Any) -> Any:
+    frame, info = _reset(self, **kw)
+    _remember(self, info)
+    return frame, info
+
+
+def step(self: LfDTrackEnv, action: int) -> Any:
+    out = _step(self, action)
+    _remember(self, out[4])
+    return out
+
+
+def track_ahead(track: Track, floor: np.ndarray, progress_m: float) -> np.ndarray:
+    """(N,) bool: whether the centreline nearest each floor point (N, 2) lies ahead of
+    ``progress_m`` along ``track`` (on a loop: within half its length ahead)."""
+    a, b = track.segment_starts, track.segment_ends
+    lengths = track.segment_lengths
+    d = (b - a) / lengths[:, None]
+    rel = floor[:, None, :] - a[None, :, :]  # (N, S, 2)
+    t = np.clip((rel * d[None]).sum(axis=2), 0.0, lengths[None, :])
+    foot = a[None] + d[None] * t[:, :, None]
+    nearest = np.argmin(np.hypot(*(floor[:, None, :] - foot).transpose(2, 0, 1)), axis=1)
+    s = track.segment_s[nearest] + t[np.arange(len(floor)), nearest]
+    if not track.closed:
+        return s > progress_m
+    ahead = (s - progress_m) % track.length_m
+    return (ahead > 0.0) & (ahead < 0.5 * track.length_m)
+
+
+class TrackVisitedMemory(FreshFeltMemory):
+    """The ``fresh_felt`` map whose visited felt is the track's behind the rover."""
+
+    def _kept(self, where: np.ndarray) -> np.ndarray | None:
+        if NOW["track"] is None or not where.any():
+            return super()._kept(where)
+        x, y, heading = NOW["pose"]
+        cos, sin = math.cos(heading), math.sin(heading)
+        points = self._points[where]
+        floor = np.column_stack(
+            [
+                x + cos * points[:, 0] - sin * points[:, 1],
+                y + sin * points[:, 0] + cos * points[:, 1],
+            ]
+        )
+        kept = np.zeros(len(self._points))
+        kept[where] = track_ahead(NOW["track"], floor, NOW["progress_m"])
+        return kept
+
+
+def oracle_memory_for(config: Any, geometry: Any = None) -> Any:
+    if isinstance(config, FreshFeltConfig):
+        return TrackVisitedMemory(config, geometry)
+    return memory_for(config, geometry)
+
+
+def main() -> None:
+    LfDTrackEnv.reset, LfDTrackEnv.step = reset, step  # type: ignore[method-assign]
+    perception_module.memory_for = oracle_memory_for  # type: ignore[assignment]
+    spec = importlib.util.spec_from_file_location("rules", RULES_PY)
+    assert spec is not None and spec.loader is not None
+    rules = importlib.util.module_from_spec(spec)
+    sys.modules["rules"] = rules  # the pool's workers (forked) find its functions by this name
+    spec.loader.exec_module(rules)
+    sys.argv[0] = str(RULES_PY)
+    rules.main()
+
+
+if __name__ == "__main__":
+    main()
