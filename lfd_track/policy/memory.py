@@ -259,6 +259,10 @@ _PATH_COMMANDS = 40
 #: it: seen by earlier frames) and within ``_ABEAM_LANE_M`` to either side, when their felt sums
 #: to at least ``_ABEAM_MIN_FELT``.
 _ABEAM_X_M, _ABEAM_LANE_M, _ABEAM_MIN_FELT = (-0.3, -0.1), 0.45, 3.0
+#: [m] ``fresh_felt`` with ``visited_from = "centreline"``: the felt abeam is taken within this
+#: of the last centre's side offset (the strip the rover follows; of the axle after a pivot), and
+#: felt within this of a centre is visited (the widest strips' half width, 0.225 m, and a margin).
+_CENTRELINE_LANE_M = 0.25
 #: ``fresh_felt``: weighted felt below this is no fresh felt at all (inputs 0.5, 0, 0).
 MIN_FRESH = 1.0
 #: ``fresh_felt``: fresh felt counts from this far behind the axle on ([m]; 0: ahead only).
@@ -361,6 +365,7 @@ class FreshFeltMemory:
         # the last command the map moved by was a forward one
         self._centres = np.zeros((0, 2))
         self._forward = False
+        self._lane_y = 0.0  # visited_from = "centreline": the side offset the centre is sought at
         self._inputs = np.array([0.5, 0.0, 0.0])
         self._side = UNKNOWN_BRANCH  # branch_side: the fourth input
         self._turn = UNKNOWN_BRANCH  # branch_turn: the fifth (no side, no turn)
@@ -511,8 +516,11 @@ class FreshFeltMemory:
         if self._branch is not None:
             self._side = self._branch.see(self._points, self._felt, self._path, N_REGIONS)
             self._turn = self._branch.turned()
-        if cfg.visited_from == "strip" and self._forward:
-            self._mark_strip_centre()
+        if cfg.visited_from != "path":
+            if self._forward:
+                self._mark_strip_centre()
+            else:
+                self._lane_y = 0.0
         self._forward = False
         points = self._points
         dist = np.hypot(points[:, 0], points[:, 1])
@@ -554,16 +562,25 @@ class FreshFeltMemory:
         )
 
     def _mark_strip_centre(self) -> None:
-        """With ``visited_from = "strip"``: add the centre of the felt abeam just behind the axle
-        (:data:`_ABEAM_X_M`) to the places whose felt counts as visited, when there is felt
-        enough there."""
+        """With ``visited_from = "strip"`` or ``"centreline"``: add the centre of the felt abeam
+        just behind the axle (:data:`_ABEAM_X_M`) to the places whose felt counts as visited,
+        when there is felt enough there. ``"strip"`` takes the felt within
+        :data:`_ABEAM_LANE_M` of the axle; ``"centreline"`` within :data:`_CENTRELINE_LANE_M` of
+        the last centre's side offset while the rover drives on (of the axle after a pivot), so
+        that a strip running beside its own (a hairpin's outgoing one) does not pull it over."""
         x, y = self._points[:, 0], self._points[:, 1]
-        abeam = (x >= _ABEAM_X_M[0]) & (x <= _ABEAM_X_M[1]) & (np.abs(y) <= _ABEAM_LANE_M)
+        if self.config.visited_from == "strip":
+            lane = np.abs(y) <= _ABEAM_LANE_M
+        else:
+            lane = np.abs(y - self._lane_y) <= _CENTRELINE_LANE_M
+        abeam = (x >= _ABEAM_X_M[0]) & (x <= _ABEAM_X_M[1]) & lane
         weights = self._felt * abeam
         mass = float(weights.sum())
         if mass < _ABEAM_MIN_FELT:
+            self._lane_y = 0.0
             return
         centre = [float((weights * x).sum()) / mass, float((weights * y).sum()) / mass]
+        self._lane_y = centre[1]
         self._centres = np.vstack([self._centres, centre])[-_PATH_COMMANDS:]
 
     def _kept(self, where: np.ndarray) -> np.ndarray | None:
@@ -575,12 +592,14 @@ class FreshFeltMemory:
             return None
         kept = np.zeros(len(self._points))
         chosen, path = self._points[where], self._path
-        if len(self._centres):
+        radius, fade = self.config.path_radius_m, self.config.visited_fade_m
+        if len(self._centres) and self.config.visited_from == "centreline":
+            path, radius = self._centres, _CENTRELINE_LANE_M
+        elif len(self._centres):
             path = np.vstack([path, self._centres])
         gap_x = chosen[:, 0, None] - path[None, :, 0]
         gap_y = chosen[:, 1, None] - path[None, :, 1]
         nearest = (gap_x * gap_x + gap_y * gap_y).min(axis=1)
-        radius, fade = self.config.path_radius_m, self.config.visited_fade_m
         if not fade:
             kept[where] = nearest > radius**2
         else:

@@ -68,7 +68,7 @@ MAP_MOTIONS = ("nominal", "visual")
 #: :data:`lfd_track.policy.odometry.REGISTRATIONS`).
 MAP_REGISTRATIONS = ("full", "quick", "coarse")
 #: Where the ``fresh_felt`` map's visited felt is measured from (``visited_from``).
-VISITED_FROM = ("path", "strip")
+VISITED_FROM = ("path", "strip", "centreline")
 
 
 def setting(
@@ -313,7 +313,10 @@ class FreshFeltConfig(MemoryConfig):
         "what felt within path_radius_m of counts as visited: path (the places the rover's axle"
         " has been) or strip (those and, after each forward command, the centre of the felt"
         " abeam just behind the axle, so a strip ridden along one edge is visited across its"
-        " width; round 31 of the human-taught goal's studies)",
+        " width; round 31 of the human-taught goal's studies, where it lost) or centreline (only"
+        " felt within 0.25 m of those centres, each sought within 0.25 m of the last one's side"
+        " offset: the line of the strip it follows, so that a hairpin's outgoing strip beside"
+        " it stays fresh; the places themselves where no centre was found)",
         choices=VISITED_FROM,
     )
     geometry: str = setting(

@@ -418,3 +418,52 @@ def test_a_strip_ridden_along_its_edge_is_visited_across_its_width_only_from_the
         assert min(amounts[-3:]) > 0.1 and memory.bearing_deg < -30.0  # back along, to the right
     else:
         assert amounts[-2:] == [0.0, 0.0] and memory.bearing_deg is None
+
+
+_HAIRPIN_VERTEX = np.array([1.6, 0.0])
+_HAIRPIN_OUT = np.array([math.cos(math.radians(160.0)), math.sin(math.radians(160.0))])
+
+
+def _on_strip(wx, wy, start, direction, length, half=0.15):
+    rx, ry = wx - start[0], wy - start[1]
+    along = rx * direction[0] + ry * direction[1]
+    across = -rx * direction[1] + ry * direction[0]
+    return (along >= -half) & (along <= length + half) & (np.abs(across) <= half)
+
+
+def _hairpin_values(x: float, y: float, heading: float) -> np.ndarray:
+    """Road values of the paper camera at a 160-degree hairpin: a 0.30 m strip along y = 0 up to
+    x = 1.6 m, and the outgoing one leaving that vertex back to the left."""
+    points = region_floor_points()
+    cos, sin = math.cos(heading), math.sin(heading)
+    wx = x + cos * points[:, 0] - sin * points[:, 1]
+    wy = y + sin * points[:, 0] + cos * points[:, 1]
+    incoming = _on_strip(wx, wy, np.array([-1.0, 0.0]), np.array([1.0, 0.0]), 2.6)
+    return (incoming | _on_strip(wx, wy, _HAIRPIN_VERTEX, _HAIRPIN_OUT, 2.0)).astype(np.float64)
+
+
+def test_a_hairpins_outgoing_strip_comes_back_fresh_sooner_measured_from_the_centreline():
+    # The rover drives the incoming strip's centre to 0.2 m before the vertex, turns 160 degrees
+    # left and drives on along the outgoing strip, which runs within 0.35 m of the incoming one
+    # for its first metre. Measured from the path (or the path and the strip's centres), that
+    # metre is visited; measured from the centreline (felt within 0.25 m of the strip's centres),
+    # only its part nearer the incoming strip's line is.
+    amounts = {}
+    for visited_from in ("path", "strip", "centreline"):
+        memory = FreshFeltMemory(FreshFeltConfig(visited_from=visited_from, geometry="paper"))
+        x, y, heading = -0.5, 0.0, 0.0
+        memory.see(_hairpin_values(x, y, heading))
+        for _ in range(19):
+            memory.note(F)
+            x += 0.1
+            memory.see(_hairpin_values(x, y, heading))
+        for _ in range(7):
+            memory.note(L)
+            heading += math.radians(PIVOT_DEG)
+            memory.see(_hairpin_values(x, y, heading))
+        for _ in range(4):
+            memory.note(F)
+            x, y = x + 0.1 * math.cos(heading), y + 0.1 * math.sin(heading)
+            memory.see(_hairpin_values(x, y, heading))
+        amounts[visited_from] = memory.inputs()[1]
+    assert amounts["centreline"] > 0.4 > 0.25 > max(amounts["path"], amounts["strip"])
