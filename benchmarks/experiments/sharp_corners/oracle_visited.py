@@ -14,6 +14,12 @@ library, the strip links, the reach, the branch side, the rule) is the map rule'
 
 This is an oracle, for a measurement only: a robot does not know the track.
 
+``--combine`` (part 10) splits what the oracle changes in two, each with the map's own visited
+felt kept elsewhere: ``unhide`` makes fresh what the track says is ahead although the map counts
+it visited (the outgoing strip beside the incoming one, the corner's tip), and nothing else;
+``cover`` makes visited what the track says is behind although the map counts it fresh (the far
+half of a strip ridden along one edge), and nothing else. The default, ``oracle``, is part 8's.
+
     .venv/bin/python benchmarks/experiments/sharp_corners/oracle_visited.py --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --out benchmarks/experiments/sharp_corners/results/oracle_visited/rooms --workers 2
 """
 
@@ -35,8 +41,10 @@ from lfd_track.world.track import Track
 HERE = Path(__file__).resolve().parent
 RULES_PY = HERE.parent / "generalization" / "rules.py"
 
-#: The episode the map sees now: its track, the rover's pose and progress after the last step.
-NOW: dict[str, Any] = {"track": None, "pose": None, "progress_m": 0.0}
+#: The episode the map sees now: its track, the rover's pose and progress after the last step;
+#: and how the track's visited felt combines with the map's own (``--combine``).
+NOW: dict[str, Any] = {"track": None, "pose": None, "progress_m": 0.0, "combine": "oracle"}
+COMBINES = ("oracle", "unhide", "cover")
 
 
 def _remember(env: LfDTrackEnv, info: dict[str, Any]) -> None:
@@ -92,7 +100,12 @@ class TrackVisitedMemory(FreshFeltMemory):
         )
         kept = np.zeros(len(self._points))
         kept[where] = track_ahead(NOW["track"], floor, NOW["progress_m"])
-        return kept
+        if NOW["combine"] == "oracle":
+            return kept
+        own = super()._kept(where)
+        if own is None:  # the map has no visited felt yet: nothing to cover, all fresh
+            own = np.where(where, 1.0, 0.0)
+        return np.maximum(own, kept) if NOW["combine"] == "unhide" else np.minimum(own, kept)
 
 
 def oracle_memory_for(config: Any, geometry: Any = None) -> Any:
@@ -102,6 +115,12 @@ def oracle_memory_for(config: Any, geometry: Any = None) -> Any:
 
 
 def main() -> None:
+    if "--combine" in sys.argv:
+        at = sys.argv.index("--combine")
+        NOW["combine"] = sys.argv[at + 1]
+        if NOW["combine"] not in COMBINES:
+            raise SystemExit(f"--combine must be one of {', '.join(COMBINES)}")
+        del sys.argv[at : at + 2]
     LfDTrackEnv.reset, LfDTrackEnv.step = reset, step  # type: ignore[method-assign]
     perception_module.memory_for = oracle_memory_for  # type: ignore[assignment]
     spec = importlib.util.spec_from_file_location("rules", RULES_PY)
