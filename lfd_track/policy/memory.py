@@ -365,7 +365,9 @@ class FreshFeltMemory:
         # the last command the map moved by was a forward one
         self._centres = np.zeros((0, 2))
         self._forward = False
-        self._lane_y = 0.0  # visited_from = "centreline": the side offset the centre is sought at
+        # visited_from = "centreline" or "path_and_centreline": the side offset the centre is
+        # sought at (None: not following a strip, after a pivot or where none was found)
+        self._lane_y: float | None = None
         self._inputs = np.array([0.5, 0.0, 0.0])
         self._side = UNKNOWN_BRANCH  # branch_side: the fourth input
         self._turn = UNKNOWN_BRANCH  # branch_turn: the fifth (no side, no turn)
@@ -520,7 +522,7 @@ class FreshFeltMemory:
             if self._forward:
                 self._mark_strip_centre()
             else:
-                self._lane_y = 0.0
+                self._lane_y = None
         self._forward = False
         points = self._points
         dist = np.hypot(points[:, 0], points[:, 1])
@@ -565,19 +567,27 @@ class FreshFeltMemory:
         """With ``visited_from = "strip"`` or ``"centreline"``: add the centre of the felt abeam
         just behind the axle (:data:`_ABEAM_X_M`) to the places whose felt counts as visited,
         when there is felt enough there. ``"strip"`` takes the felt within
-        :data:`_ABEAM_LANE_M` of the axle; ``"centreline"`` within :data:`_CENTRELINE_LANE_M` of
-        the last centre's side offset while the rover drives on (of the axle after a pivot), so
-        that a strip running beside its own (a hairpin's outgoing one) does not pull it over."""
+        :data:`_ABEAM_LANE_M` of the axle; ``"centreline"`` and ``"path_and_centreline"`` within
+        :data:`_CENTRELINE_LANE_M` of the last centre's side offset while the rover drives on, so
+        that a strip running beside its own (a hairpin's outgoing one) does not pull it over, and
+        after a pivot or where none was found within :data:`_CENTRELINE_LANE_M` of the axle
+        (``"centreline"``) or :data:`_ABEAM_LANE_M` (``"path_and_centreline"``: a strip the
+        rover rides beside)."""
         x, y = self._points[:, 0], self._points[:, 1]
-        if self.config.visited_from == "strip":
+        visited_from = self.config.visited_from
+        if visited_from == "strip":
+            lane = np.abs(y) <= _ABEAM_LANE_M
+        elif self._lane_y is not None:
+            lane = np.abs(y - self._lane_y) <= _CENTRELINE_LANE_M
+        elif visited_from == "path_and_centreline":  # a strip the axle may ride beside
             lane = np.abs(y) <= _ABEAM_LANE_M
         else:
-            lane = np.abs(y - self._lane_y) <= _CENTRELINE_LANE_M
+            lane = np.abs(y) <= _CENTRELINE_LANE_M
         abeam = (x >= _ABEAM_X_M[0]) & (x <= _ABEAM_X_M[1]) & lane
         weights = self._felt * abeam
         mass = float(weights.sum())
         if mass < _ABEAM_MIN_FELT:
-            self._lane_y = 0.0
+            self._lane_y = None
             return
         centre = [float((weights * x).sum()) / mass, float((weights * y).sum()) / mass]
         self._lane_y = centre[1]
@@ -590,21 +600,30 @@ class FreshFeltMemory:
         points (None before the rover has been anywhere)."""
         if not len(self._path):
             return None
+        visited_from = self.config.visited_from
+        chosen, centres = self._points[where], self._centres
+        marks, radius = self._path, self.config.path_radius_m
+        if len(centres) and visited_from == "centreline":
+            marks, radius = centres, _CENTRELINE_LANE_M
+        elif len(centres) and visited_from == "strip":
+            marks = np.vstack([marks, centres])
         kept = np.zeros(len(self._points))
-        chosen, path = self._points[where], self._path
-        radius, fade = self.config.path_radius_m, self.config.visited_fade_m
-        if len(self._centres) and self.config.visited_from == "centreline":
-            path, radius = self._centres, _CENTRELINE_LANE_M
-        elif len(self._centres):
-            path = np.vstack([path, self._centres])
-        gap_x = chosen[:, 0, None] - path[None, :, 0]
-        gap_y = chosen[:, 1, None] - path[None, :, 1]
-        nearest = (gap_x * gap_x + gap_y * gap_y).min(axis=1)
-        if not fade:
-            kept[where] = nearest > radius**2
-        else:
-            kept[where] = np.clip((np.sqrt(nearest) - radius) / fade, 0.0, 1.0)
+        kept[where] = self._away(chosen, marks, radius)
+        if len(centres) and visited_from == "path_and_centreline":
+            kept[where] = np.minimum(kept[where], self._away(chosen, centres, _CENTRELINE_LANE_M))
         return kept
+
+    def _away(self, chosen: np.ndarray, marks: np.ndarray, radius: float) -> np.ndarray:
+        """(N,) float64: how fresh each of the points ``chosen`` (N, 2) is for lying away from
+        every one of ``marks`` (M, 2): 0 within ``radius``, else 1, or with ``visited_fade_m``
+        rising linearly to 1 that much further."""
+        gap_x = chosen[:, 0, None] - marks[None, :, 0]
+        gap_y = chosen[:, 1, None] - marks[None, :, 1]
+        nearest = (gap_x * gap_x + gap_y * gap_y).min(axis=1)
+        fade = self.config.visited_fade_m
+        if not fade:
+            return (nearest > radius**2).astype(np.float64)
+        return np.clip((np.sqrt(nearest) - radius) / fade, 0.0, 1.0)
 
     def _fresh(self, near: np.ndarray, ahead: np.ndarray) -> np.ndarray:
         """Weights of the felt that is fresh: felt ``near`` the axle (within the reach) and

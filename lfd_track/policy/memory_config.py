@@ -68,7 +68,7 @@ MAP_MOTIONS = ("nominal", "visual")
 #: :data:`lfd_track.policy.odometry.REGISTRATIONS`).
 MAP_REGISTRATIONS = ("full", "quick", "coarse")
 #: Where the ``fresh_felt`` map's visited felt is measured from (``visited_from``).
-VISITED_FROM = ("path", "strip", "centreline")
+VISITED_FROM = ("path", "strip", "centreline", "path_and_centreline")
 
 
 def setting(
@@ -316,7 +316,9 @@ class FreshFeltConfig(MemoryConfig):
         " width; round 31 of the human-taught goal's studies, where it lost) or centreline (only"
         " felt within 0.25 m of those centres, each sought within 0.25 m of the last one's side"
         " offset: the line of the strip it follows, so that a hairpin's outgoing strip beside"
-        " it stays fresh; the places themselves where no centre was found)",
+        " it stays fresh; the places themselves where no centre was found; it lost at the sharp"
+        " corners) or path_and_centreline (felt within path_radius_m of the places or within"
+        " 0.25 m of those centres: the strip's far half visited, its neighbour not hidden)",
         choices=VISITED_FROM,
     )
     geometry: str = setting(

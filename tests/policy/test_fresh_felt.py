@@ -393,14 +393,15 @@ def _strip_values(x: float, y: float, heading: float) -> np.ndarray:
     return ((np.abs(wy - 0.35) <= 0.15) & (wx >= 0.0) & (wx <= 1.6)).astype(np.float64)
 
 
-@pytest.mark.parametrize("visited_from", ["path", "strip"])
+@pytest.mark.parametrize("visited_from", ["path", "strip", "path_and_centreline"])
 def test_a_strip_ridden_along_its_edge_is_visited_across_its_width_only_from_the_strip(
     visited_from,
 ):
     # The rover drives along y = 0, the strip's right edge lying 0.2 m to its left, then turns
     # round on the spot. Measured from its path alone the strip's far half (0.35-0.5 m off) is
-    # fresh, and the map points the turned rover back along it; with visited_from = "strip" the
-    # centres of the felt abeam make the whole strip visited, and the map is blank.
+    # fresh, and the map points the turned rover back along it; with visited_from = "strip" or
+    # "path_and_centreline" the centres of the felt abeam make the whole strip visited, and the
+    # map is blank at the end.
     memory = FreshFeltMemory(FreshFeltConfig(visited_from=visited_from, geometry="paper"))
     x, heading = 0.0, 0.0
     memory.see(_strip_values(x, 0.0, heading))
@@ -417,7 +418,7 @@ def test_a_strip_ridden_along_its_edge_is_visited_across_its_width_only_from_the
     if visited_from == "path":
         assert min(amounts[-3:]) > 0.1 and memory.bearing_deg < -30.0  # back along, to the right
     else:
-        assert amounts[-2:] == [0.0, 0.0] and memory.bearing_deg is None
+        assert amounts[-1] == 0.0 and memory.bearing_deg is None
 
 
 _HAIRPIN_VERTEX = np.array([1.6, 0.0])
@@ -449,7 +450,7 @@ def test_a_hairpins_outgoing_strip_comes_back_fresh_sooner_measured_from_the_cen
     # metre is visited; measured from the centreline (felt within 0.25 m of the strip's centres),
     # only its part nearer the incoming strip's line is.
     amounts = {}
-    for visited_from in ("path", "strip", "centreline"):
+    for visited_from in ("path", "strip", "centreline", "path_and_centreline"):
         memory = FreshFeltMemory(FreshFeltConfig(visited_from=visited_from, geometry="paper"))
         x, y, heading = -0.5, 0.0, 0.0
         memory.see(_hairpin_values(x, y, heading))
