@@ -1,0 +1,60 @@
+"""Issue 41's bar, room by room: how many kept rooms lap at least 85 % of their loop laps, for
+the map-rule runs of parts 8-11 and the learners beside them (committed results only; it chooses
+nothing).
+
+    .venv/bin/python benchmarks/experiments/sharp_corners/rooms_at_85.py
+
+Prints, per run and study seed, the rooms at 85 % and every room's lapped loop laps (of 20).
+A repetition is a room: each is taught and driven in its own room (``room = "per_repetition"``).
+"""
+
+from __future__ import annotations
+
+import sys
+from collections import Counter
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+EXPERIMENTS = HERE.parent
+sys.path.insert(0, str(EXPERIMENTS / "human_goal"))
+
+from room_measures import loop_laps  # noqa: E402
+
+ORACLE = HERE / "results" / "oracle_visited"
+ROUNDS = EXPERIMENTS / "human_goal"
+RUNS = {
+    "the map rule as it is": ROUNDS / "round27/results/rules_balance/map-rule",
+    "the map rule, the track's visited felt (part 8)": ORACLE / "rooms/map-rule",
+    "the map rule, unhide (part 10)": ORACLE / "rooms_unhide/map-rule",
+    "the map rule, cover (part 10)": ORACLE / "rooms_cover/map-rule",
+    "the map rule, centreline (part 9)": ORACLE / "rooms_centreline/map-rule",
+    "the map rule, path_and_centreline (part 11)": ORACLE / "rooms_path_and_centreline/map-rule",
+    "the learner, round 27's winner": ROUNDS
+    / "round27/results/balance/rooms.round20+visual+balance",
+    "the learner, round 31 (strip)": ROUNDS / "round31/results/strip/rooms.round27+strip",
+    "the learner, round 32 (path_and_centreline)": ROUNDS
+    / "round32/results/centreline/rooms.round27+centreline",
+}
+BAR = 0.85
+
+
+def main() -> None:
+    print("| run | seed | rooms at 85 % | each room's loop laps |")
+    print("|---|---|---|---|")
+    for name, folder in RUNS.items():
+        if not folder.is_dir():
+            print(f"| {name} | – | not run | – |")
+            continue
+        for seed in sorted(p.name for p in folder.iterdir() if p.is_dir()):
+            lapped: Counter[int] = Counter()
+            laps: Counter[int] = Counter()
+            for (repetition, *_), success in loop_laps(folder / seed).items():
+                lapped[repetition] += success
+                laps[repetition] += 1
+            at_bar = sum(lapped[r] >= BAR * laps[r] for r in laps)
+            rooms = ", ".join(f"{lapped[r]}/{laps[r]}" for r in sorted(laps))
+            print(f"| {name} | {seed} | {at_bar} of {len(laps)} | {rooms} |")
+
+
+if __name__ == "__main__":
+    main()
