@@ -468,3 +468,5 @@ def test_a_hairpins_outgoing_strip_comes_back_fresh_sooner_measured_from_the_cen
             memory.see(_hairpin_values(x, y, heading))
         amounts[visited_from] = memory.inputs()[1]
     assert amounts["centreline"] > 0.4 > 0.25 > max(amounts["path"], amounts["strip"])
+    # the path with the band around the centres hides no more of it than the path alone
+    assert amounts["path_and_centreline"] == pytest.approx(amounts["path"], abs=1e-9)
