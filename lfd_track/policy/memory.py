@@ -69,7 +69,11 @@ such runs, and reading the training accuracy with that baseline in mind, are the
   ``path_radius_m`` of the centre of the felt abeam just behind the axle, marked after each
   forward command, as visited, so that a strip the rover rode along one edge is visited across
   its width (its far half stays fresh otherwise, and at a hairpin a turning rover can stop on it
-  and drive back).
+  and drive back); ``"centreline"`` counts only felt within 0.25 m of those centres (each sought
+  along the last one's side offset) and ``"path_and_centreline"`` felt within ``path_radius_m``
+  of the path or 0.25 m of the centres
+  (``benchmarks/experiments/sharp_corners/README.md``, parts 8-11: of the three, ``"strip"``
+  hides a hairpin's outgoing strip and ``"centreline"`` leaves its tip the only fresh felt).
   The settings, their bounds and their defaults (the goal's chosen map: every option above on)
   are :class:`~lfd_track.policy.memory_config.FreshFeltConfig`'s;
   :meth:`~lfd_track.policy.memory_config.FreshFeltConfig.plain` is the map with them off.
@@ -254,12 +258,12 @@ class PreviousCommandMemory:
 
 #: Commands of path the ``fresh_felt`` map remembers (4 m of forward driving).
 _PATH_COMMANDS = 40
-#: [m] ``fresh_felt`` with ``visited_from = "strip"``: the strip's centre abeam is the felt-weighted
+#: [m] ``fresh_felt`` with ``visited_from`` other than ``"path"``: the strip's centre abeam is the felt-weighted
 #: mean of the felt points from ``_ABEAM_X_M[0]`` to ``_ABEAM_X_M[1]`` ahead of the axle (behind
 #: it: seen by earlier frames) and within ``_ABEAM_LANE_M`` to either side, when their felt sums
 #: to at least ``_ABEAM_MIN_FELT``.
 _ABEAM_X_M, _ABEAM_LANE_M, _ABEAM_MIN_FELT = (-0.3, -0.1), 0.45, 3.0
-#: [m] ``fresh_felt`` with ``visited_from = "centreline"``: the felt abeam is taken within this
+#: [m] ``fresh_felt`` with ``visited_from = "centreline"`` or ``"path_and_centreline"``: the felt abeam is taken within this
 #: of the last centre's side offset (the strip the rover follows; of the axle after a pivot), and
 #: felt within this of a centre is visited (the widest strips' half width, 0.225 m, and a margin).
 _CENTRELINE_LANE_M = 0.25
@@ -361,7 +365,7 @@ class FreshFeltMemory:
         self._points = np.zeros((0, 2))  # the remembered frames' floor points, oldest first
         self._felt = np.zeros(0)  # their felt levels in [0, 1]
         self._path = np.zeros((0, 2))  # places the rover has been, before the current one
-        # visited_from = "strip": the strip's centres abeam after forward commands, and whether
+        # visited_from other than "path": the strip's centres abeam after forward commands, and whether
         # the last command the map moved by was a forward one
         self._centres = np.zeros((0, 2))
         self._forward = False
@@ -564,7 +568,7 @@ class FreshFeltMemory:
         )
 
     def _mark_strip_centre(self) -> None:
-        """With ``visited_from = "strip"`` or ``"centreline"``: add the centre of the felt abeam
+        """With ``visited_from`` other than ``"path"``: add the centre of the felt abeam
         just behind the axle (:data:`_ABEAM_X_M`) to the places whose felt counts as visited,
         when there is felt enough there. ``"strip"`` takes the felt within
         :data:`_ABEAM_LANE_M` of the axle; ``"centreline"`` and ``"path_and_centreline"`` within
@@ -596,8 +600,9 @@ class FreshFeltMemory:
     def _kept(self, where: np.ndarray) -> np.ndarray | None:
         """(N,) float64: how much of the felt of each map point ``where`` (N,) bool is fresh for
         having lain away from every place the rover has been — 0 within ``path_radius_m`` of one,
-        else 1, or with ``visited_fade_m`` rising linearly to 1 that much further; 0 at the other
-        points (None before the rover has been anywhere)."""
+        else 1, or with ``visited_fade_m`` rising linearly to 1 that much further (with
+        ``visited_from``, from the strip's centres too or instead); 0 at the other points (None
+        before the rover has been anywhere)."""
         if not len(self._path):
             return None
         visited_from = self.config.visited_from
