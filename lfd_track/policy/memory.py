@@ -258,13 +258,13 @@ class PreviousCommandMemory:
 
 #: Commands of path the ``fresh_felt`` map remembers (4 m of forward driving).
 _PATH_COMMANDS = 40
-#: [m] ``fresh_felt`` with ``visited_from`` other than ``"path"``: the strip's centre abeam is the felt-weighted
-#: mean of the felt points from ``_ABEAM_X_M[0]`` to ``_ABEAM_X_M[1]`` ahead of the axle (behind
-#: it: seen by earlier frames) and within ``_ABEAM_LANE_M`` to either side, when their felt sums
-#: to at least ``_ABEAM_MIN_FELT``.
+#: [m] ``fresh_felt`` with ``visited_from`` other than ``"path"``: the strip's centre abeam is
+#: the felt-weighted mean of the felt points from ``_ABEAM_X_M[0]`` to ``_ABEAM_X_M[1]`` ahead of
+#: the axle (behind it: seen by earlier frames) and within ``_ABEAM_LANE_M`` to either side, when
+#: their felt sums to at least ``_ABEAM_MIN_FELT``.
 _ABEAM_X_M, _ABEAM_LANE_M, _ABEAM_MIN_FELT = (-0.3, -0.1), 0.45, 3.0
-#: [m] ``fresh_felt`` with ``visited_from = "centreline"`` or ``"path_and_centreline"``: the felt abeam is taken within this
-#: of the last centre's side offset (the strip the rover follows; of the axle after a pivot), and
+#: [m] ``fresh_felt`` with ``visited_from = "centreline"`` or ``"path_and_centreline"``: the felt
+#: abeam is taken within this of the last centre's side offset (the strip the rover follows), and
 #: felt within this of a centre is visited (the widest strips' half width, 0.225 m, and a margin).
 _CENTRELINE_LANE_M = 0.25
 #: ``fresh_felt``: weighted felt below this is no fresh felt at all (inputs 0.5, 0, 0).
@@ -365,8 +365,8 @@ class FreshFeltMemory:
         self._points = np.zeros((0, 2))  # the remembered frames' floor points, oldest first
         self._felt = np.zeros(0)  # their felt levels in [0, 1]
         self._path = np.zeros((0, 2))  # places the rover has been, before the current one
-        # visited_from other than "path": the strip's centres abeam after forward commands, and whether
-        # the last command the map moved by was a forward one
+        # visited_from other than "path": the strip's centres abeam after forward commands, and
+        # whether the last command the map moved by was a forward one
         self._centres = np.zeros((0, 2))
         self._forward = False
         # visited_from = "centreline" or "path_and_centreline": the side offset the centre is
