@@ -177,15 +177,17 @@ class Track:
         return a + d * (s - seg_s[i]), math.atan2(d[1], d[0])
 
     def project(self, point: np.ndarray) -> np.ndarray:
-        """Arc length of the foot of ``point`` on every segment, and distance: (S, 2) [m]."""
+        """Arc length of the foot of ``point`` (2,) on every segment, and distance: (S, 2) [m];
+        for points (..., 2), each point's: (..., S, 2)."""
         a, b = self.segment_starts, self.segment_ends
         lengths = self.segment_lengths
         d = (b - a) / lengths[:, None]
-        rel = np.asarray(point, dtype=np.float64)[None, :] - a
-        t = np.clip((rel * d).sum(axis=1), 0.0, lengths)
-        foot = a + d * t[:, None]
-        dist = np.linalg.norm(np.asarray(point)[None, :] - foot, axis=1)
-        return np.stack([self.segment_s + t, dist], axis=1)
+        points = np.asarray(point, dtype=np.float64)[..., None, :]
+        rel = points - a
+        t = np.clip((rel * d).sum(axis=-1), 0.0, lengths)
+        foot = a + d * t[..., None]
+        dist = np.linalg.norm(points - foot, axis=-1)
+        return np.stack([self.segment_s + t, dist], axis=-1)
 
 
 class ProgressTracker:

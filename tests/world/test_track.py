@@ -171,3 +171,16 @@ def test_bad_start_corner_blames_the_argument_not_the_file():
         load_track("training", start_corner="1")
     with pytest.raises(StartCornerError, match="has no such corner"):
         load_track("testing", start_corner="9")
+
+
+def test_project_gives_each_points_foot_on_every_segment_alone_or_many_at_once():
+    track = load_track("training")
+    points = np.array([[0.3, 0.2], [1.0, -0.4], [-0.5, 0.9]])
+    many = track.project(points)
+    assert many.shape == (3, len(track.segment_s), 2)
+    for point, row in zip(points, many, strict=True):
+        np.testing.assert_array_equal(track.project(point), row)
+    # a point on the centreline lies at distance 0 from its segment, at its arc length
+    on, _ = track.point_at(0.7)
+    arc, dist = min(track.project(on), key=lambda r: r[1])
+    assert dist == pytest.approx(0.0, abs=1e-12) and arc == pytest.approx(0.7, abs=1e-9)

@@ -69,14 +69,9 @@ def step(self: LfDTrackEnv, action: int) -> Any:
 def track_ahead(track: Track, floor: np.ndarray, progress_m: float) -> np.ndarray:
     """(N,) bool: whether the centreline nearest each floor point (N, 2) lies ahead of
     ``progress_m`` along ``track`` (on a loop: within half its length ahead)."""
-    a, b = track.segment_starts, track.segment_ends
-    lengths = track.segment_lengths
-    d = (b - a) / lengths[:, None]
-    rel = floor[:, None, :] - a[None, :, :]  # (N, S, 2)
-    t = np.clip((rel * d[None]).sum(axis=2), 0.0, lengths[None, :])
-    foot = a[None] + d[None] * t[:, :, None]
-    nearest = np.argmin(np.hypot(*(floor[:, None, :] - foot).transpose(2, 0, 1)), axis=1)
-    s = track.segment_s[nearest] + t[np.arange(len(floor)), nearest]
+    projected = track.project(floor)  # (N, S, 2): each point's arc length and distance
+    nearest = np.argmin(projected[..., 1], axis=1)
+    s = projected[np.arange(len(floor)), nearest, 0]
     if not track.closed:
         return s > progress_m
     ahead = (s - progress_m) % track.length_m
