@@ -579,14 +579,12 @@ class FreshFeltMemory:
         rover rides beside)."""
         x, y = self._points[:, 0], self._points[:, 1]
         visited_from = self.config.visited_from
-        if visited_from == "strip":
-            lane = np.abs(y) <= _ABEAM_LANE_M
-        elif self._lane_y is not None:
+        if self._lane_y is not None and visited_from != "strip":  # following a strip
             lane = np.abs(y - self._lane_y) <= _CENTRELINE_LANE_M
-        elif visited_from == "path_and_centreline":  # a strip the axle may ride beside
-            lane = np.abs(y) <= _ABEAM_LANE_M
         else:
-            lane = np.abs(y) <= _CENTRELINE_LANE_M
+            lane = np.abs(y) <= (
+                _CENTRELINE_LANE_M if visited_from == "centreline" else _ABEAM_LANE_M
+            )
         abeam = (x >= _ABEAM_X_M[0]) & (x <= _ABEAM_X_M[1]) & lane
         weights = self._felt * abeam
         mass = float(weights.sum())
