@@ -19,6 +19,9 @@ felt kept elsewhere: ``unhide`` makes fresh what the track says is ahead althoug
 it visited (the outgoing strip beside the incoming one, the corner's tip), and nothing else;
 ``cover`` makes visited what the track says is behind although the map counts it fresh (the far
 half of a strip ridden along one edge), and nothing else. The default, ``oracle``, is part 8's.
+``--cover-from M`` (part 12, with ``cover``) covers only felt whose centreline lies at least M
+metres of track behind the rover's progress: what a map marking the felt abeam behind the axle
+could cover at best.
 
     .venv/bin/python benchmarks/experiments/sharp_corners/oracle_visited.py --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --out benchmarks/experiments/sharp_corners/results/oracle_visited/rooms --workers 2
 """
@@ -43,7 +46,13 @@ RULES_PY = HERE.parent / "generalization" / "rules.py"
 
 #: The episode the map sees now: its track, the rover's pose and progress after the last step;
 #: and how the track's visited felt combines with the map's own (``--combine``).
-NOW: dict[str, Any] = {"track": None, "pose": None, "progress_m": 0.0, "combine": "oracle"}
+NOW: dict[str, Any] = {
+    "track": None,
+    "pose": None,
+    "progress_m": 0.0,
+    "combine": "oracle",
+    "cover_from_m": 0.0,
+}
 COMBINES = ("oracle", "unhide", "cover")
 
 
@@ -66,16 +75,19 @@ def step(self: LfDTrackEnv, action: int) -> Any:
     return out
 
 
-def track_ahead(track: Track, floor: np.ndarray, progress_m: float) -> np.ndarray:
+def track_ahead(
+    track: Track, floor: np.ndarray, progress_m: float, behind_m: float = 0.0
+) -> np.ndarray:
     """(N,) bool: whether the centreline nearest each floor point (N, 2) lies ahead of
-    ``progress_m`` along ``track`` (on a loop: within half its length ahead)."""
+    ``progress_m`` along ``track`` (on a loop: within half its length ahead), or less than
+    ``behind_m`` behind it."""
     projected = track.project(floor)  # (N, S, 2): each point's arc length and distance
     nearest = np.argmin(projected[..., 1], axis=1)
     s = projected[np.arange(len(floor)), nearest, 0]
     if not track.closed:
-        return s > progress_m
-    ahead = (s - progress_m) % track.length_m
-    return (ahead > 0.0) & (ahead < 0.5 * track.length_m)
+        return s > progress_m - behind_m
+    ahead = (s - progress_m + behind_m) % track.length_m
+    return (ahead > 0.0) & (ahead < 0.5 * track.length_m + behind_m)
 
 
 class TrackVisitedMemory(FreshFeltMemory):
@@ -94,7 +106,8 @@ class TrackVisitedMemory(FreshFeltMemory):
             ]
         )
         kept = np.zeros(len(self._points))
-        kept[where] = track_ahead(NOW["track"], floor, NOW["progress_m"])
+        behind_m = NOW["cover_from_m"] if NOW["combine"] == "cover" else 0.0
+        kept[where] = track_ahead(NOW["track"], floor, NOW["progress_m"], behind_m)
         if NOW["combine"] == "oracle":
             return kept
         own = super()._kept(where)
@@ -115,6 +128,12 @@ def main() -> None:
         NOW["combine"] = sys.argv[at + 1]
         if NOW["combine"] not in COMBINES:
             raise SystemExit(f"--combine must be one of {', '.join(COMBINES)}")
+        del sys.argv[at : at + 2]
+    if "--cover-from" in sys.argv:
+        at = sys.argv.index("--cover-from")
+        NOW["cover_from_m"] = float(sys.argv[at + 1])
+        if NOW["combine"] != "cover" or not NOW["cover_from_m"] >= 0.0:
+            raise SystemExit("--cover-from takes metres >= 0, with --combine cover")
         del sys.argv[at : at + 2]
     LfDTrackEnv.reset, LfDTrackEnv.step = reset, step  # type: ignore[method-assign]
     perception_module.memory_for = oracle_memory_for  # type: ignore[assignment]
