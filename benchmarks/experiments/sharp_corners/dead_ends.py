@@ -1,0 +1,90 @@
+"""The map rule with fresh felt that leads nowhere left out: does a dead-end test lift the sharp
+corners? (part 13 of ``README.md``)
+
+Part 12's oracle covered only felt at least 0.3 m of track behind the rover and kept the
+every-room bar. Drawn at the moments it changes the map (the map's fresh felt it makes visited),
+that felt is a sharp corner's tip: the incoming strip past where the outgoing one leaves it, which
+the rover never drove into because it turned onto the outgoing strip before it. A rover at the
+junction sees that tip fresh and ahead, and drives into it and off its end.
+
+A robot can see that the tip ends: beyond it, the map holds carpet. Here a fresh felt point p of
+the ``fresh_felt`` map weighs nothing when the map's points beyond it (along the line from the
+axle through p, from ``NEAR_M`` to ``FAR_M`` further, within ``LANE_M`` of that line) number at
+least ``MIN_SEEN`` and their mean felt level is below ``MAX_FELT``: carpet seen where a strip
+would go on. Everything else (the camera, the road library, visited felt, the strip links, the
+reach, the branch side, the rule) is the map rule's own. Drives ``../generalization/rules.py``
+unchanged (its arguments are passed on).
+
+    .venv/bin/python benchmarks/experiments/sharp_corners/dead_ends.py --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --out benchmarks/experiments/sharp_corners/results/oracle_visited/rooms_dead_ends --workers 2
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from lfd_track.policy.memory import FreshFeltConfig, FreshFeltMemory, memory_for
+from lfd_track.teaching import perception as perception_module
+
+HERE = Path(__file__).resolve().parent
+RULES_PY = HERE.parent / "generalization" / "rules.py"
+
+#: [m] The stretch beyond a fresh felt point whose map points are looked at: from ``NEAR_M`` to
+#: ``FAR_M`` further from the axle along the line through the point, within ``LANE_M`` of it.
+NEAR_M, FAR_M, LANE_M = 0.2, 0.5, 0.45
+#: A fresh felt point leads nowhere when at least ``MIN_SEEN`` map points lie in that stretch
+#: and their mean felt level is below ``MAX_FELT``.
+MIN_SEEN, MAX_FELT = 3, 0.15
+
+
+def leads_nowhere(points: np.ndarray, felt: np.ndarray, chosen: np.ndarray) -> np.ndarray:
+    """(K,) bool for the map points ``chosen`` (K,) int of ``points`` (N, 2) [m, rover frame]
+    with felt levels ``felt`` (N,): carpet seen beyond each (element by element, no BLAS)."""
+    reach = np.hypot(points[chosen, 0], points[chosen, 1])
+    ux, uy = points[chosen, 0] / reach, points[chosen, 1] / reach
+    along = points[None, :, 0] * ux[:, None] + points[None, :, 1] * uy[:, None]
+    across = points[None, :, 1] * ux[:, None] - points[None, :, 0] * uy[:, None]
+    beyond = (
+        (along >= reach[:, None] + NEAR_M)
+        & (along <= reach[:, None] + FAR_M)
+        & (np.abs(across) <= LANE_M)
+    )
+    seen = beyond.sum(axis=1)
+    level = (beyond * felt[None, :]).sum(axis=1) / np.maximum(seen, 1)
+    return (seen >= MIN_SEEN) & (level < MAX_FELT)
+
+
+class DeadEndMemory(FreshFeltMemory):
+    """The ``fresh_felt`` map whose fresh felt leaves out felt that leads nowhere."""
+
+    def _fresh(self, near: np.ndarray, ahead: np.ndarray) -> np.ndarray:
+        weights = super()._fresh(near, ahead)
+        chosen = np.flatnonzero(weights > 0.0)
+        if len(chosen):
+            weights[chosen[leads_nowhere(self._points, self._felt, chosen)]] = 0.0
+        return weights
+
+
+def dead_end_memory_for(config: Any, geometry: Any = None) -> Any:
+    if isinstance(config, FreshFeltConfig):
+        return DeadEndMemory(config, geometry)
+    return memory_for(config, geometry)
+
+
+def main() -> None:
+    perception_module.memory_for = dead_end_memory_for  # type: ignore[assignment]
+    spec = importlib.util.spec_from_file_location("rules", RULES_PY)
+    assert spec is not None and spec.loader is not None
+    rules = importlib.util.module_from_spec(spec)
+    sys.modules["rules"] = rules  # the pool's workers (forked) find its functions by this name
+    spec.loader.exec_module(rules)
+    sys.argv[0] = str(RULES_PY)
+    rules.main()
+
+
+if __name__ == "__main__":
+    main()
