@@ -90,21 +90,23 @@ def track_ahead(
     return (ahead > 0.0) & (ahead < 0.5 * track.length_m + behind_m)
 
 
+def to_floor(points: np.ndarray, pose: tuple[float, float, float]) -> np.ndarray:
+    """(N, 2) floor points [m] of map points ``points`` (N, 2) in the frame of a rover at
+    ``pose`` (x, y, heading)."""
+    x, y, heading = pose
+    cos, sin = math.cos(heading), math.sin(heading)
+    return np.column_stack(
+        [x + cos * points[:, 0] - sin * points[:, 1], y + sin * points[:, 0] + cos * points[:, 1]]
+    )
+
+
 class TrackVisitedMemory(FreshFeltMemory):
     """The ``fresh_felt`` map whose visited felt is the track's behind the rover."""
 
     def _kept(self, where: np.ndarray) -> np.ndarray | None:
         if NOW["track"] is None or not where.any():
             return super()._kept(where)
-        x, y, heading = NOW["pose"]
-        cos, sin = math.cos(heading), math.sin(heading)
-        points = self._points[where]
-        floor = np.column_stack(
-            [
-                x + cos * points[:, 0] - sin * points[:, 1],
-                y + sin * points[:, 0] + cos * points[:, 1],
-            ]
-        )
+        floor = to_floor(self._points[where], NOW["pose"])
         kept = np.zeros(len(self._points))
         behind_m = NOW["cover_from_m"] if NOW["combine"] == "cover" else 0.0
         kept[where] = track_ahead(NOW["track"], floor, NOW["progress_m"], behind_m)

@@ -40,14 +40,6 @@ FIGURES: dict[str, Path | None] = {"dir": None}
 MOMENTS: list[dict[str, Any]] = []
 
 
-def _floor(points: np.ndarray, pose: tuple[float, float, float]) -> np.ndarray:
-    x, y, heading = pose
-    cos, sin = math.cos(heading), math.sin(heading)
-    return np.column_stack(
-        [x + cos * points[:, 0] - sin * points[:, 1], y + sin * points[:, 0] + cos * points[:, 1]]
-    )
-
-
 class TipMemory(FreshFeltMemory):
     """The map as it is, recording the moments part 12's oracle changes most."""
 
@@ -57,7 +49,7 @@ class TipMemory(FreshFeltMemory):
         chosen = np.flatnonzero(weights > 0.0)
         if now["track"] is None or not len(chosen) or len(MOMENTS) >= PER_JOB:
             return weights
-        floor = _floor(self._points[chosen], now["pose"])
+        floor = oracle_visited.to_floor(self._points[chosen], now["pose"])
         track_fresh = oracle_visited.track_ahead(now["track"], floor, now["progress_m"], BEHIND_M)
         if float(weights[chosen][~track_fresh].sum()) > MIN_MASS:
             MOMENTS.append(
@@ -94,12 +86,12 @@ def draw(moment: dict[str, Any], path: Path, scale: float = 200.0, size: int = 4
     image = np.full((size, size, 3), 60, np.uint8)
     for strip in moment["strips"]:
         cv2.fillPoly(image, [np.array([pixel(p) for p in strip], np.int32)], (90, 140, 90))
-    floor = _floor(moment["points"], moment["pose"])
+    floor = oracle_visited.to_floor(moment["points"], moment["pose"])
     for p in floor[moment["felt"] >= 0.5]:
         cv2.circle(image, pixel(p), 2, (200, 200, 200), -1)
     for p, behind in zip(floor[moment["chosen"]], moment["behind"], strict=True):
         cv2.circle(image, pixel(p), 4, (0, 0, 255) if behind else (0, 255, 255), -1)
-    for p in _floor(moment["path"], moment["pose"]):
+    for p in oracle_visited.to_floor(moment["path"], moment["pose"]):
         cv2.circle(image, pixel(p), 3, (255, 100, 0), -1)
     tip = (x + 0.3 * math.cos(heading), y + 0.3 * math.sin(heading))
     cv2.arrowedLine(image, pixel(np.array([x, y])), pixel(np.array(tip)), (255, 255, 255), 2)
