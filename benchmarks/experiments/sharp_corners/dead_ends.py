@@ -15,6 +15,10 @@ would go on. Everything else (the camera, the road library, visited felt, the st
 reach, the branch side, the rule) is the map rule's own. Drives ``../generalization/rules.py``
 unchanged (its arguments are passed on).
 
+``--whole-tip`` (part 14) also leaves out, where the rover's own strip ends within 0.6 m ahead
+(carpet seen along its heading), the fresh felt ahead of the axle short of that end, within
+0.35 m of the heading: the tip as a whole, not point by point.
+
     .venv/bin/python benchmarks/experiments/sharp_corners/dead_ends.py --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --out benchmarks/experiments/sharp_corners/results/oracle_visited/rooms_dead_ends --workers 2
 """
 
@@ -58,14 +62,44 @@ def leads_nowhere(points: np.ndarray, felt: np.ndarray, chosen: np.ndarray) -> n
     return (seen >= MIN_SEEN) & (level < MAX_FELT)
 
 
+#: ``--whole-tip`` (part 14): the rover's own strip ends ahead where, within ``END_LANE_M`` of
+#: its heading, the map's points over ``END_SPAN_M`` from some distance between ``END_FROM_M``
+#: and ``END_TO_M`` ahead (in steps of ``END_STEP_M``) are at least ``MIN_SEEN`` with mean felt
+#: level below ``MAX_FELT``; then the fresh felt ahead of the axle short of that distance (and
+#: ``END_STEP_M`` past it), within ``TIP_LANE_M`` of the heading, leads nowhere too.
+END_LANE_M, END_SPAN_M, END_FROM_M, END_TO_M, END_STEP_M = 0.1, 0.3, 0.1, 0.6, 0.05
+TIP_LANE_M = 0.35
+WHOLE_TIP = {"on": False}
+
+
+def strip_end_m(points: np.ndarray, felt: np.ndarray) -> float | None:
+    """[m] How far ahead the rover's own strip ends (carpet seen along its heading), or None."""
+    lane = np.abs(points[:, 1]) <= END_LANE_M
+    steps = int(round((END_TO_M - END_FROM_M) / END_STEP_M))
+    for k in range(steps + 1):
+        start = END_FROM_M + k * END_STEP_M
+        beyond = lane & (points[:, 0] >= start) & (points[:, 0] <= start + END_SPAN_M)
+        seen = int(beyond.sum())
+        if seen >= MIN_SEEN and float((felt * beyond).sum()) / seen < MAX_FELT:
+            return start
+    return None
+
+
 class DeadEndMemory(FreshFeltMemory):
     """The ``fresh_felt`` map whose fresh felt leaves out felt that leads nowhere."""
 
     def _fresh(self, near: np.ndarray, ahead: np.ndarray) -> np.ndarray:
         weights = super()._fresh(near, ahead)
         chosen = np.flatnonzero(weights > 0.0)
-        if len(chosen):
-            weights[chosen[leads_nowhere(self._points, self._felt, chosen)]] = 0.0
+        if not len(chosen):
+            return weights
+        gone = leads_nowhere(self._points, self._felt, chosen)
+        if WHOLE_TIP["on"]:
+            end = strip_end_m(self._points, self._felt)
+            if end is not None:
+                x, y = self._points[chosen, 0], self._points[chosen, 1]
+                gone |= (x >= 0.0) & (x < end + END_STEP_M) & (np.abs(y) <= TIP_LANE_M)
+        weights[chosen[gone]] = 0.0
         return weights
 
 
@@ -76,6 +110,9 @@ def dead_end_memory_for(config: Any, geometry: Any = None) -> Any:
 
 
 def main() -> None:
+    if "--whole-tip" in sys.argv:
+        sys.argv.remove("--whole-tip")
+        WHOLE_TIP["on"] = True
     perception_module.memory_for = dead_end_memory_for  # type: ignore[assignment]
     spec = importlib.util.spec_from_file_location("rules", RULES_PY)
     assert spec is not None and spec.loader is not None
