@@ -24,18 +24,16 @@ unchanged (its arguments are passed on).
 
 from __future__ import annotations
 
-import importlib.util
 import sys
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
-from lfd_track.policy.memory import FreshFeltConfig, FreshFeltMemory, memory_for
-from lfd_track.teaching import perception as perception_module
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-HERE = Path(__file__).resolve().parent
-RULES_PY = HERE.parent / "generalization" / "rules.py"
+import oracle_visited  # noqa: E402
+
+from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
 
 #: [m] The stretch beyond a fresh felt point whose map points are looked at: from ``NEAR_M`` to
 #: ``FAR_M`` further from the axle along the line through the point, within ``LANE_M`` of it.
@@ -103,24 +101,11 @@ class DeadEndMemory(FreshFeltMemory):
         return weights
 
 
-def dead_end_memory_for(config: Any, geometry: Any = None) -> Any:
-    if isinstance(config, FreshFeltConfig):
-        return DeadEndMemory(config, geometry)
-    return memory_for(config, geometry)
-
-
 def main() -> None:
     if "--whole-tip" in sys.argv:
         sys.argv.remove("--whole-tip")
         WHOLE_TIP["on"] = True
-    perception_module.memory_for = dead_end_memory_for  # type: ignore[assignment]
-    spec = importlib.util.spec_from_file_location("rules", RULES_PY)
-    assert spec is not None and spec.loader is not None
-    rules = importlib.util.module_from_spec(spec)
-    sys.modules["rules"] = rules  # the pool's workers (forked) find its functions by this name
-    spec.loader.exec_module(rules)
-    sys.argv[0] = str(RULES_PY)
-    rules.main()
+    oracle_visited.map_rule_with(DeadEndMemory)
 
 
 if __name__ == "__main__":

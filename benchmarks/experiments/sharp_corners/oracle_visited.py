@@ -118,13 +118,28 @@ class TrackVisitedMemory(FreshFeltMemory):
         return np.maximum(own, kept) if NOW["combine"] == "unhide" else np.minimum(own, kept)
 
 
-def oracle_memory_for(config: Any, geometry: Any = None) -> Any:
-    if isinstance(config, FreshFeltConfig):
-        return TrackVisitedMemory(config, geometry)
-    return memory_for(config, geometry)
+def map_rule_with(memory_class: type[FreshFeltMemory]) -> None:
+    """Run ``../generalization/rules.py`` (its arguments are this script's) with every
+    ``fresh_felt`` map made as ``memory_class``."""
+
+    def made(config: Any, geometry: Any = None) -> Any:
+        if isinstance(config, FreshFeltConfig):
+            return memory_class(config, geometry)
+        return memory_for(config, geometry)
+
+    perception_module.memory_for = made  # type: ignore[assignment]
+    spec = importlib.util.spec_from_file_location("rules", RULES_PY)
+    assert spec is not None and spec.loader is not None
+    rules = importlib.util.module_from_spec(spec)
+    sys.modules["rules"] = rules  # the pool's workers (forked) find its functions by this name
+    spec.loader.exec_module(rules)
+    sys.argv[0] = str(RULES_PY)
+    rules.main()
 
 
-def main() -> None:
+def main(memory_class: type[FreshFeltMemory] = TrackVisitedMemory) -> None:
+    """The map rule with ``memory_class``'s map, the episode's track and pose kept in
+    :data:`NOW` (``tips.py`` passes its own map)."""
     if "--combine" in sys.argv:
         at = sys.argv.index("--combine")
         NOW["combine"] = sys.argv[at + 1]
@@ -138,14 +153,7 @@ def main() -> None:
             raise SystemExit("--cover-from takes metres >= 0, with --combine cover")
         del sys.argv[at : at + 2]
     LfDTrackEnv.reset, LfDTrackEnv.step = reset, step  # type: ignore[method-assign]
-    perception_module.memory_for = oracle_memory_for  # type: ignore[assignment]
-    spec = importlib.util.spec_from_file_location("rules", RULES_PY)
-    assert spec is not None and spec.loader is not None
-    rules = importlib.util.module_from_spec(spec)
-    sys.modules["rules"] = rules  # the pool's workers (forked) find its functions by this name
-    spec.loader.exec_module(rules)
-    sys.argv[0] = str(RULES_PY)
-    rules.main()
+    map_rule_with(memory_class)
 
 
 if __name__ == "__main__":

@@ -29,7 +29,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import dead_ends  # noqa: E402
 import oracle_visited  # noqa: E402
 
-from lfd_track.policy.memory import FreshFeltConfig, FreshFeltMemory, memory_for  # noqa: E402
+from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
 
 #: A moment is recorded when the fresh felt the oracle makes visited weighs more than this.
 MIN_MASS = 1.5
@@ -71,12 +71,6 @@ class TipMemory(FreshFeltMemory):
         return weights
 
 
-def tip_memory_for(config: Any, geometry: Any = None) -> Any:
-    if isinstance(config, FreshFeltConfig):
-        return TipMemory(config, geometry)
-    return memory_for(config, geometry)
-
-
 def draw(moment: dict[str, Any], path: Path, scale: float = 200.0, size: int = 400) -> None:
     x, y, heading = moment["pose"]
 
@@ -105,8 +99,7 @@ def main() -> None:
     folder.mkdir(parents=True, exist_ok=True)
     for old in folder.glob("moments_*.pkl"):
         old.unlink()
-    oracle_visited.oracle_memory_for = tip_memory_for
-    oracle_visited.main()
+    oracle_visited.main(TipMemory)
     moments = []
     for saved in sorted(folder.glob("moments_*.pkl")):
         with open(saved, "rb") as f:
