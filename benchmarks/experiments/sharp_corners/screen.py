@@ -1,0 +1,273 @@
+"""Screen tests of a corner's tip decision by decision against part 12's oracle (part 15 of
+``README.md``).
+
+A test a robot could run is worth a rule run (about 12 minutes) only if it changes the map rule's
+commands where part 12's oracle changes them, and not elsewhere. This script drives the map rule
+on the map as it is (``../generalization/rules.py``, its arguments passed on) and, at every frame,
+lets copies of the map see the same frame with each test (and the oracle: ``oracle_visited.py
+--combine cover --cover-from 0.3``) and reads the command the rule would give on each copy's
+inputs (a pivot toward the bearing beyond 20 degrees, else forward; on a blank map the branch
+side's pivot, or ``?`` without one: the rule's last side, which the copy does not know). Per
+test it counts the frames where the map as it is and the oracle disagree and the test gives the
+oracle's command (``fixed``), the frames where they agree and the test does not (``broken``),
+and how many frames it changes at all. The counts are summed over the worker processes into
+``--screen FILE`` (JSON). Every drive is the map as it is; nothing the copies see changes it.
+
+    .venv/bin/python benchmarks/experiments/sharp_corners/screen.py --screen /tmp/screen.json --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --repetitions 1 --out /tmp/screen --workers 2
+"""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import os
+import pickle
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import dead_ends  # noqa: E402
+import oracle_visited  # noqa: E402
+
+from lfd_track.policy.memory import BEHIND_M, FreshFeltMemory, fresh_bearing_rad  # noqa: E402
+
+#: [deg] the map rule's turn (``FreshFeltRuleConfig.turn_deg``)
+TURN_DEG = 20.0
+COUNTS: dict[str, dict[str, int]] = {}
+OUT: dict[str, Path | None] = {"file": None, "frames": None}
+FRAMES: list[dict[str, Any]] = []
+
+#: ``islands``: fresh felt weighing at least ``ISLAND_MIN`` (felt level times how fresh) within
+#: ``ISLAND_LOOK_M`` of the axle is joined into pieces by links of at most ``ISLAND_LINK_M``; a
+#: piece none of whose points lies ``ISLAND_FAR_M`` or further from the axle leads nowhere.
+ISLAND_MIN, ISLAND_LOOK_M, ISLAND_LINK_M, ISLAND_FAR_M = 0.1, 1.5, 0.15, 0.8
+
+
+def islands(memory: FreshFeltMemory, chosen: np.ndarray) -> np.ndarray:
+    """(K,) bool for the fresh felt points ``chosen`` (K,) int of ``memory``'s map: in a piece
+    of fresh felt that ends within ``ISLAND_FAR_M`` of the axle."""
+    points, felt = memory._points, memory._felt
+    dist = np.hypot(points[:, 0], points[:, 1])
+    where = (felt > 0.0) & (points[:, 0] > -BEHIND_M) & (dist < ISLAND_LOOK_M)
+    kept = FreshFeltMemory._kept(memory, where)
+    if kept is None:
+        return np.zeros(len(chosen), dtype=bool)
+    idx = np.flatnonzero(felt * kept >= ISLAND_MIN)
+    gap_x = points[idx, 0, None] - points[None, idx, 0]
+    gap_y = points[idx, 1, None] - points[None, idx, 1]
+    linked = gap_x * gap_x + gap_y * gap_y <= ISLAND_LINK_M**2
+    piece = np.full(len(idx), -1)
+    far = []
+    for start in range(len(idx)):
+        if piece[start] >= 0:
+            continue
+        piece[start] = len(far)
+        reached = np.zeros(len(idx), dtype=bool)
+        reached[start] = True
+        frontier = reached.copy()
+        while frontier.any():
+            frontier = linked[frontier].any(axis=0) & ~reached
+            reached |= frontier
+        piece[reached] = len(far)
+        far.append(bool(dist[idx[reached]].max() >= ISLAND_FAR_M))
+    leads_on = np.zeros(len(points), dtype=bool)
+    if len(idx):
+        leads_on[idx[np.asarray(far, dtype=bool)[piece]]] = True
+    return ~leads_on[chosen]
+
+
+def whole_tip(memory: FreshFeltMemory, chosen: np.ndarray) -> np.ndarray:
+    """Part 14's test (``dead_ends.py --whole-tip``)."""
+    gone = dead_ends.leads_nowhere(memory._points, memory._felt, chosen)
+    end = dead_ends.strip_end_m(memory._points, memory._felt)
+    if end is not None:
+        x, y = memory._points[chosen, 0], memory._points[chosen, 1]
+        gone |= (x >= 0.0) & (x < end + dead_ends.END_STEP_M) & (np.abs(y) <= dead_ends.TIP_LANE_M)
+    return gone
+
+
+def end_blank(end_to_m: float) -> Callable[[FreshFeltMemory, np.ndarray], np.ndarray]:
+    """A test leaving out all fresh felt while the branch side gives a side and the rover's own
+    strip ends within ``end_to_m`` ahead (``dead_ends.strip_end_m``)."""
+
+    def test(memory: FreshFeltMemory, chosen: np.ndarray) -> np.ndarray:
+        ends = False
+        if memory._side != 0.5:
+            saved = dead_ends.END_TO_M
+            dead_ends.END_TO_M = end_to_m
+            ends = dead_ends.strip_end_m(memory._points, memory._felt) is not None
+            dead_ends.END_TO_M = saved
+        return np.full(len(chosen), ends)
+
+    return test
+
+
+def felt_beside(memory: FreshFeltMemory, near_m: float, far_m: float) -> bool:
+    """Whether the map holds felt on the branch side's side between ``near_m`` and ``far_m``
+    off the rover's heading, from just behind the axle to ``BESIDE_AHEAD_M`` ahead: at least
+    ``dead_ends.MIN_SEEN`` points of mean felt level 0.5 or more (a second strip beside the
+    rover's own)."""
+    side = 1.0 if memory._side > 0.5 else -1.0
+    x, off = memory._points[:, 0], memory._points[:, 1] * side
+    band = (x >= -0.1) & (x <= BESIDE_AHEAD_M) & (off >= near_m) & (off <= far_m)
+    seen = int(band.sum())
+    return seen >= dead_ends.MIN_SEEN and float(memory._felt[band].mean()) >= 0.5
+
+
+BESIDE_AHEAD_M = 0.4
+
+
+def overlap_blank(
+    end_to_m: float, near_m: float, far_m: float
+) -> Callable[[FreshFeltMemory, np.ndarray], np.ndarray]:
+    """``end_blank``, and only while felt lies beside the rover on the branch side's side."""
+    ends = end_blank(end_to_m)
+
+    def test(memory: FreshFeltMemory, chosen: np.ndarray) -> np.ndarray:
+        if memory._side == 0.5 or not felt_beside(memory, near_m, far_m):
+            return np.zeros(len(chosen), dtype=bool)
+        return ends(memory, chosen)
+
+    return test
+
+
+TESTS: dict[str, Callable[[FreshFeltMemory, np.ndarray], np.ndarray]] = {
+    "dead_ends": lambda m, chosen: dead_ends.leads_nowhere(m._points, m._felt, chosen),
+    "end_blank_0.45": end_blank(0.45),
+    "overlap_0.45_0.3-0.6": overlap_blank(0.45, 0.3, 0.6),
+    "overlap_0.45_0.4-0.7": overlap_blank(0.45, 0.4, 0.7),
+    "overlap_0.6_0.3-0.6": overlap_blank(0.6, 0.3, 0.6),
+    "overlap_0.6_0.4-0.7": overlap_blank(0.6, 0.4, 0.7),
+    "overlap_0.6_0.5-0.8": overlap_blank(0.6, 0.5, 0.8),
+}
+
+
+def command(inputs: np.ndarray, range_deg: float) -> str:
+    """The map rule's command on the map's ``inputs`` (see the module docstring)."""
+    if float(inputs[1]) <= 0.0:
+        side = float(inputs[3]) if len(inputs) > 3 else 0.5
+        return "L" if side > 0.5 else "R" if side < 0.5 else "?"
+    bearing = fresh_bearing_rad(inputs, range_deg)
+    limit = math.radians(TURN_DEG)
+    return "L" if bearing > limit else "R" if bearing < -limit else "F"
+
+
+class ScreenMemory(oracle_visited.TrackVisitedMemory):
+    """The map as it is, whose copies see each frame with each test and the oracle."""
+
+    _test: str | None = None
+
+    def __copy__(self) -> ScreenMemory:
+        twin = object.__new__(type(self))
+        twin.__dict__.update(self.__dict__)
+        if self._branch is not None:
+            twin._branch = copy.copy(self._branch)
+        return twin
+
+    def _kept(self, where: np.ndarray) -> np.ndarray | None:
+        if self._test == "oracle":
+            return super()._kept(where)
+        return FreshFeltMemory._kept(self, where)
+
+    def _fresh(self, near: np.ndarray, ahead: np.ndarray) -> np.ndarray:
+        weights = FreshFeltMemory._fresh(self, near, ahead)
+        if self._test in TESTS:
+            chosen = np.flatnonzero(weights > 0.0)
+            if len(chosen):
+                weights[chosen[TESTS[self._test](self, chosen)]] = 0.0
+        return weights
+
+    def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
+        if self._test is not None:
+            super().see(values, levels)
+            return
+        range_deg = self.config.bearing_range_deg
+        said = {}
+        for name in ("oracle", *TESTS):
+            twin = copy.copy(self)
+            twin._test = name
+            twin.see(values, levels)
+            said[name] = command(twin.inputs(), range_deg)
+        super().see(values, levels)
+        as_is, oracle = command(self.inputs(), range_deg), said["oracle"]
+        if as_is != oracle and OUT["frames"] is not None:
+            self._keep_frame(as_is, said)
+        for name, said_now in said.items():
+            counts = COUNTS.setdefault(
+                name, {"frames": 0, "oracle_differs": 0, "fixed": 0, "broken": 0, "changed": 0}
+            )
+            counts["frames"] += 1
+            counts["oracle_differs"] += as_is != oracle
+            counts["fixed"] += as_is != oracle and said_now == oracle
+            counts["broken"] += as_is == oracle and said_now != oracle
+            counts["changed"] += said_now != as_is
+        folder = OUT["file"]
+        assert folder is not None
+        with open(f"{folder}.{os.getpid()}", "w") as out:
+            json.dump(COUNTS, out)
+
+    def _keep_frame(self, as_is: str, said: dict[str, str]) -> None:
+        """Keep this frame's map for ``--frames`` (pickled per worker process)."""
+        now = oracle_visited.NOW
+        weights = FreshFeltMemory._fresh(
+            self,
+            np.hypot(self._points[:, 0], self._points[:, 1]) < self.config.reach_m,
+            self._points[:, 0] > -BEHIND_M,
+        )
+        chosen = np.flatnonzero(weights > 0.0)
+        floor = oracle_visited.to_floor(self._points[chosen], now["pose"])
+        ahead = oracle_visited.track_ahead(now["track"], floor, now["progress_m"], 0.3)
+        FRAMES.append(
+            {
+                "pose": now["pose"],
+                "strips": [np.asarray(p) for p in now["track"].strip_polygons()],
+                "points": self._points.copy(),
+                "felt": self._felt.copy(),
+                "path": self._path.copy(),
+                "chosen": chosen,
+                "weights": weights[chosen],
+                "behind": ~ahead,
+                "side": self._side,
+                "as_is": as_is,
+                "said": said,
+            }
+        )
+        folder = OUT["frames"]
+        assert folder is not None
+        with open(folder / f"frames_{os.getpid()}.pkl", "wb") as out:
+            pickle.dump(FRAMES, out)
+
+
+def main() -> None:
+    if "--frames" in sys.argv:
+        at = sys.argv.index("--frames")
+        OUT["frames"] = Path(sys.argv[at + 1])
+        OUT["frames"].mkdir(parents=True, exist_ok=True)
+        del sys.argv[at : at + 2]
+    at = sys.argv.index("--screen")
+    target = OUT["file"] = Path(sys.argv[at + 1])
+    del sys.argv[at : at + 2]
+    for old in target.parent.glob(f"{target.name}.*"):
+        old.unlink()
+    oracle_visited.NOW["combine"], oracle_visited.NOW["cover_from_m"] = "cover", 0.3
+    oracle_visited.main(ScreenMemory)
+    total: dict[str, Any] = {}
+    for part in sorted(target.parent.glob(f"{target.name}.*")):
+        for name, counts in json.loads(part.read_text()).items():
+            for key, value in counts.items():
+                total.setdefault(name, {}).setdefault(key, 0)
+                total[name][key] += value
+        part.unlink()
+    target.write_text(json.dumps(total, indent=1) + "\n")
+    for name, counts in total.items():
+        print(name, counts)
+
+
+if __name__ == "__main__":
+    main()
