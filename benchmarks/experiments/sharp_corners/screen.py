@@ -42,6 +42,9 @@ TURN_DEG = 20.0
 COUNTS: dict[str, dict[str, int]] = {}
 OUT: dict[str, Path | None] = {"file": None, "frames": None}
 FRAMES: list[dict[str, Any]] = []
+#: ``--sample N``: with ``--frames``, keep every N-th frame's map too (0: only those the oracle
+#: changes)
+SAMPLE = {"every": 0, "seen": 0}
 
 #: ``islands``: fresh felt weighing at least ``ISLAND_MIN`` (felt level times how fresh) within
 #: ``ISLAND_LOOK_M`` of the axle is joined into pieces by links of at most ``ISLAND_LINK_M``; a
@@ -63,7 +66,7 @@ def islands(memory: FreshFeltMemory, chosen: np.ndarray) -> np.ndarray:
     gap_y = points[idx, 1, None] - points[None, idx, 1]
     linked = gap_x * gap_x + gap_y * gap_y <= ISLAND_LINK_M**2
     piece = np.full(len(idx), -1)
-    far = []
+    far: list[bool] = []
     for start in range(len(idx)):
         if piece[start] >= 0:
             continue
@@ -196,7 +199,9 @@ class ScreenMemory(oracle_visited.TrackVisitedMemory):
             said[name] = command(twin.inputs(), range_deg)
         super().see(values, levels)
         as_is, oracle = command(self.inputs(), range_deg), said["oracle"]
-        if as_is != oracle and OUT["frames"] is not None:
+        SAMPLE["seen"] += 1
+        sampled = SAMPLE["every"] > 0 and SAMPLE["seen"] % SAMPLE["every"] == 0
+        if OUT["frames"] is not None and (as_is != oracle or sampled):
             self._keep_frame(as_is, said)
         for name, said_now in said.items():
             counts = COUNTS.setdefault(
@@ -236,6 +241,7 @@ class ScreenMemory(oracle_visited.TrackVisitedMemory):
                 "side": self._side,
                 "as_is": as_is,
                 "said": said,
+                "inputs": self.inputs(),
             }
         )
         folder = OUT["frames"]
@@ -244,11 +250,35 @@ class ScreenMemory(oracle_visited.TrackVisitedMemory):
             pickle.dump(FRAMES, out)
 
 
+class DriveMemory(ScreenMemory):
+    """The map with one test (``--drive``), seeing each frame once."""
+
+
+def drive(name: str) -> None:
+    """Run ``../generalization/rules.py`` (this script's arguments) with the map rule driving on
+    the map with the test ``name`` (a key of :data:`TESTS`)."""
+    if name not in TESTS:
+        raise SystemExit(f"--drive takes one of: {', '.join(TESTS)}")
+
+    DriveMemory._test = name
+    oracle_visited.map_rule_with(DriveMemory)
+
+
 def main() -> None:
+    if "--drive" in sys.argv:
+        at = sys.argv.index("--drive")
+        name = sys.argv[at + 1]
+        del sys.argv[at : at + 2]
+        drive(name)
+        return
     if "--frames" in sys.argv:
         at = sys.argv.index("--frames")
-        OUT["frames"] = Path(sys.argv[at + 1])
-        OUT["frames"].mkdir(parents=True, exist_ok=True)
+        frames = OUT["frames"] = Path(sys.argv[at + 1])
+        frames.mkdir(parents=True, exist_ok=True)
+        del sys.argv[at : at + 2]
+    if "--sample" in sys.argv:
+        at = sys.argv.index("--sample")
+        SAMPLE["every"] = int(sys.argv[at + 1])
         del sys.argv[at : at + 2]
     at = sys.argv.index("--screen")
     target = OUT["file"] = Path(sys.argv[at + 1])
