@@ -1,5 +1,5 @@
 """Issue 41's bar, room by room: how many kept rooms lap at least 85 % of their loop laps, for
-the map-rule runs of parts 8-14 and the learners beside them (committed results only; it chooses
+the map-rule runs of parts 8-15 and the learners beside them (committed results only; it chooses
 nothing).
 
     .venv/bin/python benchmarks/experiments/sharp_corners/rooms_at_85.py
@@ -32,6 +32,8 @@ RUNS = {
     "the map rule, cover from 0.3 m behind (part 12)": ORACLE / "rooms_cover_from_30cm/map-rule",
     "the map rule, dead ends left out (part 13)": ORACLE / "rooms_dead_ends/map-rule",
     "the map rule, the whole tip left out too (part 14)": ORACLE / "rooms_whole_tip/map-rule",
+    "the map rule, blank where the side's strip ends beside felt (part 15)": ORACLE
+    / "rooms_overlap/map-rule",
     "the learner, round 27's winner": ROUNDS
     / "round27/results/balance/rooms.round20+visual+balance",
     "the learner, round 31 (strip)": ROUNDS / "round31/results/strip/rooms.round27+strip",

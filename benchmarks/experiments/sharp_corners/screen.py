@@ -140,15 +140,49 @@ def overlap_blank(
     return test
 
 
+def contradicted(
+    end_to_m: float, toward_deg: float
+) -> Callable[[FreshFeltMemory, np.ndarray], np.ndarray]:
+    """``end_blank``, and only while the fresh felt's bearing lies less than ``toward_deg``
+    toward the branch side's side (straight ahead or to the other side: the map and the branch
+    side disagree)."""
+    ends = end_blank(end_to_m)
+
+    def test(memory: FreshFeltMemory, chosen: np.ndarray) -> np.ndarray:
+        if memory._side == 0.5:
+            return np.zeros(len(chosen), dtype=bool)
+        weights = memory._weights_now[chosen]  # type: ignore[attr-defined]
+        x = float((weights * memory._points[chosen, 0]).sum())
+        y = float((weights * memory._points[chosen, 1]).sum())
+        side = 1.0 if memory._side > 0.5 else -1.0
+        if side * math.degrees(math.atan2(y, x)) >= toward_deg:
+            return np.zeros(len(chosen), dtype=bool)
+        return ends(memory, chosen)
+
+    return test
+
+
 TESTS: dict[str, Callable[[FreshFeltMemory, np.ndarray], np.ndarray]] = {
     "dead_ends": lambda m, chosen: dead_ends.leads_nowhere(m._points, m._felt, chosen),
+    "whole_tip": whole_tip,
+    "islands": islands,
+    "end_blank_0.3": end_blank(0.3),
     "end_blank_0.45": end_blank(0.45),
+    "end_blank_0.6": end_blank(0.6),
     "overlap_0.45_0.3-0.6": overlap_blank(0.45, 0.3, 0.6),
     "overlap_0.45_0.4-0.7": overlap_blank(0.45, 0.4, 0.7),
     "overlap_0.6_0.3-0.6": overlap_blank(0.6, 0.3, 0.6),
     "overlap_0.6_0.4-0.7": overlap_blank(0.6, 0.4, 0.7),
     "overlap_0.6_0.5-0.8": overlap_blank(0.6, 0.5, 0.8),
+    "contra_0.45_-5": contradicted(0.45, -5.0),
+    "contra_0.6_-5": contradicted(0.6, -5.0),
+    "contra_0.6_0": contradicted(0.6, 0.0),
+    "contra_0.8_-5": contradicted(0.8, -5.0),
 }
+
+
+#: the tests a screen run scores (``--tests a,b``; default all)
+SCREENED: list[str] = list(TESTS)
 
 
 def command(inputs: np.ndarray, range_deg: float) -> str:
@@ -183,6 +217,7 @@ class ScreenMemory(oracle_visited.TrackVisitedMemory):
         if self._test in TESTS:
             chosen = np.flatnonzero(weights > 0.0)
             if len(chosen):
+                self._weights_now = weights
                 weights[chosen[TESTS[self._test](self, chosen)]] = 0.0
         return weights
 
@@ -192,7 +227,7 @@ class ScreenMemory(oracle_visited.TrackVisitedMemory):
             return
         range_deg = self.config.bearing_range_deg
         said = {}
-        for name in ("oracle", *TESTS):
+        for name in ("oracle", *SCREENED):
             twin = copy.copy(self)
             twin._test = name
             twin.see(values, levels)
@@ -265,6 +300,14 @@ def drive(name: str) -> None:
 
 
 def main() -> None:
+    if "--tests" in sys.argv:
+        at = sys.argv.index("--tests")
+        names = sys.argv[at + 1].split(",")
+        unknown = [n for n in names if n not in TESTS]
+        if unknown:
+            raise SystemExit(f"--tests: no test {', '.join(unknown)}; there are {', '.join(TESTS)}")
+        SCREENED[:] = names
+        del sys.argv[at : at + 2]
     if "--drive" in sys.argv:
         at = sys.argv.index("--drive")
         name = sys.argv[at + 1]
