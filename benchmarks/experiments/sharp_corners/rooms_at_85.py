@@ -34,6 +34,8 @@ RUNS = {
     "the map rule, the whole tip left out too (part 14)": ORACLE / "rooms_whole_tip/map-rule",
     "the map rule, blank where the side's strip ends beside felt (part 15)": ORACLE
     / "rooms_overlap/map-rule",
+    "the map rule, blank where the side's strip ends and the map disagrees (part 15)": ORACLE
+    / "rooms_contra/map-rule",
     "the learner, round 27's winner": ROUNDS
     / "round27/results/balance/rooms.round20+visual+balance",
     "the learner, round 31 (strip)": ROUNDS / "round31/results/strip/rooms.round27+strip",
