@@ -24,6 +24,7 @@ import math
 import os
 import pickle
 import sys
+import zlib
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -162,6 +163,23 @@ def contradicted(
     return test
 
 
+#: ``null_*``: the share of frames (per thousand) whose fresh felt is all left out by chance
+NULL_PER_MILLE = 8
+
+
+def null(salt: int) -> Callable[[FreshFeltMemory, np.ndarray], np.ndarray]:
+    """A test aimed at nothing: every fresh felt left out at about ``NULL_PER_MILLE`` frames in a
+    thousand, chosen by a checksum of the map's points with ``salt`` (the same frames on every
+    run of the same drive), to measure how far changing a few dozen commands anywhere moves the
+    laps."""
+
+    def test(memory: FreshFeltMemory, chosen: np.ndarray) -> np.ndarray:
+        drawn = zlib.crc32(memory._points.tobytes(), salt) % 1000 < NULL_PER_MILLE
+        return np.full(len(chosen), drawn)
+
+    return test
+
+
 TESTS: dict[str, Callable[[FreshFeltMemory, np.ndarray], np.ndarray]] = {
     "dead_ends": lambda m, chosen: dead_ends.leads_nowhere(m._points, m._felt, chosen),
     "whole_tip": whole_tip,
@@ -178,6 +196,8 @@ TESTS: dict[str, Callable[[FreshFeltMemory, np.ndarray], np.ndarray]] = {
     "contra_0.6_-5": contradicted(0.6, -5.0),
     "contra_0.6_0": contradicted(0.6, 0.0),
     "contra_0.8_-5": contradicted(0.8, -5.0),
+    "null_1": null(1),
+    "null_2": null(2),
 }
 
 
