@@ -70,10 +70,11 @@ TIP_LANE_M = 0.35
 WHOLE_TIP = {"on": False}
 
 
-def strip_end_m(points: np.ndarray, felt: np.ndarray) -> float | None:
-    """[m] How far ahead the rover's own strip ends (carpet seen along its heading), or None."""
+def strip_end_m(points: np.ndarray, felt: np.ndarray, end_to_m: float = END_TO_M) -> float | None:
+    """[m] How far ahead the rover's own strip ends (carpet seen along its heading, looked for
+    up to ``end_to_m``), or None."""
     lane = np.abs(points[:, 1]) <= END_LANE_M
-    steps = int(round((END_TO_M - END_FROM_M) / END_STEP_M))
+    steps = int(round((end_to_m - END_FROM_M) / END_STEP_M))
     for k in range(steps + 1):
         start = END_FROM_M + k * END_STEP_M
         beyond = lane & (points[:, 0] >= start) & (points[:, 0] <= start + END_SPAN_M)
@@ -81,6 +82,17 @@ def strip_end_m(points: np.ndarray, felt: np.ndarray) -> float | None:
         if seen >= MIN_SEEN and float((felt * beyond).sum()) / seen < MAX_FELT:
             return start
     return None
+
+
+def whole_tip(points: np.ndarray, felt: np.ndarray, chosen: np.ndarray) -> np.ndarray:
+    """(K,) bool for the map points ``chosen`` (K,) int: part 13's test, or (part 14) ahead of
+    the axle short of where the rover's own strip ends, within ``TIP_LANE_M`` of its heading."""
+    gone = leads_nowhere(points, felt, chosen)
+    end = strip_end_m(points, felt)
+    if end is not None:
+        x, y = points[chosen, 0], points[chosen, 1]
+        gone |= (x >= 0.0) & (x < end + END_STEP_M) & (np.abs(y) <= TIP_LANE_M)
+    return gone
 
 
 class DeadEndMemory(FreshFeltMemory):
@@ -91,12 +103,10 @@ class DeadEndMemory(FreshFeltMemory):
         chosen = np.flatnonzero(weights > 0.0)
         if not len(chosen):
             return weights
-        gone = leads_nowhere(self._points, self._felt, chosen)
         if WHOLE_TIP["on"]:
-            end = strip_end_m(self._points, self._felt)
-            if end is not None:
-                x, y = self._points[chosen, 0], self._points[chosen, 1]
-                gone |= (x >= 0.0) & (x < end + END_STEP_M) & (np.abs(y) <= TIP_LANE_M)
+            gone = whole_tip(self._points, self._felt, chosen)
+        else:
+            gone = leads_nowhere(self._points, self._felt, chosen)
         weights[chosen[gone]] = 0.0
         return weights
 

@@ -39,9 +39,7 @@ def measures(frame: dict[str, Any]) -> dict[str, float]:
     fresh = points[frame["chosen"]]
     mass = float(weights.sum())
     centre = (weights[:, None] * fresh).sum(axis=0) / mass if mass > 0 else np.zeros(2)
-    saved, dead_ends.END_TO_M = dead_ends.END_TO_M, END_M
-    end = dead_ends.strip_end_m(points, felt)
-    dead_ends.END_TO_M = saved
+    end = dead_ends.strip_end_m(points, felt, END_M)
     side = 1.0 if frame["side"] > 0.5 else -1.0
     off = points[:, 1] * side
     beside = (

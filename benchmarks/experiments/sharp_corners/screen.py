@@ -12,6 +12,9 @@ test it counts the frames where the map as it is and the oracle disagree and the
 oracle's command (``fixed``), the frames where they agree and the test does not (``broken``),
 and how many frames it changes at all. The counts are summed over the worker processes into
 ``--screen FILE`` (JSON). Every drive is the map as it is; nothing the copies see changes it.
+``--tests a,b`` screens only those of :data:`TESTS`; ``--frames DIR`` keeps the maps of the frames
+the oracle changes (pickled; ``frames.py`` reads them), and with ``--sample N`` every N-th frame's
+too. ``--drive NAME`` instead runs the rule on the map with the test NAME (a rule run).
 
     .venv/bin/python benchmarks/experiments/sharp_corners/screen.py --screen /tmp/screen.json --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --repetitions 1 --out /tmp/screen --workers 2
 """
@@ -86,27 +89,15 @@ def islands(memory: FreshFeltMemory, chosen: np.ndarray) -> np.ndarray:
     return ~leads_on[chosen]
 
 
-def whole_tip(memory: FreshFeltMemory, chosen: np.ndarray) -> np.ndarray:
-    """Part 14's test (``dead_ends.py --whole-tip``)."""
-    gone = dead_ends.leads_nowhere(memory._points, memory._felt, chosen)
-    end = dead_ends.strip_end_m(memory._points, memory._felt)
-    if end is not None:
-        x, y = memory._points[chosen, 0], memory._points[chosen, 1]
-        gone |= (x >= 0.0) & (x < end + dead_ends.END_STEP_M) & (np.abs(y) <= dead_ends.TIP_LANE_M)
-    return gone
-
-
 def end_blank(end_to_m: float) -> Callable[[FreshFeltMemory, np.ndarray], np.ndarray]:
     """A test leaving out all fresh felt while the branch side gives a side and the rover's own
     strip ends within ``end_to_m`` ahead (``dead_ends.strip_end_m``)."""
 
     def test(memory: FreshFeltMemory, chosen: np.ndarray) -> np.ndarray:
-        ends = False
-        if memory._side != 0.5:
-            saved = dead_ends.END_TO_M
-            dead_ends.END_TO_M = end_to_m
-            ends = dead_ends.strip_end_m(memory._points, memory._felt) is not None
-            dead_ends.END_TO_M = saved
+        ends = (
+            memory._side != 0.5
+            and dead_ends.strip_end_m(memory._points, memory._felt, end_to_m) is not None
+        )
         return np.full(len(chosen), ends)
 
     return test
@@ -182,7 +173,7 @@ def null(salt: int) -> Callable[[FreshFeltMemory, np.ndarray], np.ndarray]:
 
 TESTS: dict[str, Callable[[FreshFeltMemory, np.ndarray], np.ndarray]] = {
     "dead_ends": lambda m, chosen: dead_ends.leads_nowhere(m._points, m._felt, chosen),
-    "whole_tip": whole_tip,
+    "whole_tip": lambda m, chosen: dead_ends.whole_tip(m._points, m._felt, chosen),
     "islands": islands,
     "end_blank_0.3": end_blank(0.3),
     "end_blank_0.45": end_blank(0.45),
