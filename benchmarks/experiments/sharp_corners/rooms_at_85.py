@@ -1,5 +1,5 @@
 """Issue 41's bar, room by room: how many kept rooms lap at least 85 % of their loop laps, for
-the map-rule runs of parts 8-15 and the learners beside them (committed results only; it chooses
+the map-rule runs of parts 8-16 and the learners beside them (committed results only; it chooses
 nothing).
 
     .venv/bin/python benchmarks/experiments/sharp_corners/rooms_at_85.py
@@ -36,6 +36,10 @@ RUNS = {
     / "rooms_overlap/map-rule",
     "the map rule, blank where the side's strip ends and the map disagrees (part 15)": ORACLE
     / "rooms_contra/map-rule",
+    "the map rule, blank at frames drawn by chance (part 16, null_1)": ORACLE
+    / "rooms_null_1/map-rule",
+    "the map rule, blank at frames drawn by chance (part 16, null_2)": ORACLE
+    / "rooms_null_2/map-rule",
     "the learner, round 27's winner": ROUNDS
     / "round27/results/balance/rooms.round20+visual+balance",
     "the learner, round 31 (strip)": ROUNDS / "round31/results/strip/rooms.round27+strip",
