@@ -187,6 +187,9 @@ TESTS: dict[str, Callable[[FreshFeltMemory, np.ndarray], np.ndarray]] = {
     "contra_0.6_-5": contradicted(0.6, -5.0),
     "contra_0.6_0": contradicted(0.6, 0.0),
     "contra_0.8_-5": contradicted(0.8, -5.0),
+    "overlap_or_contra": lambda m, chosen: (
+        TESTS["overlap_0.45_0.4-0.7"](m, chosen) | TESTS["contra_0.45_-5"](m, chosen)
+    ),
     "null_1": null(1),
     "null_2": null(2),
 }
