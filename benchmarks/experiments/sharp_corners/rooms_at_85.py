@@ -1,5 +1,5 @@
 """Issue 41's bar, room by room: how many kept rooms lap at least 85 % of their loop laps, for
-the map-rule runs of parts 8-16 and the learners beside them (committed results only; it chooses
+the map-rule runs of parts 8-17 and the learners beside them (committed results only; it chooses
 nothing).
 
     .venv/bin/python benchmarks/experiments/sharp_corners/rooms_at_85.py
@@ -36,6 +36,7 @@ RUNS = {
     / "rooms_overlap/map-rule",
     "the map rule, blank where the side's strip ends and the map disagrees (part 15)": ORACLE
     / "rooms_contra/map-rule",
+    "the map rule, overlap or contra (part 17)": ORACLE / "rooms_overlap_or_contra/map-rule",
     "the map rule, blank at frames drawn by chance (part 16, null_1)": ORACLE
     / "rooms_null_1/map-rule",
     "the map rule, blank at frames drawn by chance (part 16, null_2)": ORACLE
