@@ -103,6 +103,10 @@ def end_blank(end_to_m: float) -> Callable[[FreshFeltMemory, np.ndarray], np.nda
     return test
 
 
+#: [m] ``overlap_*``: felt beside the rover is looked for up to this far ahead of the axle
+BESIDE_AHEAD_M = 0.4
+
+
 def felt_beside(memory: FreshFeltMemory, near_m: float, far_m: float) -> bool:
     """Whether the map holds felt on the branch side's side between ``near_m`` and ``far_m``
     off the rover's heading, from just behind the axle to ``BESIDE_AHEAD_M`` ahead: at least
@@ -113,9 +117,6 @@ def felt_beside(memory: FreshFeltMemory, near_m: float, far_m: float) -> bool:
     band = (x >= -0.1) & (x <= BESIDE_AHEAD_M) & (off >= near_m) & (off <= far_m)
     seen = int(band.sum())
     return seen >= dead_ends.MIN_SEEN and float(memory._felt[band].mean()) >= 0.5
-
-
-BESIDE_AHEAD_M = 0.4
 
 
 def overlap_blank(
