@@ -62,7 +62,7 @@ def islands(memory: FreshFeltMemory, chosen: np.ndarray) -> np.ndarray:
     points, felt = memory._points, memory._felt
     dist = np.hypot(points[:, 0], points[:, 1])
     where = (felt > 0.0) & (points[:, 0] > -BEHIND_M) & (dist < ISLAND_LOOK_M)
-    kept = FreshFeltMemory._kept(memory, where)
+    kept = memory._kept(where)  # the map's own visited felt (a screened copy's is)
     if kept is None:
         return np.zeros(len(chosen), dtype=bool)
     idx = np.flatnonzero(felt * kept >= ISLAND_MIN)
@@ -225,10 +225,10 @@ class ScreenMemory(oracle_visited.TrackVisitedMemory):
     def _kept(self, where: np.ndarray) -> np.ndarray | None:
         if self._test == "oracle":
             return super()._kept(where)
-        return FreshFeltMemory._kept(self, where)
+        return super(oracle_visited.TrackVisitedMemory, self)._kept(where)  # the map's own
 
     def _fresh(self, near: np.ndarray, ahead: np.ndarray) -> np.ndarray:
-        weights = FreshFeltMemory._fresh(self, near, ahead)
+        weights = super()._fresh(near, ahead)
         if self._test in TESTS:
             chosen = np.flatnonzero(weights > 0.0)
             if len(chosen):
@@ -270,8 +270,7 @@ class ScreenMemory(oracle_visited.TrackVisitedMemory):
     def _keep_frame(self, as_is: str, said: dict[str, str]) -> None:
         """Keep this frame's map for ``--frames`` (pickled per worker process)."""
         now = oracle_visited.NOW
-        weights = FreshFeltMemory._fresh(
-            self,
+        weights = self._fresh(  # the map as it is: this instance screens, it tests nothing
             np.hypot(self._points[:, 0], self._points[:, 1]) < self.config.reach_m,
             self._points[:, 0] > -BEHIND_M,
         )
