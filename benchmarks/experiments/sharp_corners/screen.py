@@ -38,6 +38,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import dead_ends  # noqa: E402
 import oracle_visited  # noqa: E402
+import tips  # noqa: E402
 
 from lfd_track.policy.memory import BEHIND_M, FreshFeltMemory, fresh_bearing_rad  # noqa: E402
 
@@ -276,23 +277,10 @@ class ScreenMemory(oracle_visited.TrackVisitedMemory):
         )
         chosen = np.flatnonzero(weights > 0.0)
         floor = oracle_visited.to_floor(self._points[chosen], now["pose"])
-        ahead = oracle_visited.track_ahead(now["track"], floor, now["progress_m"], 0.3)
-        FRAMES.append(
-            {
-                "pose": now["pose"],
-                "strips": [np.asarray(p) for p in now["track"].strip_polygons()],
-                "points": self._points.copy(),
-                "felt": self._felt.copy(),
-                "path": self._path.copy(),
-                "chosen": chosen,
-                "weights": weights[chosen],
-                "behind": ~ahead,
-                "side": self._side,
-                "as_is": as_is,
-                "said": said,
-                "inputs": self.inputs(),
-            }
-        )
+        ahead = oracle_visited.track_ahead(now["track"], floor, now["progress_m"], tips.BEHIND_M)
+        frame = tips.moment(self, chosen, weights[chosen], ~ahead)
+        frame.update(side=self._side, as_is=as_is, said=said, inputs=self.inputs())
+        FRAMES.append(frame)
         folder = OUT["frames"]
         assert folder is not None
         with open(folder / f"frames_{os.getpid()}.pkl", "wb") as out:

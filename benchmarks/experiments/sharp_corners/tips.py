@@ -40,6 +40,25 @@ FIGURES: dict[str, Path | None] = {"dir": None}
 MOMENTS: list[dict[str, Any]] = []
 
 
+def moment(
+    memory: FreshFeltMemory, chosen: np.ndarray, weights: np.ndarray, behind: np.ndarray
+) -> dict[str, Any]:
+    """What :func:`draw` draws of ``memory``'s map now: its points, felt and path, the episode's
+    strips and pose (``oracle_visited.NOW``), and the fresh felt points ``chosen`` with their
+    ``weights`` and whether the oracle counts each ``behind``."""
+    now = oracle_visited.NOW
+    return {
+        "pose": now["pose"],
+        "strips": [np.asarray(p) for p in now["track"].strip_polygons()],
+        "points": memory._points.copy(),
+        "felt": memory._felt.copy(),
+        "path": memory._path.copy(),
+        "chosen": chosen,
+        "weights": weights,
+        "behind": behind,
+    }
+
+
 class TipMemory(FreshFeltMemory):
     """The map as it is, recording the moments part 12's oracle changes most."""
 
@@ -52,18 +71,7 @@ class TipMemory(FreshFeltMemory):
         floor = oracle_visited.to_floor(self._points[chosen], now["pose"])
         track_fresh = oracle_visited.track_ahead(now["track"], floor, now["progress_m"], BEHIND_M)
         if float(weights[chosen][~track_fresh].sum()) > MIN_MASS:
-            MOMENTS.append(
-                {
-                    "pose": now["pose"],
-                    "strips": [np.asarray(p) for p in now["track"].strip_polygons()],
-                    "points": self._points.copy(),
-                    "felt": self._felt.copy(),
-                    "path": self._path.copy(),
-                    "chosen": chosen,
-                    "weights": weights[chosen],
-                    "behind": ~track_fresh,
-                }
-            )
+            MOMENTS.append(moment(self, chosen, weights[chosen], ~track_fresh))
             folder = FIGURES["dir"]
             assert folder is not None
             with open(folder / f"moments_{os.getpid()}.pkl", "wb") as out:
@@ -106,15 +114,15 @@ def main() -> None:
             moments += pickle.load(f)
         saved.unlink()
     out = {"behind": [0.0, 0.0], "ahead": [0.0, 0.0]}
-    for k, moment in enumerate(moments):
-        draw(moment, folder / f"moment{k:02d}.png")
-        gone = dead_ends.leads_nowhere(moment["points"], moment["felt"], moment["chosen"])
-        for name, part in (("behind", moment["behind"]), ("ahead", ~moment["behind"])):
-            out[name][0] += float(moment["weights"][part & gone].sum())
-            out[name][1] += float(moment["weights"][part].sum())
+    for k, drawn in enumerate(moments):
+        draw(drawn, folder / f"moment{k:02d}.png")
+        gone = dead_ends.leads_nowhere(drawn["points"], drawn["felt"], drawn["chosen"])
+        for name, part in (("behind", drawn["behind"]), ("ahead", ~drawn["behind"])):
+            out[name][0] += float(drawn["weights"][part & gone].sum())
+            out[name][1] += float(drawn["weights"][part].sum())
     print(f"{len(moments)} moments drawn in {folder}")
-    for name, (gone, total) in out.items():
-        share = gone / total if total else 0.0
+    for name, (left_out, total) in out.items():
+        share = left_out / total if total else 0.0
         print(f"dead_ends.py leaves out {share:.0%} of the fresh felt the oracle counts {name}")
 
 
