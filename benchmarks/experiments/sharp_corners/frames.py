@@ -64,8 +64,12 @@ def measures(frame: dict[str, Any]) -> dict[str, float]:
 def main() -> None:
     frames: list[dict[str, Any]] = []
     for saved in sorted(Path(sys.argv[1]).glob("frames_*.pkl")):
-        with open(saved, "rb") as f:
-            frames += pickle.load(f)
+        with open(saved, "rb") as f:  # screen.py appends one record a frame
+            while True:
+                try:
+                    frames.append(pickle.load(f))
+                except EOFError:
+                    break
     changed = [f for f in frames if f["as_is"] != f["said"]["oracle"]]
     kept = [
         f

@@ -14,7 +14,7 @@ and how many frames it changes at all. The counts are summed over the worker pro
 ``--screen FILE`` (JSON). Every drive is the map as it is; nothing the copies see changes it.
 ``--tests a,b`` screens only those of :data:`TESTS`; ``--frames DIR`` keeps the maps of the frames
 the oracle changes (pickled; ``frames.py`` reads them), and with ``--sample N`` every N-th frame's
-too. ``--drive NAME`` instead runs the rule on the map with the test NAME (a rule run).
+too (counted per worker process, so which frames are sampled depends on ``--workers``). ``--drive NAME`` instead runs the rule on the map with the test NAME (a rule run).
 
     .venv/bin/python benchmarks/experiments/sharp_corners/screen.py --screen /tmp/screen.json --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --repetitions 1 --out /tmp/screen --workers 2
 """
@@ -46,7 +46,6 @@ from lfd_track.policy.memory import BEHIND_M, FreshFeltMemory, fresh_bearing_rad
 TURN_DEG = 20.0
 COUNTS: dict[str, dict[str, int]] = {}
 OUT: dict[str, Path | None] = {"file": None, "frames": None}
-FRAMES: list[dict[str, Any]] = []
 #: ``--sample N``: with ``--frames``, keep every N-th frame's map too (0: only those the oracle
 #: changes)
 SAMPLE = {"every": 0, "seen": 0}
@@ -280,11 +279,10 @@ class ScreenMemory(oracle_visited.TrackVisitedMemory):
         ahead = oracle_visited.track_ahead(now["track"], floor, now["progress_m"], tips.BEHIND_M)
         frame = tips.moment(self, chosen, weights[chosen], ~ahead)
         frame.update(side=self._side, as_is=as_is, said=said, inputs=self.inputs())
-        FRAMES.append(frame)
         folder = OUT["frames"]
         assert folder is not None
-        with open(folder / f"frames_{os.getpid()}.pkl", "wb") as out:
-            pickle.dump(FRAMES, out)
+        with open(folder / f"frames_{os.getpid()}.pkl", "ab") as out:  # one record a frame
+            pickle.dump(frame, out)
 
 
 class DriveMemory(ScreenMemory):
@@ -320,6 +318,8 @@ def main() -> None:
         at = sys.argv.index("--frames")
         frames = OUT["frames"] = Path(sys.argv[at + 1])
         frames.mkdir(parents=True, exist_ok=True)
+        for old in frames.glob("frames_*.pkl"):
+            old.unlink()
         del sys.argv[at : at + 2]
     if "--sample" in sys.argv:
         at = sys.argv.index("--sample")
