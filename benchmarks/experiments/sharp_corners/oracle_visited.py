@@ -128,13 +128,19 @@ def map_rule_with(memory_class: type[FreshFeltMemory]) -> None:
         return memory_for(config, geometry)
 
     perception_module.memory_for = made  # type: ignore[assignment]
+    load_rules().main()
+
+
+def load_rules() -> Any:
+    """``../generalization/rules.py`` as a module named ``rules``, to run as if it were the
+    script (its arguments are this script's)."""
     spec = importlib.util.spec_from_file_location("rules", RULES_PY)
     assert spec is not None and spec.loader is not None
     rules = importlib.util.module_from_spec(spec)
     sys.modules["rules"] = rules  # the pool's workers (forked) find its functions by this name
     spec.loader.exec_module(rules)
     sys.argv[0] = str(RULES_PY)
-    rules.main()
+    return rules
 
 
 def main(memory_class: type[FreshFeltMemory] = TrackVisitedMemory) -> None:

@@ -1,0 +1,156 @@
+"""Does the episode's 0.30 m reversal margin end laps the map rule would go on with? (part 18 of
+``README.md``)
+
+Drives ``../generalization/rules.py`` unchanged (its arguments are passed on) with one change to
+how the map rule's laps are judged: a lap fails as ``reversed`` only when progress falls more
+than ``--reverse-margin M`` below its maximum, instead of the episode rules' 0.30 m. Everything
+else is as it is: the road library's demonstration and the teacher's laps that admit each
+procedural loop keep the 0.30 m margin, so the loops, rooms and libraries are the very ones of
+the rule as it is, and a lap goes command for command as it did until the 0.30 m margin would
+have ended it. So the laps won against the rule as it is are exactly those it would have lapped
+had the 0.30 m margin not ended them.
+
+For every such lap, the moment the 0.30 m margin would have ended it is recorded (``--events
+FILE``, JSON lines, one per lap): the corner nearest the rover's greatest progress, its turn,
+where the rover was then against that corner's vertex (along the track, metres; negative before
+it) and the rover's heading against the track's direction at its progress (degrees; near 0 is
+driving on along the track, near 180 driving back); and, in a second line with the same ``lap``,
+how the lap ended under the wider margin (``lapped``, ``reversed`` or ``off_track``; no second
+line: it ran out of commands).
+
+This is a measurement of the episode rule's reading, not a product setting: the benchmark's
+episode rules (0.30 m) are unchanged.
+
+    .venv/bin/python benchmarks/experiments/sharp_corners/margins.py --reverse-margin 1.0 --events benchmarks/experiments/sharp_corners/results/margins/rooms_1.0/events.jsonl --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --out benchmarks/experiments/sharp_corners/results/margins/rooms_1.0 --workers 2
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import oracle_visited  # noqa: E402
+
+from lfd_track.benchmark import runner  # noqa: E402
+from lfd_track.world.episode import EpisodeState, EpisodeTracker  # noqa: E402
+from lfd_track.world.track import Track  # noqa: E402
+
+#: [m] the episode rules' reversal margin, whose reading this script measures
+EPISODE_MARGIN_M = 0.30
+#: whether the laps being driven now are the map rule's (judged with ``margin_m``) and the
+#: wider margin; the output file of the 0.30 m events
+NOW: dict[str, Any] = {"scoring": False, "margin_m": EPISODE_MARGIN_M, "events": None, "count": 0}
+
+_update, _reset = EpisodeTracker.update, EpisodeTracker.reset
+_teacher_lap = runner.teacher_lap
+
+
+def corner_near(track: Track, progress_m: float) -> dict[str, Any]:
+    """The corner whose vertex lies nearest ``progress_m`` along ``track`` (on a loop, either
+    way round): its label and turn, and ``progress_m`` against its vertex [m]."""
+    best: dict[str, Any] = {}
+    for corner in track.corners:
+        gap = progress_m - corner.s_m
+        if track.closed:
+            gap = (gap + 0.5 * track.length_m) % track.length_m - 0.5 * track.length_m
+        if not best or abs(gap) < abs(best["from_vertex_m"]):
+            best = {"corner": corner.label, "turn_deg": corner.turn_deg, "from_vertex_m": gap}
+    return best
+
+
+def update(self: EpisodeTracker, pose: np.ndarray, tread_on_felt: tuple[bool, bool]) -> Any:
+    if not NOW["scoring"]:
+        return _update(self, pose, tread_on_felt)
+    rules = self.rules
+    self.rules = dataclasses.replace(rules, reverse_margin_m=NOW["margin_m"])
+    try:
+        st: EpisodeState = _update(self, pose, tread_on_felt)
+    finally:
+        self.rules = rules
+    event = self.__dict__.get("_margin_event")
+    if event is None and st.progress_m < st.max_progress_m - EPISODE_MARGIN_M:
+        _, along = self.track.point_at(st.progress_m)
+        back = math.degrees(pose[2] - along)
+        event = corner_near(self.track, st.max_progress_m)
+        NOW["count"] += 1
+        event.update(
+            lap=f"{os.getpid()}.{NOW['count']}",
+            track=self.track.name,
+            heading_deg=abs((back + 180.0) % 360.0 - 180.0),
+            now_from_vertex_m=event["from_vertex_m"] - (st.max_progress_m - st.progress_m),
+            pose=[float(v) for v in pose],
+        )
+        write(event)
+        self._margin_event = event  # type: ignore[attr-defined]
+    if event is not None and "end" not in event and (st.failure is not None or st.success):
+        event["end"] = "lapped" if st.success else st.failure
+        write({"lap": event["lap"], "end": event["end"]})
+    return st
+
+
+def write(record: dict[str, Any]) -> None:
+    with open(f"{NOW['events']}.{os.getpid()}", "a") as out:
+        out.write(json.dumps(record) + "\n")
+
+
+def reset(self: EpisodeTracker, pose: np.ndarray, tread_on_felt: tuple[bool, bool]) -> Any:
+    self._margin_event = None  # type: ignore[attr-defined]
+    return _reset(self, pose, tread_on_felt)
+
+
+def teacher_lap(env: Any, world_seed: int) -> dict[str, Any]:
+    """The teacher's admission lap, judged by the episode rules as they are."""
+    scoring, NOW["scoring"] = NOW["scoring"], False
+    try:
+        return _teacher_lap(env, world_seed)
+    finally:
+        NOW["scoring"] = scoring
+
+
+def scored(function: Any) -> Any:
+    def wrapped(*args: Any, **kwargs: Any) -> Any:
+        NOW["scoring"] = True
+        try:
+            return function(*args, **kwargs)
+        finally:
+            NOW["scoring"] = False
+
+    return wrapped
+
+
+def main() -> None:
+    at = sys.argv.index("--reverse-margin")
+    NOW["margin_m"] = float(sys.argv[at + 1])
+    if not NOW["margin_m"] >= EPISODE_MARGIN_M:
+        raise SystemExit(f"--reverse-margin takes metres >= {EPISODE_MARGIN_M}")
+    del sys.argv[at : at + 2]
+    at = sys.argv.index("--events")
+    events = NOW["events"] = Path(sys.argv[at + 1])
+    del sys.argv[at : at + 2]
+    events.parent.mkdir(parents=True, exist_ok=True)
+    for old in events.parent.glob(f"{events.name}.*"):
+        old.unlink()
+    EpisodeTracker.update, EpisodeTracker.reset = update, reset  # type: ignore[method-assign]
+    runner.teacher_lap = teacher_lap
+    rules = oracle_visited.load_rules()
+    rules.run_trials = scored(rules.run_trials)
+    rules.run_loop_trials = scored(rules.run_loop_trials)
+    rules.main()
+    lines: list[str] = []
+    for part in sorted(events.parent.glob(f"{events.name}.*")):
+        lines += part.read_text().splitlines()
+        part.unlink()
+    events.write_text("".join(f"{line}\n" for line in sorted(lines)))
+
+
+if __name__ == "__main__":
+    main()
