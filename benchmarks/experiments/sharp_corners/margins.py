@@ -21,6 +21,7 @@ line: it ran out of commands).
 This is a measurement of the episode rule's reading, not a product setting: the benchmark's
 episode rules (0.30 m) are unchanged.
 
+    .venv/bin/python benchmarks/experiments/sharp_corners/margins.py --summary benchmarks/experiments/sharp_corners/results/margins/rooms_1.0/events.jsonl
     .venv/bin/python benchmarks/experiments/sharp_corners/margins.py --reverse-margin 1.0 --events benchmarks/experiments/sharp_corners/results/margins/rooms_1.0/events.jsonl --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --out benchmarks/experiments/sharp_corners/results/margins/rooms_1.0 --workers 2
 """
 
@@ -127,7 +128,34 @@ def scored(function: Any) -> Any:
     return wrapped
 
 
+def summary(events: Path) -> str:
+    """A markdown table of ``events`` (the JSON lines this script writes): the laps the 0.30 m
+    margin ends, by the turn of the corner nearest the rover's greatest progress and whether the
+    rover still faced on along the track (heading under 90 degrees), and how many of each the
+    wider margin lets lap."""
+    laps: dict[str, dict[str, Any]] = {}
+    for line in events.read_text().splitlines():
+        record = json.loads(line)
+        laps.setdefault(record["lap"], {}).update(record)
+    rows: dict[tuple[str, str], list[int]] = {}
+    for lap in laps.values():
+        turn = abs(lap["turn_deg"])
+        sharp = "100° or more" if turn >= 100.0 else "below 100°"
+        facing = "on along the track" if lap["heading_deg"] < 90.0 else "turned back"
+        row = rows.setdefault((sharp, facing), [0, 0])
+        row[0] += 1
+        row[1] += lap.get("end") == "lapped"
+    out = ["| nearest corner | the rover at 0.30 m | laps ended | lapped with the wider margin |"]
+    out.append("|---|---|---|---|")
+    for (sharp, facing), (ended, lapped) in sorted(rows.items()):
+        out.append(f"| {sharp} | {facing} | {ended} | {lapped} |")
+    return "\n".join(out) + "\n"
+
+
 def main() -> None:
+    if "--summary" in sys.argv:
+        print(summary(Path(sys.argv[sys.argv.index("--summary") + 1])), end="")
+        return
     at = sys.argv.index("--reverse-margin")
     NOW["margin_m"] = float(sys.argv[at + 1])
     if not NOW["margin_m"] >= EPISODE_MARGIN_M:

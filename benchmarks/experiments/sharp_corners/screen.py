@@ -172,6 +172,44 @@ def null(salt: int) -> Callable[[FreshFeltMemory, np.ndarray], np.ndarray]:
     return test
 
 
+#: ``turned_*``: the rover's new leg is its path's last ``NEW_LEG_M`` of travel, its old leg the
+#: travel from ``OLD_LEG_M[1]`` to ``OLD_LEG_M[0]`` back; places closer than ``SAME_PLACE_M``
+#: (pivots) count once
+NEW_LEG_M, OLD_LEG_M, SAME_PLACE_M = 0.3, (0.6, 1.0), 0.02
+
+
+def travelled_back(path: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The places of ``path`` (N, 2; rover frame, oldest first) from the rover's own place (the
+    origin) backwards, each once, and the distance travelled back to each [m]."""
+    places = [np.zeros(2)]
+    for place in path[::-1]:
+        if math.hypot(*(place - places[-1])) > SAME_PLACE_M:
+            places.append(place)
+    back = np.array(places)
+    return back, np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(back, axis=0).T))])
+
+
+def turned_back(angle_deg: float) -> Callable[[FreshFeltMemory, np.ndarray], np.ndarray]:
+    """A test leaving out the fresh felt behind the rover along its new leg once its path has
+    turned a corner: where the direction of its last ``NEW_LEG_M`` of travel and that of its
+    old leg (``OLD_LEG_M``) differ by ``angle_deg`` or more, fresh felt lying behind the rover's
+    place along the new leg (the corner it has turned, and the tip past it) leads back."""
+    cos_turn = math.cos(math.radians(angle_deg))
+
+    def test(memory: FreshFeltMemory, chosen: np.ndarray) -> np.ndarray:
+        back, travelled = travelled_back(memory._path)
+        ends = np.searchsorted(travelled, [NEW_LEG_M, *OLD_LEG_M])
+        if ends[-1] >= len(back):  # not travelled that far yet
+            return np.zeros(len(chosen), dtype=bool)
+        new = -back[ends[0]] / np.linalg.norm(back[ends[0]])
+        old = back[ends[1]] - back[ends[2]]
+        if float(new @ old) > cos_turn * float(np.linalg.norm(old)):  # no corner turned
+            return np.zeros(len(chosen), dtype=bool)
+        return memory._points[chosen] @ new < 0.0
+
+    return test
+
+
 TESTS: dict[str, Callable[[FreshFeltMemory, np.ndarray], np.ndarray]] = {
     "dead_ends": lambda m, chosen: dead_ends.leads_nowhere(m._points, m._felt, chosen),
     "whole_tip": lambda m, chosen: dead_ends.whole_tip(m._points, m._felt, chosen),
@@ -191,6 +229,7 @@ TESTS: dict[str, Callable[[FreshFeltMemory, np.ndarray], np.ndarray]] = {
     "overlap_or_contra": lambda m, chosen: (
         TESTS["overlap_0.45_0.4-0.7"](m, chosen) | TESTS["contra_0.45_-5"](m, chosen)
     ),
+    "turned_60": turned_back(60.0),
     "null_1": null(1),
     "null_2": null(2),
 }
