@@ -210,6 +210,23 @@ def turned_back(angle_deg: float) -> Callable[[FreshFeltMemory, np.ndarray], np.
     return test
 
 
+def retrace_side(memory: FreshFeltMemory, chosen: np.ndarray) -> np.ndarray:
+    """While the branch side gives a side: the fresh felt behind the rover's place along the
+    direction of its last ``NEW_LEG_M`` of travel and on the other side of that line than the
+    branch side (the strip it came along, where it rode the branch side's edge), left out."""
+    if memory._side == 0.5:
+        return np.zeros(len(chosen), dtype=bool)
+    back, travelled = travelled_back(memory._path)
+    end = int(np.searchsorted(travelled, NEW_LEG_M))
+    if end >= len(back):
+        return np.zeros(len(chosen), dtype=bool)
+    came = -back[end] / np.linalg.norm(back[end])
+    points = memory._points[chosen]
+    across = came[0] * points[:, 1] - came[1] * points[:, 0]  # left of the line positive
+    side = 1.0 if memory._side > 0.5 else -1.0
+    return (points @ came < 0.0) & (side * across < 0.0)
+
+
 TESTS: dict[str, Callable[[FreshFeltMemory, np.ndarray], np.ndarray]] = {
     "dead_ends": lambda m, chosen: dead_ends.leads_nowhere(m._points, m._felt, chosen),
     "whole_tip": lambda m, chosen: dead_ends.whole_tip(m._points, m._felt, chosen),
@@ -230,6 +247,7 @@ TESTS: dict[str, Callable[[FreshFeltMemory, np.ndarray], np.ndarray]] = {
         TESTS["overlap_0.45_0.4-0.7"](m, chosen) | TESTS["contra_0.45_-5"](m, chosen)
     ),
     "turned_60": turned_back(60.0),
+    "retrace_side": retrace_side,
     "null_1": null(1),
     "null_2": null(2),
 }
