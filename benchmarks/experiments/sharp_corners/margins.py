@@ -43,10 +43,12 @@ import oracle_visited  # noqa: E402
 
 from lfd_track.benchmark import runner  # noqa: E402
 from lfd_track.world.episode import EpisodeState, EpisodeTracker  # noqa: E402
-from lfd_track.world.track import Track  # noqa: E402
+from lfd_track.world.track import Track, load_track  # noqa: E402
 
 #: [m] the episode rules' reversal margin, whose reading this script measures
 EPISODE_MARGIN_M = 0.30
+#: [m] ``--summary``: a rover this close to the corner's vertex is at the corner
+NEAR_VERTEX_M = 0.65
 #: whether the laps being driven now are the map rule's (judged with ``margin_m``) and the
 #: wider margin; the output file of the 0.30 m events
 NOW: dict[str, Any] = {"scoring": False, "margin_m": EPISODE_MARGIN_M, "events": None, "count": 0}
@@ -149,6 +151,26 @@ def summary(events: Path) -> str:
     out.append("|---|---|---|---|")
     for (sharp, facing), (ended, lapped) in sorted(rows.items()):
         out.append(f"| {sharp} | {facing} | {ended} | {lapped} |")
+    places: dict[tuple[str, str], int] = {}
+    for lap in laps.values():
+        track = load_track(lap["track"])
+        vertex = next(track.vertices[c.vertex] for c in track.corners if c.label == lap["corner"])
+        near = math.dist(lap["pose"][:2], vertex) <= NEAR_VERTEX_M
+        key = (
+            "before it"
+            if lap["from_vertex_m"] < -0.05
+            else "0-0.35 m"
+            if lap["from_vertex_m"] <= 0.35
+            else "past 0.35 m",
+            f"within {NEAR_VERTEX_M} m" if near else "further",
+        )
+        places[key] = places.get(key, 0) + 1
+    out += [
+        "",
+        "| greatest progress against the vertex | the rover from the vertex at 0.30 m | laps |",
+    ]
+    out.append("|---|---|---|")
+    out += [f"| {at} | {near} | {n} |" for (at, near), n in sorted(places.items())]
     return "\n".join(out) + "\n"
 
 

@@ -1,5 +1,5 @@
 """Issue 41's bar, room by room: how many kept rooms lap at least 85 % of their loop laps, for
-the map-rule runs of parts 8-17 and the learners beside them (committed results only; it chooses
+the map-rule runs of parts 8-20 and the learners beside them (committed results only; it chooses
 nothing).
 
     .venv/bin/python benchmarks/experiments/sharp_corners/rooms_at_85.py
@@ -41,6 +41,14 @@ RUNS = {
     / "rooms_null_1/map-rule",
     "the map rule, blank at frames drawn by chance (part 16, null_2)": ORACLE
     / "rooms_null_2/map-rule",
+    "the map rule, judged with a 0.6 m reversal margin (part 18)": HERE
+    / "results/margins/rooms_0.6/map-rule",
+    "the map rule, judged with a 1.0 m reversal margin (part 18)": HERE
+    / "results/margins/rooms_1.0/map-rule",
+    "the map rule, no turning back along the leg just taken (part 19)": ORACLE
+    / "rooms_turned_60/map-rule",
+    "the map rule, no driving back along the strip's other edge (part 20)": ORACLE
+    / "rooms_retrace_side/map-rule",
     "the learner, round 27's winner": ROUNDS
     / "round27/results/balance/rooms.round20+visual+balance",
     "the learner, round 31 (strip)": ROUNDS / "round31/results/strip/rooms.round27+strip",
