@@ -16,7 +16,8 @@ where the rover was then against that corner's vertex (along the track, metres; 
 it) and the rover's heading against the track's direction at its progress (degrees; near 0 is
 driving on along the track, near 180 driving back); and, in a second line with the same ``lap``,
 how the lap ended under the wider margin (``lapped``, ``reversed`` or ``off_track``; no second
-line: it ran out of commands).
+line: it ran out of commands) and the rover's poses over the whole lap (x, y, heading; the first
+is the first after the start).
 
 This is a measurement of the episode rule's reading, not a product setting: the benchmark's
 episode rules (0.30 m) are unchanged.
@@ -80,6 +81,8 @@ def update(self: EpisodeTracker, pose: np.ndarray, tread_on_felt: tuple[bool, bo
     finally:
         self.rules = rules
     event = self.__dict__.get("_margin_event")
+    poses = self.__dict__.setdefault("_margin_poses", [])
+    poses.append([round(float(v), 3) for v in pose])
     if event is None and st.progress_m < st.max_progress_m - EPISODE_MARGIN_M:
         _, along = self.track.point_at(st.progress_m)
         back = math.degrees(pose[2] - along)
@@ -96,7 +99,7 @@ def update(self: EpisodeTracker, pose: np.ndarray, tread_on_felt: tuple[bool, bo
         self._margin_event = event  # type: ignore[attr-defined]
     if event is not None and "end" not in event and (st.failure is not None or st.success):
         event["end"] = "lapped" if st.success else st.failure
-        write({"lap": event["lap"], "end": event["end"]})
+        write({"lap": event["lap"], "end": event["end"], "poses": poses})
     return st
 
 
@@ -107,6 +110,7 @@ def write(record: dict[str, Any]) -> None:
 
 def reset(self: EpisodeTracker, pose: np.ndarray, tread_on_felt: tuple[bool, bool]) -> Any:
     self._margin_event = None  # type: ignore[attr-defined]
+    self._margin_poses = []  # type: ignore[attr-defined]
     return _reset(self, pose, tread_on_felt)
 
 
