@@ -1,5 +1,5 @@
 """Issue 41's bar, room by room: how many kept rooms lap at least 85 % of their loop laps, for
-the map-rule runs of parts 8-20 and the learners beside them (committed results only; it chooses
+the map-rule runs of parts 8-22 and the learners beside them (committed results only; it chooses
 nothing).
 
     .venv/bin/python benchmarks/experiments/sharp_corners/rooms_at_85.py
@@ -49,6 +49,10 @@ RUNS = {
     / "rooms_turned_60/map-rule",
     "the map rule, no driving back along the strip's other edge (part 20)": ORACLE
     / "rooms_retrace_side/map-rule",
+    "the map rule, no picture links (part 22)": HERE
+    / "results/margins/rooms_no_picture_links/map-rule",
+    "the map rule, strip links of 0.1 m (part 22)": HERE
+    / "results/margins/rooms_link_0.1/map-rule",
     "the learner, round 27's winner": ROUNDS
     / "round27/results/balance/rooms.round20+visual+balance",
     "the learner, round 31 (strip)": ROUNDS / "round31/results/strip/rooms.round27+strip",
