@@ -134,6 +134,19 @@ def scored(function: Any) -> Any:
     return wrapped
 
 
+def vertex_of(name: str, label: str) -> np.ndarray:
+    """(2,) [m] the vertex of the corner ``label`` of the track ``name``."""
+    track = load_track(name)
+    return next(track.vertices[c.vertex] for c in track.corners if c.label == label)
+
+
+def progress_bin(from_vertex_m: float) -> str:
+    """Where the rover's greatest progress lay against the nearest corner's vertex."""
+    if from_vertex_m < -0.05:
+        return "before it"
+    return "0-0.35 m" if from_vertex_m <= 0.35 else "past 0.35 m"
+
+
 def summary(events: Path) -> str:
     """A markdown table of ``events`` (the JSON lines this script writes): the laps the 0.30 m
     margin ends, by the turn of the corner nearest the rover's greatest progress and whether the
@@ -157,15 +170,9 @@ def summary(events: Path) -> str:
         out.append(f"| {sharp} | {facing} | {ended} | {lapped} |")
     places: dict[tuple[str, str], int] = {}
     for lap in laps.values():
-        track = load_track(lap["track"])
-        vertex = next(track.vertices[c.vertex] for c in track.corners if c.label == lap["corner"])
-        near = math.dist(lap["pose"][:2], vertex) <= NEAR_VERTEX_M
+        near = math.dist(lap["pose"][:2], vertex_of(lap["track"], lap["corner"])) <= NEAR_VERTEX_M
         key = (
-            "before it"
-            if lap["from_vertex_m"] < -0.05
-            else "0-0.35 m"
-            if lap["from_vertex_m"] <= 0.35
-            else "past 0.35 m",
+            progress_bin(lap["from_vertex_m"]),
             f"within {NEAR_VERTEX_M} m" if near else "further",
         )
         places[key] = places.get(key, 0) + 1

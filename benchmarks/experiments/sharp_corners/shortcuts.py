@@ -24,8 +24,12 @@ from typing import Any
 
 import numpy as np
 
-from lfd_track.world.episode import EpisodeTracker
-from lfd_track.world.track import Track, load_track
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import margins  # noqa: E402
+
+from lfd_track.world.episode import EpisodeTracker  # noqa: E402
+from lfd_track.world.track import Track, load_track  # noqa: E402
 
 #: [m] off its own strip: this far beyond the strip's half width from the progress point
 OFF_M = 0.05
@@ -34,8 +38,6 @@ APART_M = 1.0
 #: [m] a shortcut to the track at most this far ahead cuts a short leg (else it leaves for
 #: another part of the loop)
 SHORT_CUT_M = 2.0
-#: [m] at a corner: the rover within this distance of the corner's vertex (as ``margins.py``)
-NEAR_VERTEX_M = 0.65
 
 
 def replay(track: Track, poses: np.ndarray) -> list[float]:
@@ -105,10 +107,8 @@ def main() -> None:
         track, progress = driven(lap["track"], poses)
         found = shortcut(track, poses, progress)
         if found is None:
-            vertex = next(
-                track.vertices[c.vertex] for c in track.corners if c.label == lap["corner"]
-            )
-            near = math.dist(lap["pose"][:2], vertex) <= NEAR_VERTEX_M
+            vertex = margins.vertex_of(lap["track"], lap["corner"])
+            near = math.dist(lap["pose"][:2], vertex) <= margins.NEAR_VERTEX_M
             kind = "turned round at a corner" if near else "lost elsewhere on its strip"
         else:
             ahead = (found["onto_m"] - found["progress_m"]) % track.length_m
