@@ -20,7 +20,8 @@ line: it ran out of commands) and the rover's poses over the whole lap (x, y, he
 is the first after the start).
 
 This is a measurement of the episode rule's reading, not a product setting: the benchmark's
-episode rules (0.30 m) are unchanged.
+episode rules (0.30 m) are unchanged. ``--seed-m M`` (part 23) also drives the rule on a map
+whose own strip starts at the felt within M of the axle instead of 0.3 m.
 
     .venv/bin/python benchmarks/experiments/sharp_corners/margins.py --summary benchmarks/experiments/sharp_corners/results/margins/rooms_1.0/events.jsonl
     .venv/bin/python benchmarks/experiments/sharp_corners/margins.py --reverse-margin 1.0 --events benchmarks/experiments/sharp_corners/results/margins/rooms_1.0/events.jsonl --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --out benchmarks/experiments/sharp_corners/results/margins/rooms_1.0 --workers 2
@@ -43,6 +44,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import oracle_visited  # noqa: E402
 
 from lfd_track.benchmark import runner  # noqa: E402
+from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
 from lfd_track.world.episode import EpisodeState, EpisodeTracker  # noqa: E402
 from lfd_track.world.track import Track, load_track  # noqa: E402
 
@@ -185,7 +187,21 @@ def summary(events: Path) -> str:
     return "\n".join(out) + "\n"
 
 
+class SeedMemory(FreshFeltMemory):
+    """The ``fresh_felt`` map whose own strip starts at the felt within ``NOW["seed_m"]`` of the
+    axle (``--seed-m``; the map's own: 0.3 m, the camera's nearest row)."""
+
+    def __init__(self, config: Any, geometry: Any = None) -> None:
+        super().__init__(config, geometry)
+        self._seed_m = NOW["seed_m"]
+
+
 def main() -> None:
+    if "--seed-m" in sys.argv:
+        at = sys.argv.index("--seed-m")
+        NOW["seed_m"] = float(sys.argv[at + 1])
+        del sys.argv[at : at + 2]
+        oracle_visited.maps_made_as(SeedMemory)
     if "--summary" in sys.argv:
         print(summary(Path(sys.argv[sys.argv.index("--summary") + 1])), end="")
         return

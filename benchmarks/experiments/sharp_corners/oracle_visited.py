@@ -121,6 +121,12 @@ class TrackVisitedMemory(FreshFeltMemory):
 def map_rule_with(memory_class: type[FreshFeltMemory]) -> None:
     """Run ``../generalization/rules.py`` (its arguments are this script's) with every
     ``fresh_felt`` map made as ``memory_class``."""
+    maps_made_as(memory_class)
+    load_rules().main()
+
+
+def maps_made_as(memory_class: type[FreshFeltMemory]) -> None:
+    """From now on, every ``fresh_felt`` map the rules' perception makes is a ``memory_class``."""
 
     def made(config: Any, geometry: Any = None) -> Any:
         if isinstance(config, FreshFeltConfig):
@@ -128,7 +134,6 @@ def map_rule_with(memory_class: type[FreshFeltMemory]) -> None:
         return memory_for(config, geometry)
 
     perception_module.memory_for = made  # type: ignore[assignment]
-    load_rules().main()
 
 
 def load_rules() -> Any:
