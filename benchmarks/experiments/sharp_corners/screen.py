@@ -103,6 +103,11 @@ def end_blank(end_to_m: float) -> Callable[[FreshFeltMemory, np.ndarray], np.nda
     return test
 
 
+def side_sign(memory: FreshFeltMemory) -> float:
+    """+1 where the branch side gives the left, -1 otherwise (the right, or no side)."""
+    return 1.0 if memory._side > 0.5 else -1.0
+
+
 #: [m] ``overlap_*``: felt beside the rover is looked for up to this far ahead of the axle
 BESIDE_AHEAD_M = 0.4
 
@@ -112,8 +117,7 @@ def felt_beside(memory: FreshFeltMemory, near_m: float, far_m: float) -> bool:
     off the rover's heading, from just behind the axle to ``BESIDE_AHEAD_M`` ahead: at least
     ``dead_ends.MIN_SEEN`` points of mean felt level 0.5 or more (a second strip beside the
     rover's own)."""
-    side = 1.0 if memory._side > 0.5 else -1.0
-    x, off = memory._points[:, 0], memory._points[:, 1] * side
+    x, off = memory._points[:, 0], memory._points[:, 1] * side_sign(memory)
     band = (x >= -0.1) & (x <= BESIDE_AHEAD_M) & (off >= near_m) & (off <= far_m)
     seen = int(band.sum())
     return seen >= dead_ends.MIN_SEEN and float(memory._felt[band].mean()) >= 0.5
@@ -147,8 +151,7 @@ def contradicted(
         weights = memory._weights_now[chosen]  # type: ignore[attr-defined]
         x = float((weights * memory._points[chosen, 0]).sum())
         y = float((weights * memory._points[chosen, 1]).sum())
-        side = 1.0 if memory._side > 0.5 else -1.0
-        if side * math.degrees(math.atan2(y, x)) >= toward_deg:
+        if side_sign(memory) * math.degrees(math.atan2(y, x)) >= toward_deg:
             return np.zeros(len(chosen), dtype=bool)
         return ends(memory, chosen)
 
@@ -178,15 +181,18 @@ def null(salt: int) -> Callable[[FreshFeltMemory, np.ndarray], np.ndarray]:
 NEW_LEG_M, OLD_LEG_M, SAME_PLACE_M = 0.3, (0.6, 1.0), 0.02
 
 
-def travelled_back(path: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The places of ``path`` (N, 2; rover frame, oldest first) from the rover's own place (the
-    origin) backwards, each once, and the distance travelled back to each [m]."""
+def places_back(path: np.ndarray, metres: tuple[float, ...]) -> list[np.ndarray] | None:
+    """The places (2,) of ``path`` (N, 2; rover frame, oldest first) that the rover left the
+    given ``metres`` of travel back from its own place (the origin), places closer than
+    ``SAME_PLACE_M`` (pivots) counted once; None where it has not travelled that far yet."""
     places = [np.zeros(2)]
     for place in path[::-1]:
         if math.hypot(*(place - places[-1])) > SAME_PLACE_M:
             places.append(place)
     back = np.array(places)
-    return back, np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(back, axis=0).T))])
+    travelled = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(back, axis=0).T))])
+    ends = np.searchsorted(travelled, metres)
+    return None if ends.max() >= len(back) else [back[end] for end in ends]
 
 
 def turned_back(angle_deg: float) -> Callable[[FreshFeltMemory, np.ndarray], np.ndarray]:
@@ -197,12 +203,12 @@ def turned_back(angle_deg: float) -> Callable[[FreshFeltMemory, np.ndarray], np.
     cos_turn = math.cos(math.radians(angle_deg))
 
     def test(memory: FreshFeltMemory, chosen: np.ndarray) -> np.ndarray:
-        back, travelled = travelled_back(memory._path)
-        ends = np.searchsorted(travelled, [NEW_LEG_M, *OLD_LEG_M])
-        if ends[-1] >= len(back):  # not travelled that far yet
+        found = places_back(memory._path, (NEW_LEG_M, *OLD_LEG_M))
+        if found is None:
             return np.zeros(len(chosen), dtype=bool)
-        new = -back[ends[0]] / np.linalg.norm(back[ends[0]])
-        old = back[ends[1]] - back[ends[2]]
+        leg_start, old_end, old_start = found
+        new = -leg_start / np.linalg.norm(leg_start)
+        old = old_end - old_start
         if float(new @ old) > cos_turn * float(np.linalg.norm(old)):  # no corner turned
             return np.zeros(len(chosen), dtype=bool)
         return memory._points[chosen] @ new < 0.0
@@ -214,17 +220,13 @@ def retrace_side(memory: FreshFeltMemory, chosen: np.ndarray) -> np.ndarray:
     """While the branch side gives a side: the fresh felt behind the rover's place along the
     direction of its last ``NEW_LEG_M`` of travel and on the other side of that line than the
     branch side (the strip it came along, where it rode the branch side's edge), left out."""
-    if memory._side == 0.5:
+    found = places_back(memory._path, (NEW_LEG_M,))
+    if memory._side == 0.5 or found is None:
         return np.zeros(len(chosen), dtype=bool)
-    back, travelled = travelled_back(memory._path)
-    end = int(np.searchsorted(travelled, NEW_LEG_M))
-    if end >= len(back):
-        return np.zeros(len(chosen), dtype=bool)
-    came = -back[end] / np.linalg.norm(back[end])
+    came = -found[0] / np.linalg.norm(found[0])
     points = memory._points[chosen]
     across = came[0] * points[:, 1] - came[1] * points[:, 0]  # left of the line positive
-    side = 1.0 if memory._side > 0.5 else -1.0
-    return (points @ came < 0.0) & (side * across < 0.0)
+    return (points @ came < 0.0) & (side_sign(memory) * across < 0.0)
 
 
 TESTS: dict[str, Callable[[FreshFeltMemory, np.ndarray], np.ndarray]] = {
