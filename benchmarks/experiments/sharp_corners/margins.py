@@ -136,6 +136,16 @@ def scored(function: Any) -> Any:
     return wrapped
 
 
+def read_laps(events: Path) -> dict[str, dict[str, Any]]:
+    """The laps of ``events`` (the JSON lines this script writes), each line of a lap merged
+    into one record, by the lap's key."""
+    laps: dict[str, dict[str, Any]] = {}
+    for line in events.read_text().splitlines():
+        record = json.loads(line)
+        laps.setdefault(record["lap"], {}).update(record)
+    return laps
+
+
 def vertex_of(name: str, label: str) -> np.ndarray:
     """(2,) [m] the vertex of the corner ``label`` of the track ``name``."""
     track = load_track(name)
@@ -154,10 +164,7 @@ def summary(events: Path) -> str:
     margin ends, by the turn of the corner nearest the rover's greatest progress and whether the
     rover still faced on along the track (heading under 90 degrees), and how many of each the
     wider margin lets lap."""
-    laps: dict[str, dict[str, Any]] = {}
-    for line in events.read_text().splitlines():
-        record = json.loads(line)
-        laps.setdefault(record["lap"], {}).update(record)
+    laps = read_laps(events)
     rows: dict[tuple[str, str], list[int]] = {}
     for lap in laps.values():
         turn = abs(lap["turn_deg"])

@@ -16,7 +16,6 @@ rover left its strip, whatever corner the episode later charges. It chooses noth
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 from pathlib import Path
@@ -94,10 +93,7 @@ def gap(track: Track, here_m: float, there_m: float, around_m: float = 0.5) -> f
 
 
 def main() -> None:
-    laps: dict[str, dict[str, Any]] = {}
-    for line in Path(sys.argv[1]).read_text().splitlines():
-        record = json.loads(line)
-        laps.setdefault(record["lap"], {}).update(record)
+    laps = margins.read_laps(Path(sys.argv[1]))
     kinds: dict[str, int] = {}
     gaps: dict[str, list[float]] = {}
     for lap in sorted(laps.values(), key=lambda lap: lap["lap"]):
