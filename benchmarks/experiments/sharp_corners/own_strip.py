@@ -1,0 +1,188 @@
+"""Does the map take another part of the loop for the rover's own strip before a shortcut? (part
+23 of ``README.md``)
+
+Drives the map rule exactly as ``margins.py`` does (its arguments are passed on, the episode's
+0.30 m margin included, so the laps are the rule's own) and, at every frame of the scored laps,
+carries the map's felt points to the floor by the rover's true pose (``oracle_visited.to_floor``)
+and asks the track which part of the loop each lies on: the rover's own (felt within half a width
+plus ``shortcuts.OFF_M`` of the centreline less than ``shortcuts.APART_M`` of track from the
+rover's progress) or only another, a **foreign** part. It records, per frame, how many points of
+the map's own strip (``_own_strip``: felt linked along felt to the felt within 0.3 m of the axle)
+are foreign, how many of those the seed itself (the felt within 0.3 m) takes in, and what share
+of the fresh felt's weight (the felt that draws the rule) lies on foreign parts. The map's
+decisions are not changed; the track is read, never used.
+
+``--strip FILE`` (JSON lines, one per scored lap: its key as in ``margins.py``'s events where the
+lap was reversed, its end and its frames with foreign felt); ``--summary FILE EVENTS`` joins them
+with the shortcuts ``shortcuts.py`` finds in ``margins.py``'s events.
+
+    .venv/bin/python benchmarks/experiments/sharp_corners/own_strip.py --strip benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip/strip.jsonl --reverse-margin 0.3 --events benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip/events.jsonl --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --out benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip --workers 2
+    .venv/bin/python benchmarks/experiments/sharp_corners/own_strip.py --summary benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip/strip.jsonl benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip/events.jsonl
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import margins  # noqa: E402
+import oracle_visited  # noqa: E402
+import shortcuts  # noqa: E402
+
+from lfd_track.envs.track_env import LfDTrackEnv  # noqa: E402
+from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
+from lfd_track.world.episode import EpisodeTracker  # noqa: E402
+
+#: frames before the shortcut's pose in which the summary looks for foreign felt
+BEFORE_FRAMES = 15
+#: a frame whose fresh felt lies at least this share on foreign parts draws the rover there
+DRAWN_SHARE = 0.5
+
+#: the frames of the lap being driven: [steps done, own-strip points, foreign, foreign in the
+#: seed, foreign share of the fresh weight] for frames with foreign felt on the own strip; the
+#: frames counted; the output file; laps written
+LAP: dict[str, Any] = {"frames": [], "seen": 0, "steps": 0, "file": None, "count": 0}
+
+_margins_update, _margins_reset = margins.update, margins.reset
+
+
+def foreign(points: np.ndarray) -> np.ndarray:
+    """(N,) bool: map points ``points`` (N, 2) whose floor lies on the felt of another part of the
+    loop and not on the rover's own part (by :data:`oracle_visited.NOW`'s pose and progress)."""
+    now = oracle_visited.NOW
+    track = now["track"]
+    floor = oracle_visited.to_floor(points, now["pose"])
+    projected = track.project(floor)  # (N, S, 2)
+    on = projected[..., 1] <= 0.5 * track.width_m + shortcuts.OFF_M
+    length = track.length_m
+    apart = np.abs((projected[..., 0] - now["progress_m"] + 0.5 * length) % length - 0.5 * length)
+    own = (on & (apart <= shortcuts.APART_M)).any(axis=1)
+    return on.any(axis=1) & ~own
+
+
+class StripMemory(FreshFeltMemory):
+    """The ``fresh_felt`` map as it is, read at every frame of the scored laps."""
+
+    def _own_strip(self, dist: np.ndarray) -> np.ndarray:
+        reached = super()._own_strip(dist)
+        self._foreign = None
+        if margins.NOW["scoring"] and oracle_visited.NOW["track"] is not None and reached.any():
+            where = np.flatnonzero(reached)
+            away = np.zeros(len(dist), dtype=bool)
+            away[where] = foreign(self._points[where])
+            self._foreign = away
+            self._own_count = len(where)
+            self._seed_foreign = int((away & (dist <= self._seed_m)).sum())
+        return reached
+
+    def _fresh(self, near: np.ndarray, ahead: np.ndarray) -> np.ndarray:
+        weights = super()._fresh(near, ahead)
+        away = self.__dict__.get("_foreign")
+        if away is None:
+            return weights
+        mass = float(weights.sum())
+        share = float(weights[away].sum()) / mass if mass > 0.0 else 0.0
+        count = int(away.sum())
+        if count:
+            frame = [LAP["steps"], self._own_count, count, self._seed_foreign, round(share, 3)]
+            if LAP["frames"] and LAP["frames"][-1][0] == LAP["steps"]:
+                LAP["frames"][-1] = frame  # the wider look of the same frame
+            else:
+                LAP["frames"].append(frame)
+        return weights
+
+
+def update(self: EpisodeTracker, pose: np.ndarray, tread_on_felt: tuple[bool, bool]) -> Any:
+    st = _margins_update(self, pose, tread_on_felt)
+    if not margins.NOW["scoring"]:
+        return st
+    LAP["steps"] += 1
+    if (st.failure is not None or st.success) and not self.__dict__.get("_strip_written"):
+        self._strip_written = True  # type: ignore[attr-defined]
+        event = self.__dict__.get("_margin_event")
+        LAP["count"] += 1
+        key = event["lap"] if event is not None else f"{os.getpid()}.s{LAP['count']}"
+        record = {
+            "lap": key,
+            "track": self.track.name,
+            "end": "lapped" if st.success else st.failure,
+            "steps": LAP["steps"],
+            "frames": LAP["frames"],
+        }
+        with open(f"{LAP['file']}.{os.getpid()}", "a") as out:
+            out.write(json.dumps(record) + "\n")
+    return st
+
+
+def reset(self: EpisodeTracker, pose: np.ndarray, tread_on_felt: tuple[bool, bool]) -> Any:
+    LAP["frames"], LAP["steps"] = [], 0
+    self._strip_written = False  # type: ignore[attr-defined]
+    return _margins_reset(self, pose, tread_on_felt)
+
+
+def summary(strip: Path, events: Path) -> str:
+    """Markdown: per kind of lap, the laps with a frame whose fresh felt lies mostly on another
+    part of the loop (for a shortcut: within :data:`BEFORE_FRAMES` frames before it), and how many
+    of those took that part in through the seed."""
+    laps = margins.read_laps(events)
+    rows: dict[str, list[int]] = {}
+    for line in strip.read_text().splitlines():
+        lap = json.loads(line)
+        frames = lap["frames"]
+        kind = lap["end"]
+        if kind == "reversed" and "poses" in laps.get(lap["lap"], {}):
+            poses = np.asarray(laps[lap["lap"]]["poses"])
+            track, progress = shortcuts.driven(lap["track"], poses)
+            found = shortcuts.shortcut(track, poses, progress)
+            if found is not None:
+                kind = "reversed after a shortcut"
+                last = found["pose"] + 1
+                frames = [f for f in frames if last - BEFORE_FRAMES <= f[0] <= last]
+            else:
+                kind = "reversed, no shortcut"
+        drawn = [f for f in frames if f[4] >= DRAWN_SHARE]
+        row = rows.setdefault(kind, [0, 0, 0, 0])
+        row[0] += 1
+        row[1] += bool(frames)
+        row[2] += bool(drawn)
+        row[3] += any(f[3] > 0 for f in drawn)
+    out = [
+        "| laps | count | foreign felt on the own strip | fresh felt mostly foreign"
+        " | of those, foreign felt in the seed |",
+        "|---|---|---|---|---|",
+    ]
+    out += [f"| {kind} | {a} | {b} | {c} | {d} |" for kind, (a, b, c, d) in sorted(rows.items())]
+    return "\n".join(out) + "\n"
+
+
+def main() -> None:
+    if "--summary" in sys.argv:
+        at = sys.argv.index("--summary")
+        print(summary(Path(sys.argv[at + 1]), Path(sys.argv[at + 2])), end="")
+        return
+    at = sys.argv.index("--strip")
+    strip = LAP["file"] = Path(sys.argv[at + 1])
+    del sys.argv[at : at + 2]
+    strip.parent.mkdir(parents=True, exist_ok=True)
+    for old in strip.parent.glob(f"{strip.name}.*"):
+        old.unlink()
+    LfDTrackEnv.reset, LfDTrackEnv.step = oracle_visited.reset, oracle_visited.step  # type: ignore[method-assign]
+    oracle_visited.maps_made_as(StripMemory)
+    margins.update, margins.reset = update, reset
+    margins.main()
+    lines: list[str] = []
+    for part in sorted(strip.parent.glob(f"{strip.name}.*")):
+        lines += part.read_text().splitlines()
+        part.unlink()
+    strip.write_text("".join(f"{line}\n" for line in sorted(lines)))
+
+
+if __name__ == "__main__":
+    main()
