@@ -14,7 +14,9 @@ decisions are not changed; the track is read, never used.
 
 ``--strip FILE`` (JSON lines, one per scored lap: its key as in ``margins.py``'s events where the
 lap was reversed, its end and its frames with foreign felt); ``--summary FILE EVENTS`` joins them
-with the shortcuts ``shortcuts.py`` finds in ``margins.py``'s events.
+with the shortcuts ``shortcuts.py`` finds in ``margins.py``'s events. ``--seed-within R`` (part
+24) drives the rule on a map whose own strip starts at the felt within R of the axle, and at the
+felt within 0.3 m (the map's own seed) only in frames with no felt that near.
 
     .venv/bin/python benchmarks/experiments/sharp_corners/own_strip.py --strip benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip/strip.jsonl --reverse-margin 0.3 --events benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip/events.jsonl --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --out benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip --workers 2
     .venv/bin/python benchmarks/experiments/sharp_corners/own_strip.py --summary benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip/strip.jsonl benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip/events.jsonl
@@ -47,8 +49,14 @@ DRAWN_SHARE = 0.5
 
 #: the frames of the lap being driven: [steps done, own-strip points, foreign, foreign in the
 #: seed, foreign share of the fresh weight] for frames with foreign felt on the own strip; the
-#: frames counted; the output file; laps written
-LAP: dict[str, Any] = {"frames": [], "seen": 0, "steps": 0, "file": None, "count": 0}
+#: output file; laps written; ``--seed-within`` (None: the map as it is)
+LAP: dict[str, Any] = {
+    "frames": [],
+    "steps": 0,
+    "file": None,
+    "count": 0,
+    "seed_within_m": None,
+}
 
 _margins_update, _margins_reset = margins.update, margins.reset
 
@@ -71,6 +79,12 @@ class StripMemory(FreshFeltMemory):
     """The ``fresh_felt`` map as it is, read at every frame of the scored laps."""
 
     def _own_strip(self, dist: np.ndarray) -> np.ndarray:
+        within = LAP["seed_within_m"]
+        if within is not None:  # the seed only from the felt this near the axle, where any
+            seed = (dist <= self._seed_m) & (self._felt >= 0.5)
+            near = seed & (dist <= within)
+            if near.any():
+                dist = np.where(seed & ~near, np.nextafter(self._seed_m, 1.0), dist)
         reached = super()._own_strip(dist)
         self._foreign = None
         if margins.NOW["scoring"] and oracle_visited.NOW["track"] is not None and reached.any():
@@ -167,6 +181,10 @@ def main() -> None:
         at = sys.argv.index("--summary")
         print(summary(Path(sys.argv[at + 1]), Path(sys.argv[at + 2])), end="")
         return
+    if "--seed-within" in sys.argv:
+        at = sys.argv.index("--seed-within")
+        LAP["seed_within_m"] = float(sys.argv[at + 1])
+        del sys.argv[at : at + 2]
     at = sys.argv.index("--strip")
     strip = LAP["file"] = Path(sys.argv[at + 1])
     del sys.argv[at : at + 2]
