@@ -94,6 +94,7 @@ class StripMemory(FreshFeltMemory):
             self._foreign = away
             self._own_count = len(where)
             self._seed_foreign = int((away & (dist <= self._seed_m)).sum())
+            self._nearest_foreign = round(float(dist[away].min()), 3) if away.any() else None
         return reached
 
     def _fresh(self, near: np.ndarray, ahead: np.ndarray) -> np.ndarray:
@@ -105,7 +106,14 @@ class StripMemory(FreshFeltMemory):
         share = float(weights[away].sum()) / mass if mass > 0.0 else 0.0
         count = int(away.sum())
         if count:
-            frame = [LAP["steps"], self._own_count, count, self._seed_foreign, round(share, 3)]
+            frame = [
+                LAP["steps"],
+                self._own_count,
+                count,
+                self._seed_foreign,
+                round(share, 3),
+                self._nearest_foreign,
+            ]
             if LAP["frames"] and LAP["frames"][-1][0] == LAP["steps"]:
                 LAP["frames"][-1] = frame  # the wider look of the same frame
             else:
