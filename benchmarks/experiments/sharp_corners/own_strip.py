@@ -16,7 +16,14 @@ decisions are not changed; the track is read, never used.
 lap was reversed, its end and its frames with foreign felt); ``--summary FILE EVENTS`` joins them
 with the shortcuts ``shortcuts.py`` finds in ``margins.py``'s events. ``--seed-within R`` (part
 24) drives the rule on a map whose own strip starts at the felt within R of the axle, and at the
-felt within 0.3 m (the map's own seed) only in frames with no felt that near.
+felt within 0.3 m (the map's own seed) only in frames with no felt that near. ``--carpet-clears
+R`` (part 25) drives it on a map where each frame's carpet clears the older frames' felt within R
+of it: a newer look at the floor, nearer the camera as the rover drives on, overrides an older,
+coarser one. ``--hop-weight W`` (part 25) weighs the fresh felt by W to the power of the links
+by which the own strip reaches it from the seed: felt further along the strip draws the rover
+less than felt it would reach first. ``--true-felt`` (part 25, an oracle) gives the map, in place
+of each region's road value, whether the floor at the region's centre is felt, by the rover's true
+pose: a perfect point sensor at the camera's own regions.
 
     .venv/bin/python benchmarks/experiments/sharp_corners/own_strip.py --strip benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip/strip.jsonl --reverse-margin 0.3 --events benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip/events.jsonl --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --out benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip --workers 2
     .venv/bin/python benchmarks/experiments/sharp_corners/own_strip.py --summary benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip/strip.jsonl benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip/events.jsonl
@@ -38,6 +45,7 @@ import margins  # noqa: E402
 import oracle_visited  # noqa: E402
 import shortcuts  # noqa: E402
 
+from lfd_track.core.frame import N_REGIONS  # noqa: E402
 from lfd_track.envs.track_env import LfDTrackEnv  # noqa: E402
 from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
 from lfd_track.world.episode import EpisodeTracker  # noqa: E402
@@ -49,13 +57,17 @@ DRAWN_SHARE = 0.5
 
 #: the frames of the lap being driven: [steps done, own-strip points, foreign, foreign in the
 #: seed, foreign share of the fresh weight] for frames with foreign felt on the own strip; the
-#: output file; laps written; ``--seed-within`` (None: the map as it is)
+#: output file; laps written; ``--seed-within`` (None: the map as it is); ``--carpet-clears``
+#: (0: the map as it is); ``--hop-weight`` (1: the map as it is); ``--true-felt``
 LAP: dict[str, Any] = {
     "frames": [],
     "steps": 0,
     "file": None,
     "count": 0,
     "seed_within_m": None,
+    "carpet_clears_m": 0.0,
+    "hop_weight": 1.0,
+    "true_felt": False,
 }
 
 _margins_update, _margins_reset = margins.update, margins.reset
@@ -78,6 +90,14 @@ def foreign(points: np.ndarray) -> np.ndarray:
 class StripMemory(FreshFeltMemory):
     """The ``fresh_felt`` map as it is, read at every frame of the scored laps."""
 
+    def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
+        now = oracle_visited.NOW
+        if not LAP["true_felt"] or now["track"] is None:
+            super().see(values, levels)
+            return
+        floor = oracle_visited.to_floor(self._region_points, now["pose"])
+        super().see(now["track"].on_felt(floor).astype(np.float64), (0.0, 1.0))
+
     def _own_strip(self, dist: np.ndarray) -> np.ndarray:
         within = LAP["seed_within_m"]
         if within is not None:  # the seed only from the felt this near the axle, where any
@@ -86,6 +106,7 @@ class StripMemory(FreshFeltMemory):
             if near.any():
                 dist = np.where(seed & ~near, np.nextafter(self._seed_m, 1.0), dist)
         reached = super()._own_strip(dist)
+        self._hops = self._hop_counts(dist, reached) if LAP["hop_weight"] != 1.0 else None
         self._foreign = None
         if margins.NOW["scoring"] and oracle_visited.NOW["track"] is not None and reached.any():
             where = np.flatnonzero(reached)
@@ -97,8 +118,44 @@ class StripMemory(FreshFeltMemory):
             self._nearest_foreign = round(float(dist[away].min()), 3) if away.any() else None
         return reached
 
+    def _hop_counts(self, dist: np.ndarray, reached: np.ndarray) -> np.ndarray:
+        """(N,) int: the links from the seed by which each point of the own strip ``reached`` is
+        reached first (-1: off it), by the map's own links."""
+        hops = np.full(len(dist), -1)
+        frontier = reached & (dist <= self._seed_m)
+        hops[frontier] = 0
+        seen = frontier.copy()
+        src, dst = self._unsure_links(reached)
+        hop = 0
+        while frontier.any():
+            hop += 1
+            words = self._linked[frontier].view(np.uint64)
+            near = np.bitwise_or.reduce(words, axis=0).view(np.uint8)
+            linked = np.unpackbits(near, count=len(dist), bitorder="little").view(bool)
+            if len(src):
+                linked[dst[frontier[src]]] = True
+            frontier = linked & reached & ~seen
+            hops[frontier] = hop
+            seen |= frontier
+        return hops
+
+    def _link_newest_frame(self, full: bool) -> None:
+        clears = LAP["carpet_clears_m"]
+        if clears:  # the newest frame's carpet clears the older felt this near it
+            first = len(self._points) - N_REGIONS
+            carpet = self._points[first:][self._felt[first:] < 0.5]
+            older = np.flatnonzero(self._felt[:first] > 0.0)
+            if len(carpet) and len(older):
+                gap = self._points[older, None, :] - carpet[None, :, :]
+                near = np.einsum("ijk,ijk->ij", gap, gap).min(axis=1) <= clears**2
+                self._felt[older[near]] = 0.0
+        super()._link_newest_frame(full)
+
     def _fresh(self, near: np.ndarray, ahead: np.ndarray) -> np.ndarray:
         weights = super()._fresh(near, ahead)
+        hops = self.__dict__.get("_hops")
+        if hops is not None:  # felt further along the strip from the seed weighs less
+            weights = weights * np.where(hops >= 0, LAP["hop_weight"] ** np.maximum(hops, 0), 0.0)
         away = self.__dict__.get("_foreign")
         if away is None:
             return weights
@@ -192,6 +249,17 @@ def main() -> None:
     if "--seed-within" in sys.argv:
         at = sys.argv.index("--seed-within")
         LAP["seed_within_m"] = float(sys.argv[at + 1])
+        del sys.argv[at : at + 2]
+    if "--true-felt" in sys.argv:
+        LAP["true_felt"] = True
+        sys.argv.remove("--true-felt")
+    if "--hop-weight" in sys.argv:
+        at = sys.argv.index("--hop-weight")
+        LAP["hop_weight"] = float(sys.argv[at + 1])
+        del sys.argv[at : at + 2]
+    if "--carpet-clears" in sys.argv:
+        at = sys.argv.index("--carpet-clears")
+        LAP["carpet_clears_m"] = float(sys.argv[at + 1])
         del sys.argv[at : at + 2]
     at = sys.argv.index("--strip")
     strip = LAP["file"] = Path(sys.argv[at + 1])
