@@ -15,7 +15,7 @@ decisions are not changed; the track is read, never used.
 ``--strip FILE`` (JSON lines, one per scored lap: its key as in ``margins.py``'s events where the
 lap was reversed, its end and its frames with foreign felt); ``--summary FILE EVENTS`` joins them
 with the shortcuts ``shortcuts.py`` finds in ``margins.py``'s events. ``--seed-within R`` (part
-24) drives the rule on a map whose own strip starts at the felt within R of the axle, and at the
+25) drives the rule on a map whose own strip starts at the felt within R of the axle, and at the
 felt within 0.3 m (the map's own seed) only in frames with no felt that near. ``--carpet-clears
 R`` (part 25) drives it on a map where each frame's carpet clears the older frames' felt within R
 of it: a newer look at the floor, nearer the camera as the rover drives on, overrides an older,
@@ -56,7 +56,8 @@ BEFORE_FRAMES = 15
 DRAWN_SHARE = 0.5
 
 #: the frames of the lap being driven: [steps done, own-strip points, foreign, foreign in the
-#: seed, foreign share of the fresh weight] for frames with foreign felt on the own strip; the
+#: seed, foreign share of the fresh weight, the nearest foreign point's distance from the axle
+#: (m)] for frames with foreign felt on the own strip; the
 #: output file; laps written; ``--seed-within`` (None: the map as it is); ``--carpet-clears``
 #: (0: the map as it is); ``--hop-weight`` (1: the map as it is); ``--true-felt``
 LAP: dict[str, Any] = {
@@ -209,7 +210,7 @@ def reset(self: EpisodeTracker, pose: np.ndarray, tread_on_felt: tuple[bool, boo
 def summary(strip: Path, events: Path) -> str:
     """Markdown: per kind of lap, the laps with a frame whose fresh felt lies mostly on another
     part of the loop (for a shortcut: within :data:`BEFORE_FRAMES` frames before it), and how many
-    of those took that part in through the seed."""
+    of those had that part in the seed in any such frame, and in the first."""
     laps = margins.read_laps(events)
     rows: dict[str, list[int]] = {}
     for line in strip.read_text().splitlines():
@@ -227,17 +228,18 @@ def summary(strip: Path, events: Path) -> str:
             else:
                 kind = "reversed, no shortcut"
         drawn = [f for f in frames if f[4] >= DRAWN_SHARE]
-        row = rows.setdefault(kind, [0, 0, 0, 0])
+        row = rows.setdefault(kind, [0, 0, 0, 0, 0])
         row[0] += 1
         row[1] += bool(frames)
         row[2] += bool(drawn)
         row[3] += any(f[3] > 0 for f in drawn)
+        row[4] += bool(drawn) and drawn[0][3] > 0
     out = [
         "| laps | count | foreign felt on the own strip | fresh felt mostly foreign"
-        " | of those, foreign felt in the seed |",
-        "|---|---|---|---|---|",
+        " | of those, foreign felt in the seed | ... in the first such frame's seed |",
+        "|---|---|---|---|---|---|",
     ]
-    out += [f"| {kind} | {a} | {b} | {c} | {d} |" for kind, (a, b, c, d) in sorted(rows.items())]
+    out += [f"| {kind} | " + " | ".join(map(str, row)) + " |" for kind, row in sorted(rows.items())]
     return "\n".join(out) + "\n"
 
 
