@@ -53,6 +53,16 @@ RUNS = {
     / "results/margins/rooms_no_picture_links/map-rule",
     "the map rule, strip links of 0.1 m (part 22)": HERE
     / "results/margins/rooms_link_0.1/map-rule",
+    "the map rule, read for foreign felt (part 23)": HERE
+    / "results/margins/rooms_own_strip/map-rule",
+    "the map rule, links of 0.1 m and no picture links (part 24)": HERE
+    / "results/margins/rooms_links_0.1_no_picture/map-rule",
+    "the map rule, links of 0.12 m and no picture links (part 24)": HERE
+    / "results/margins/rooms_links_0.12_no_picture/map-rule",
+    "the map rule, the true felt at the regions' centres (part 25)": HERE
+    / "results/margins/rooms_true_felt/map-rule",
+    "the map rule, fresh felt in sight along felt (part 26)": HERE
+    / "results/margins/rooms_felt_sight/map-rule",
     "the learner, round 27's winner": ROUNDS
     / "round27/results/balance/rooms.round20+visual+balance",
     "the learner, round 31 (strip)": ROUNDS / "round31/results/strip/rooms.round27+strip",

@@ -1,4 +1,4 @@
-"""Lap by lap against the map rule as it is: how many loop laps each map-rule run of parts 8-22
+"""Lap by lap against the map rule as it is: how many loop laps each map-rule run of parts 8-26
 laps that the rule as it is does not (won) and the other way round (lost), on the same trials
 (committed results only; it chooses nothing). Part 16 reads its two runs aimed at nothing by it.
 
