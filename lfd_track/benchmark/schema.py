@@ -57,6 +57,9 @@ Schema history:
 * **12** — ``config.memory`` names what the map's visited felt is measured from,
   ``visited_from``. A schema-11 file was written before it: ``"path"``, what every run did then
   (the same step).
+* **13** — ``config.memory`` names the cell in which the map reads whether fresh felt is in sight
+  along felt, ``fresh_sight_m``. A schema-12 file was written before it: ``0.0`` (off), what
+  every run did then (the same step).
 """
 
 from __future__ import annotations
@@ -67,7 +70,7 @@ from typing import Any
 from ..policy.memory_config import memory_table_from_v1
 from ..utils.migrate import Step, VersionedJson
 
-RESULTS_SCHEMA = 12
+RESULTS_SCHEMA = 13
 """Schema of the results.json this version writes (``len(RESULTS_STEPS) + 1``)."""
 MAX_RESULTS_BYTES = 1 << 28
 """Largest results.json read (a 10-repetition benchmark writes about 100 kB)."""
@@ -260,6 +263,7 @@ MEMORY_SETTING_SINCE: dict[int, str] = {
     10: "colour_balance",
     11: "registration",
     12: "visited_from",
+    13: "fresh_sight_m",
 }
 
 

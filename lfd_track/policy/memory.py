@@ -271,6 +271,9 @@ _CENTRELINE_LANE_M = 0.25
 MIN_FRESH = 1.0
 #: ``fresh_felt``: fresh felt counts from this far behind the axle on ([m]; 0: ahead only).
 BEHIND_M = 0.05
+#: [m] ``fresh_felt`` with ``fresh_sight_m``: the line from the axle to fresh felt is sampled from
+#: this far ahead of the axle on, in a raster of the map's points within this either way.
+_SIGHT_FROM_M, _SIGHT_WITHIN_M = 0.1, 1.5
 #: ``fresh_felt``: the amount input is the weighted fresh felt over this (clipped to 1).
 _FULL_FRESH = 20.0
 #: ``fresh_felt`` with ``strip_link_m``: felt this close to the axle is the rover's own strip.
@@ -635,7 +638,13 @@ class FreshFeltMemory:
         inside = near & ahead
         weights = self._felt * inside
         kept = self._kept(inside & (self._felt > 0.0))  # only felt inside can weigh
-        return weights if kept is None else weights * kept
+        if kept is not None:
+            weights = weights * kept
+        cell = self.config.fresh_sight_m
+        if cell:
+            where = np.flatnonzero(weights > 0.0)
+            weights[where[_across_carpet(self._points, self._felt, where, cell)]] = 0.0
+        return weights
 
     def _link_newest_frame(self, full: bool) -> None:
         """Add the links of the newest frame's felt to the table of links (:meth:`reset`); with
@@ -724,6 +733,33 @@ class FreshFeltMemory:
         if self.config.branch_turn:
             return np.append(self._inputs, [self._side, self._turn])
         return np.append(self._inputs, self._side)
+
+
+def _across_carpet(
+    points: np.ndarray, felt: np.ndarray, where: np.ndarray, cell: float
+) -> np.ndarray:
+    """(P,) bool: whether the straight line from the axle to each of the map points ``where``
+    (P,) crosses carpet (``fresh_sight_m``). The map's points within :data:`_SIGHT_WITHIN_M`
+    either way are rastered in squares of ``cell`` metres, a square's felt the mean of its
+    points' (a square with no point is not carpet: nothing was seen there); the line is sampled
+    every ``cell`` from :data:`_SIGHT_FROM_M` ahead of the axle to one cell short of the point,
+    and crosses carpet where a sample falls in a square whose felt is below 0.5."""
+    half = int(_SIGHT_WITHIN_M / cell) + 1
+    size = 2 * half + 1
+    inside = (np.abs(points) < _SIGHT_WITHIN_M).all(axis=1)
+    keys = np.floor(points[inside] / cell).astype(np.int64) + half
+    index = keys[:, 0] * size + keys[:, 1]
+    total = np.bincount(index, weights=felt[inside], minlength=size * size)
+    count = np.bincount(index, minlength=size * size)
+    carpet = (count > 0) & (total < 0.5 * count)
+    targets = points[where]
+    length = np.hypot(targets[:, 0], targets[:, 1])
+    steps = np.arange(_SIGHT_FROM_M, _SIGHT_WITHIN_M, cell)
+    unit = targets / np.maximum(length, 1e-9)[:, None]
+    cells = np.floor(unit[:, None, :] * steps[None, :, None] / cell).astype(np.int64) + half
+    cells = np.clip(cells, 0, size - 1)
+    sampled = steps[None, :] < length[:, None] - cell
+    return (carpet[cells[..., 0] * size + cells[..., 1]] & sampled).any(axis=1)
 
 
 @functools.lru_cache(maxsize=1)

@@ -308,6 +308,15 @@ class FreshFeltConfig(MemoryConfig):
         high=2.0,
         before=0.0,
     )
+    fresh_sight_m: float = setting(
+        0.0,
+        "[m] fresh felt counts only where the straight line from the axle to it crosses no"
+        " carpet, read in a raster of the map in cells of this size (0: off; a short leg's next"
+        " strip, seen across the carpet inside a sharp corner, no longer draws the rover across)",
+        low=0.0,
+        high=0.2,
+        before=0.0,
+    )
     visited_from: str = setting(
         "path",
         "what felt within path_radius_m of counts as visited: path (the places the rover's axle"

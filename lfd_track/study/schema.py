@@ -26,6 +26,7 @@ Schema history:
   files).
 * **11** — the same for ``registration`` (as results.json schema 11, ``"full"`` in older files).
 * **12** — the same for ``visited_from`` (as results.json schema 12, ``"path"`` in older files).
+* **13** — the same for ``fresh_sight_m`` (as results.json schema 13, ``0.0`` in older files).
 """
 
 from __future__ import annotations
@@ -41,7 +42,7 @@ from ..benchmark.schema import (
 )
 from ..utils.migrate import Step, VersionedJson
 
-STUDY_SCHEMA = 12
+STUDY_SCHEMA = 13
 """Schema of the study.json this version writes (``len(STUDY_STEPS) + 1``)."""
 MAX_STUDY_BYTES = 1 << 28
 """Largest study.json read."""

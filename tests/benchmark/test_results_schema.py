@@ -32,21 +32,21 @@ def _stored(value):
     return json.loads(results_json_text({"x": value}))["x"]
 
 
-def test_there_are_committed_results_and_all_are_schema_1_3_to_11_or_current():
+def test_there_are_committed_results_and_all_are_schema_1_3_to_12_or_current():
     assert len(COMMITTED) >= 270
     schemas = {json.loads((REPO / f).read_text(encoding="utf-8"))["schema"] for f in COMMITTED}
     # 3: before the fresh-felt map's geometry setting; 4: before its motion setting; 5: before
     # its branch_side setting; 6: before its branch_window setting; 7: before its branch_turn
     # setting; 8: before branch_turn_from; 9: before colour_balance; 10: before registration;
-    # 11: before visited_from
-    assert schemas <= {1, 3, 4, 5, 6, 7, 8, 9, 10, 11, RESULTS_SCHEMA}
+    # 11: before visited_from; 12: before fresh_sight_m
+    assert schemas <= {1, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, RESULTS_SCHEMA}
     assert RESULTS_FORMAT.current == RESULTS_SCHEMA  # one step per schema after the first
 
 
 @pytest.mark.parametrize("path", COMMITTED)
 def test_a_committed_results_json_reads_as_the_current_schema(path):
     results = read_results(REPO / path)
-    assert results["schema"] == RESULTS_SCHEMA == 12
+    assert results["schema"] == RESULTS_SCHEMA == 13
     for index, outcome in enumerate(results["outcomes"]):
         TrialOutcome.from_dict(outcome, f"outcomes[{index}]")
     if "rule" in results:

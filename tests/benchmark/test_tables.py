@@ -69,7 +69,7 @@ def _corner(reached, failures, physical, reversed_=0, off_track=0, timeout=0):
 def test_scripted_outcomes_give_the_expected_tables() -> None:
     results = build_results(_scripted(), repetitions=2, seed=7, timing_s={"total": 1.5})
     assert (
-        results["schema"] == RESULTS_SCHEMA == 12
+        results["schema"] == RESULTS_SCHEMA == 13
         and results["repetitions"] == 2
         and results["seed"] == 7
     )

@@ -121,7 +121,7 @@ def test_quick_benchmark_writes_results_report_and_plots(tmp_path):
     assert proc.returncode == 0, proc.stderr
     assert "Table 2" in proc.stdout and "Table 3" in proc.stdout
     results = json.loads((out / "results.json").read_text())
-    assert results["schema"] == 12 and results["repetitions"] == 1 and results["seed"] == 4
+    assert results["schema"] == 13 and results["repetitions"] == 1 and results["seed"] == 4
     for key in ("direction_1", "direction_2"):
         section = results["training_track"][key]
         assert section["trials"] == 1 and set(section["corners"]) == {"1", "2"}

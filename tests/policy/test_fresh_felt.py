@@ -266,6 +266,32 @@ def test_strip_link_keeps_only_the_felt_connected_to_the_rovers_own_strip():
     np.testing.assert_array_equal(lonely.inputs(), [0.5, 0.0, 0.0])
 
 
+def test_fresh_sight_leaves_out_felt_seen_only_across_carpet():
+    """Felt ahead of the rover (columns 3-4 of the two nearest rows) and a patch on the left of
+    the second nearest row (column 0) with carpet between: without the option the patch pulls
+    the bearing left; with fresh_sight_m the line from the axle to it crosses the carpet of the
+    nearest row, so only the felt straight ahead is fresh. Felt reached along felt is left as it
+    was."""
+    values = _values({3, 4}, rows={3, 4}) + _values({0}, rows={3})
+    plain = FreshFeltMemory(FRESH)
+    sight = FreshFeltMemory(FreshFeltConfig.plain(fresh_sight_m=0.05))
+    plain.see(values)
+    sight.see(values)
+    assert _bearing_deg(plain.inputs()) > 5.0
+    assert abs(_bearing_deg(sight.inputs())) < 1e-6
+    assert sight.inputs()[1] < plain.inputs()[1]
+    ahead = _values({3, 4})  # a strip straight ahead in every row: all of it in sight
+    plain.reset(), sight.reset()
+    plain.see(ahead)
+    sight.see(ahead)
+    np.testing.assert_array_equal(sight.inputs(), plain.inputs())
+    assert sight.config.to_dict()["fresh_sight_m"] == 0.05
+    assert FRESH.to_dict()["fresh_sight_m"] == 0.0
+    assert MemoryConfig.from_dict(sight.config.to_dict()) == sight.config
+    with pytest.raises(ValueError, match="memory fresh_sight_m"):
+        FreshFeltConfig.plain(fresh_sight_m=0.5)
+
+
 def test_blank_reach_looks_further_only_while_nothing_is_fresh_near():
     far_only = _values({3, 4}, rows={1})  # felt 0.79 m ahead: beyond reach_m (0.6)
     plain = FreshFeltMemory(FRESH)

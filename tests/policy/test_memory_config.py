@@ -196,6 +196,7 @@ def test_kind_fresh_felt_alone_is_the_chosen_configurations_map(tmp_path):
         "blank_reach_m": 1.0,
         "blank_distance": "reach",
         "visited_fade_m": 0.3,
+        "fresh_sight_m": 0.0,
         "visited_from": "path",
         "geometry": "paper",
         "felt_levels": "fixed",

@@ -27,7 +27,7 @@ def _stored(value):
 @pytest.mark.parametrize("path", COMMITTED)
 def test_a_committed_study_json_reads_as_the_current_schema(path):
     summary = read_study_results(REPO / path)
-    assert summary["schema"] == STUDY_SCHEMA == STUDY_FORMAT.current == 12
+    assert summary["schema"] == STUDY_SCHEMA == STUDY_FORMAT.current == 13
     for condition in summary["conditions"]:
         # A condition stores its settings without the job's seed and repetitions.
         config = {**condition["config"], "seed": 0, "repetitions": condition["repetitions"]}
@@ -89,12 +89,12 @@ def test_a_stored_job_of_a_newer_schema_stops_the_study_in_one_line_naming_it(tm
     job = study.jobs()[0]
     path = tmp_path / "out" / job.key / RESULTS_FILE
     path.parent.mkdir(parents=True)
-    path.write_text(json.dumps({**job_results(job), "schema": 13}))
+    path.write_text(json.dumps({**job_results(job), "schema": 14}))
     with pytest.raises(FileFormatError) as exc:
         finished_results(tmp_path / "out", job)
     assert str(exc.value) == (
-        f"{path}: results schema 13 is newer than this lfd-track reads (12); upgrade lfd-track to"
+        f"{path}: results schema 14 is newer than this lfd-track reads (13); upgrade lfd-track to"
         " read it"
     )
     path.write_text(json.dumps({**job_results(job), "schema": 1}))  # schema 1 reads as before
-    assert finished_results(tmp_path / "out", job)["schema"] == 12
+    assert finished_results(tmp_path / "out", job)["schema"] == 13

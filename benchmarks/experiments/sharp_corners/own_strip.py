@@ -23,9 +23,9 @@ coarser one. ``--hop-weight W`` (part 25) weighs the fresh felt by W to the powe
 by which the own strip reaches it from the seed: felt further along the strip draws the rover
 less than felt it would reach first. ``--true-felt`` (part 25, an oracle) gives the map, in place
 of each region's road value, whether the floor at the region's centre is felt, by the rover's true
-pose: a perfect point sensor at the camera's own regions. ``--felt-sight C`` (part 26) leaves out
-of the fresh felt the points the rover would reach from its axle in a straight line only across
-carpet, read in a raster of C-metre cells of the map.
+pose: a perfect point sensor at the camera's own regions. Part 26's fresh felt in sight along
+felt is the map's own setting now, ``--map fresh_sight_m=0.05`` (its run was made with this
+script's ``--felt-sight 0.05``, the same code before it moved into ``lfd_track``).
 
     .venv/bin/python benchmarks/experiments/sharp_corners/own_strip.py --strip benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip/strip.jsonl --reverse-margin 0.3 --events benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip/events.jsonl --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --out benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip --workers 2
     .venv/bin/python benchmarks/experiments/sharp_corners/own_strip.py --summary benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip/strip.jsonl benchmarks/experiments/sharp_corners/results/margins/rooms_own_strip/events.jsonl
@@ -61,8 +61,7 @@ DRAWN_SHARE = 0.5
 #: seed, foreign share of the fresh weight, the nearest foreign point's distance from the axle
 #: (m)] for frames with foreign felt on the own strip; the
 #: output file; laps written; ``--seed-within`` (None: the map as it is); ``--carpet-clears``
-#: (0: the map as it is); ``--hop-weight`` (1: the map as it is); ``--true-felt``;
-#: ``--felt-sight`` (0: the map as it is)
+#: (0: the map as it is); ``--hop-weight`` (1: the map as it is); ``--true-felt``
 LAP: dict[str, Any] = {
     "frames": [],
     "steps": 0,
@@ -72,12 +71,7 @@ LAP: dict[str, Any] = {
     "carpet_clears_m": 0.0,
     "hop_weight": 1.0,
     "true_felt": False,
-    "felt_sight_m": 0.0,
 }
-
-#: [m] ``--felt-sight``: the line to fresh felt is sampled from this far ahead of the axle, in a
-#: raster of the map this far either way
-SIGHT_FROM_M, SIGHT_WITHIN_M = 0.1, 1.5
 
 _margins_update, _margins_reset = margins.update, margins.reset
 
@@ -127,31 +121,6 @@ class StripMemory(FreshFeltMemory):
             self._nearest_foreign = round(float(dist[away].min()), 3) if away.any() else None
         return reached
 
-    def _across_carpet(self, where: np.ndarray) -> np.ndarray:
-        """(P,) bool: whether the straight line from the axle to each map point ``where`` (P,)
-        crosses carpet: a cell of ``--felt-sight`` metres, sampled at that step from
-        :data:`SIGHT_FROM_M` to one step short of the point, whose map points' mean felt is
-        below 0.5 (cells with no point do not block)."""
-        cell = LAP["felt_sight_m"]
-        half = int(SIGHT_WITHIN_M / cell) + 1
-        size = 2 * half + 1
-        points, felt = self._points, self._felt
-        inside = (np.abs(points) < SIGHT_WITHIN_M).all(axis=1)
-        keys = np.floor(points[inside] / cell).astype(np.int64) + half
-        index = keys[:, 0] * size + keys[:, 1]
-        total = np.bincount(index, weights=felt[inside], minlength=size * size)
-        count = np.bincount(index, minlength=size * size)
-        carpet = (count > 0) & (total < 0.5 * count)
-        targets = points[where]
-        length = np.hypot(targets[:, 0], targets[:, 1])
-        steps = np.arange(SIGHT_FROM_M, SIGHT_WITHIN_M, cell)
-        unit = targets / np.maximum(length, 1e-9)[:, None]
-        sample = (unit[:, None, :] * steps[None, :, None]) / cell  # (P, K, 2) in cells
-        cells = np.floor(sample).astype(np.int64) + half
-        cells = np.clip(cells, 0, size - 1)
-        valid = steps[None, :] < length[:, None] - cell
-        return (carpet[cells[..., 0] * size + cells[..., 1]] & valid).any(axis=1)
-
     def _hop_counts(self, dist: np.ndarray, reached: np.ndarray) -> np.ndarray:
         """(N,) int: the links from the seed by which each point of the own strip ``reached`` is
         reached first (-1: off it), by the map's own links."""
@@ -187,10 +156,6 @@ class StripMemory(FreshFeltMemory):
 
     def _fresh(self, near: np.ndarray, ahead: np.ndarray) -> np.ndarray:
         weights = super()._fresh(near, ahead)
-        if LAP["felt_sight_m"]:  # fresh felt seen across carpet does not draw the rover
-            where = np.flatnonzero(weights > 0.0)
-            weights = weights.copy()
-            weights[where[self._across_carpet(where)]] = 0.0
         hops = self.__dict__.get("_hops")
         if hops is not None:  # felt further along the strip from the seed weighs less
             weights = weights * np.where(hops >= 0, LAP["hop_weight"] ** np.maximum(hops, 0), 0.0)
@@ -292,10 +257,6 @@ def main() -> None:
     if "--true-felt" in sys.argv:
         LAP["true_felt"] = True
         sys.argv.remove("--true-felt")
-    if "--felt-sight" in sys.argv:
-        at = sys.argv.index("--felt-sight")
-        LAP["felt_sight_m"] = float(sys.argv[at + 1])
-        del sys.argv[at : at + 2]
     if "--hop-weight" in sys.argv:
         at = sys.argv.index("--hop-weight")
         LAP["hop_weight"] = float(sys.argv[at + 1])
