@@ -691,16 +691,24 @@ class FreshFeltMemory:
         """(N,) bool: map points on felt connected along felt to the felt the rover stands on
         (links of at most ``strip_link_m``, at most :data:`_STRIP_HOPS` of them, among felt points
         within :data:`_STRIP_WINDOW_M`; see the module docstring)."""
+        return self._strip_hops(dist) >= 0
+
+    def _strip_hops(self, dist: np.ndarray) -> np.ndarray:
+        """(N,) int: by how many links each map point is first reached from the felt the rover
+        stands on (0: that felt itself; -1: off the rover's strip), as :meth:`_own_strip` joins
+        them; ``dist`` (N,): each point's distance from the axle."""
+        hops = np.full(len(dist), -1)
         candidate = (dist < _STRIP_WINDOW_M) & (self._felt >= 0.5)
         if not candidate.any():
-            return candidate
+            return hops
         seed_m = self._seed_m
         if self.config.strip_from == "nearest":
             seed_m = max(seed_m, float(dist[candidate].min()) + self.config.strip_link_m)
         reached = candidate & (dist <= seed_m)
+        hops[reached] = 0
         src, dst = self._unsure_links(candidate)
         frontier = reached  # the points reached by the last hop
-        for _ in range(_STRIP_HOPS):
+        for hop in range(1, _STRIP_HOPS + 1):
             words = self._linked[frontier].view(np.uint64)
             near = np.bitwise_or.reduce(words, axis=0).view(np.uint8)
             linked = np.unpackbits(near, count=len(dist), bitorder="little").view(bool)
@@ -709,8 +717,9 @@ class FreshFeltMemory:
             frontier = linked & candidate & ~reached
             if not frontier.any():
                 break
+            hops[frontier] = hop
             reached = reached | frontier
-        return reached
+        return hops
 
     def _unsure_links(self, candidate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The links among the pairs kept apart as unsure (:meth:`reset`) whose points are both

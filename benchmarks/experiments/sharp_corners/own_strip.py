@@ -108,8 +108,9 @@ class StripMemory(FreshFeltMemory):
             near = seed & (dist <= within)
             if near.any():
                 dist = np.where(seed & ~near, np.nextafter(self._seed_m, 1.0), dist)
-        reached = super()._own_strip(dist)
-        self._hops = self._hop_counts(dist, reached) if LAP["hop_weight"] != 1.0 else None
+        hops = self._strip_hops(dist)  # the map's own strip, as its _own_strip joins it
+        reached = hops >= 0
+        self._hops = hops if LAP["hop_weight"] != 1.0 else None
         self._foreign = None
         if margins.NOW["scoring"] and oracle_visited.NOW["track"] is not None and reached.any():
             where = np.flatnonzero(reached)
@@ -120,27 +121,6 @@ class StripMemory(FreshFeltMemory):
             self._seed_foreign = int((away & (dist <= self._seed_m)).sum())
             self._nearest_foreign = round(float(dist[away].min()), 3) if away.any() else None
         return reached
-
-    def _hop_counts(self, dist: np.ndarray, reached: np.ndarray) -> np.ndarray:
-        """(N,) int: the links from the seed by which each point of the own strip ``reached`` is
-        reached first (-1: off it), by the map's own links."""
-        hops = np.full(len(dist), -1)
-        frontier = reached & (dist <= self._seed_m)
-        hops[frontier] = 0
-        seen = frontier.copy()
-        src, dst = self._unsure_links(reached)
-        hop = 0
-        while frontier.any():
-            hop += 1
-            words = self._linked[frontier].view(np.uint64)
-            near = np.bitwise_or.reduce(words, axis=0).view(np.uint8)
-            linked = np.unpackbits(near, count=len(dist), bitorder="little").view(bool)
-            if len(src):
-                linked[dst[frontier[src]]] = True
-            frontier = linked & reached & ~seen
-            hops[frontier] = hop
-            seen |= frontier
-        return hops
 
     def _link_newest_frame(self, full: bool) -> None:
         clears = LAP["carpet_clears_m"]
