@@ -1,5 +1,5 @@
 """Issue 41's bar, room by room: how many kept rooms lap at least 85 % of their loop laps, for
-the map-rule runs of parts 8-22 and the learners beside them (committed results only; it chooses
+the map-rule runs of parts 8-26 and the learners beside them (committed results only; it chooses
 nothing).
 
     .venv/bin/python benchmarks/experiments/sharp_corners/rooms_at_85.py
@@ -68,6 +68,7 @@ RUNS = {
     "the learner, round 31 (strip)": ROUNDS / "round31/results/strip/rooms.round27+strip",
     "the learner, round 32 (path_and_centreline)": ROUNDS
     / "round32/results/centreline/rooms.round27+centreline",
+    "the learner, round 33 (fresh_sight_m)": ROUNDS / "round33/results/sight/rooms.round27+sight",
 }
 BAR = 0.85
 
