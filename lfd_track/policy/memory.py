@@ -73,8 +73,11 @@ such runs, and reading the training accuracy with that baseline in mind, are the
   along the last one's side offset) and ``"path_and_centreline"`` felt within ``path_radius_m``
   of the path or 0.25 m of the centres
   (``benchmarks/experiments/sharp_corners/README.md``, parts 8-11: of the three, ``"strip"``
-  hides a hairpin's outgoing strip and ``"centreline"`` leaves its tip the only fresh felt).
-  The settings, their bounds and their defaults (the goal's chosen map: every option above on)
+  hides a hairpin's outgoing strip and ``"centreline"`` leaves its tip the only fresh felt);
+  ``fresh_sight_m`` counts fresh only the felt the straight line from the axle reaches without
+  crossing carpet on the map (rastered in cells of that size), so that the next leg of a short
+  zig-zag, joined to the rover's strip round the corner and seen across the carpet inside it,
+  does not draw the rover across (part 26 there). The settings, their bounds and their defaults (the goal's chosen map: every option above on)
   are :class:`~lfd_track.policy.memory_config.FreshFeltConfig`'s;
   :meth:`~lfd_track.policy.memory_config.FreshFeltConfig.plain` is the map with them off.
   A region's *felt level* rises from 0 at the carpet level to 1 at the felt level of road
