@@ -5,13 +5,14 @@ of their loops from those that do not.
 Reads only committed results (``results/test_rooms20/`` and
 ``../test_round9/results/rules_rooms/``; with ``--round 27``, round 27's winner and the rule on
 its map with the same colour balance, ``../test_round27/results/test_rooms27/`` and
-``../test_round27/results/rules_rooms27/``) and redraws each repetition's room as the study drew
+``../test_round27/results/rules_rooms27/``; with ``--round 33``, round 33's winner and the rule
+on its map, ``../test_round33/results/``) and redraws each repetition's room as the study drew
 it (``repetition_preset``); nothing is run or chosen on it.
 
-    .venv/bin/python benchmarks/experiments/human_goal/test_round20/rooms_breakdown.py [--round 27]
+    .venv/bin/python benchmarks/experiments/human_goal/test_round20/rooms_breakdown.py [--round 27|33]
 
-writes ``results/rooms_breakdown.md`` (``../test_round27/results/rooms_breakdown.md``; a few
-seconds).
+writes ``results/rooms_breakdown.md`` (``../test_round27/results/rooms_breakdown.md``,
+``../test_round33/results/rooms_breakdown.md``; a few seconds).
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ from room_measures import spearman  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 ROUND27 = HERE.parent / "test_round27"
+ROUND33 = HERE.parent / "test_round33"
 #: Per round: (title, study file, the learned policy's results, the rule's, the page written).
 ROUNDS = {
     "20": (
@@ -48,6 +50,13 @@ ROUNDS = {
         ROUND27 / "results" / "test_rooms27" / "rooms.round20+visual+balance",
         ROUND27 / "results" / "rules_rooms27" / "map-rule",
         ROUND27 / "results" / "rooms_breakdown.md",
+    ),
+    "33": (
+        "round 33's winner, fresh felt in sight along felt",
+        ROUND33 / "test_rooms33.toml",
+        ROUND33 / "results" / "test_rooms33" / "rooms.round27+sight",
+        ROUND33 / "results" / "rules_rooms33" / "map-rule",
+        ROUND33 / "results" / "rooms_breakdown.md",
     ),
 }
 
