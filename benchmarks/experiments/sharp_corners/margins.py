@@ -229,11 +229,17 @@ def main() -> None:
     rules.run_trials = scored(rules.run_trials)
     rules.run_loop_trials = scored(rules.run_loop_trials)
     rules.main()
+    gather(events)
+
+
+def gather(path: Path) -> None:
+    """Join the workers' parts of ``path`` (``path.PID``, JSON lines) into ``path``, sorted, and
+    remove the parts."""
     lines: list[str] = []
-    for part in sorted(events.parent.glob(f"{events.name}.*")):
+    for part in sorted(path.parent.glob(f"{path.name}.*")):
         lines += part.read_text().splitlines()
         part.unlink()
-    events.write_text("".join(f"{line}\n" for line in sorted(lines)))
+    path.write_text("".join(f"{line}\n" for line in sorted(lines)))
 
 
 if __name__ == "__main__":

@@ -255,11 +255,7 @@ def main() -> None:
     oracle_visited.maps_made_as(StripMemory)
     margins.update, margins.reset = update, reset
     margins.main()
-    lines: list[str] = []
-    for part in sorted(strip.parent.glob(f"{strip.name}.*")):
-        lines += part.read_text().splitlines()
-        part.unlink()
-    strip.write_text("".join(f"{line}\n" for line in sorted(lines)))
+    margins.gather(strip)
 
 
 if __name__ == "__main__":
