@@ -256,3 +256,13 @@ def test_a_v1_memory_table_becomes_the_full_table_with_the_same_meaning():
         memory_table_from_v1({"kind": "fresh_felt", "path_places": "forward"})
     with pytest.raises(ValueError, match="unknown memory setting 'pivots'"):
         memory_table_from_v1({"kind": "last_bend", "pivots": 2})
+
+
+def test_the_learning_api_page_names_every_map_flag():
+    """docs/learning-api.md lists the map's flags by hand; a setting added without its flag there
+    fails here (a boolean setting is listed as ``--[no-]name``)."""
+    page = (REPO / "docs" / "learning-api.md").read_text(encoding="utf-8")
+    for spec in setting_specs(FreshFeltConfig):
+        flag = _flag(spec.name)
+        listed = f"`{flag}`" in page or f"`--[no-]{flag[2:]}`" in page
+        assert listed, f"docs/learning-api.md does not list {flag}"
