@@ -1,9 +1,10 @@
 """Where the goal's decision time goes, frame by frame, and what cheaper image registrations of
 the measured motion would leave: a measurement of which part binds the 5 ms budget.
 
-The goal's configuration (``benchmarks/experiments/goal/chosen.toml``, condition ``paper``; the
-map moved by the camera's measured motion, ``lfd_track/policy/odometry.py``, and each driving
-session's colour balanced) is learned as ``bench_budget.py`` learns it (study seed 0, repetition
+Round 27's winner of the human-taught goal, the goal's configuration when this was measured
+(``benchmarks/experiments/goal/chosen_round27.toml``, then named ``chosen.toml``; condition
+``paper``; the map moved by the camera's measured motion, ``lfd_track/policy/odometry.py``, and
+each driving session's colour balanced) is learned as ``bench_budget.py`` learns it (study seed 0, repetition
 0), then drives the testing track each way once. Its frames are recorded and replayed, on one
 thread, through a fresh perception and commander in rounds, interleaving:
 
@@ -43,7 +44,7 @@ from lfd_track.policy.memory import FreshFeltMemory
 from lfd_track.utils.atomic import atomic_write_text
 
 REPO = Path(__file__).resolve().parents[2]
-STUDY = REPO / "benchmarks" / "experiments" / "goal" / "chosen.toml"
+STUDY = REPO / "benchmarks" / "experiments" / "goal" / "chosen_round27.toml"
 RESULTS = Path(__file__).resolve().parent / "results" / "decision_tail.json"
 SHIPPED = (odometry.COARSE_TURNS_DEG, odometry.ECC_ITERATIONS)
 VARIANTS = {

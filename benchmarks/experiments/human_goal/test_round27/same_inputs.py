@@ -1,7 +1,7 @@
 """The goal's configuration beside the map rule on its very inputs, on the test loops: pools the
-six runs of ``../where_they_part.py --test-split`` (``../../goal/chosen.toml``, conditions
-``paper`` and ``rooms``, seeds 0-2) into one table per world and checks that every learned lap
-reproduced the study's. Reads only ``results/same_inputs/``; nothing is run or chosen here.
+six runs of ``../where_they_part.py --test-split`` (``../../goal/chosen.toml`` as it was then,
+``../../goal/chosen_round27.toml`` now; conditions ``paper`` and ``rooms``, seeds 0-2) into one
+table per world and checks that every learned lap reproduced the study's. Reads only ``results/same_inputs/``; nothing is run or chosen here.
 
     .venv/bin/python benchmarks/experiments/human_goal/test_round27/same_inputs.py
 
@@ -46,8 +46,8 @@ def pooled(world: str) -> dict:
 
 def main() -> None:
     md = ["# The goal's configuration beside the map rule on its very inputs (test loops)", ""]
-    md += ["Seeds 0-2 x 10 repetitions of `../../../goal/chosen.toml`, each repetition's 10 test"]
-    md += ["loops once each way, driven by the learned policy and by the map rule reading the"]
+    md += ["Seeds 0-2 x 10 repetitions of `../../../goal/chosen_round27.toml`, each one's 10"]
+    md += ["test loops once each way, driven by the learned policy and by the map rule reading the"]
     md += ["learned controller's own perception (its library, map, branch side, measured motion"]
     md += ["and colour balance); `../where_they_part.py --test-split`, one page per seed beside"]
     md += ["this one.", ""]
