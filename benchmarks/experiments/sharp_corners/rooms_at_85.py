@@ -1,5 +1,5 @@
 """Issue 41's bar, room by room: how many kept rooms lap at least 85 % of their loop laps, for
-the map-rule runs of parts 8-26 and the learners beside them (committed results only; it chooses
+the map-rule runs of parts 8-27 and the learners beside them (committed results only; it chooses
 nothing).
 
     .venv/bin/python benchmarks/experiments/sharp_corners/rooms_at_85.py
@@ -63,12 +63,17 @@ RUNS = {
     / "results/margins/rooms_true_felt/map-rule",
     "the map rule, fresh felt in sight along felt (part 26)": HERE
     / "results/margins/rooms_felt_sight/map-rule",
+    "the map rule, fresh sight as the product has it (part 27, a)": ORACLE / "rooms_sight/map-rule",
+    "the map rule, fresh sight, cover from 0.3 m behind (part 27, b)": ORACLE
+    / "rooms_sight_cover_from_30cm/map-rule",
     "the learner, round 27's winner": ROUNDS
     / "round27/results/balance/rooms.round20+visual+balance",
     "the learner, round 31 (strip)": ROUNDS / "round31/results/strip/rooms.round27+strip",
     "the learner, round 32 (path_and_centreline)": ROUNDS
     / "round32/results/centreline/rooms.round27+centreline",
     "the learner, round 33 (fresh_sight_m)": ROUNDS / "round33/results/sight/rooms.round27+sight",
+    "the learner, round 33, cover from 0.3 m behind (part 27, c)": ORACLE
+    / "learner_sight_cover_from_30cm/rooms.round27+sight",
 }
 BAR = 0.85
 

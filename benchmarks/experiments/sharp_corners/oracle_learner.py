@@ -1,0 +1,75 @@
+"""The learned policy with part 12's oracle: taught and driven on a map whose visited felt the
+track tells (part 27 of ``README.md``).
+
+``oracle_visited.py`` gives the map rule a ``fresh_felt`` map whose felt counts as visited where
+the track says it lies behind the rover. This script gives the same map to a whole study job:
+the human model's demonstration records its map inputs from it, the learner is fitted on those
+cases, and the learned policy drives on it. Every ``fresh_felt`` map the job makes is
+``oracle_visited.TrackVisitedMemory`` (with ``--combine`` and ``--cover-from`` as there), so the
+job runs in this process (its jobs one after another); ``--seed N`` runs only the jobs of seed
+N, so that two processes can share one output folder, one seed each. Once every job of the
+study is in ``--out``, the study's tables are written as ``lfd-track study`` writes them.
+
+This is an oracle, for a measurement only: a robot does not know the track. The jobs' results
+record the study's configuration, not the oracle; the folder's name and the README say which.
+
+    .venv/bin/python benchmarks/experiments/sharp_corners/oracle_learner.py --combine cover --cover-from 0.3 --seed 100 --study benchmarks/experiments/human_goal/round33/sight.toml --out benchmarks/experiments/sharp_corners/results/oracle_visited/learner_sight_cover_from_30cm
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import oracle_visited  # noqa: E402
+
+from lfd_track.envs.track_env import LfDTrackEnv  # noqa: E402
+from lfd_track.study.run import load_finished, run_study  # noqa: E402
+from lfd_track.study.spec import load_study  # noqa: E402
+from lfd_track.study.summary import write_study_outputs  # noqa: E402
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--study", required=True, help="the study file")
+    parser.add_argument("--out", required=True, help="the study's output folder")
+    parser.add_argument("--seed", type=int, help="run only this seed's jobs")
+    parser.add_argument("--combine", choices=oracle_visited.COMBINES, default="oracle")
+    parser.add_argument("--cover-from", type=float, default=0.0, metavar="M")
+    args = parser.parse_args()
+    if args.cover_from and (args.combine != "cover" or not args.cover_from >= 0.0):
+        raise SystemExit("--cover-from takes metres >= 0, with --combine cover")
+    oracle_visited.NOW["combine"], oracle_visited.NOW["cover_from_m"] = (
+        args.combine,
+        args.cover_from,
+    )
+    LfDTrackEnv.reset, LfDTrackEnv.step = (  # type: ignore[method-assign]
+        oracle_visited.reset,
+        oracle_visited.step,
+    )
+    oracle_visited.maps_made_as(oracle_visited.TrackVisitedMemory)
+    study = load_study(args.study)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    mine = study
+    if args.seed is not None:
+        if args.seed not in study.seeds:
+            raise SystemExit(f"--seed {args.seed}: the study's seeds are {list(study.seeds)}")
+        mine = dataclasses.replace(study, seeds=(args.seed,))
+    done = run_study(mine, out, workers=1)
+    print(f"{done.ran} jobs run, {done.skipped} already there, {done.wall_s:.0f} s")
+    try:
+        finished = load_finished(study, out)
+    except Exception as exc:  # another seed's jobs are still running
+        print(f"tables not written yet: {exc}")
+        return
+    write_study_outputs(out, study, finished)
+    print(f"tables written into {out}")
+
+
+if __name__ == "__main__":
+    main()
