@@ -6,13 +6,15 @@ Reads only committed results (``results/test_rooms20/`` and
 ``../test_round9/results/rules_rooms/``; with ``--round 27``, round 27's winner and the rule on
 its map with the same colour balance, ``../test_round27/results/test_rooms27/`` and
 ``../test_round27/results/rules_rooms27/``; with ``--round 33``, round 33's winner and the rule
-on its map, ``../test_round33/results/``) and redraws each repetition's room as the study drew
+on its map, ``../test_round33/results/``; with ``--round 33-seeds3to5``, the same on seeds 3-5)
+and redraws each repetition's room as the study drew
 it (``repetition_preset``); nothing is run or chosen on it.
 
-    .venv/bin/python benchmarks/experiments/human_goal/test_round20/rooms_breakdown.py [--round 27|33]
+    .venv/bin/python benchmarks/experiments/human_goal/test_round20/rooms_breakdown.py [--round 27|33|33-seeds3to5]
 
 writes ``results/rooms_breakdown.md`` (``../test_round27/results/rooms_breakdown.md``,
-``../test_round33/results/rooms_breakdown.md``; a few seconds).
+``../test_round33/results/rooms_breakdown.md``, ``rooms_breakdown_seeds3to5.md``; a few
+seconds).
 """
 
 from __future__ import annotations
@@ -57,6 +59,13 @@ ROUNDS = {
         ROUND33 / "results" / "test_rooms33" / "rooms.round27+sight",
         ROUND33 / "results" / "rules_rooms33" / "map-rule",
         ROUND33 / "results" / "rooms_breakdown.md",
+    ),
+    "33-seeds3to5": (
+        "round 33's winner on seeds 3-5, fresh felt in sight along felt",
+        ROUND33 / "seeds3to5_rooms33.toml",
+        ROUND33 / "results" / "seeds3to5_rooms33" / "rooms.round27+sight",
+        ROUND33 / "results" / "rules_seeds3to5_rooms33" / "map-rule",
+        ROUND33 / "results" / "rooms_breakdown_seeds3to5.md",
     ),
 }
 
