@@ -162,6 +162,11 @@ class BenchmarkConfig:
             )
         if self.policy_kind == "elman-sigmoid" and self.bc.ensemble != 1:
             raise ValueError("an Elman network is one network: backprop's ensemble must be 1")
+        if self.bc.watched_fits != 1 and (self.method != "bc" or self.policy_kind != "mlp-sigmoid"):
+            raise ValueError(
+                "bc watched_fits chooses among the 'bc' method's fits of an MLP by watching them"
+                f" drive; not with method '{self.method}', policy_kind '{self.policy_kind}'"
+            )
         if self.policy_kind == "elman-sigmoid" and self.shifted_views:
             raise ValueError(
                 "shifted_views have no place in the driven sequence an Elman network learns"

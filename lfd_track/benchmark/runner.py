@@ -34,11 +34,15 @@ from ..envs.track_env import LfDTrackEnv
 from ..errors import CalibrationFailed, DemonstrationUnfinished, LfdTrackError
 from ..learning.result import check_int
 from ..methods import Learned, Method, MethodContext, get_method
-from ..methods.common import SimulatedCalibration, calibration_for, effort_record, period_s
+from ..methods.common import (
+    SimulatedCalibration,
+    calibration_for,
+    drive_policy,
+    effort_record,
+    period_s,
+)
 from ..policy.controller import Controller
-from ..policy.map_geometry import MapGeometry
-from ..teaching.arbiter import Arbiter
-from ..teaching.loop import LoopCounts, Step, TeachingLoop
+from ..teaching.loop import LoopCounts, Step
 from ..teaching.observers import CallbackObserver, TrajectoryObserver
 from ..world.track import load_track
 from .config import (
@@ -253,19 +257,7 @@ def run_trial(
         )
     if on_loop_step is not None:
         observers.append(CallbackObserver(on_loop_step))
-    if isinstance(controller, Controller):  # its map notes a world of another geometry
-        perception = controller.perception(world_geometry=MapGeometry.from_preset(env.base_preset))
-    else:  # a policy driver or a rule: whatever perception it brings
-        perception = controller.perception()
-    loop = TeachingLoop(
-        env,
-        perception,
-        Arbiter("policy"),
-        policy=controller.commander(),
-        observers=observers,
-    )
-    loop.reset(seed=seed)
-    loop.run()
+    loop = drive_policy(env, controller, seed=seed, observers=observers)
     return loop.info, trajectory.array(), loop.counts.steps
 
 

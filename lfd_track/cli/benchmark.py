@@ -14,7 +14,7 @@ from typing import Any
 from ..benchmark import runner
 from ..benchmark.config import MAX_RANDOM_LOOPS, ROOMS
 from ..demo.demonstrator import HumanConfig
-from ..learning.bc import BCConfig
+from ..learning.bc import MAX_WATCHED_FITS, BCConfig
 from ..methods import get_method, method_names, methods
 from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
 from ..policy.memory import MEMORY_KINDS
@@ -196,6 +196,16 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         f" {MAX_MEMBERS})",
     )
     bench.add_argument(
+        "--bc-watched-fits",
+        type=whole_number_in(1, MAX_WATCHED_FITS),
+        default=None,
+        metavar="K",
+        help="with --method bc: the learned policy drives the demonstration track twice each"
+        " way; while it does not lap every lap, backprop fits again from new starting weights,"
+        f" up to K fits, keeping the one that lapped most (default 1: not watched; at most"
+        f" {MAX_WATCHED_FITS})",
+    )
+    bench.add_argument(
         "--shifted-views",
         action="store_true",
         help="learn also from each case's views from a step behind and a pivot either way,"
@@ -243,18 +253,27 @@ def run(args: argparse.Namespace) -> int:
             return EXIT_USAGE
     repetitions = 1 if args.quick and args.repetitions is None else (args.repetitions or 10)
     trials = args.trials or (1 if args.quick else 3)
-    # --bc-bias, --bc-class-balance, --bc-ensemble: the backprop settings (a table of
+    # --bc-bias, --bc-class-balance, --bc-ensemble, --bc-watched-fits: the backprop settings (a table of
     # BenchmarkConfig, by name).
     balance = 1.0 if args.bc_class_balance is None else args.bc_class_balance
     ensemble = 1 if args.bc_ensemble is None else args.bc_ensemble
+    watched = 1 if args.bc_watched_fits is None else args.bc_watched_fits
     backprop_given = {
         "--bc-bias": args.bc_bias,
         "--bc-class-balance": args.bc_class_balance is not None,
         "--bc-ensemble": args.bc_ensemble is not None,
+        "--bc-watched-fits": args.bc_watched_fits is not None,
     }
     backprop_flags = any(backprop_given.values())
     backprop: dict[str, Any] = (
-        {"bc": BCConfig(bias=args.bc_bias, class_balance=balance, ensemble=ensemble)}
+        {
+            "bc": BCConfig(
+                bias=args.bc_bias,
+                class_balance=balance,
+                ensemble=ensemble,
+                watched_fits=watched,
+            )
+        }
         if backprop_flags
         else {}
     )

@@ -36,6 +36,10 @@ from .result import (
     initial_weights,
 )
 
+MAX_WATCHED_FITS = 10
+"""At most this many fits for :attr:`BCConfig.watched_fits` (each watched over laps of the
+demonstration track)."""
+
 
 @dataclass(frozen=True)
 class BCConfig(DictConfig):
@@ -76,16 +80,20 @@ class BCConfig(DictConfig):
     :data:`~lfd_track.policy.mlp.MAX_MEMBERS`. On one demonstration the starting weights alone
     move a policy's laps more than the demonstration does
     (``benchmarks/experiments/human_goal/round20/``)."""
+    watched_fits: int = 1
+    """Fits the ``bc`` method chooses among by watching each drive the demonstration track
+    (:mod:`lfd_track.methods.watched`): it fits again, from new starting weights drawn from the
+    same generator, while a fit does not lap every watched lap, up to this many fits, and keeps
+    the one that lapped most; 1: the first fit, not watched. At most :data:`MAX_WATCHED_FITS`."""
 
     def to_dict(self) -> dict[str, Any]:
-        """The settings as a dict; ``class_balance`` only when it is not 1 and ``ensemble`` only
-        when it is not 1 (what every fit did before each setting existed), so that files written
-        before them still match theirs."""
+        """The settings as a dict; ``class_balance``, ``ensemble`` and ``watched_fits`` only
+        when they are not 1 (what every fit did before each setting existed), so that files
+        written before them still match theirs."""
         data = super().to_dict()
-        if data["class_balance"] == 1.0:
-            del data["class_balance"]
-        if data["ensemble"] == 1:
-            del data["ensemble"]
+        for name in ("class_balance", "ensemble", "watched_fits"):
+            if data[name] == 1:
+                del data[name]
         return data
 
     def case_weights(self, category_weights: np.ndarray) -> np.ndarray:
@@ -114,6 +122,7 @@ class BCConfig(DictConfig):
         if not self.class_balance <= 1.0:
             raise ValueError(f"class_balance must be in [0, 1], got {self.class_balance!r}")
         check_int("ensemble", self.ensemble, 1, MAX_MEMBERS)
+        check_int("watched_fits", self.watched_fits, 1, MAX_WATCHED_FITS)
 
 
 def bc_loss_and_gradient(

@@ -18,6 +18,7 @@ from ..policy.controller import Controller
 from ..vision.road_library import RoadLibrary
 from .common import Learned, MethodContext
 from .offline import episodes, learned_offline, offline_cases, views_record
+from .watched import choose_by_watching
 
 
 def learn_bc(context: MethodContext) -> Learned:
@@ -45,7 +46,21 @@ def fit_after_demonstration(context: MethodContext, learner: BCConfig | CMAESCon
         result = fit_bc_elman(x, a, learner, rng, episodes=episodes(demo, context.mirror))
     else:
         result = trainer.fit(x, a, rng)
-    controller = controller_of_fit(context, library, result, learner)
+    extra = {"learner": result.learner, **views_record(views)}
+    counts, effort = None, None
+    if isinstance(learner, BCConfig) and learner.watched_fits > 1:
+        watched = choose_by_watching(
+            context,
+            learner.watched_fits,
+            lambda: trainer.fit(x, a, rng),
+            lambda fit: controller_of_fit(context, library, fit, learner),
+            result,
+        )
+        result, controller, counts = watched.fit, watched.controller, watched.counts
+        extra["watched"] = watched.record()
+        effort = {"watched_laps": watched.laps}
+    else:
+        controller = controller_of_fit(context, library, result, learner)
     return learned_offline(
         context,
         summary,
@@ -53,7 +68,9 @@ def fit_after_demonstration(context: MethodContext, learner: BCConfig | CMAESCon
         controller,
         fitness_best=result.history.tolist(),
         fitness_mean=[],
-        extra={"learner": result.learner, **views_record(views)},
+        extra=extra,
+        counts=counts,
+        effort=effort,
     )
 
 

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -49,7 +50,9 @@ from ..policy.controller import Controller
 from ..policy.features import DEFAULT_FEATURES
 from ..policy.map_geometry import MapGeometry
 from ..policy.memory import FreshFeltConfig, MemoryConfig
-from ..teaching.loop import LoopCounts
+from ..teaching.arbiter import Arbiter
+from ..teaching.loop import LoopCounts, TeachingLoop
+from ..teaching.observers import Observer
 from ..vision.road_library import RoadLibrary
 
 CALIBRATION_STREAM = 0x63616C69
@@ -294,6 +297,26 @@ def add_counts(total: LoopCounts, part: LoopCounts) -> None:
 def track_env(context: MethodContext, *, reverse: bool = False, **options: Any) -> LfDTrackEnv:
     """The simulated world of the method's drives: ``context.track`` under its preset."""
     return LfDTrackEnv(track=context.track, reverse=reverse, preset=context.preset, **options)
+
+
+def drive_policy(
+    env: LfDTrackEnv, controller: Any, *, seed: int | None, observers: Sequence[Observer] = ()
+) -> TeachingLoop:
+    """Drive one autonomous episode on ``env`` (reset with ``seed``) to its end and return the
+    loop (its ``info`` and ``counts``): the teaching loop with ``controller`` (anything with
+    ``perception()`` and ``commander()``) as the only commander, ``observers`` seeing each step.
+    A :class:`Controller`'s map is told the world's geometry, so that it notes a world of
+    another geometry; anything else brings its own perception."""
+    if isinstance(controller, Controller):
+        perception = controller.perception(world_geometry=MapGeometry.from_preset(env.base_preset))
+    else:
+        perception = controller.perception()
+    loop = TeachingLoop(
+        env, perception, Arbiter("policy"), policy=controller.commander(), observers=observers
+    )
+    loop.reset(seed=seed)
+    loop.run()
+    return loop
 
 
 def demonstrate(

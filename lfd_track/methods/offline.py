@@ -14,6 +14,7 @@ from ..demo.views import ViewCases
 from ..learning.elman import episode_starts, sequence_accuracy
 from ..learning.fitness import training_accuracy
 from ..policy.controller import Controller
+from ..teaching.loop import LoopCounts
 from ..vision.road_library import RoadLibrary
 from .common import (
     Learned,
@@ -92,13 +93,22 @@ def learned_offline(
     fitness_best: list[float],
     fitness_mean: list[float],
     extra: dict[str, Any] | None = None,
+    counts: LoopCounts | None = None,
+    effort: dict[str, Any] | None = None,
 ) -> Learned:
-    """What a repetition that learns after one demonstration (no robot driving) produced."""
+    """What a repetition that learns after one demonstration produced; ``counts``: the robot's
+    own driving after the demonstration, if any, and ``effort`` more fields of its effort record
+    (:mod:`lfd_track.methods.watched`'s laps)."""
     return Learned(
         controller=controller,
         demo=demonstration_record(summary, **(extra or {})),
         fitness_best=fitness_best,
         fitness_mean=fitness_mean,
         training_accuracy=accuracy(controller, demo),
-        effort=effort_record(context.period_s, demonstration_commands=summary.commands),
+        effort=effort_record(
+            context.period_s,
+            demonstration_commands=summary.commands,
+            counts=counts,
+            **(effort or {}),
+        ),
     )
