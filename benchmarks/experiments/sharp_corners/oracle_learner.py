@@ -10,6 +10,13 @@ job runs in this process (its jobs one after another); ``--seed N`` runs only th
 N, so that two processes can share one output folder, one seed each. Once every job of the
 study is in ``--out``, the study's tables are written as ``lfd-track study`` writes them.
 
+"Behind the rover" is judged along the way the rover is going. In the trials that is the
+episode's track and progress. In the demonstration the human model drives a lap each way of one
+episode, turning round between the legs, where the episode's progress (along the loop's own
+direction) falls through the second leg: there the oracle reads the leg the human is driving and
+its progress along it (``ProtocolHuman.legs``, ``leg`` and ``progress_m``, updated before each
+frame is perceived), so that the felt of the second leg's way ahead is not counted behind.
+
 This is an oracle, for a measurement only: a robot does not know the track. The jobs' results
 record the study's configuration, not the oracle; the folder's name and the README say which.
 
@@ -22,6 +29,7 @@ import argparse
 import dataclasses
 import sys
 from pathlib import Path
+from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -31,6 +39,19 @@ from lfd_track.envs.track_env import LfDTrackEnv  # noqa: E402
 from lfd_track.study.run import load_finished, run_study  # noqa: E402
 from lfd_track.study.spec import load_study  # noqa: E402
 from lfd_track.study.summary import write_study_outputs  # noqa: E402
+from lfd_track.teaching.scripted import ProtocolHuman  # noqa: E402
+
+_finished = ProtocolHuman.finished
+
+
+def leg_finished(self: ProtocolHuman, info: dict[str, Any]) -> bool:
+    """``ProtocolHuman.finished``, then the oracle reads the leg being driven (see the module
+    docstring)."""
+    done = _finished(self, info)
+    if not done:
+        oracle_visited.NOW["track"] = self.legs[self.leg % 2]
+        oracle_visited.NOW["progress_m"] = self.progress_m
+    return done
 
 
 def main() -> None:
@@ -51,6 +72,7 @@ def main() -> None:
         oracle_visited.reset,
         oracle_visited.step,
     )
+    ProtocolHuman.finished = leg_finished  # type: ignore[method-assign]
     oracle_visited.maps_made_as(oracle_visited.TrackVisitedMemory)
     study = load_study(args.study)
     out = Path(args.out)
