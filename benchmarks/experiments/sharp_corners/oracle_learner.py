@@ -74,14 +74,21 @@ def main() -> None:
     )
     ProtocolHuman.finished = leg_finished  # type: ignore[method-assign]
     oracle_visited.maps_made_as(oracle_visited.TrackVisitedMemory)
-    study = load_study(args.study)
-    out = Path(args.out)
+    run_in_process(args.study, args.out, args.seed)
+
+
+def run_in_process(study_file: str, out_folder: str, seed: int | None) -> None:
+    """Run the study ``study_file``'s jobs (only seed ``seed``'s, if given) in this process into
+    ``out_folder``, and once every job of the study is there, write its tables (a script that
+    changes the map in this process runs its study through this)."""
+    study = load_study(study_file)
+    out = Path(out_folder)
     out.mkdir(parents=True, exist_ok=True)
     mine = study
-    if args.seed is not None:
-        if args.seed not in study.seeds:
-            raise SystemExit(f"--seed {args.seed}: the study's seeds are {list(study.seeds)}")
-        mine = dataclasses.replace(study, seeds=(args.seed,))
+    if seed is not None:
+        if seed not in study.seeds:
+            raise SystemExit(f"--seed {seed}: the study's seeds are {list(study.seeds)}")
+        mine = dataclasses.replace(study, seeds=(seed,))
     done = run_study(mine, out, workers=1)
     print(f"{done.ran} jobs run, {done.skipped} already there, {done.wall_s:.0f} s")
     try:
