@@ -253,8 +253,8 @@ def run(args: argparse.Namespace) -> int:
             return EXIT_USAGE
     repetitions = 1 if args.quick and args.repetitions is None else (args.repetitions or 10)
     trials = args.trials or (1 if args.quick else 3)
-    # --bc-bias, --bc-class-balance, --bc-ensemble, --bc-watched-fits: the backprop settings (a table of
-    # BenchmarkConfig, by name).
+    # --bc-bias, --bc-class-balance, --bc-ensemble, --bc-watched-fits: the backprop settings (a
+    # table of BenchmarkConfig, by name).
     balance = 1.0 if args.bc_class_balance is None else args.bc_class_balance
     ensemble = 1 if args.bc_ensemble is None else args.bc_ensemble
     watched = 1 if args.bc_watched_fits is None else args.bc_watched_fits
