@@ -7,6 +7,7 @@ import pytest
 
 from lfd_track.benchmark.config import BenchmarkConfig
 from lfd_track.benchmark.runner import repetition_streams
+from lfd_track.cli import main
 from lfd_track.demo.demonstrator import HumanConfig
 from lfd_track.learning.bc import MAX_WATCHED_FITS, BCConfig
 from lfd_track.methods import baseline, learn_baseline, watched
@@ -78,3 +79,16 @@ def test_the_bc_method_watches_on_the_demonstration_track(monkeypatch, tmp_path)
     assert seen.effort["commands"] == plain.effort["commands"]  # no human command more
     assert seen.effort["autonomous_drive_s"] > 0 == plain.effort["autonomous_drive_s"]
     assert seen.controller.learner_config["watched_fits"] == 2
+
+
+def test_the_benchmark_flag_is_refused_in_one_line_where_nothing_is_watched(tmp_path, capsys):
+    out = str(tmp_path / "out")
+    for method in ("paper", "online", "hg-dagger"):
+        assert main(["benchmark", "--method", method, "--bc-watched-fits", "2", "--out", out]) == 2
+        err = capsys.readouterr().err
+        assert "watched_fits" in err and f"method '{method}'" in err and len(err.splitlines()) == 1
+    for wrong, problem in (("0", "at least 1"), (str(MAX_WATCHED_FITS + 1), "at most")):
+        with pytest.raises(SystemExit):
+            main(["benchmark", "--method", "bc", "--bc-watched-fits", wrong, "--out", out])
+        assert problem in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
