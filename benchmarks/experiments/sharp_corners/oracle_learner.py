@@ -7,8 +7,8 @@ the human model's demonstration records its map inputs from it, the learner is f
 cases, and the learned policy drives on it. Every ``fresh_felt`` map the job makes is
 ``oracle_visited.TrackVisitedMemory`` (with ``--combine`` and ``--cover-from`` as there), so the
 job runs in this process (its jobs one after another); ``--seed N`` runs only the jobs of seed
-N, so that two processes can share one output folder, one seed each. Once every job of the
-study is in ``--out``, the study's tables are written as ``lfd-track study`` writes them.
+N, so that two processes can share one output folder, one seed each. The jobs' results are all
+it writes: its folder is not beside the study file it runs, where the study's tables belong.
 
 "Behind the rover" is judged along the way the rover is going. In the trials that is the
 episode's track and progress. In the demonstration the human model drives a lap each way of one
@@ -74,13 +74,13 @@ def main() -> None:
     )
     ProtocolHuman.finished = leg_finished  # type: ignore[method-assign]
     oracle_visited.maps_made_as(oracle_visited.TrackVisitedMemory)
-    run_in_process(args.study, args.out, args.seed)
+    run_in_process(args.study, args.out, args.seed, tables=False)
 
 
-def run_in_process(study_file: str, out_folder: str, seed: int | None) -> None:
+def run_in_process(study_file: str, out_folder: str, seed: int | None, tables: bool = True) -> None:
     """Run the study ``study_file``'s jobs (only seed ``seed``'s, if given) in this process into
-    ``out_folder``, and once every job of the study is there, write its tables (a script that
-    changes the map in this process runs its study through this)."""
+    ``out_folder``, and with ``tables``, once every job of the study is there, write its tables
+    (a script that changes the map in this process runs its study through this)."""
     study = load_study(study_file)
     out = Path(out_folder)
     out.mkdir(parents=True, exist_ok=True)
@@ -91,6 +91,8 @@ def run_in_process(study_file: str, out_folder: str, seed: int | None) -> None:
         mine = dataclasses.replace(study, seeds=(seed,))
     done = run_study(mine, out, workers=1)
     print(f"{done.ran} jobs run, {done.skipped} already there, {done.wall_s:.0f} s")
+    if not tables:
+        return
     try:
         finished = load_finished(study, out)
     except Exception as exc:  # another seed's jobs are still running
