@@ -28,7 +28,7 @@ import numpy as np
 from ..learning.result import LearnerFit
 from ..policy.controller import Controller
 from ..teaching.loop import LoopCounts
-from .common import MethodContext, drive_policy, track_env
+from .common import MethodContext, add_counts, drive_policy, track_env
 
 WATCHED_LAPS = 2
 """Laps of the demonstration track each way a fit is watched over."""
@@ -77,8 +77,7 @@ def watched_laps(context: MethodContext, controller: Controller, counts: LoopCou
             for seed in seeds:
                 loop = drive_policy(env, controller, seed=seed)
                 lapped += bool(loop.info["success"])
-                counts.steps += loop.counts.steps
-                counts.policy_commands += loop.counts.policy_commands
+                add_counts(counts, loop.counts)
         finally:
             env.close()
     return lapped
@@ -95,17 +94,15 @@ def choose_by_watching(
     ``fit_again`` (at most ``fits`` in all); keep the one that lapped most (ties: the earlier).
     ``controller_of`` makes a fit's controller."""
     counts = LoopCounts()
+    watched: list[tuple[LearnerFit, Controller]] = []
     lapped: list[int] = []
     fit = first
-    best: tuple[LearnerFit, Controller] | None = None
     while True:
         controller = controller_of(fit)
-        laps = watched_laps(context, controller, counts)
-        if best is None or laps > max(lapped):
-            best = (fit, controller)
-        lapped.append(laps)
-        if laps == 2 * WATCHED_LAPS or len(lapped) == fits:
+        watched.append((fit, controller))
+        lapped.append(watched_laps(context, controller, counts))
+        if lapped[-1] == 2 * WATCHED_LAPS or len(lapped) == fits:
             break
         fit = fit_again()
-    chosen = lapped.index(max(lapped))
-    return Watched(best[0], best[1], tuple(lapped), chosen, counts)
+    chosen = lapped.index(max(lapped))  # the first of the most
+    return Watched(*watched[chosen], tuple(lapped), chosen, counts)
