@@ -28,14 +28,18 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import oracle_visited  # noqa: E402
 
 from lfd_track.envs.track_env import LfDTrackEnv  # noqa: E402
+from lfd_track.policy.memory import FreshFeltConfig, FreshFeltMemory  # noqa: E402
 from lfd_track.study.run import load_finished, run_study  # noqa: E402
 from lfd_track.study.spec import load_study  # noqa: E402
 from lfd_track.study.summary import write_study_outputs  # noqa: E402
@@ -100,6 +104,39 @@ def run_in_process(study_file: str, out_folder: str, seed: int | None, tables: b
         return
     write_study_outputs(out, study, finished)
     print(f"tables written into {out}")
+
+
+def run_with_more_inputs(
+    memory_class: type[FreshFeltMemory],
+    more: int,
+    mirror_more: Callable[[np.ndarray], np.ndarray],
+    description: str,
+) -> None:
+    """A prototype map's script: from now on every ``fresh_felt`` configuration has ``more``
+    inputs after the map's own (a mirror image mirrors the map's own as it does and the ``more``
+    by ``mirror_more``), every ``fresh_felt`` map is a ``memory_class``, and the study the
+    command line names (``--study``, ``--out``, ``--seed``) runs in this process."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--study", required=True, help="the study file")
+    parser.add_argument("--out", required=True, help="the study's output folder")
+    parser.add_argument("--seed", type=int, help="run only this seed's jobs")
+    args = parser.parse_args()
+    post_init, mirror = FreshFeltConfig.__post_init__, FreshFeltConfig.mirror
+
+    def with_more(self: FreshFeltConfig) -> None:
+        post_init(self)
+        object.__setattr__(self, "n_inputs", self.n_inputs + more)
+
+    def mirrored(self: FreshFeltConfig, inputs: np.ndarray) -> np.ndarray:
+        out = np.array(inputs, dtype=np.float64)
+        out[:, :-more] = mirror(self, out[:, :-more])
+        out[:, -more:] = mirror_more(out[:, -more:])
+        return out
+
+    FreshFeltConfig.__post_init__ = with_more  # type: ignore[method-assign]
+    FreshFeltConfig.mirror = mirrored  # type: ignore[method-assign]
+    oracle_visited.maps_made_as(memory_class)
+    run_in_process(args.study, args.out, args.seed)
 
 
 if __name__ == "__main__":

@@ -23,7 +23,6 @@ and description say what the map adds. A prototype: the product's map has no suc
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 from typing import Any
@@ -33,29 +32,13 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "sharp_corners"))
 
 import oracle_learner  # noqa: E402
-import oracle_visited  # noqa: E402
 
-from lfd_track.policy.memory import FreshFeltConfig, FreshFeltMemory  # noqa: E402
+from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
 
 #: [deg] fresh felt further than this off the heading counts to its side
 SIDE_DEG = 20.0
 #: the map's full amount of fresh felt (its amount input's 1, ``lfd_track/policy/memory.py``)
 FULL_FRESH = 20.0
-_post_init, _mirror = FreshFeltConfig.__post_init__, FreshFeltConfig.mirror
-
-
-def post_init(self: FreshFeltConfig) -> None:
-    """The map's own inputs, then the two sides'."""
-    _post_init(self)
-    object.__setattr__(self, "n_inputs", self.n_inputs + 2)
-
-
-def mirror(self: FreshFeltConfig, inputs: np.ndarray) -> np.ndarray:
-    """The map's own inputs mirrored, and the two sides swapped."""
-    out = np.array(inputs, dtype=np.float64)
-    out[:, :-2] = _mirror(self, out[:, :-2])
-    out[:, -2:] = out[:, [-1, -2]]
-    return out
 
 
 class SidesMemory(FreshFeltMemory):
@@ -87,15 +70,10 @@ class SidesMemory(FreshFeltMemory):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--study", required=True, help="the study file")
-    parser.add_argument("--out", required=True, help="the study's output folder")
-    parser.add_argument("--seed", type=int, help="run only this seed's jobs")
-    args = parser.parse_args()
-    FreshFeltConfig.__post_init__ = post_init  # type: ignore[method-assign]
-    FreshFeltConfig.mirror = mirror  # type: ignore[method-assign]
-    oracle_visited.maps_made_as(SidesMemory)
-    oracle_learner.run_in_process(args.study, args.out, args.seed)
+    # the two sides swap in a mirror image
+    oracle_learner.run_with_more_inputs(
+        SidesMemory, 2, lambda sides: sides[:, ::-1], __doc__.splitlines()[0]
+    )
 
 
 if __name__ == "__main__":

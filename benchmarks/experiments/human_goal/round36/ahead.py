@@ -21,7 +21,6 @@ fits and the driving; one seed's jobs per process (``../../sharp_corners/oracle_
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 from typing import Any
@@ -31,9 +30,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "sharp_corners"))
 
 import oracle_learner  # noqa: E402
-import oracle_visited  # noqa: E402
 
-from lfd_track.policy.memory import FreshFeltConfig, FreshFeltMemory  # noqa: E402
+from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
 
 #: [m] the rover's lane: map points this close to the heading line
 LANE_M = 0.1
@@ -43,20 +41,6 @@ FROM_M = 0.1
 RUN_M = 1.0
 #: a map point whose felt level is at most this is carpet
 CARPET_AT = 0.25
-_post_init, _mirror = FreshFeltConfig.__post_init__, FreshFeltConfig.mirror
-
-
-def post_init(self: FreshFeltConfig) -> None:
-    """The map's own inputs, then the run ahead."""
-    _post_init(self)
-    object.__setattr__(self, "n_inputs", self.n_inputs + 1)
-
-
-def mirror(self: FreshFeltConfig, inputs: np.ndarray) -> np.ndarray:
-    """The map's own inputs mirrored; the run ahead as it is."""
-    out = np.array(inputs, dtype=np.float64)
-    out[:, :-1] = _mirror(self, out[:, :-1])
-    return out
 
 
 class AheadMemory(FreshFeltMemory):
@@ -81,15 +65,8 @@ class AheadMemory(FreshFeltMemory):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--study", required=True, help="the study file")
-    parser.add_argument("--out", required=True, help="the study's output folder")
-    parser.add_argument("--seed", type=int, help="run only this seed's jobs")
-    args = parser.parse_args()
-    FreshFeltConfig.__post_init__ = post_init  # type: ignore[method-assign]
-    FreshFeltConfig.mirror = mirror  # type: ignore[method-assign]
-    oracle_visited.maps_made_as(AheadMemory)
-    oracle_learner.run_in_process(args.study, args.out, args.seed)
+    # the run ahead stays as it is in a mirror image
+    oracle_learner.run_with_more_inputs(AheadMemory, 1, lambda run: run, __doc__.splitlines()[0])
 
 
 if __name__ == "__main__":
