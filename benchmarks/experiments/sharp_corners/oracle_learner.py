@@ -17,6 +17,9 @@ direction) falls through the second leg: there the oracle reads the leg the huma
 its progress along it (``ProtocolHuman.legs``, ``leg`` and ``progress_m``, updated before each
 frame is perceived), so that the felt of the second leg's way ahead is not counted behind.
 
+Its ``run_in_process`` and ``run_with_more_inputs`` also run the human-taught goal's prototype
+maps (``../human_goal/round35/sides.py``, ``round36/ahead.py``), whose maps add inputs.
+
 This is an oracle, for a measurement only: a robot does not know the track. The jobs' results
 record the study's configuration, not the oracle; the folder's name and the README say which.
 

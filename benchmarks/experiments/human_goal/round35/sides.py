@@ -15,7 +15,7 @@ rule would pivot toward. In a mirror image the two swap.
 Every ``fresh_felt`` map of the study job is this one, in the human model's demonstration (its
 cases carry the two inputs), the fits (the network reads them) and the driving; the job runs in
 this process, one seed per process (``../../sharp_corners/oracle_learner.py``'s
-``run_in_process``). The jobs' results record the study's configuration; the study's own name
+``run_with_more_inputs``). The jobs' results record the study's configuration; the study's own name
 and description say what the map adds. A prototype: the product's map has no such setting.
 
     .venv/bin/python benchmarks/experiments/human_goal/round35/sides.py --seed 100 --study benchmarks/experiments/human_goal/round35/sides.toml --out benchmarks/experiments/human_goal/round35/results/sides

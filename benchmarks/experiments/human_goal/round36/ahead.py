@@ -14,7 +14,7 @@ carpet in the rover's lane (map points within :data:`LANE_M` of the heading line
 
 Every ``fresh_felt`` map of the study job is this one, in the human model's demonstration, the
 fits and the driving; one seed's jobs per process (``../../sharp_corners/oracle_learner.py``'s
-``run_in_process``). A prototype: the product's map has no such setting.
+``run_with_more_inputs``). A prototype: the product's map has no such setting.
 
     .venv/bin/python benchmarks/experiments/human_goal/round36/ahead.py --seed 100 --study benchmarks/experiments/human_goal/round36/ahead.toml --out benchmarks/experiments/human_goal/round36/results/ahead
 """
