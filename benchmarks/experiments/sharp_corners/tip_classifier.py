@@ -1,0 +1,367 @@
+"""A tip classifier taught by the simulator's track (part 28 of ``README.md``).
+
+Part 27 measured that a sharp corner's tip binds the every-room bar for the map rule and the
+learner alike: the felt the map counts fresh although the track puts it 0.3 m or more behind the
+rover (part 12's oracle, ``oracle_visited.py --combine cover --cover-from 0.3``). Parts 13-17's
+hand-made tests of it either fixed few of the commands the oracle changes or changed 40-70 times
+as many others. Here a small network learns the oracle's cover from what the map holds at each
+of its fresh felt points (:func:`features`: where it lies, its felt and freshness, its links to
+the rover's own strip, the carpet beyond it, the rover's path and the branch side), with the
+simulator's track as its teacher, on drives it is never scored on; the robot then runs it without
+the track.
+
+* ``collect --data DIR <rules.py arguments>``: drives the map rule on the map as it is
+  (``../generalization/rules.py``, its arguments passed on) and records, at each of the map's
+  fresh-felt decisions, every fresh point's features and whether the track puts it 0.3 m or more
+  behind the rover (per worker process, ``DIR/points_<pid>.pkl``).
+* ``fit --data DIR --model FILE``: fits the network (:data:`HIDDEN` tanh units, a logistic
+  output; full-batch Adam, :data:`EPOCHS` epochs, seed 0) to the recorded points (every one the
+  track puts behind, a fifth of the others), each weighing its share of its decision's fresh
+  felt, and writes it as JSON; ``report --data DIR --model FILE`` scores a fitted one on points.
+* ``screen --model FILE --thresholds a,b --screen OUT <rules.py arguments>``: ``screen.py``'s
+  screen of the tests ``tipnet_<t>``, each leaving out the fresh points the network scores at
+  ``t`` or more.
+* ``drive --model FILE --threshold T <rules.py arguments>``: the map rule on the map with
+  ``tipnet_<T>`` (a rule run).
+
+    .venv/bin/python benchmarks/experiments/sharp_corners/tip_classifier.py collect --data benchmarks/experiments/sharp_corners/results/tip_classifier/data --study benchmarks/experiments/sharp_corners/trials/tip_train.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --map fresh_sight_m=0.05 --out /tmp/tip_train --workers 2
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import pickle
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import dead_ends  # noqa: E402
+import oracle_visited  # noqa: E402
+import screen  # noqa: E402
+
+from lfd_track.policy.memory import MAP_FRAMES, FreshFeltMemory  # noqa: E402
+
+#: [m] part 12's oracle: felt whose centreline lies this far or more behind the rover is covered
+COVER_FROM_M = 0.3
+#: the network: this many tanh units; full-batch Adam for ``EPOCHS`` epochs at ``RATE``, L2
+#: ``DECAY``, starting weights from ``SEED``
+HIDDEN, EPOCHS, RATE, DECAY, SEED = 16, 3000, 0.01, 1e-4, 0
+#: the fit keeps every point the track puts behind and this share of the others (drawn with
+#: ``SEED``), each kept one weighing one over it
+NEGATIVE_KEEP = 0.2
+#: [m] the felt and fresh felt around a point are counted within this radius
+AROUND_M = 0.15
+FEATURES = (
+    "x",
+    "y toward the side",
+    "distance",
+    "bearing toward the side",
+    "felt",
+    "freshness",
+    "share of the fresh felt",
+    "links from the own strip",
+    "frame age",
+    "carpet beyond",
+    "points beyond",
+    "felt around",
+    "fresh around",
+    "from the path",
+    "along the new leg",
+    "across the new leg toward the side",
+    "side known",
+    "own strip ends",
+    "felt beside",
+    "fresh mass",
+    "fresh bearing toward the side",
+    "bearing off the fresh bearing",
+    "leg turned",
+)
+DATA: dict[str, Path | None] = {"dir": None}
+
+
+def _beyond(points: np.ndarray, felt: np.ndarray, chosen: np.ndarray) -> np.ndarray:
+    """(K, 2): the mean felt level (1 where none) and count of the map's points beyond each
+    chosen point, as ``dead_ends.leads_nowhere`` looks (element by element, no BLAS)."""
+    reach = np.maximum(np.hypot(points[chosen, 0], points[chosen, 1]), 1e-9)
+    ux, uy = points[chosen, 0] / reach, points[chosen, 1] / reach
+    along = points[None, :, 0] * ux[:, None] + points[None, :, 1] * uy[:, None]
+    across = points[None, :, 1] * ux[:, None] - points[None, :, 0] * uy[:, None]
+    beyond = (
+        (along >= reach[:, None] + dead_ends.NEAR_M)
+        & (along <= reach[:, None] + dead_ends.FAR_M)
+        & (np.abs(across) <= dead_ends.LANE_M)
+    )
+    seen = beyond.sum(axis=1)
+    level = np.where(seen > 0, (beyond * felt[None, :]).sum(axis=1) / np.maximum(seen, 1), 1.0)
+    return np.column_stack([level, seen / 40.0])
+
+
+def features(memory: FreshFeltMemory, chosen: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """(K, len(FEATURES)) float64: what ``memory``'s map holds at its fresh felt points
+    ``chosen`` (K,) int, whose fresh weights are ``weights`` (N,) — all of it a robot has."""
+    points, felt = memory._points, memory._felt
+    sign = screen.side_sign(memory)
+    known = memory._side != 0.5
+    x, y = points[chosen, 0], points[chosen, 1] * sign
+    dist = np.hypot(points[:, 0], points[:, 1])
+    mass = float(weights.sum())
+    cx = float((weights * points[:, 0]).sum()) / mass
+    cy = float((weights * points[:, 1]).sum()) / mass * sign
+    fresh_bearing = math.atan2(cy, cx)
+    bearing = np.arctan2(y, x)
+    hops = memory._strip_hops(dist)[chosen]
+    age = (len(points) - 1 - chosen) // 40 / MAP_FRAMES
+    gap = points[chosen, None, :] - points[None, :, :]
+    near = np.einsum("kni,kni->kn", gap, gap) <= AROUND_M**2
+    felt_around = (near * felt[None, :]).sum(axis=1) / np.maximum(near.sum(axis=1), 1)
+    fresh_around = (near * (weights > 0.0)[None, :]).sum(axis=1) / 40.0
+    path = memory._path
+    if len(path):
+        to_path = points[chosen, None, :] - path[None, :, :]
+        from_path = np.sqrt(np.einsum("kmi,kmi->km", to_path, to_path).min(axis=1))
+    else:
+        from_path = np.ones(len(chosen))
+    found = screen.places_back(path, (screen.NEW_LEG_M, *screen.OLD_LEG_M)) if len(path) else None
+    along = np.zeros(len(chosen))
+    across = np.zeros(len(chosen))
+    turned = 0.0
+    if found is not None and np.linalg.norm(found[0]) > 0.0:
+        new = -found[0] / np.linalg.norm(found[0])
+        along = points[chosen] @ new
+        across = (new[0] * points[chosen, 1] - new[1] * points[chosen, 0]) * sign
+        old = found[1] - found[2]
+        if np.linalg.norm(old) > 0.0:
+            turned = 1.0 - float(new @ old) / float(np.linalg.norm(old))
+    end = dead_ends.strip_end_m(points, felt, 0.8)
+    beside = screen.felt_beside(memory, 0.3, 0.7) if known else False
+    beyond = _beyond(points, felt, chosen)
+    k = len(chosen)
+    return np.column_stack(
+        [
+            x,
+            y,
+            dist[chosen],
+            bearing,
+            felt[chosen],
+            weights[chosen] / np.maximum(felt[chosen], 1e-9),
+            weights[chosen] / mass,
+            np.where(hops < 0, 6.0, hops) / 6.0,
+            age,
+            beyond[:, 0],
+            beyond[:, 1],
+            felt_around,
+            fresh_around,
+            np.minimum(from_path, 1.0),
+            along,
+            across,
+            np.full(k, float(known)),
+            np.full(k, 1.0 if end is None else end),
+            np.full(k, float(beside)),
+            np.full(k, min(mass / 20.0, 2.0)),
+            np.full(k, fresh_bearing),
+            bearing - fresh_bearing,
+            np.full(k, turned),
+        ]
+    )
+
+
+class CollectMemory(FreshFeltMemory):
+    """The map as it is, recording each fresh-felt decision's points, their features and the
+    track's word on them."""
+
+    def _fresh(self, near: np.ndarray, ahead: np.ndarray) -> np.ndarray:
+        weights = super()._fresh(near, ahead)
+        now = oracle_visited.NOW
+        chosen = np.flatnonzero(weights > 0.0)
+        if now["track"] is None or not len(chosen):
+            return weights
+        floor = oracle_visited.to_floor(self._points[chosen], now["pose"])
+        ahead_now = oracle_visited.track_ahead(now["track"], floor, now["progress_m"], COVER_FROM_M)
+        record = {
+            "features": features(self, chosen, weights).astype(np.float32),
+            "behind": ~ahead_now,
+            "share": (weights[chosen] / float(weights.sum())).astype(np.float32),
+        }
+        folder = DATA["dir"]
+        assert folder is not None
+        with open(folder / f"points_{os.getpid()}.pkl", "ab") as out:
+            pickle.dump(record, out)
+        return weights
+
+
+def load_points(folder: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """The recorded points of ``folder``: features (P, F), behind (P,) bool, share (P,) and the
+    number of decisions."""
+    xs, ys, ws = [], [], []
+    for part in sorted(folder.glob("points_*.pkl")):
+        with open(part, "rb") as f:
+            while True:
+                try:
+                    record = pickle.load(f)
+                except EOFError:
+                    break
+                xs.append(record["features"])
+                ys.append(record["behind"])
+                ws.append(record["share"])
+    if not xs:
+        raise SystemExit(f"{folder}: no recorded points")
+    return (
+        np.vstack(xs).astype(np.float64),
+        np.concatenate(ys),
+        np.concatenate(ws).astype(np.float64),
+        len(xs),
+    )
+
+
+class TipNet:
+    """The fitted network: standardised features, ``HIDDEN`` tanh units, a logistic output."""
+
+    def __init__(self, model: dict[str, Any]) -> None:
+        self.mean = np.asarray(model["mean"])
+        self.scale = np.asarray(model["scale"])
+        self.w1, self.b1 = np.asarray(model["w1"]), np.asarray(model["b1"])
+        self.w2, self.b2 = np.asarray(model["w2"]), float(model["b2"])
+
+    @classmethod
+    def load(cls, path: Path) -> TipNet:
+        model = json.loads(path.read_text())
+        if model.get("features") != list(FEATURES):
+            raise SystemExit(f"{path}: its features are not this script's")
+        return cls(model)
+
+    def score(self, x: np.ndarray) -> np.ndarray:
+        hidden = np.tanh(((x - self.mean) / self.scale) @ self.w1 + self.b1)
+        return 1.0 / (1.0 + np.exp(-(hidden @ self.w2 + self.b2)))
+
+
+def fit(x: np.ndarray, y: np.ndarray, share: np.ndarray) -> dict[str, Any]:
+    """Fit the network to points ``x`` (P, F) labelled ``y`` (P,) bool, each weighing its
+    ``share`` (P,) of its decision's fresh felt (the weights normalised to a mean of 1), on
+    every behind point and ``NEGATIVE_KEEP`` of the others."""
+    rng = np.random.default_rng(SEED)
+    kept = y | (rng.random(len(y)) < NEGATIVE_KEEP)
+    x, y, share = x[kept], y[kept], np.where(y[kept], share[kept], share[kept] / NEGATIVE_KEEP)
+    mean, scale = x.mean(axis=0), x.std(axis=0)
+    scale[scale == 0.0] = 1.0
+    z = (x - mean) / scale
+    weight = share / share.mean()
+    target = y.astype(np.float64)
+    params = [
+        rng.normal(0.0, 1.0 / math.sqrt(z.shape[1]), (z.shape[1], HIDDEN)),
+        np.zeros(HIDDEN),
+        rng.normal(0.0, 1.0 / math.sqrt(HIDDEN), HIDDEN),
+        np.zeros(1),
+    ]
+    moments = [np.zeros_like(p) for p in params]
+    squares = [np.zeros_like(p) for p in params]
+    n = len(z)
+    for epoch in range(1, EPOCHS + 1):
+        w1, b1, w2, b2 = params
+        hidden = np.tanh(z @ w1 + b1)
+        p = 1.0 / (1.0 + np.exp(-(hidden @ w2 + b2[0])))
+        d_out = weight * (p - target) / n
+        d_hidden = np.outer(d_out, w2) * (1.0 - hidden**2)
+        grads = [
+            z.T @ d_hidden + DECAY * w1,
+            d_hidden.sum(axis=0),
+            hidden.T @ d_out + DECAY * w2,
+            np.array([d_out.sum()]),
+        ]
+        for k, g in enumerate(grads):
+            moments[k] = 0.9 * moments[k] + 0.1 * g
+            squares[k] = 0.999 * squares[k] + 0.001 * g * g
+            step = moments[k] / (1 - 0.9**epoch)
+            params[k] = params[k] - RATE * step / (np.sqrt(squares[k] / (1 - 0.999**epoch)) + 1e-8)
+        if epoch % 500 == 0:
+            loss = -float(
+                (
+                    weight * (target * np.log(p + 1e-12) + (1 - target) * np.log(1 - p + 1e-12))
+                ).mean()
+            )
+            print(f"epoch {epoch}: weighted log loss {loss:.4f}", flush=True)
+    w1, b1, w2, b2 = params
+    return {
+        "features": list(FEATURES),
+        "mean": mean.tolist(),
+        "scale": scale.tolist(),
+        "w1": w1.tolist(),
+        "b1": b1.tolist(),
+        "w2": w2.tolist(),
+        "b2": float(b2[0]),
+    }
+
+
+def report(net: TipNet, x: np.ndarray, y: np.ndarray, share: np.ndarray) -> None:
+    """Print, per threshold, the share of the behind felt (weighed by share) the network leaves
+    out and the share of the other fresh felt it leaves out."""
+    p = net.score(x)
+    for t in (0.3, 0.5, 0.7, 0.9):
+        gone = p >= t
+        hit = float(share[gone & y].sum()) / max(float(share[y].sum()), 1e-12)
+        miss = float(share[gone & ~y].sum()) / max(float(share[~y].sum()), 1e-12)
+        print(f"threshold {t}: leaves out {hit:.1%} of the behind felt, {miss:.2%} of the rest")
+
+
+def tipnet_test(net: TipNet, threshold: float) -> Any:
+    """A ``screen.py`` test: the fresh points the network scores at ``threshold`` or more."""
+
+    def test(memory: FreshFeltMemory, chosen: np.ndarray) -> np.ndarray:
+        weights = memory._weights_now  # type: ignore[attr-defined]
+        return net.score(features(memory, chosen, weights)) >= threshold
+
+    return test
+
+
+def _take(flag: str) -> str:
+    at = sys.argv.index(flag)
+    value = sys.argv[at + 1]
+    del sys.argv[at : at + 2]
+    return value
+
+
+def main() -> None:
+    mode = sys.argv.pop(1)
+    if mode == "collect":
+        folder = DATA["dir"] = Path(_take("--data"))
+        folder.mkdir(parents=True, exist_ok=True)
+        for old in folder.glob("points_*.pkl"):
+            old.unlink()
+        oracle_visited.main(CollectMemory)
+    elif mode == "fit":
+        x, y, share, decisions = load_points(Path(_take("--data")))
+        print(f"{decisions} decisions, {len(y)} fresh points, {y.mean():.1%} behind")
+        model = fit(x, y, share)
+        target = Path(_take("--model"))
+        target.write_text(json.dumps(model) + "\n")
+        report(TipNet(model), x, y, share)
+    elif mode == "report":
+        x, y, share, decisions = load_points(Path(_take("--data")))
+        print(f"{decisions} decisions, {len(y)} fresh points, {y.mean():.1%} behind")
+        report(TipNet.load(Path(_take("--model"))), x, y, share)
+    elif mode in ("screen", "drive"):
+        net = TipNet.load(Path(_take("--model")))
+        if mode == "screen":
+            thresholds = [float(t) for t in _take("--thresholds").split(",")]
+        else:
+            thresholds = [float(_take("--threshold"))]
+        names = []
+        for t in thresholds:
+            screen.TESTS[f"tipnet_{t}"] = tipnet_test(net, t)
+            names.append(f"tipnet_{t}")
+        if mode == "screen":
+            sys.argv[1:1] = ["--tests", ",".join(names)]
+        else:
+            sys.argv[1:1] = ["--drive", names[0]]
+        screen.main()
+    else:
+        raise SystemExit("the first argument is collect, fit, report, screen or drive")
+
+
+if __name__ == "__main__":
+    main()
