@@ -83,6 +83,8 @@ FEATURES = (
     "leg turned",
 )
 DATA: dict[str, Path | None] = {"dir": None}
+#: the last decision the network scored (its points, weights and newest map point) and its scores
+SCORED: dict[str, Any] = {}
 
 
 def _beyond(points: np.ndarray, felt: np.ndarray, chosen: np.ndarray) -> np.ndarray:
@@ -195,9 +197,9 @@ class CollectMemory(FreshFeltMemory):
         return weights
 
 
-def load_points(folder: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """The recorded points of ``folder``: features (P, F), behind (P,) bool, share (P,) and the
-    number of decisions."""
+def load_points(folder: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The recorded points of ``folder``: features (P, F), behind (P,) bool, share (P,) and
+    where each decision's points start (D,) int (a decision's points are consecutive)."""
     xs, ys, ws = [], [], []
     for part in sorted(folder.glob("points_*.pkl")):
         with open(part, "rb") as f:
@@ -211,12 +213,71 @@ def load_points(folder: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
                 ws.append(record["share"])
     if not xs:
         raise SystemExit(f"{folder}: no recorded points")
+    starts = np.concatenate([[0], np.cumsum([len(y) for y in ys])[:-1]])
     return (
         np.vstack(xs).astype(np.float64),
         np.concatenate(ys),
         np.concatenate(ws).astype(np.float64),
-        len(xs),
+        starts,
     )
+
+
+#: part 29: a decision's features are its points' features weighed by their shares, the least
+#: and most of :data:`SPREAD` among them, and how many points it has (log)
+SPREAD = ("x", "y toward the side", "distance", "from the path", "along the new leg")
+DECISION_FEATURES = (
+    *(f"mean {name}" for name in FEATURES),
+    *(f"least {name}" for name in SPREAD),
+    *(f"most {name}" for name in SPREAD),
+    "points (log)",
+)
+
+
+def decision_features(x: np.ndarray, share: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """(D, len(DECISION_FEATURES)): the decisions' features from their points' features
+    ``x`` (P, F) and shares ``share`` (P,) (summing to 1 in each decision), the decisions'
+    points starting at ``starts`` (D,)."""
+    spread = x[:, [FEATURES.index(name) for name in SPREAD]]
+    counts = np.diff(np.append(starts, len(x)))
+    return np.column_stack(
+        [
+            np.add.reduceat(x * share[:, None], starts, axis=0),
+            np.minimum.reduceat(spread, starts, axis=0),
+            np.maximum.reduceat(spread, starts, axis=0),
+            np.log(counts),
+        ]
+    )
+
+
+#: [deg] the map rule's turn: beyond this bearing it pivots
+TURN_DEG = screen.TURN_DEG
+
+
+def side_command(x: np.ndarray, y: np.ndarray, weights: np.ndarray) -> str:
+    """The map rule's command on fresh felt at ``x``, ``y`` (toward the branch side) weighing
+    ``weights``: ``T`` (pivot toward the side), ``A`` (away), ``F`` or ``B`` (none left, blank).
+    """
+    if float(weights.sum()) <= 1e-9:
+        return "B"
+    bearing = math.degrees(math.atan2(float((weights * y).sum()), float((weights * x).sum())))
+    return "T" if bearing > TURN_DEG else "A" if bearing < -TURN_DEG else "F"
+
+
+def oracle_changes(
+    x: np.ndarray, behind: np.ndarray, share: np.ndarray, starts: np.ndarray
+) -> np.ndarray:
+    """(D,) bool: whether covering the points the track puts behind changes the map rule's
+    command at each decision (bearing classes by :func:`side_command`, a blank map its own
+    class: an approximation of ``screen.py``'s, which follows the map's look further)."""
+    ix, iy = FEATURES.index("x"), FEATURES.index("y toward the side")
+    ends = np.append(starts[1:], len(x))
+    changed = np.zeros(len(starts), dtype=bool)
+    for d, (a, b) in enumerate(zip(starts, ends, strict=True)):
+        if not behind[a:b].any():
+            continue
+        px, py, w = x[a:b, ix], x[a:b, iy], share[a:b]
+        changed[d] = side_command(px, py, w) != side_command(px, py, w * ~behind[a:b])
+    return changed
 
 
 class TipNet:
@@ -227,11 +288,13 @@ class TipNet:
         self.scale = np.asarray(model["scale"])
         self.w1, self.b1 = np.asarray(model["w1"]), np.asarray(model["b1"])
         self.w2, self.b2 = np.asarray(model["w2"]), float(model["b2"])
+        self.level = model.get("level", "points")
 
     @classmethod
     def load(cls, path: Path) -> TipNet:
         model = json.loads(path.read_text())
-        if model.get("features") != list(FEATURES):
+        names = DECISION_FEATURES if model.get("level") == "decisions" else FEATURES
+        if model.get("features") != list(names):
             raise SystemExit(f"{path}: its features are not this script's")
         return cls(model)
 
@@ -240,13 +303,15 @@ class TipNet:
         return 1.0 / (1.0 + np.exp(-(hidden @ self.w2 + self.b2)))
 
 
-def fit(x: np.ndarray, y: np.ndarray, share: np.ndarray) -> dict[str, Any]:
-    """Fit the network to points ``x`` (P, F) labelled ``y`` (P,) bool, each weighing its
-    ``share`` (P,) of its decision's fresh felt (the weights normalised to a mean of 1), on
-    every behind point and ``NEGATIVE_KEEP`` of the others."""
+def fit(
+    x: np.ndarray, y: np.ndarray, share: np.ndarray, negative_keep: float = NEGATIVE_KEEP
+) -> dict[str, Any]:
+    """Fit the network to samples ``x`` (P, F) labelled ``y`` (P,) bool, each weighing its
+    ``share`` (P,) (points: of its decision's fresh felt; the weights normalised to a mean of 1),
+    on every positive sample and ``negative_keep`` of the others."""
     rng = np.random.default_rng(SEED)
-    kept = y | (rng.random(len(y)) < NEGATIVE_KEEP)
-    x, y, share = x[kept], y[kept], np.where(y[kept], share[kept], share[kept] / NEGATIVE_KEEP)
+    kept = y | (rng.random(len(y)) < negative_keep)
+    x, y, share = x[kept], y[kept], np.where(y[kept], share[kept], share[kept] / negative_keep)
     mean, scale = x.mean(axis=0), x.std(axis=0)
     scale[scale == 0.0] = 1.0
     z = (x - mean) / scale
@@ -287,6 +352,7 @@ def fit(x: np.ndarray, y: np.ndarray, share: np.ndarray) -> dict[str, Any]:
             print(f"epoch {epoch}: weighted log loss {loss:.4f}", flush=True)
     w1, b1, w2, b2 = params
     return {
+        "level": "points",
         "features": list(FEATURES),
         "mean": mean.tolist(),
         "scale": scale.tolist(),
@@ -308,12 +374,37 @@ def report(net: TipNet, x: np.ndarray, y: np.ndarray, share: np.ndarray) -> None
         print(f"threshold {t}: leaves out {hit:.1%} of the behind felt, {miss:.2%} of the rest")
 
 
+def report_decisions(
+    net: TipNet, x: np.ndarray, y: np.ndarray, share: np.ndarray, starts: np.ndarray
+) -> None:
+    """Print, per threshold, how many of the decisions whose command the track's cover changes
+    the network blanks, and how many of the others."""
+    changed = oracle_changes(x, y, share, starts)
+    p = net.score(decision_features(x, share, starts))
+    for t in (0.3, 0.5, 0.7, 0.9):
+        blank = p >= t
+        print(
+            f"threshold {t}: blanks {int((blank & changed).sum())} of the {int(changed.sum())}"
+            f" decisions the cover changes, {int((blank & ~changed).sum())} of the others"
+        )
+
+
 def tipnet_test(net: TipNet, threshold: float) -> Any:
     """A ``screen.py`` test: the fresh points the network scores at ``threshold`` or more."""
 
     def test(memory: FreshFeltMemory, chosen: np.ndarray) -> np.ndarray:
         weights = memory._weights_now  # type: ignore[attr-defined]
-        return net.score(features(memory, chosen, weights)) >= threshold
+        key = (chosen.tobytes(), weights[chosen].tobytes(), memory._points[-1].tobytes())
+        if SCORED.get("key") != key:  # the screen's copies of one decision score it once
+            points = features(memory, chosen, weights)
+            if net.level == "decisions":
+                share = weights[chosen] / float(weights[chosen].sum())
+                points = decision_features(points, share, np.zeros(1, dtype=np.int64))
+                SCORED["score"] = np.full(len(chosen), float(net.score(points)[0]))
+            else:
+                SCORED["score"] = net.score(points)
+            SCORED["key"] = key
+        return SCORED["score"] >= threshold
 
     return test
 
@@ -334,16 +425,28 @@ def main() -> None:
             old.unlink()
         oracle_visited.main(CollectMemory)
     elif mode == "fit":
-        x, y, share, decisions = load_points(Path(_take("--data")))
-        print(f"{decisions} decisions, {len(y)} fresh points, {y.mean():.1%} behind")
+        x, y, share, starts = load_points(Path(_take("--data")))
+        print(f"{len(starts)} decisions, {len(y)} fresh points, {y.mean():.1%} behind")
         model = fit(x, y, share)
-        target = Path(_take("--model"))
-        target.write_text(json.dumps(model) + "\n")
+        Path(_take("--model")).write_text(json.dumps(model) + "\n")
         report(TipNet(model), x, y, share)
+    elif mode == "fit-decisions":
+        x, y, share, starts = load_points(Path(_take("--data")))
+        changed = oracle_changes(x, y, share, starts)
+        print(f"{len(starts)} decisions, the track's cover changes {changed.sum()}")
+        decisions = decision_features(x, share, starts)
+        model = fit(decisions, changed, np.ones(len(changed)), negative_keep=1.0)
+        model.update(level="decisions", features=list(DECISION_FEATURES))
+        Path(_take("--model")).write_text(json.dumps(model) + "\n")
+        report_decisions(TipNet(model), x, y, share, starts)
     elif mode == "report":
-        x, y, share, decisions = load_points(Path(_take("--data")))
-        print(f"{decisions} decisions, {len(y)} fresh points, {y.mean():.1%} behind")
-        report(TipNet.load(Path(_take("--model"))), x, y, share)
+        x, y, share, starts = load_points(Path(_take("--data")))
+        net = TipNet.load(Path(_take("--model")))
+        print(f"{len(starts)} decisions, {len(y)} fresh points, {y.mean():.1%} behind")
+        if net.level == "decisions":
+            report_decisions(net, x, y, share, starts)
+        else:
+            report(net, x, y, share)
     elif mode in ("screen", "drive"):
         net = TipNet.load(Path(_take("--model")))
         if mode == "screen":
@@ -360,7 +463,9 @@ def main() -> None:
             sys.argv[1:1] = ["--drive", names[0]]
         screen.main()
     else:
-        raise SystemExit("the first argument is collect, fit, report, screen or drive")
+        raise SystemExit(
+            "the first argument is collect, fit, fit-decisions, report, screen or drive"
+        )
 
 
 if __name__ == "__main__":
