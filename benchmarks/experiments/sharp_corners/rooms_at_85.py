@@ -66,6 +66,10 @@ RUNS = {
     "the map rule, fresh sight as the product has it (part 27, a)": ORACLE / "rooms_sight/map-rule",
     "the map rule, fresh sight, cover from 0.3 m behind (part 27, b)": ORACLE
     / "rooms_sight_cover_from_30cm/map-rule",
+    "the map rule, fresh sight, the tip network at 0.5 (part 28)": HERE
+    / "results/tip_classifier/rooms/map-rule",
+    "the map rule, fresh sight, the tip judged by decision (part 29)": HERE
+    / "results/tip_classifier/rooms_decisions/map-rule",
     "the learner, round 27's winner": ROUNDS
     / "round27/results/balance/rooms.round20+visual+balance",
     "the learner, round 31 (strip)": ROUNDS / "round31/results/strip/rooms.round27+strip",

@@ -3,6 +3,9 @@ laps that the rule as it is does not (won) and the other way round (lost), on th
 (committed results only; it chooses nothing). Part 16 reads its two runs aimed at nothing by it.
 
     .venv/bin/python benchmarks/experiments/sharp_corners/won_lost.py
+
+``--against NAME`` counts against another run of :data:`rooms_at_85.RUNS` instead (parts 28-29:
+against part 27's (a), the rule with fresh sight).
 """
 
 from __future__ import annotations
@@ -21,17 +24,22 @@ SEEDS = ("seed100", "seed101")
 
 
 def main() -> None:
-    base = {seed: loop_laps(RUNS[AS_IT_IS] / seed) for seed in SEEDS}
+    against = AS_IT_IS
+    if "--against" in sys.argv:
+        against = sys.argv[sys.argv.index("--against") + 1]
+        if against not in RUNS:
+            raise SystemExit(f"--against: no run {against!r}")
+    base = {seed: loop_laps(RUNS[against] / seed) for seed in SEEDS}
     print("| run | loop laps | won | lost |")
     print("|---|---|---|---|")
     for name, folder in RUNS.items():
-        if not name.startswith("the map rule") or name == AS_IT_IS or not folder.is_dir():
+        if not name.startswith("the map rule") or name == against or not folder.is_dir():
             continue
         lapped = won = lost = total = 0
         for seed in SEEDS:
             laps = loop_laps(folder / seed)
             if laps.keys() != base[seed].keys():
-                raise SystemExit(f"{folder / seed}: not the trials of the rule as it is")
+                raise SystemExit(f"{folder / seed}: not the trials of {against}")
             for key, success in laps.items():
                 lapped += success
                 total += 1
