@@ -29,6 +29,7 @@ the track.
 
 from __future__ import annotations
 
+import copy
 import json
 import math
 import os
@@ -195,6 +196,61 @@ class CollectMemory(FreshFeltMemory):
         with open(folder / f"points_{os.getpid()}.pkl", "ab") as out:
             pickle.dump(record, out)
         return weights
+
+
+class CommandMemory(screen.ScreenMemory):
+    """The map as it is (part 30), recording at each frame its first fresh-felt decision's
+    features and whether part 12's oracle changes the map rule's command there, as
+    ``screen.py`` reads the command (a copy of the map sees the frame with the oracle)."""
+
+    _decision: np.ndarray | None = None
+
+    def _fresh(self, near: np.ndarray, ahead: np.ndarray) -> np.ndarray:
+        weights = super()._fresh(near, ahead)
+        chosen = np.flatnonzero(weights > 0.0)
+        if self._test is None and self._decision is None and len(chosen):
+            points = features(self, chosen, weights)
+            share = weights[chosen] / float(weights[chosen].sum())
+            self._decision = decision_features(points, share, np.zeros(1, dtype=np.int64))[0]
+        return weights
+
+    def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
+        if self._test is not None:  # the oracle's copy
+            super().see(values, levels)
+            return
+        twin = copy.copy(self)
+        twin._test = "oracle"
+        twin.see(values, levels)
+        range_deg = self.config.bearing_range_deg
+        oracle = screen.command(twin.inputs(), range_deg)
+        self._decision = None
+        oracle_visited.TrackVisitedMemory.see(self, values, levels)
+        if self._decision is None:  # no fresh felt at all: nothing to judge
+            return
+        as_is = screen.command(self.inputs(), range_deg)
+        record = {"features": self._decision.astype(np.float32), "changes": as_is != oracle}
+        folder = DATA["dir"]
+        assert folder is not None
+        with open(folder / f"decisions_{os.getpid()}.pkl", "ab") as out:
+            pickle.dump(record, out)
+
+
+def load_decisions(folder: Path) -> tuple[np.ndarray, np.ndarray]:
+    """Part 30's records of ``folder``: decision features (D, len(DECISION_FEATURES)) and
+    whether the oracle changes each decision's command (D,) bool."""
+    xs, ys = [], []
+    for part in sorted(folder.glob("decisions_*.pkl")):
+        with open(part, "rb") as f:
+            while True:
+                try:
+                    record = pickle.load(f)
+                except EOFError:
+                    break
+                xs.append(record["features"])
+                ys.append(record["changes"])
+    if not xs:
+        raise SystemExit(f"{folder}: no recorded decisions")
+    return np.vstack(xs).astype(np.float64), np.array(ys, dtype=bool)
 
 
 def load_points(folder: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -424,6 +480,25 @@ def main() -> None:
         for old in folder.glob("points_*.pkl"):
             old.unlink()
         oracle_visited.main(CollectMemory)
+    elif mode == "collect-commands":
+        folder = DATA["dir"] = Path(_take("--data"))
+        folder.mkdir(parents=True, exist_ok=True)
+        for old in folder.glob("decisions_*.pkl"):
+            old.unlink()
+        oracle_visited.NOW["combine"], oracle_visited.NOW["cover_from_m"] = "cover", COVER_FROM_M
+        oracle_visited.main(CommandMemory)
+    elif mode == "fit-commands":
+        x, changes = load_decisions(Path(_take("--data")))
+        print(f"{len(changes)} decisions, the oracle changes the command at {changes.sum()}")
+        model = fit(x, changes, np.ones(len(changes)), negative_keep=1.0)
+        model.update(level="decisions", features=list(DECISION_FEATURES))
+        Path(_take("--model")).write_text(json.dumps(model) + "\n")
+        p = TipNet(model).score(x)
+        for t in (0.3, 0.5, 0.7, 0.9):
+            print(
+                f"threshold {t}: blanks {int((p >= t)[changes].sum())} of the {int(changes.sum())}"
+                f" decisions the oracle changes, {int((p >= t)[~changes].sum())} of the others"
+            )
     elif mode == "fit":
         x, y, share, starts = load_points(Path(_take("--data")))
         print(f"{len(starts)} decisions, {len(y)} fresh points, {y.mean():.1%} behind")
@@ -464,7 +539,8 @@ def main() -> None:
         screen.main()
     else:
         raise SystemExit(
-            "the first argument is collect, fit, fit-decisions, report, screen or drive"
+            "the first argument is collect, collect-commands, fit, fit-decisions, fit-commands,"
+            " report, screen or drive"
         )
 
 
