@@ -235,11 +235,12 @@ class CommandMemory(screen.ScreenMemory):
             pickle.dump(record, out)
 
 
-def load_decisions(folder: Path) -> tuple[np.ndarray, np.ndarray]:
-    """Part 30's records of ``folder``: decision features (D, len(DECISION_FEATURES)) and
-    whether the oracle changes each decision's command (D,) bool."""
+def load_decisions(folder: Path, parts: str = "decisions_*.pkl") -> tuple[np.ndarray, np.ndarray]:
+    """Part 30's records of ``folder`` (its files matching ``parts``): decision features
+    (D, len(DECISION_FEATURES)) and whether the oracle changes each decision's command (D,)
+    bool."""
     xs, ys = [], []
-    for part in sorted(folder.glob("decisions_*.pkl")):
+    for part in sorted(folder.glob(parts)):
         with open(part, "rb") as f:
             while True:
                 try:
@@ -251,6 +252,26 @@ def load_decisions(folder: Path) -> tuple[np.ndarray, np.ndarray]:
     if not xs:
         raise SystemExit(f"{folder}: no recorded decisions")
     return np.vstack(xs).astype(np.float64), np.array(ys, dtype=bool)
+
+
+def cross_rooms(folder: Path, threshold: float = 0.3) -> None:
+    """Part 30's check of what limits the decision network (exploratory, teaching records
+    only): fitted on one worker's records (all of them, then their first half) and scored on
+    the other's. Each job runs in one worker, so the two hold different rooms."""
+    files = sorted(p.name for p in folder.glob("decisions_*.pkl"))
+    if len(files) != 2:
+        raise SystemExit(f"{folder}: cross-rooms needs the records of exactly two workers")
+    for taught, scored in (files, files[::-1]):
+        x, y = load_decisions(folder, taught)
+        x_other, y_other = load_decisions(folder, scored)
+        for share, n in (("all", len(y)), ("first half", len(y) // 2)):
+            model = fit(x[:n], y[:n], np.ones(n), negative_keep=1.0)
+            blank = TipNet(model).score(x_other) >= threshold
+            print(
+                f"taught on {share} of {taught} ({int(y[:n].sum())} changed), scored on {scored}:"
+                f" blanks {int(blank[y_other].sum())} of the {int(y_other.sum())} decisions the"
+                f" oracle changes, {int(blank[~y_other].sum())} of the other {int((~y_other).sum())}"
+            )
 
 
 def load_points(folder: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -473,6 +494,8 @@ def _take(flag: str) -> str:
 
 
 def main() -> None:
+    if len(sys.argv) < 2:
+        raise SystemExit("usage: tip_classifier.py MODE ... (see the module docstring)")
     mode = sys.argv.pop(1)
     if mode == "collect":
         folder = DATA["dir"] = Path(_take("--data"))
@@ -499,6 +522,8 @@ def main() -> None:
                 f"threshold {t}: blanks {int((p >= t)[changes].sum())} of the {int(changes.sum())}"
                 f" decisions the oracle changes, {int((p >= t)[~changes].sum())} of the others"
             )
+    elif mode == "cross-rooms":
+        cross_rooms(Path(_take("--data")))
     elif mode == "fit":
         x, y, share, starts = load_points(Path(_take("--data")))
         print(f"{len(starts)} decisions, {len(y)} fresh points, {y.mean():.1%} behind")
@@ -540,7 +565,7 @@ def main() -> None:
     else:
         raise SystemExit(
             "the first argument is collect, collect-commands, fit, fit-decisions, fit-commands,"
-            " report, screen or drive"
+            " cross-rooms, report, screen or drive"
         )
 
 
