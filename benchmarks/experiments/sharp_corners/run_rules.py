@@ -14,7 +14,8 @@ with two additions, neither of which changes a command the rules give in the pap
         --condition paper --repetitions 2 --workers 1
 
 Writes ``OUT/<rule>/seed0/results.json`` and ``OUT/rules.md`` as rules.py does (OUT defaults to
-``results/<condition>`` here).
+``results/<condition>`` here). ``--map KEY=VALUE`` and ``--rule NAME`` (repeatable) are passed on to rules.py (part
+31: the goal's map settings).
 """
 
 from __future__ import annotations
@@ -126,6 +127,16 @@ def main() -> None:
         help="run only repetitions FIRST..N-1 of the first N (the same repetitions, seeds and"
         " indices as a run of N; results.json then holds only those)",
     )
+    parser.add_argument(
+        "--map",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="passed on to rules.py: the map rule's map with that setting changed (repeatable)",
+    )
+    parser.add_argument(
+        "--rule", action="append", default=[], help="passed on to rules.py: score only this rule"
+    )
     args = parser.parse_args()
     condition = next(c for c in load_study(STUDY).conditions if c.name == args.condition)
     out = args.out or HERE / "results" / args.condition
@@ -142,6 +153,8 @@ def main() -> None:
         "--out", str(out),
         "--repetitions", str(args.repetitions),
         "--workers", str(args.workers),
+        *(arg for setting in args.map for arg in ("--map", setting)),
+        *(arg for rule in args.rule for arg in ("--rule", rule)),
     ]  # fmt: skip
     if args.first:
         first = args.first
