@@ -86,10 +86,12 @@ def traced_run_trial(env: Any, controller: Any, *, seed: int | None, **kw: Any) 
 _run_loop_trials = rules.run_loop_trials
 
 
-def traced_run_loop_trials(controller: Any, *, trial_seed: int, config: Any, repetition: int = 0):
+def traced_run_loop_trials(
+    controller: Any, *, trial_seed: int, config: Any, repetition: int = 0, **kw: Any
+):
     STATE["traces"] = []
     outcomes, record = _run_loop_trials(
-        controller, trial_seed=trial_seed, config=config, repetition=repetition
+        controller, trial_seed=trial_seed, config=config, repetition=repetition, **kw
     )
     traces = STATE["traces"]
     assert len(traces) == len(outcomes), (len(traces), len(outcomes))
