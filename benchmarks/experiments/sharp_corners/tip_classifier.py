@@ -23,8 +23,13 @@ the track.
   ``t`` or more.
 * ``drive --model FILE --threshold T <rules.py arguments>``: the map rule on the map with
   ``tipnet_<T>`` (a rule run).
+* Part 29: ``fit-decisions`` fits the network to each decision as a whole
+  (:data:`DECISION_FEATURES`, labelled by :func:`oracle_changes`); a decision model's test leaves
+  out all of a decision's fresh felt. Part 30: ``collect-commands`` records each frame's decision
+  with whether the oracle changes the command there (:class:`CommandMemory`), ``fit-commands``
+  fits to that, ``cross-rooms`` fits on one worker's rooms and scores on the other's.
 
-    .venv/bin/python benchmarks/experiments/sharp_corners/tip_classifier.py collect --data benchmarks/experiments/sharp_corners/results/tip_classifier/data --study benchmarks/experiments/sharp_corners/trials/tip_train.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --map fresh_sight_m=0.05 --out /tmp/tip_train --workers 2
+    .venv/bin/python benchmarks/experiments/sharp_corners/tip_classifier.py collect --data /tmp/tip_classifier/data --study benchmarks/experiments/sharp_corners/trials/tip_train.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --map fresh_sight_m=0.05 --out /tmp/tip_classifier/rules_train --workers 2
 """
 
 from __future__ import annotations
