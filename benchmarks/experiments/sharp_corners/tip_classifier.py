@@ -203,6 +203,30 @@ class CollectMemory(FreshFeltMemory):
         return weights
 
 
+#: part 32: the true felt in a fan either side of the rover (an oracle sensor): sectors of
+#: ``SIDE_SECTORS_DEG`` off the heading, in bands of ``SIDE_BANDS_M`` from the axle, each read at
+#: every 10 degrees and 0.05 m within it
+SIDE_SECTORS_DEG = ((30.0, 70.0), (70.0, 110.0), (110.0, 150.0))
+SIDE_BANDS_M = ((0.2, 0.45), (0.5, 0.8))
+SIDE = {"look": False}
+
+
+def side_look(track: Any, pose: tuple[float, float, float], sign: float) -> np.ndarray:
+    """(12,): the share of felt (by the track) in each sector and band on the branch side's side
+    (``sign`` +1: left), then on the other side."""
+    out = []
+    for side in (sign, -sign):
+        for low, high in SIDE_SECTORS_DEG:
+            for near, far in SIDE_BANDS_M:
+                angles = np.radians(np.arange(low, high + 1e-9, 10.0)) * side
+                radii = np.arange(near, far + 1e-9, 0.05)
+                a, r = np.meshgrid(angles, radii)
+                local = np.column_stack([(r * np.cos(a)).ravel(), (r * np.sin(a)).ravel()])
+                floor = oracle_visited.to_floor(local, pose)
+                out.append(float(np.mean(track.on_felt(floor))))
+    return np.array(out)
+
+
 class CommandMemory(screen.ScreenMemory):
     """The map as it is (part 30), recording at each frame its first fresh-felt decision's
     features and whether part 12's oracle changes the map rule's command there, as
@@ -217,6 +241,10 @@ class CommandMemory(screen.ScreenMemory):
             points = features(self, chosen, weights)
             share = weights[chosen] / float(weights[chosen].sum())
             self._decision = decision_features(points, share, np.zeros(1, dtype=np.int64))[0]
+            now = oracle_visited.NOW
+            if SIDE["look"] and now["track"] is not None:
+                side = side_look(now["track"], now["pose"], screen.side_sign(self))
+                self._decision = np.concatenate([self._decision, side])
         return weights
 
     def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
@@ -259,16 +287,18 @@ def load_decisions(folder: Path, parts: str = "decisions_*.pkl") -> tuple[np.nda
     return np.vstack(xs).astype(np.float64), np.array(ys, dtype=bool)
 
 
-def cross_rooms(folder: Path, threshold: float = 0.3) -> None:
+def cross_rooms(folder: Path, threshold: float = 0.3, columns: int | None = None) -> None:
     """Part 30's check of what limits the decision network (exploratory, teaching records
     only): fitted on one worker's records (all of them, then their first half) and scored on
-    the other's. Each job runs in one worker, so the two hold different rooms."""
+    the other's. Each job runs in one worker, so the two hold different rooms. ``columns``: fit
+    on the first that many features only (part 32: without the side look)."""
     files = sorted(p.name for p in folder.glob("decisions_*.pkl"))
     if len(files) != 2:
         raise SystemExit(f"{folder}: cross-rooms needs the records of exactly two workers")
     for taught, scored in (files, files[::-1]):
         x, y = load_decisions(folder, taught)
         x_other, y_other = load_decisions(folder, scored)
+        x, x_other = x[:, :columns], x_other[:, :columns]
         for share, n in (("all", len(y)), ("first half", len(y) // 2)):
             model = fit(x[:n], y[:n], np.ones(n), negative_keep=1.0)
             blank = TipNet(model).score(x_other) >= threshold
@@ -509,6 +539,9 @@ def main() -> None:
             old.unlink()
         oracle_visited.main(CollectMemory)
     elif mode == "collect-commands":
+        if "--side-look" in sys.argv:
+            sys.argv.remove("--side-look")
+            SIDE["look"] = True
         folder = DATA["dir"] = Path(_take("--data"))
         folder.mkdir(parents=True, exist_ok=True)
         for old in folder.glob("decisions_*.pkl"):
@@ -528,7 +561,12 @@ def main() -> None:
                 f" decisions the oracle changes, {int((p >= t)[~changes].sum())} of the others"
             )
     elif mode == "cross-rooms":
-        cross_rooms(Path(_take("--data")))
+        folder = Path(_take("--data"))
+        if "--side-look" in sys.argv:  # part 32: the same records without and with the side look
+            print("without the side look:")
+            cross_rooms(folder, columns=len(DECISION_FEATURES))
+            print("with the side look:")
+        cross_rooms(folder)
     elif mode == "fit":
         x, y, share, starts = load_points(Path(_take("--data")))
         print(f"{len(starts)} decisions, {len(y)} fresh points, {y.mean():.1%} behind")
