@@ -40,6 +40,7 @@ import math
 import os
 import pickle
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -268,20 +269,25 @@ class CommandMemory(screen.ScreenMemory):
             pickle.dump(record, out)
 
 
+def records(folder: Path, parts: str) -> Iterator[dict[str, Any]]:
+    """The records pickled one after another into ``folder``'s files matching ``parts``."""
+    for part in sorted(folder.glob(parts)):
+        with open(part, "rb") as f:
+            while True:
+                try:
+                    yield pickle.load(f)
+                except EOFError:
+                    break
+
+
 def load_decisions(folder: Path, parts: str = "decisions_*.pkl") -> tuple[np.ndarray, np.ndarray]:
     """Part 30's records of ``folder`` (its files matching ``parts``): decision features
     (D, len(DECISION_FEATURES)) and whether the oracle changes each decision's command (D,)
     bool."""
     xs, ys = [], []
-    for part in sorted(folder.glob(parts)):
-        with open(part, "rb") as f:
-            while True:
-                try:
-                    record = pickle.load(f)
-                except EOFError:
-                    break
-                xs.append(record["features"])
-                ys.append(record["changes"])
+    for record in records(folder, parts):
+        xs.append(record["features"])
+        ys.append(record["changes"])
     if not xs:
         raise SystemExit(f"{folder}: no recorded decisions")
     return np.vstack(xs).astype(np.float64), np.array(ys, dtype=bool)
@@ -313,16 +319,10 @@ def load_points(folder: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.nd
     """The recorded points of ``folder``: features (P, F), behind (P,) bool, share (P,) and
     where each decision's points start (D,) int (a decision's points are consecutive)."""
     xs, ys, ws = [], [], []
-    for part in sorted(folder.glob("points_*.pkl")):
-        with open(part, "rb") as f:
-            while True:
-                try:
-                    record = pickle.load(f)
-                except EOFError:
-                    break
-                xs.append(record["features"])
-                ys.append(record["behind"])
-                ws.append(record["share"])
+    for record in records(folder, "points_*.pkl"):
+        xs.append(record["features"])
+        ys.append(record["behind"])
+        ws.append(record["share"])
     if not xs:
         raise SystemExit(f"{folder}: no recorded points")
     starts = np.concatenate([[0], np.cumsum([len(y) for y in ys])[:-1]])
