@@ -27,7 +27,9 @@ the track.
   (:data:`DECISION_FEATURES`, labelled by :func:`oracle_changes`); a decision model's test leaves
   out all of a decision's fresh felt. Part 30: ``collect-commands`` records each frame's decision
   with whether the oracle changes the command there (:class:`CommandMemory`), ``fit-commands``
-  fits to that, ``cross-rooms`` fits on one worker's rooms and scores on the other's.
+  fits to that, ``cross-rooms`` fits on one worker's rooms and scores on the other's. Part 33:
+  ``screen``/``drive --gate NAME`` leave out only what ``screen.py``'s test NAME and the
+  network both leave out.
 
     .venv/bin/python benchmarks/experiments/sharp_corners/tip_classifier.py collect --data /tmp/tip_classifier/data --study benchmarks/experiments/sharp_corners/trials/tip_train.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --map fresh_sight_m=0.05 --out /tmp/tip_classifier/rules_train --workers 2
 """
@@ -521,6 +523,15 @@ def tipnet_test(net: TipNet, threshold: float) -> Any:
     return test
 
 
+def gated(gate: Any, test: Any) -> Any:
+    """A ``screen.py`` test leaving out the fresh points both ``gate`` and ``test`` leave out."""
+
+    def both(memory: FreshFeltMemory, chosen: np.ndarray) -> np.ndarray:
+        return gate(memory, chosen) & test(memory, chosen)
+
+    return both
+
+
 def _take(flag: str) -> str:
     at = sys.argv.index(flag)
     value = sys.argv[at + 1]
@@ -596,9 +607,14 @@ def main() -> None:
             thresholds = [float(t) for t in _take("--thresholds").split(",")]
         else:
             thresholds = [float(_take("--threshold"))]
+        gate = _take("--gate") if "--gate" in sys.argv else None
+        if gate is not None and gate not in screen.TESTS:
+            raise SystemExit(f"--gate takes one of: {', '.join(screen.TESTS)}")
         names = []
         for t in thresholds:
             screen.TESTS[f"tipnet_{t}"] = tipnet_test(net, t)
+            if gate is not None:  # part 33: the gate's test, only where the network agrees
+                screen.TESTS[f"tipnet_{t}"] = gated(screen.TESTS[gate], tipnet_test(net, t))
             names.append(f"tipnet_{t}")
         if mode == "screen":
             sys.argv[1:1] = ["--tests", ",".join(names)]
