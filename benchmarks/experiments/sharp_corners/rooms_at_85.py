@@ -1,5 +1,5 @@
 """Issue 41's bar, room by room: how many kept rooms lap at least 85 % of their loop laps, for
-the map-rule runs of parts 8-30 and the learners beside them (committed results only; it chooses
+the map-rule runs of parts 8-33 and the learners beside them (committed results only; it chooses
 nothing).
 
     .venv/bin/python benchmarks/experiments/sharp_corners/rooms_at_85.py
@@ -72,6 +72,8 @@ RUNS = {
     / "results/tip_classifier/rooms_decisions/map-rule",
     "the map rule, fresh sight, the tip judged by the oracle's commands (part 30)": HERE
     / "results/tip_classifier/rooms_commands/map-rule",
+    "the map rule, fresh sight, the strip-end turn where the network agrees (part 33)": HERE
+    / "results/tip_classifier/rooms_gated/map-rule",
     "the learner, round 27's winner": ROUNDS
     / "round27/results/balance/rooms.round20+visual+balance",
     "the learner, round 31 (strip)": ROUNDS / "round31/results/strip/rooms.round27+strip",
