@@ -46,18 +46,27 @@ MIN_SEEN, MAX_FELT = 3, 0.15
 def leads_nowhere(points: np.ndarray, felt: np.ndarray, chosen: np.ndarray) -> np.ndarray:
     """(K,) bool for the map points ``chosen`` (K,) int of ``points`` (N, 2) [m, rover frame]
     with felt levels ``felt`` (N,): carpet seen beyond each (element by element, no BLAS)."""
+    seen, level = beyond(points, felt, chosen)
+    return (seen >= MIN_SEEN) & (level < MAX_FELT)
+
+
+def beyond(
+    points: np.ndarray, felt: np.ndarray, chosen: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """(K,) int and (K,) float64: how many of the map's points lie beyond each chosen point
+    (from ``NEAR_M`` to ``FAR_M`` further along the line from the axle, within ``LANE_M`` of it)
+    and their mean felt level (0 where there are none)."""
     reach = np.hypot(points[chosen, 0], points[chosen, 1])
     ux, uy = points[chosen, 0] / reach, points[chosen, 1] / reach
     along = points[None, :, 0] * ux[:, None] + points[None, :, 1] * uy[:, None]
     across = points[None, :, 1] * ux[:, None] - points[None, :, 0] * uy[:, None]
-    beyond = (
+    lane = (
         (along >= reach[:, None] + NEAR_M)
         & (along <= reach[:, None] + FAR_M)
         & (np.abs(across) <= LANE_M)
     )
-    seen = beyond.sum(axis=1)
-    level = (beyond * felt[None, :]).sum(axis=1) / np.maximum(seen, 1)
-    return (seen >= MIN_SEEN) & (level < MAX_FELT)
+    seen = lane.sum(axis=1)
+    return seen, (lane * felt[None, :]).sum(axis=1) / np.maximum(seen, 1)
 
 
 #: ``--whole-tip`` (part 14): the rover's own strip ends ahead where, within ``END_LANE_M`` of

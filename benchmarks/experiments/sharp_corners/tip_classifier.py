@@ -96,23 +96,6 @@ DATA: dict[str, Path | None] = {"dir": None}
 SCORED: dict[str, Any] = {}
 
 
-def _beyond(points: np.ndarray, felt: np.ndarray, chosen: np.ndarray) -> np.ndarray:
-    """(K, 2): the mean felt level (1 where none) and count of the map's points beyond each
-    chosen point, as ``dead_ends.leads_nowhere`` looks (element by element, no BLAS)."""
-    reach = np.maximum(np.hypot(points[chosen, 0], points[chosen, 1]), 1e-9)
-    ux, uy = points[chosen, 0] / reach, points[chosen, 1] / reach
-    along = points[None, :, 0] * ux[:, None] + points[None, :, 1] * uy[:, None]
-    across = points[None, :, 1] * ux[:, None] - points[None, :, 0] * uy[:, None]
-    beyond = (
-        (along >= reach[:, None] + dead_ends.NEAR_M)
-        & (along <= reach[:, None] + dead_ends.FAR_M)
-        & (np.abs(across) <= dead_ends.LANE_M)
-    )
-    seen = beyond.sum(axis=1)
-    level = np.where(seen > 0, (beyond * felt[None, :]).sum(axis=1) / np.maximum(seen, 1), 1.0)
-    return np.column_stack([level, seen / 40.0])
-
-
 def features(memory: FreshFeltMemory, chosen: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """(K, len(FEATURES)) float64: what ``memory``'s map holds at its fresh felt points
     ``chosen`` (K,) int, whose fresh weights are ``weights`` (N,) — all of it a robot has."""
@@ -151,7 +134,7 @@ def features(memory: FreshFeltMemory, chosen: np.ndarray, weights: np.ndarray) -
             turned = 1.0 - float(new @ old) / float(np.linalg.norm(old))
     end = dead_ends.strip_end_m(points, felt, 0.8)
     beside = screen.felt_beside(memory, 0.3, 0.7) if known else False
-    beyond = _beyond(points, felt, chosen)
+    seen, level = dead_ends.beyond(points, np.asarray(felt), np.asarray(chosen))
     k = len(chosen)
     return np.column_stack(
         [
@@ -164,8 +147,8 @@ def features(memory: FreshFeltMemory, chosen: np.ndarray, weights: np.ndarray) -
             weights[chosen] / mass,
             np.where(hops < 0, 6.0, hops) / 6.0,
             age,
-            beyond[:, 0],
-            beyond[:, 1],
+            np.where(seen > 0, level, 1.0),
+            seen / 40.0,
             felt_around,
             fresh_around,
             np.minimum(from_path, 1.0),
@@ -180,6 +163,14 @@ def features(memory: FreshFeltMemory, chosen: np.ndarray, weights: np.ndarray) -
             np.full(k, turned),
         ]
     )
+
+
+def append(kind: str, record: dict[str, Any]) -> None:
+    """Pickle ``record`` onto this worker process's file of ``kind`` records in ``--data``."""
+    folder = DATA["dir"]
+    assert folder is not None
+    with open(folder / f"{kind}_{os.getpid()}.pkl", "ab") as out:
+        pickle.dump(record, out)
 
 
 class CollectMemory(FreshFeltMemory):
@@ -199,10 +190,7 @@ class CollectMemory(FreshFeltMemory):
             "behind": ~ahead_now,
             "share": (weights[chosen] / float(weights.sum())).astype(np.float32),
         }
-        folder = DATA["dir"]
-        assert folder is not None
-        with open(folder / f"points_{os.getpid()}.pkl", "ab") as out:
-            pickle.dump(record, out)
+        append("points", record)
         return weights
 
 
@@ -241,9 +229,7 @@ class CommandMemory(screen.ScreenMemory):
         weights = super()._fresh(near, ahead)
         chosen = np.flatnonzero(weights > 0.0)
         if self._test is None and self._decision is None and len(chosen):
-            points = features(self, chosen, weights)
-            share = weights[chosen] / float(weights[chosen].sum())
-            self._decision = decision_features(points, share, np.zeros(1, dtype=np.int64))[0]
+            self._decision = one_decision(self, chosen, weights)
             now = oracle_visited.NOW
             if SIDE["look"] and now["track"] is not None:
                 side = side_look(now["track"], now["pose"], screen.side_sign(self))
@@ -265,10 +251,7 @@ class CommandMemory(screen.ScreenMemory):
             return
         as_is = screen.command(self.inputs(), range_deg)
         record = {"features": self._decision.astype(np.float32), "changes": as_is != oracle}
-        folder = DATA["dir"]
-        assert folder is not None
-        with open(folder / f"decisions_{os.getpid()}.pkl", "ab") as out:
-            pickle.dump(record, out)
+        append("decisions", record)
 
 
 def records(folder: Path, parts: str) -> Iterator[dict[str, Any]]:
@@ -363,8 +346,12 @@ def decision_features(x: np.ndarray, share: np.ndarray, starts: np.ndarray) -> n
     )
 
 
-#: [deg] the map rule's turn: beyond this bearing it pivots
-TURN_DEG = screen.TURN_DEG
+def one_decision(memory: FreshFeltMemory, chosen: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """(len(DECISION_FEATURES),): the features of ``memory``'s decision on its fresh felt points
+    ``chosen`` weighing ``weights`` (N,)."""
+    share = weights[chosen] / float(weights[chosen].sum())
+    points = features(memory, chosen, weights)
+    return decision_features(points, share, np.zeros(1, dtype=np.int64))[0]
 
 
 def side_command(x: np.ndarray, y: np.ndarray, weights: np.ndarray) -> str:
@@ -374,7 +361,8 @@ def side_command(x: np.ndarray, y: np.ndarray, weights: np.ndarray) -> str:
     if float(weights.sum()) <= 1e-9:
         return "B"
     bearing = math.degrees(math.atan2(float((weights * y).sum()), float((weights * x).sum())))
-    return "T" if bearing > TURN_DEG else "A" if bearing < -TURN_DEG else "F"
+    turn = screen.TURN_DEG
+    return "T" if bearing > turn else "A" if bearing < -turn else "F"
 
 
 def oracle_changes(
@@ -494,12 +482,17 @@ def report_decisions(
     """Print, per threshold, how many of the decisions whose command the track's cover changes
     the network blanks, and how many of the others."""
     changed = oracle_changes(x, y, share, starts)
-    p = net.score(decision_features(x, share, starts))
+    print_blanks(net.score(decision_features(x, share, starts)), changed, "the cover changes")
+
+
+def print_blanks(score: np.ndarray, changed: np.ndarray, what: str) -> None:
+    """Print, per threshold, how many of the decisions ``changed`` (D,) bool and of the others
+    a network scoring them ``score`` (D,) blanks."""
     for t in (0.3, 0.5, 0.7, 0.9):
-        blank = p >= t
+        blank = score >= t
         print(
             f"threshold {t}: blanks {int((blank & changed).sum())} of the {int(changed.sum())}"
-            f" decisions the cover changes, {int((blank & ~changed).sum())} of the others"
+            f" decisions {what}, {int((blank & ~changed).sum())} of the others"
         )
 
 
@@ -510,13 +503,11 @@ def tipnet_test(net: TipNet, threshold: float) -> Any:
         weights = memory._weights_now  # type: ignore[attr-defined]
         key = (chosen.tobytes(), weights[chosen].tobytes(), memory._points[-1].tobytes())
         if SCORED.get("key") != key:  # the screen's copies of one decision score it once
-            points = features(memory, chosen, weights)
             if net.level == "decisions":
-                share = weights[chosen] / float(weights[chosen].sum())
-                points = decision_features(points, share, np.zeros(1, dtype=np.int64))
-                SCORED["score"] = np.full(len(chosen), float(net.score(points)[0]))
+                decision = one_decision(memory, chosen, weights)[None, :]
+                SCORED["score"] = np.full(len(chosen), float(net.score(decision)[0]))
             else:
-                SCORED["score"] = net.score(points)
+                SCORED["score"] = net.score(features(memory, chosen, weights))
             SCORED["key"] = key
         return SCORED["score"] >= threshold
 
@@ -565,12 +556,7 @@ def main() -> None:
         model = fit(x, changes, np.ones(len(changes)), negative_keep=1.0)
         model.update(level="decisions", features=list(DECISION_FEATURES))
         Path(_take("--model")).write_text(json.dumps(model) + "\n")
-        p = TipNet(model).score(x)
-        for t in (0.3, 0.5, 0.7, 0.9):
-            print(
-                f"threshold {t}: blanks {int((p >= t)[changes].sum())} of the {int(changes.sum())}"
-                f" decisions the oracle changes, {int((p >= t)[~changes].sum())} of the others"
-            )
+        print_blanks(TipNet(model).score(x), changes, "the oracle changes")
     elif mode == "cross-rooms":
         folder = Path(_take("--data"))
         if "--side-look" in sys.argv:  # part 32: the same records without and with the side look
@@ -612,9 +598,10 @@ def main() -> None:
             raise SystemExit(f"--gate takes one of: {', '.join(screen.TESTS)}")
         names = []
         for t in thresholds:
-            screen.TESTS[f"tipnet_{t}"] = tipnet_test(net, t)
+            test = tipnet_test(net, t)
             if gate is not None:  # part 33: the gate's test, only where the network agrees
-                screen.TESTS[f"tipnet_{t}"] = gated(screen.TESTS[gate], tipnet_test(net, t))
+                test = gated(screen.TESTS[gate], test)
+            screen.TESTS[f"tipnet_{t}"] = test
             names.append(f"tipnet_{t}")
         if mode == "screen":
             sys.argv[1:1] = ["--tests", ",".join(names)]
