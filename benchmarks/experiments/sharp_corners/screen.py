@@ -255,7 +255,39 @@ TESTS: dict[str, Callable[[FreshFeltMemory, np.ndarray], np.ndarray]] = {
 }
 
 
-#: the tests a screen run scores (``--tests a,b``; default all)
+def side_behind(
+    off_m: float, back_m: float, own_strip: bool = True
+) -> Callable[[FreshFeltMemory, np.ndarray], np.ndarray]:
+    """A test adding felt to what counts (part 35): while the branch side gives a side, the map's
+    points behind the axle (from ``BEHIND_M`` to ``back_m`` back) and at least ``off_m`` to that
+    side, within the reach ``near`` (N,) bool, count as ahead (on the rover's own strip too, with
+    ``own_strip``), so that fresh felt there (a sharp corner's outgoing strip, running back
+    beside the rover) pulls the bearing toward the side; the map's visited felt and fresh sight
+    still apply."""
+
+    def extra(memory: FreshFeltMemory, near: np.ndarray) -> np.ndarray:
+        if memory._side == 0.5:  # no side
+            return np.zeros(len(near), dtype=bool)
+        sign = side_sign(memory)
+        x, y = memory._points[:, 0], memory._points[:, 1]
+        added = near & (x <= -BEHIND_M) & (x > -back_m) & (sign * y >= off_m)
+        if own_strip and added.any():
+            added &= memory._own_strip(np.hypot(x, y))
+        return added
+
+    return extra
+
+
+#: tests that add felt to the fresh felt instead of leaving some out (part 35): the points of
+#: the map that count as ahead besides those the map counts
+EXTRA: dict[str, Callable[[FreshFeltMemory, np.ndarray], np.ndarray]] = {
+    "side_behind_0.15": side_behind(0.15, 0.45),
+    "side_behind_0.25": side_behind(0.25, 0.45),
+    "side_behind_0.35": side_behind(0.35, 0.45),
+    "side_behind_0.25_any_strip": side_behind(0.25, 0.45, own_strip=False),
+}
+
+#: the tests a screen run scores (``--tests a,b``; default all but :data:`EXTRA`)
 SCREENED: list[str] = list(TESTS)
 
 
@@ -287,6 +319,8 @@ class ScreenMemory(oracle_visited.TrackVisitedMemory):
         return super(oracle_visited.TrackVisitedMemory, self)._kept(where)  # the map's own
 
     def _fresh(self, near: np.ndarray, ahead: np.ndarray) -> np.ndarray:
+        if self._test in EXTRA:
+            ahead = ahead | EXTRA[self._test](self, near)
         weights = super()._fresh(near, ahead)
         if self._test in TESTS:
             chosen = np.flatnonzero(weights > 0.0)
@@ -351,8 +385,8 @@ class DriveMemory(ScreenMemory):
 def drive(name: str) -> None:
     """Run ``../generalization/rules.py`` (this script's arguments) with the map rule driving on
     the map with the test ``name`` (a key of :data:`TESTS`)."""
-    if name not in TESTS:
-        raise SystemExit(f"--drive takes one of: {', '.join(TESTS)}")
+    if name not in TESTS and name not in EXTRA:
+        raise SystemExit(f"--drive takes one of: {', '.join([*TESTS, *EXTRA])}")
 
     DriveMemory._test = name
     oracle_visited.map_rule_with(DriveMemory)
@@ -362,9 +396,10 @@ def main() -> None:
     if "--tests" in sys.argv:
         at = sys.argv.index("--tests")
         names = sys.argv[at + 1].split(",")
-        unknown = [n for n in names if n not in TESTS]
+        unknown = [n for n in names if n not in TESTS and n not in EXTRA]
         if unknown:
-            raise SystemExit(f"--tests: no test {', '.join(unknown)}; there are {', '.join(TESTS)}")
+            known = ", ".join([*TESTS, *EXTRA])
+            raise SystemExit(f"--tests: no test {', '.join(unknown)}; there are {known}")
         SCREENED[:] = names
         del sys.argv[at : at + 2]
     if "--drive" in sys.argv:
