@@ -1,0 +1,85 @@
+"""The map's path as places rather than commands (part 36 of ``README.md``).
+
+The ``fresh_felt`` map keeps the places the rover has been as the last 40 *commands*' places, so
+a rover that pivots again and again at a sharp corner's vertex fills its path with the one place
+it turns on: after some 35 pivots the path no longer reaches the strip it came along, the felt of
+that strip (seen again while it turns) counts fresh, and the rule drives back along it. At the
+start of an episode the path is empty, so the felt behind the rover's start counts fresh once the
+rover has turned toward it. Part 28's screen frames show both: of the 28 commands the oracle
+changes on seed 202, 15 come with a full path spanning at most 0.6 m and 7 in an episode's first
+dozen commands.
+
+This script runs ``../generalization/rules.py`` (its arguments passed on) with every
+``fresh_felt`` map made as :class:`PlacesMemory`: a place joins the path only when the rover
+stands at least ``--place-m`` from the last one (a pivot on the spot adds none), and with
+``--start-behind M`` an episode starts with places every forward step up to M behind the rover
+(a rover set down on a trail facing the way it is to go has, as it were, come along it).
+
+    .venv/bin/python benchmarks/experiments/sharp_corners/path_places.py --place-m 0.05 --start-behind 0.4 --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --map fresh_sight_m=0.05 --out /tmp/path_places --workers 2
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import oracle_visited  # noqa: E402
+
+from lfd_track.core.commands import Command  # noqa: E402
+from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
+
+#: places the path holds (the map's own keeps the last 40 commands' places)
+PATH_PLACES = 40
+
+#: ``--place-m`` (0: every command adds a place, as the map does) and ``--start-behind``
+PLACES = {"place_m": 0.0, "start_behind_m": 0.0}
+
+
+class PlacesMemory(FreshFeltMemory):
+    """The ``fresh_felt`` map whose path holds places the rover has moved between."""
+
+    def reset(self) -> None:
+        super().reset()
+        behind = PLACES["start_behind_m"]
+        if behind > 0.0:
+            steps = int(math.floor(behind / self._step + 1e-9))
+            self._path = np.array([[-k * self._step, 0.0] for k in range(steps, 0, -1)])
+
+    def _move(self, command: int, measured=None) -> None:  # noqa: ANN001 - PlanarMotion | None
+        """The map's own move, but the place the rover stands on joins the path only when it
+        lies at least ``--place-m`` from the last place in it."""
+        place_m = PLACES["place_m"]
+        here_already = bool(len(self._path)) and math.hypot(*self._path[-1]) < place_m
+        path = self._path if here_already else np.vstack([self._path, np.zeros((1, 2))])
+        self._path = path[-PATH_PLACES:]
+        if self._branch is not None:
+            self._branch.moved(command)
+        self._forward = command == Command.FORWARD
+        if measured is None:
+            self._points = self._moved(self._points, command)
+            self._path = self._moved(self._path, command)
+            self._centres = self._moved(self._centres, command)
+        else:
+            self._points = measured.move_points(self._points)
+            self._path = measured.move_points(self._path)
+            self._centres = measured.move_points(self._centres)
+
+
+def main() -> None:
+    for flag, key in (("--place-m", "place_m"), ("--start-behind", "start_behind_m")):
+        if flag in sys.argv:
+            at = sys.argv.index(flag)
+            PLACES[key] = float(sys.argv[at + 1])
+            if not PLACES[key] >= 0.0:
+                raise SystemExit(f"{flag} takes metres >= 0")
+            del sys.argv[at : at + 2]
+    oracle_visited.map_rule_with(PlacesMemory)
+
+
+if __name__ == "__main__":
+    main()
