@@ -1,5 +1,5 @@
 """Issue 41's bar, room by room: how many kept rooms lap at least 85 % of their loop laps, for
-the map-rule runs of parts 8-33 and the learners beside them (committed results only; it chooses
+the map-rule runs of parts 8-36 and the learners beside them (committed results only; it chooses
 nothing).
 
     .venv/bin/python benchmarks/experiments/sharp_corners/rooms_at_85.py
@@ -74,6 +74,14 @@ RUNS = {
     / "results/tip_classifier/rooms_commands/map-rule",
     "the map rule, fresh sight, the strip-end turn where the network agrees (part 33)": HERE
     / "results/tip_classifier/rooms_gated/map-rule",
+    "the map rule, fresh sight, the strip-end turn at 0.45 m (part 34)": ORACLE
+    / "rooms_end_blank_0.45/map-rule",
+    "the map rule, fresh sight, the strip-end turn at 0.6 m (part 34)": ORACLE
+    / "rooms_end_blank_0.6/map-rule",
+    "the map rule, fresh sight, felt behind on the branch side (part 35)": ORACLE
+    / "rooms_side_behind_0.35/map-rule",
+    "the map rule, fresh sight, the path as places (part 36)": ORACLE
+    / "rooms_path_places/map-rule",
     "the learner, round 27's winner": ROUNDS
     / "round27/results/balance/rooms.round20+visual+balance",
     "the learner, round 31 (strip)": ROUNDS / "round31/results/strip/rooms.round27+strip",
