@@ -36,8 +36,37 @@ from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
 #: places the path holds (the map's own keeps the last 40 commands' places)
 PATH_PLACES = 40
 
-#: ``--place-m`` (0: every command adds a place, as the map does) and ``--start-behind``
-PLACES = {"place_m": 0.0, "start_behind_m": 0.0}
+#: ``--place-m`` (0: every command adds a place, as the map does), ``--start-behind`` and
+#: ``--along-felt`` (part 37: the raster's cell; 0: off)
+PLACES = {"place_m": 0.0, "start_behind_m": 0.0, "along_felt_m": 0.0}
+
+
+def crosses_carpet(
+    points: np.ndarray, felt: np.ndarray, starts: np.ndarray, ends: np.ndarray, cell: float
+) -> np.ndarray:
+    """(P,) bool: whether the straight line from each of ``starts`` (P, 2) to the matching one
+    of ``ends`` (P, 2) crosses carpet on the map whose ``points`` (N, 2) have the felt levels
+    ``felt`` (N,): the map is rastered in squares of ``cell`` metres as ``fresh_sight_m`` does
+    (a square's felt the mean of its points', a square with no point not carpet), and the line is
+    sampled every ``cell`` from one cell past its start to one cell short of its end."""
+    origin = points.min(axis=0) - cell
+    keys = np.floor((points - origin) / cell).astype(np.int64)
+    size = keys.max(axis=0) + 2
+    index = keys[:, 0] * size[1] + keys[:, 1]
+    total = np.bincount(index, weights=felt, minlength=int(size[0] * size[1]))
+    count = np.bincount(index, minlength=int(size[0] * size[1]))
+    carpet = (count > 0) & (total < 0.5 * count)
+    gap = ends - starts
+    length = np.hypot(gap[:, 0], gap[:, 1])
+    longest = float(length.max()) if len(length) else 0.0
+    steps = np.arange(cell, max(longest, cell), cell)
+    unit = gap / np.maximum(length, 1e-9)[:, None]
+    at = starts[:, None, :] + unit[:, None, :] * steps[None, :, None]
+    cells = np.floor((at - origin) / cell).astype(np.int64)
+    outside = (cells < 0).any(axis=2) | (cells >= size[None, None, :]).any(axis=2)
+    cells = np.clip(cells, 0, size - 1)
+    sampled = (steps[None, :] < length[:, None] - cell) & ~outside
+    return (carpet[cells[..., 0] * size[1] + cells[..., 1]] & sampled).any(axis=1)
 
 
 class PlacesMemory(FreshFeltMemory):
@@ -69,9 +98,32 @@ class PlacesMemory(FreshFeltMemory):
             self._path = measured.move_points(self._path)
             self._centres = measured.move_points(self._centres)
 
+    def _away(self, chosen: np.ndarray, marks: np.ndarray, radius: float) -> np.ndarray:
+        """The map's own, but with ``--along-felt`` a point whose straight line from the
+        nearest of ``marks`` crosses carpet stays fully fresh: a place visits only the felt it
+        reaches along felt, not a strip beside its own across a gap of carpet."""
+        away = super()._away(chosen, marks, radius)
+        cell = PLACES["along_felt_m"]
+        if not cell or not len(chosen) or not len(marks):
+            return away
+        near = away < 1.0
+        if not near.any():
+            return away
+        targets = chosen[near]
+        gap_x = targets[:, 0, None] - marks[None, :, 0]
+        gap_y = targets[:, 1, None] - marks[None, :, 1]
+        nearest = marks[(gap_x * gap_x + gap_y * gap_y).argmin(axis=1)]
+        across = crosses_carpet(self._points, self._felt, nearest, targets, cell)
+        away[np.flatnonzero(near)[across]] = 1.0
+        return away
+
 
 def main() -> None:
-    for flag, key in (("--place-m", "place_m"), ("--start-behind", "start_behind_m")):
+    for flag, key in (
+        ("--place-m", "place_m"),
+        ("--start-behind", "start_behind_m"),
+        ("--along-felt", "along_felt_m"),
+    ):
         if flag in sys.argv:
             at = sys.argv.index(flag)
             PLACES[key] = float(sys.argv[at + 1])
