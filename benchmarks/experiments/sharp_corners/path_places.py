@@ -5,7 +5,7 @@ a rover that pivots again and again at a sharp corner's vertex fills its path wi
 it turns on: after some 35 pivots the path no longer reaches the strip it came along, the felt of
 that strip (seen again while it turns) counts fresh, and the rule drives back along it. At the
 start of an episode the path is empty, so the felt behind the rover's start counts fresh once the
-rover has turned toward it. Part 28's screen frames show both: of the 28 commands the oracle
+rover has turned toward it. Part 35's screen frames show both: of the 28 commands the oracle
 changes on seed 202, 15 come with a full path spanning at most 0.6 m and 7 in an episode's first
 dozen commands.
 
@@ -14,6 +14,9 @@ This script runs ``../generalization/rules.py`` (its arguments passed on) with e
 stands at least ``--place-m`` from the last one (a pivot on the spot adds none), and with
 ``--start-behind M`` an episode starts with places every forward step up to M behind the rover
 (a rover set down on a trail facing the way it is to go has, as it were, come along it).
+With ``--along-felt CELL`` (part 37) a place visits only the felt it reaches without crossing
+carpet, and with ``--forget-blank`` (part 38) a pivot made while the map holds no fresh felt still
+adds its place, so that a turn on a blank map forgets the path as the map's own does.
 
     .venv/bin/python benchmarks/experiments/sharp_corners/path_places.py --place-m 0.05 --start-behind 0.4 --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --map fresh_sight_m=0.05 --out /tmp/path_places --workers 2
 """
@@ -38,7 +41,7 @@ PATH_PLACES = 40
 
 #: ``--place-m`` (0: every command adds a place, as the map does), ``--start-behind`` and
 #: ``--along-felt`` (part 37: the raster's cell; 0: off)
-PLACES = {"place_m": 0.0, "start_behind_m": 0.0, "along_felt_m": 0.0}
+PLACES = {"place_m": 0.0, "start_behind_m": 0.0, "along_felt_m": 0.0, "forget_blank": 0.0}
 
 
 def crosses_carpet(
@@ -84,6 +87,8 @@ class PlacesMemory(FreshFeltMemory):
         lies at least ``--place-m`` from the last place in it."""
         place_m = PLACES["place_m"]
         here_already = bool(len(self._path)) and math.hypot(*self._path[-1]) < place_m
+        if here_already and PLACES["forget_blank"] and float(self._inputs[1]) <= 0.0:
+            here_already = False  # --forget-blank: a turn on a blank map adds its place
         path = self._path if here_already else np.vstack([self._path, np.zeros((1, 2))])
         self._path = path[-PATH_PLACES:]
         if self._branch is not None:
@@ -130,6 +135,9 @@ def main() -> None:
             if not PLACES[key] >= 0.0:
                 raise SystemExit(f"{flag} takes metres >= 0")
             del sys.argv[at : at + 2]
+    if "--forget-blank" in sys.argv:
+        PLACES["forget_blank"] = 1.0
+        sys.argv.remove("--forget-blank")
     oracle_visited.map_rule_with(PlacesMemory)
 
 
