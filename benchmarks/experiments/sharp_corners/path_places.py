@@ -16,7 +16,9 @@ stands at least ``--place-m`` from the last one (a pivot on the spot adds none),
 (a rover set down on a trail facing the way it is to go has, as it were, come along it).
 With ``--along-felt CELL`` (part 37) a place visits only the felt it reaches without crossing
 carpet, and with ``--forget-blank`` (part 38) a pivot made while the map holds no fresh felt still
-adds its place, so that a turn on a blank map forgets the path as the map's own does.
+adds its place, so that a turn on a blank map forgets the path as the map's own does; with
+``--blank-radius R`` (part 39) the path visits felt within R instead of ``path_radius_m`` (the
+fade beyond it unchanged) from a frame that found no fresh felt until the next forward command.
 
     .venv/bin/python benchmarks/experiments/sharp_corners/path_places.py --place-m 0.05 --start-behind 0.4 --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --map fresh_sight_m=0.05 --out /tmp/path_places --workers 2
 """
@@ -41,7 +43,13 @@ PATH_PLACES = 40
 
 #: ``--place-m`` (0: every command adds a place, as the map does), ``--start-behind`` and
 #: ``--along-felt`` (part 37: the raster's cell; 0: off)
-PLACES = {"place_m": 0.0, "start_behind_m": 0.0, "along_felt_m": 0.0, "forget_blank": 0.0}
+PLACES = {
+    "place_m": 0.0,
+    "start_behind_m": 0.0,
+    "along_felt_m": 0.0,
+    "forget_blank": 0.0,
+    "blank_radius_m": 0.0,
+}
 
 
 def crosses_carpet(
@@ -75,8 +83,12 @@ def crosses_carpet(
 class PlacesMemory(FreshFeltMemory):
     """The ``fresh_felt`` map whose path holds places the rover has moved between."""
 
+    #: ``--blank-radius``: a frame has found no fresh felt since the last forward command
+    _narrow = False
+
     def reset(self) -> None:
         super().reset()
+        self._narrow = False
         behind = PLACES["start_behind_m"]
         if behind > 0.0:
             steps = int(math.floor(behind / self._step + 1e-9))
@@ -94,6 +106,8 @@ class PlacesMemory(FreshFeltMemory):
         if self._branch is not None:
             self._branch.moved(command)
         self._forward = command == Command.FORWARD
+        if self._forward:
+            self._narrow = False
         if measured is None:
             self._points = self._moved(self._points, command)
             self._path = self._moved(self._path, command)
@@ -103,10 +117,18 @@ class PlacesMemory(FreshFeltMemory):
             self._path = measured.move_points(self._path)
             self._centres = measured.move_points(self._centres)
 
+    def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
+        super().see(values, levels)
+        if float(self._inputs[1]) <= 0.0:
+            self._narrow = True
+
     def _away(self, chosen: np.ndarray, marks: np.ndarray, radius: float) -> np.ndarray:
-        """The map's own, but with ``--along-felt`` a point whose straight line from the
-        nearest of ``marks`` crosses carpet stays fully fresh: a place visits only the felt it
-        reaches along felt, not a strip beside its own across a gap of carpet."""
+        """The map's own, but within ``--blank-radius`` from a blank frame to the next forward step,
+        and with ``--along-felt`` a point whose straight line from the nearest of ``marks``
+        crosses carpet stays fully fresh: a place visits only the felt it reaches along felt,
+        not a strip beside its own across a gap of carpet."""
+        if PLACES["blank_radius_m"] and self._narrow:
+            radius = min(radius, PLACES["blank_radius_m"])
         away = super()._away(chosen, marks, radius)
         cell = PLACES["along_felt_m"]
         if not cell or not len(chosen) or not len(marks):
@@ -128,6 +150,7 @@ def main() -> None:
         ("--place-m", "place_m"),
         ("--start-behind", "start_behind_m"),
         ("--along-felt", "along_felt_m"),
+        ("--blank-radius", "blank_radius_m"),
     ):
         if flag in sys.argv:
             at = sys.argv.index(flag)
