@@ -10,6 +10,9 @@ and their felt beside the rover on the branch side's side), and the share of the
 the oracle counts behind (which a robot cannot see).
 
     .venv/bin/python benchmarks/experiments/sharp_corners/frames.py /tmp/screen_frames
+
+``--paths`` also lists each changed frame's path: how many places it holds and how far back the
+farthest lies (part 36).
 """
 
 from __future__ import annotations
@@ -58,6 +61,10 @@ def measures(frame: dict[str, Any]) -> dict[str, float]:
         "share the oracle counts behind": float(weights[frame["behind"]].sum()) / mass
         if mass > 0
         else 0.0,
+        "path places": float(len(frame["path"])),
+        "path reaches back [m]": float(np.hypot(*frame["path"].T).max())
+        if len(frame["path"])
+        else 0.0,
     }
 
 
@@ -89,6 +96,13 @@ def main() -> None:
             q = np.percentile(values, [25, 50, 75]) if len(values) else [math.nan] * 3
             cells.append(" / ".join(f"{v:.2f}" for v in q))
         print(f"| {name} | {cells[0]} | {cells[1]} |")
+    if "--paths" in sys.argv:  # part 36: each changed frame's path
+        print("\n| frame | as it is / the oracle | path places | path reaches back [m] |")
+        print("|---|---|---|---|")
+        for k, frame in enumerate(changed):
+            said = f"{frame['as_is']} / {frame['said']['oracle']}"
+            m = measures(frame)
+            print(f"| {k} | {said} | {m['path places']:.0f} | {m['path reaches back [m]']:.2f} |")
 
 
 if __name__ == "__main__":

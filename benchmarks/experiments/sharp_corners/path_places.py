@@ -6,8 +6,8 @@ it turns on: after some 35 pivots the path no longer reaches the strip it came a
 that strip (seen again while it turns) counts fresh, and the rule drives back along it. At the
 start of an episode the path is empty, so the felt behind the rover's start counts fresh once the
 rover has turned toward it. Part 35's screen frames show both: of the 28 commands the oracle
-changes on seed 202, 15 come with a full path spanning at most 0.6 m and 7 in an episode's first
-dozen commands.
+changes on seed 202, 15 come with a full path reaching at most 0.6 m back and 7 in an episode's
+first dozen commands.
 
 This script runs ``../generalization/rules.py`` (its arguments passed on) with every
 ``fresh_felt`` map made as :class:`PlacesMemory`: a place joins the path only when the rover
