@@ -35,14 +35,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import oracle_visited  # noqa: E402
 
-from lfd_track.core.commands import Command  # noqa: E402
 from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
 
-#: places the path holds (the map's own keeps the last 40 commands' places)
-PATH_PLACES = 40
-
-#: ``--place-m`` (0: every command adds a place, as the map does), ``--start-behind`` and
-#: ``--along-felt`` (part 37: the raster's cell; 0: off)
+#: ``--place-m`` (0: every command adds a place, as the map does), ``--start-behind``,
+#: ``--along-felt`` (part 37: the raster's cell; 0: off), ``--forget-blank`` (part 38: 1 on) and
+#: ``--blank-radius`` (part 39; 0: off). The path keeps as many places as the map's own (40).
 PLACES = {
     "place_m": 0.0,
     "start_behind_m": 0.0,
@@ -101,21 +98,14 @@ class PlacesMemory(FreshFeltMemory):
         here_already = bool(len(self._path)) and math.hypot(*self._path[-1]) < place_m
         if here_already and PLACES["forget_blank"] and float(self._inputs[1]) <= 0.0:
             here_already = False  # --forget-blank: a turn on a blank map adds its place
-        path = self._path if here_already else np.vstack([self._path, np.zeros((1, 2))])
-        self._path = path[-PATH_PLACES:]
-        if self._branch is not None:
-            self._branch.moved(command)
-        self._forward = command == Command.FORWARD
+        kept = self._path
+        super()._move(command, measured)
+        if here_already:  # the path without the place the map's own move added, moved alike
+            self._path = (
+                self._moved(kept, command) if measured is None else measured.move_points(kept)
+            )
         if self._forward:
             self._narrow = False
-        if measured is None:
-            self._points = self._moved(self._points, command)
-            self._path = self._moved(self._path, command)
-            self._centres = self._moved(self._centres, command)
-        else:
-            self._points = measured.move_points(self._points)
-            self._path = measured.move_points(self._path)
-            self._centres = measured.move_points(self._centres)
 
     def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
         super().see(values, levels)
