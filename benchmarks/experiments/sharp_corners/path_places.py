@@ -39,24 +39,32 @@ from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
 
 #: ``--place-m`` (0: every command adds a place, as the map does), ``--start-behind``,
 #: ``--along-felt`` (part 37: the raster's cell; 0: off), ``--forget-blank`` (part 38: 1 on) and
-#: ``--blank-radius`` (part 39; 0: off). The path keeps as many places as the map's own (40).
+#: ``--blank-radius`` (part 39; 0: off), ``--along-felt-run`` (part 40: carpet samples in a row
+#: that cross; 1 as in part 37). The path keeps as many places as the map's own (40).
 PLACES = {
     "place_m": 0.0,
     "start_behind_m": 0.0,
     "along_felt_m": 0.0,
     "forget_blank": 0.0,
     "blank_radius_m": 0.0,
+    "along_felt_run": 1.0,
 }
 
 
 def crosses_carpet(
-    points: np.ndarray, felt: np.ndarray, starts: np.ndarray, ends: np.ndarray, cell: float
+    points: np.ndarray,
+    felt: np.ndarray,
+    starts: np.ndarray,
+    ends: np.ndarray,
+    cell: float,
+    run: int = 1,
 ) -> np.ndarray:
     """(P,) bool: whether the straight line from each of ``starts`` (P, 2) to the matching one
     of ``ends`` (P, 2) crosses carpet on the map whose ``points`` (N, 2) have the felt levels
     ``felt`` (N,): the map is rastered in squares of ``cell`` metres as ``fresh_sight_m`` does
     (a square's felt the mean of its points', a square with no point not carpet), and the line is
-    sampled every ``cell`` from one cell past its start to one cell short of its end."""
+    sampled every ``cell`` from one cell past its start to one cell short of its end; with
+    ``run`` above 1 it crosses carpet only where that many samples in a row fall on carpet."""
     origin = points.min(axis=0) - cell
     keys = np.floor((points - origin) / cell).astype(np.int64)
     size = keys.max(axis=0) + 2
@@ -74,7 +82,10 @@ def crosses_carpet(
     outside = (cells < 0).any(axis=2) | (cells >= size[None, None, :]).any(axis=2)
     cells = np.clip(cells, 0, size - 1)
     sampled = (steps[None, :] < length[:, None] - cell) & ~outside
-    return (carpet[cells[..., 0] * size[1] + cells[..., 1]] & sampled).any(axis=1)
+    on = carpet[cells[..., 0] * size[1] + cells[..., 1]] & sampled
+    for _ in range(1, run):  # samples k .. k + run - 1 all on carpet
+        on = on[:, :-1] & on[:, 1:] if on.shape[1] > 1 else on[:, :0]
+    return on.any(axis=1)
 
 
 class PlacesMemory(FreshFeltMemory):
@@ -130,7 +141,8 @@ class PlacesMemory(FreshFeltMemory):
         gap_x = targets[:, 0, None] - marks[None, :, 0]
         gap_y = targets[:, 1, None] - marks[None, :, 1]
         nearest = marks[(gap_x * gap_x + gap_y * gap_y).argmin(axis=1)]
-        across = crosses_carpet(self._points, self._felt, nearest, targets, cell)
+        run = int(PLACES["along_felt_run"])
+        across = crosses_carpet(self._points, self._felt, nearest, targets, cell, run)
         away[np.flatnonzero(near)[across]] = 1.0
         return away
 
@@ -141,6 +153,7 @@ def main() -> None:
         ("--start-behind", "start_behind_m"),
         ("--along-felt", "along_felt_m"),
         ("--blank-radius", "blank_radius_m"),
+        ("--along-felt-run", "along_felt_run"),
     ):
         if flag in sys.argv:
             at = sys.argv.index(flag)
