@@ -40,7 +40,8 @@ from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
 #: ``--place-m`` (0: every command adds a place, as the map does), ``--start-behind``,
 #: ``--along-felt`` (part 37: the raster's cell; 0: off), ``--forget-blank`` (part 38: 1 on) and
 #: ``--blank-radius`` (part 39; 0: off), ``--along-felt-run`` (part 40: carpet samples in a row
-#: that cross; 1 as in part 37). The path keeps as many places as the map's own (40).
+#: that cross; 1 as in part 37) and ``--strip-band`` (part 41: the radius kept round each place;
+#: 0: off). The path keeps as many places as the map's own (40).
 PLACES = {
     "place_m": 0.0,
     "start_behind_m": 0.0,
@@ -48,6 +49,7 @@ PLACES = {
     "forget_blank": 0.0,
     "blank_radius_m": 0.0,
     "along_felt_run": 1.0,
+    "strip_band": 0.0,
 }
 
 
@@ -147,6 +149,81 @@ class PlacesMemory(FreshFeltMemory):
         return away
 
 
+#: [m] ``--strip-band``: the felt abeam of a new place is read from the map's points within
+#: ``ABEAM_M`` of it along the heading, in lateral bins of ``BIN_M``; a place visits felt within
+#: ``ALONG_M`` of it along its heading and out to its strip's measured edges and ``EDGE_M`` more
+ABEAM_M, BIN_M, ALONG_M, EDGE_M = 0.1, 0.05, 0.1, 0.05
+
+
+def strip_extent(points: np.ndarray, felt: np.ndarray) -> tuple[float, float]:
+    """[m] How far the felt abeam of the rover reaches to its right (negative) and left: from
+    the lateral bin the axle is in, outward bin by bin while the bins' mean felt is 0.5 or more
+    (a bin with no point is passed over, two in a row end it); (0, 0) when the axle's own bin
+    is not felt."""
+    abeam = np.abs(points[:, 0]) <= ABEAM_M
+    bins = np.floor(points[abeam, 1] / BIN_M).astype(np.int64)
+    level = felt[abeam]
+    edges = []
+    for step in (-1, 1):
+        reach, empty, k = 0.0, 0, 0 if step > 0 else -1
+        while abs(k) < 20:
+            here = bins == k
+            if not here.any():
+                empty += 1
+                if empty == 2:
+                    break
+            elif float(level[here].mean()) >= 0.5:
+                empty = 0
+                reach = (k + 1) * BIN_M if step > 0 else k * BIN_M
+            else:
+                break
+            k += step
+        edges.append(reach)
+    return edges[0], edges[1]
+
+
+class StripBandMemory(PlacesMemory):
+    """Part 41: each place of the path (forward travel only, with ``--place-m``) visits the felt
+    of its own strip as measured abeam when it joined the path, and a disc of ``--strip-band``
+    round it, not the map's disc of ``path_radius_m`` and its fade."""
+
+    def reset(self) -> None:
+        super().reset()
+        self._heads = np.zeros((0, 2))  # a point ALONG_M ahead of each place along its heading
+        self._bands = np.zeros((0, 2))  # each place's strip edges, right and left of it [m]
+
+    def _move(self, command: int, measured=None) -> None:  # noqa: ANN001 - PlanarMotion | None
+        place_m = PLACES["place_m"]
+        if not (bool(len(self._path)) and math.hypot(*self._path[-1]) < place_m):
+            # the place the rover stands on joins the path (PlacesMemory's own test)
+            self._heads = np.vstack([self._heads, [[ALONG_M, 0.0]]])
+            self._bands = np.vstack([self._bands, [strip_extent(self._points, self._felt)]])
+        super()._move(command, measured)
+        n = len(self._path)
+        self._bands = self._bands[-n:]
+        heads = self._heads[-n:]
+        self._heads = (
+            self._moved(heads, command) if measured is None else measured.move_points(heads)
+        )
+
+    def _away(self, chosen: np.ndarray, marks: np.ndarray, radius: float) -> np.ndarray:
+        band_m = PLACES["strip_band"]
+        if not band_m or marks is not self._path or len(self._heads) != len(marks):
+            return super()._away(chosen, marks, radius)
+        gap = chosen[:, None, :] - marks[None, :, :]  # (N, M, 2)
+        heading = self._heads - marks
+        heading = heading / np.maximum(np.hypot(heading[:, 0], heading[:, 1]), 1e-9)[:, None]
+        along = gap[..., 0] * heading[None, :, 0] + gap[..., 1] * heading[None, :, 1]
+        left = heading[None, :, 0] * gap[..., 1] - heading[None, :, 1] * gap[..., 0]
+        in_band = (
+            (np.abs(along) <= ALONG_M)
+            & (left >= self._bands[None, :, 0] - EDGE_M)
+            & (left <= self._bands[None, :, 1] + EDGE_M)
+        )
+        in_disc = (gap[..., 0] ** 2 + gap[..., 1] ** 2) <= band_m**2
+        return (~(in_band | in_disc).any(axis=1)).astype(np.float64)
+
+
 def main() -> None:
     for flag, key in (
         ("--place-m", "place_m"),
@@ -154,6 +231,7 @@ def main() -> None:
         ("--along-felt", "along_felt_m"),
         ("--blank-radius", "blank_radius_m"),
         ("--along-felt-run", "along_felt_run"),
+        ("--strip-band", "strip_band"),
     ):
         if flag in sys.argv:
             at = sys.argv.index(flag)
@@ -164,7 +242,10 @@ def main() -> None:
     if "--forget-blank" in sys.argv:
         PLACES["forget_blank"] = 1.0
         sys.argv.remove("--forget-blank")
-    oracle_visited.map_rule_with(PlacesMemory)
+    if PLACES["strip_band"] and (PLACES["start_behind_m"] or not PLACES["place_m"]):
+        raise SystemExit("--strip-band takes --place-m and no --start-behind")
+    memory = StripBandMemory if PLACES["strip_band"] else PlacesMemory
+    oracle_visited.map_rule_with(memory)
 
 
 if __name__ == "__main__":
