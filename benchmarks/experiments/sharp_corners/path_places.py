@@ -19,6 +19,9 @@ carpet, and with ``--forget-blank`` (part 38) a pivot made while the map holds n
 adds its place, so that a turn on a blank map forgets the path as the map's own does; with
 ``--blank-radius R`` (part 39) the path visits felt within R instead of ``path_radius_m`` (the
 fade beyond it unchanged) from a frame that found no fresh felt until the next forward command.
+``--along-felt-run K`` (part 40) asks for K carpet samples in a row, and ``--strip-band R`` (part
+41) lets each place visit the felt of its strip as measured abeam when it joined the path, and a
+disc of R round it, instead of the map's disc and fade.
 
     .venv/bin/python benchmarks/experiments/sharp_corners/path_places.py --place-m 0.05 --start-behind 0.4 --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --map fresh_sight_m=0.05 --out /tmp/path_places --workers 2
 """

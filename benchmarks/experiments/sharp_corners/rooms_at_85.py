@@ -1,5 +1,5 @@
 """Issue 41's bar, room by room: how many kept rooms lap at least 85 % of their loop laps, for
-the map-rule runs of parts 8-40 and the learners beside them (committed results only; it chooses
+the map-rule runs of parts 8-41 and the learners beside them (committed results only; it chooses
 nothing).
 
     .venv/bin/python benchmarks/experiments/sharp_corners/rooms_at_85.py
@@ -94,6 +94,8 @@ RUNS = {
     / "rooms_places_blank_radius/map-rule",
     "the map rule, fresh sight, along felt over two squares, the path as places (part 40)": ORACLE
     / "rooms_along_felt_run2/map-rule",
+    "the map rule, fresh sight, each place visits its strip's measured width (part 41)": ORACLE
+    / "rooms_strip_band/map-rule",
     "the learner, round 27's winner": ROUNDS
     / "round27/results/balance/rooms.round20+visual+balance",
     "the learner, round 31 (strip)": ROUNDS / "round31/results/strip/rooms.round27+strip",
