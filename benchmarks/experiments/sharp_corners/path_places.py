@@ -21,7 +21,10 @@ adds its place, so that a turn on a blank map forgets the path as the map's own 
 fade beyond it unchanged) from a frame that found no fresh felt until the next forward command.
 ``--along-felt-run K`` (part 40) asks for K carpet samples in a row, and ``--strip-band R`` (part
 41) lets each place visit the felt of its strip as measured abeam when it joined the path, and a
-disc of R round it, instead of the map's disc and fade.
+disc of R round it, instead of the map's disc and fade; ``--abeam M`` reads the strip's edges
+from the map's points within M along the heading (0.1 m), ``--band-fade`` (part 42) keeps the
+map's fade beyond the band and the disc, and ``--bands FILE`` appends each band's width to
+FILE.<pid>.
 
     .venv/bin/python benchmarks/experiments/sharp_corners/path_places.py --place-m 0.05 --start-behind 0.4 --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --map fresh_sight_m=0.05 --out /tmp/path_places --workers 2
 """
@@ -29,6 +32,7 @@ disc of R round it, instead of the map's disc and fade.
 from __future__ import annotations
 
 import math
+import os
 import sys
 from pathlib import Path
 
@@ -53,6 +57,8 @@ PLACES = {
     "blank_radius_m": 0.0,
     "along_felt_run": 1.0,
     "strip_band": 0.0,
+    "band_fade": 0.0,
+    "abeam_m": 0.1,
 }
 
 
@@ -153,9 +159,12 @@ class PlacesMemory(FreshFeltMemory):
 
 
 #: [m] ``--strip-band``: the felt abeam of a new place is read from the map's points within
-#: ``ABEAM_M`` of it along the heading, in lateral bins of ``BIN_M``; a place visits felt within
-#: ``ALONG_M`` of it along its heading and out to its strip's measured edges and ``EDGE_M`` more
-ABEAM_M, BIN_M, ALONG_M, EDGE_M = 0.1, 0.05, 0.1, 0.05
+#: ``--abeam`` (0.1 m) of it along the heading, in lateral bins of ``BIN_M``; a place visits felt
+#: within ``ALONG_M`` of it along its heading and out to its strip's measured edges and ``EDGE_M``
+#: more
+BIN_M, ALONG_M, EDGE_M = 0.05, 0.1, 0.05
+#: ``--bands FILE``: each new place's measured band width [m] is appended to FILE.<pid>
+BANDS: dict[str, str] = {"file": ""}
 
 
 def strip_extent(points: np.ndarray, felt: np.ndarray) -> tuple[float, float]:
@@ -163,7 +172,7 @@ def strip_extent(points: np.ndarray, felt: np.ndarray) -> tuple[float, float]:
     the lateral bin the axle is in, outward bin by bin while the bins' mean felt is 0.5 or more
     (a bin with no point is passed over, two in a row end it); (0, 0) when the axle's own bin
     is not felt."""
-    abeam = np.abs(points[:, 0]) <= ABEAM_M
+    abeam = np.abs(points[:, 0]) <= PLACES["abeam_m"]
     bins = np.floor(points[abeam, 1] / BIN_M).astype(np.int64)
     level = felt[abeam]
     edges = []
@@ -200,7 +209,11 @@ class StripBandMemory(PlacesMemory):
         if not (bool(len(self._path)) and math.hypot(*self._path[-1]) < place_m):
             # the place the rover stands on joins the path (PlacesMemory's own test)
             self._heads = np.vstack([self._heads, [[ALONG_M, 0.0]]])
-            self._bands = np.vstack([self._bands, [strip_extent(self._points, self._felt)]])
+            band = strip_extent(self._points, self._felt)
+            self._bands = np.vstack([self._bands, [band]])
+            if BANDS["file"]:
+                with open(f"{BANDS['file']}.{os.getpid()}", "a") as out:
+                    out.write(f"{band[1] - band[0]:.3f}\n")
         super()._move(command, measured)
         n = len(self._path)
         self._bands = self._bands[-n:]
@@ -224,7 +237,21 @@ class StripBandMemory(PlacesMemory):
             & (left <= self._bands[None, :, 1] + EDGE_M)
         )
         in_disc = (gap[..., 0] ** 2 + gap[..., 1] ** 2) <= band_m**2
-        return (~(in_band | in_disc).any(axis=1)).astype(np.float64)
+        if not PLACES["band_fade"]:
+            return (~(in_band | in_disc).any(axis=1)).astype(np.float64)
+        # --band-fade (part 42): fresh rises over the map's fade with the distance from the
+        # nearest band or footprint disc, as the map's own from its disc
+        beyond_along = np.maximum(np.abs(along) - ALONG_M, 0.0)
+        below = self._bands[None, :, 0] - EDGE_M - left
+        above = left - self._bands[None, :, 1] - EDGE_M
+        beyond_side = np.maximum(np.maximum(below, above), 0.0)
+        from_band = np.hypot(beyond_along, beyond_side)
+        from_disc = np.maximum(np.hypot(gap[..., 0], gap[..., 1]) - band_m, 0.0)
+        nearest = np.minimum(from_band, from_disc).min(axis=1)
+        fade = self.config.visited_fade_m
+        if not fade:
+            return (nearest > 0.0).astype(np.float64)
+        return np.clip(nearest / fade, 0.0, 1.0)
 
 
 def main() -> None:
@@ -235,6 +262,7 @@ def main() -> None:
         ("--blank-radius", "blank_radius_m"),
         ("--along-felt-run", "along_felt_run"),
         ("--strip-band", "strip_band"),
+        ("--abeam", "abeam_m"),
     ):
         if flag in sys.argv:
             at = sys.argv.index(flag)
@@ -245,6 +273,13 @@ def main() -> None:
     if "--forget-blank" in sys.argv:
         PLACES["forget_blank"] = 1.0
         sys.argv.remove("--forget-blank")
+    if "--bands" in sys.argv:
+        at = sys.argv.index("--bands")
+        BANDS["file"] = sys.argv[at + 1]
+        del sys.argv[at : at + 2]
+    if "--band-fade" in sys.argv:
+        PLACES["band_fade"] = 1.0
+        sys.argv.remove("--band-fade")
     if PLACES["strip_band"] and (PLACES["start_behind_m"] or not PLACES["place_m"]):
         raise SystemExit("--strip-band takes --place-m and no --start-behind")
     memory = StripBandMemory if PLACES["strip_band"] else PlacesMemory
