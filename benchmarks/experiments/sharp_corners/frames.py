@@ -77,31 +77,34 @@ def main() -> None:
                     frames.append(pickle.load(f))
                 except EOFError:
                     break
-    changed = [f for f in frames if f["as_is"] != f["said"]["oracle"]]
+    measured = [measures(f) for f in frames]  # once a frame
+    changed = [
+        m for f, m in zip(frames, measured, strict=True) if f["as_is"] != f["said"]["oracle"]
+    ]
     kept = [
-        f
-        for f in frames
+        m
+        for f, m in zip(frames, measured, strict=True)
         if f["as_is"] == f["said"]["oracle"]
         and f["side"] != 0.5
-        and measures(f)["strip ends ahead [m]"] <= END_M
+        and m["strip ends ahead [m]"] <= END_M
     ]
     print(f"{len(frames)} frames: {len(changed)} the oracle changes, {len(kept)} sampled ones it")
     print(f"keeps with a side given and the strip ending within {END_M} m (quartiles)\n")
     print("| measure | frames the oracle changes | frames it keeps |")
     print("|---|---|---|")
-    for name in measures(frames[0]):
+    for name in measured[0]:
         cells = []
         for group in (changed, kept):
-            values = np.array([measures(f)[name] for f in group])
+            values = np.array([m[name] for m in group])
             q = np.percentile(values, [25, 50, 75]) if len(values) else [math.nan] * 3
             cells.append(" / ".join(f"{v:.2f}" for v in q))
         print(f"| {name} | {cells[0]} | {cells[1]} |")
     if "--paths" in sys.argv:  # part 36: each changed frame's path
         print("\n| frame | as it is / the oracle | path places | path reaches back [m] |")
         print("|---|---|---|---|")
-        for k, frame in enumerate(changed):
+        changed_frames = [f for f in frames if f["as_is"] != f["said"]["oracle"]]
+        for k, (frame, m) in enumerate(zip(changed_frames, changed, strict=True)):
             said = f"{frame['as_is']} / {frame['said']['oracle']}"
-            m = measures(frame)
             print(f"| {k} | {said} | {m['path places']:.0f} | {m['path reaches back [m]']:.2f} |")
 
 

@@ -116,10 +116,7 @@ class PlacesMemory(FreshFeltMemory):
     def _move(self, command: int, measured=None) -> None:  # noqa: ANN001 - PlanarMotion | None
         """The map's own move, but the place the rover stands on joins the path only when it
         lies at least ``--place-m`` from the last place in it."""
-        place_m = PLACES["place_m"]
-        here_already = bool(len(self._path)) and math.hypot(*self._path[-1]) < place_m
-        if here_already and PLACES["forget_blank"] and float(self._inputs[1]) <= 0.0:
-            here_already = False  # --forget-blank: a turn on a blank map adds its place
+        here_already = not self._joins_path()
         kept = self._path
         super()._move(command, measured)
         if here_already:  # the path without the place the map's own move added, moved alike
@@ -128,6 +125,14 @@ class PlacesMemory(FreshFeltMemory):
             )
         if self._forward:
             self._narrow = False
+
+    def _joins_path(self) -> bool:
+        """Whether the place the rover stands on joins the path at the next move: it lies at
+        least ``--place-m`` from the last place in it, or, with ``--forget-blank``, the map
+        holds no fresh felt."""
+        if not len(self._path) or math.hypot(*self._path[-1]) >= PLACES["place_m"]:
+            return True
+        return bool(PLACES["forget_blank"]) and float(self._inputs[1]) <= 0.0
 
     def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
         super().see(values, levels)
@@ -205,9 +210,7 @@ class StripBandMemory(PlacesMemory):
         self._bands = np.zeros((0, 2))  # each place's strip edges, right and left of it [m]
 
     def _move(self, command: int, measured=None) -> None:  # noqa: ANN001 - PlanarMotion | None
-        place_m = PLACES["place_m"]
-        if not (bool(len(self._path)) and math.hypot(*self._path[-1]) < place_m):
-            # the place the rover stands on joins the path (PlacesMemory's own test)
+        if self._joins_path():  # record the joining place's heading and band with it
             self._heads = np.vstack([self._heads, [[ALONG_M, 0.0]]])
             band = strip_extent(self._points, self._felt)
             self._bands = np.vstack([self._bands, [band]])
