@@ -257,7 +257,8 @@ class StripBandMemory(PlacesMemory):
         return np.clip(nearest / fade, 0.0, 1.0)
 
 
-def main() -> None:
+def memory_from_args() -> type[PlacesMemory]:
+    """The map class this script's options (taken out of ``sys.argv``) ask for."""
     for flag, key in (
         ("--place-m", "place_m"),
         ("--start-behind", "start_behind_m"),
@@ -285,8 +286,11 @@ def main() -> None:
         sys.argv.remove("--band-fade")
     if PLACES["strip_band"] and (PLACES["start_behind_m"] or not PLACES["place_m"]):
         raise SystemExit("--strip-band takes --place-m and no --start-behind")
-    memory = StripBandMemory if PLACES["strip_band"] else PlacesMemory
-    oracle_visited.map_rule_with(memory)
+    return StripBandMemory if PLACES["strip_band"] else PlacesMemory
+
+
+def main() -> None:
+    oracle_visited.map_rule_with(memory_from_args())
 
 
 if __name__ == "__main__":
