@@ -59,6 +59,7 @@ PLACES = {
     "strip_band": 0.0,
     "band_fade": 0.0,
     "abeam_m": 0.1,
+    "tip_ahead_m": 0.0,
 }
 
 
@@ -257,6 +258,63 @@ class StripBandMemory(PlacesMemory):
         return np.clip(nearest / fade, 0.0, 1.0)
 
 
+#: ``--tip-ahead L`` (part 44): once the rover's heading has turned ``TIP_TURN_DEG`` or more from
+#: its last forward move, the felt straight on from where that move ended, up to L along it and
+#: within ``TIP_HALF_M`` of its line, counts visited; the last ``TIP_KEPT`` such corridors are kept
+TIP_TURN_DEG, TIP_HALF_M, TIP_KEPT = 90.0, 0.25, 4
+
+
+class PassedTipMemory(PlacesMemory):
+    """Part 44: the felt straight on from a stretch the rover turned away from (a corner's tip,
+    which a rover that turned before the vertex never drove into) counts visited."""
+
+    def reset(self) -> None:
+        super().reset()
+        self._stretch = np.zeros((0, 2))  # the last forward move: where it began and ended
+        self._tips = np.zeros((0, 2))  # each corridor: its start, then a point 1 m on along it
+        self._tipped = False  # the last stretch has its corridor
+
+    def _carried(self, points: np.ndarray, command: int, measured=None) -> np.ndarray:  # noqa: ANN001
+        return self._moved(points, command) if measured is None else measured.move_points(points)
+
+    def _move(self, command: int, measured=None) -> None:  # noqa: ANN001 - PlanarMotion | None
+        if command == 0:  # forward: a new last stretch, from here one step on
+            self._stretch, self._tipped = np.array([[0.0, 0.0], [self._step, 0.0]]), False
+        super()._move(command, measured)
+        self._stretch = self._carried(self._stretch, command, measured)
+        self._tips = self._carried(self._tips, command, measured)
+
+    def place_before(self, command: int) -> None:  # type: ignore[override]
+        super().place_before(command)
+        self._stretch, self._tips, self._tipped = np.zeros((0, 2)), np.zeros((0, 2)), False
+
+    def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
+        if len(self._stretch) and not self._tipped:
+            start, end = self._stretch
+            along = end - start
+            length = math.hypot(*along)
+            if length > 0.0 and along[0] <= math.cos(math.radians(TIP_TURN_DEG)) * length:
+                corridor = np.array([end, end + along / length])
+                self._tips = np.vstack([self._tips, corridor])[-2 * TIP_KEPT :]
+                self._tipped = True
+        super().see(values, levels)
+
+    def _away(self, chosen: np.ndarray, marks: np.ndarray, radius: float) -> np.ndarray:
+        away = super()._away(chosen, marks, radius)
+        if marks is not self._path or not len(self._tips) or not len(chosen):
+            return away
+        for start, on in zip(self._tips[0::2], self._tips[1::2], strict=True):
+            unit = on - start
+            rel = chosen - start
+            along = rel @ unit
+            side = unit[0] * rel[:, 1] - unit[1] * rel[:, 0]
+            inside = (
+                (along >= 0.0) & (along <= PLACES["tip_ahead_m"]) & (np.abs(side) <= TIP_HALF_M)
+            )
+            away[inside] = 0.0
+        return away
+
+
 def memory_from_args() -> type[PlacesMemory]:
     """The map class this script's options (taken out of ``sys.argv``) ask for."""
     for flag, key in (
@@ -267,6 +325,7 @@ def memory_from_args() -> type[PlacesMemory]:
         ("--along-felt-run", "along_felt_run"),
         ("--strip-band", "strip_band"),
         ("--abeam", "abeam_m"),
+        ("--tip-ahead", "tip_ahead_m"),
     ):
         if flag in sys.argv:
             at = sys.argv.index(flag)
@@ -286,6 +345,10 @@ def memory_from_args() -> type[PlacesMemory]:
         sys.argv.remove("--band-fade")
     if PLACES["strip_band"] and (PLACES["start_behind_m"] or not PLACES["place_m"]):
         raise SystemExit("--strip-band takes --place-m and no --start-behind")
+    if PLACES["tip_ahead_m"]:
+        if PLACES["strip_band"]:
+            raise SystemExit("--tip-ahead takes no --strip-band")
+        return PassedTipMemory
     return StripBandMemory if PLACES["strip_band"] else PlacesMemory
 
 
