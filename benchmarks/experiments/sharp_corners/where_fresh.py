@@ -72,6 +72,31 @@ def against_path(points: np.ndarray, path: np.ndarray) -> np.ndarray:
     return where
 
 
+#: part 45: the felt beyond the path's end, binned by the rover's turn from the last stretch
+#: [deg], how far past the axle it lies along that stretch [m] and how far from its line [m]
+BEYOND_BINS = {
+    "turn": (45.0, 90.0, 135.0),
+    "along": (0.3, 0.6, 1.0),
+    "across": (0.25, 0.5),
+}
+
+
+def beyond_end(points: np.ndarray, path: np.ndarray) -> dict[str, np.ndarray]:
+    """For ``points`` (N, 2) beyond the end of the line through ``path`` and the axle: the
+    rover's turn from the last stretch [deg] (one value), and each point's distance past the
+    axle along that stretch and from its line [m]."""
+    line = np.vstack([path, np.zeros((1, 2))])
+    keep = np.ones(len(line), dtype=bool)
+    keep[1:] = np.hypot(*(line[1:] - line[:-1]).T) > 1e-6
+    line = line[keep]
+    seg = line[-1] - line[-2]
+    unit = seg / np.hypot(*seg)
+    turn = abs(np.degrees(np.arctan2(unit[1], unit[0])))  # the rover faces +x
+    along = points @ unit  # past the axle (the line's end)
+    across = np.abs(unit[0] * points[:, 1] - unit[1] * points[:, 0])
+    return {"turn": np.full(len(points), turn), "along": along, "across": across}
+
+
 def recording(base: type[path_places.PlacesMemory]) -> type[path_places.PlacesMemory]:
     """``base``'s map, tallying where its behind fresh felt lies at every frame."""
 
@@ -120,10 +145,31 @@ def tally(memory: path_places.PlacesMemory, weights: np.ndarray, was_blank: bool
         where = against_path(memory._points[chosen[behind]], memory._path)
         mass = np.bincount(where, weights=weights[chosen[behind]], minlength=len(PLACES))
         state["behind"] = [a + float(b) for a, b in zip(state["behind"], mass, strict=True)]
-        if float(mass.sum()) >= 0.5 * total:
+        drawn = float(mass.sum()) >= 0.5 * total
+        if drawn:
             state["drawn_frames"] += 1
             state["drawn_after_blank"] += int(was_blank)
             state["drawn"] = [a + float(b) for a, b in zip(state["drawn"], mass, strict=True)]
+        past = where == 0
+        if past.any():
+            weight = weights[chosen[behind]][past]
+            measured = beyond_end(memory._points[chosen[behind]][past], memory._path)
+            for key in ("beyond", "beyond_drawn") if drawn else ("beyond",):
+                bins = state.setdefault(key, {})
+                for name, edges in BEYOND_BINS.items():
+                    add = np.bincount(
+                        np.digitize(measured[name], edges), weights=weight, minlength=len(edges) + 1
+                    )
+                    bins[name] = [
+                        a + float(b)
+                        for a, b in zip(bins.get(name, [0.0] * len(add)), add, strict=True)
+                    ]
+                inside = (
+                    (measured["turn"] >= 90.0)
+                    & (measured["along"] <= 0.6)
+                    & (measured["across"] <= 0.25)
+                )
+                bins["corridor"] = bins.get("corridor", 0.0) + float(weight[inside].sum())
     with open(f"{TALLY['file']}.{os.getpid()}", "w") as out:
         json.dump(state, out)
 
@@ -143,7 +189,34 @@ def show(path: Path) -> str:
     every, drawn = sum(sums["behind"]) or 1.0, sum(sums["drawn"]) or 1.0
     for name, a, b in zip(PLACES, sums["behind"], sums["drawn"], strict=True):
         lines.append(f"| {name} | {a / every:.1%} | {b / drawn:.1%} |")
+    for key, title in (("beyond", "all frames"), ("beyond_drawn", "frames drawn behind")):
+        bins = sums.get(key)
+        if not bins:
+            continue
+        whole = sum(bins["turn"]) or 1.0
+        lines += ["", f"Beyond the path's end, {title} (share of its weight):", ""]
+        for name, unit in (("turn", "°"), ("along", " m"), ("across", " m")):
+            edges = [0.0, *BEYOND_BINS[name]]
+            labels = [f"{a:g}–{b:g}{unit}" for a, b in zip(edges, edges[1:], strict=False)]
+            labels.append(f"{edges[-1]:g}{unit} or more")
+            cells = ", ".join(
+                f"{label} {v / whole:.1%}" for label, v in zip(labels, bins[name], strict=True)
+            )
+            lines.append(f"- {name}: {cells}")
+        lines.append(f"- within part 44's corridor: {bins['corridor'] / whole:.1%}")
     return "\n".join(lines) + "\n"
+
+
+def merged(one: Any, other: Any) -> Any:
+    """Two workers' tallies summed: numbers added, lists element by element, dicts by key."""
+    if isinstance(other, dict):
+        base = one or {}
+        return {key: merged(base.get(key), other.get(key)) for key in base.keys() | other.keys()}
+    if other is None:
+        return one
+    if isinstance(other, list):
+        return [a + b for a, b in zip(one or [0.0] * len(other), other, strict=True)]
+    return (one or 0) + other
 
 
 def main() -> None:
@@ -159,14 +232,7 @@ def main() -> None:
     oracle_visited.main(recording(path_places.memory_from_args()))
     total: dict[str, Any] = {}
     for part in sorted(out.parent.glob(f"{out.name}.*")):
-        sums = json.loads(part.read_text())
-        for key, value in sums.items():
-            if isinstance(value, list):
-                total[key] = [
-                    a + b for a, b in zip(total.get(key, [0.0] * len(value)), value, strict=True)
-                ]
-            else:
-                total[key] = total.get(key, 0) + value
+        total = merged(total, json.loads(part.read_text()))
         part.unlink()
     out.write_text(json.dumps(total, indent=1) + "\n")
     print(show(out), end="")
