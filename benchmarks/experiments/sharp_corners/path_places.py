@@ -60,6 +60,7 @@ PLACES = {
     "band_fade": 0.0,
     "abeam_m": 0.1,
     "tip_ahead_m": 0.0,
+    "tip_turn_deg": 90.0,
 }
 
 
@@ -258,10 +259,11 @@ class StripBandMemory(PlacesMemory):
         return np.clip(nearest / fade, 0.0, 1.0)
 
 
-#: ``--tip-ahead L`` (part 44): once the rover's heading has turned ``TIP_TURN_DEG`` or more from
-#: its last forward move, the felt straight on from where that move ended, up to L along it and
-#: within ``TIP_HALF_M`` of its line, counts visited; the last ``TIP_KEPT`` such corridors are kept
-TIP_TURN_DEG, TIP_HALF_M, TIP_KEPT = 90.0, 0.25, 4
+#: ``--tip-ahead L`` (part 44): once the rover's heading has turned ``--tip-turn`` degrees or more
+#: (90) from its last forward move, the felt straight on from where that move ended, up to L along
+#: it and within ``TIP_HALF_M`` of its line, counts visited; the last ``TIP_KEPT`` such corridors
+#: are kept
+TIP_HALF_M, TIP_KEPT = 0.25, 4
 
 
 class PassedTipMemory(PlacesMemory):
@@ -293,7 +295,7 @@ class PassedTipMemory(PlacesMemory):
             start, end = self._stretch
             along = end - start
             length = math.hypot(*along)
-            if length > 0.0 and along[0] <= math.cos(math.radians(TIP_TURN_DEG)) * length:
+            if length > 0.0 and along[0] <= math.cos(math.radians(PLACES["tip_turn_deg"])) * length:
                 corridor = np.array([end, end + along / length])
                 self._tips = np.vstack([self._tips, corridor])[-2 * TIP_KEPT :]
                 self._tipped = True
@@ -326,12 +328,13 @@ def memory_from_args() -> type[PlacesMemory]:
         ("--strip-band", "strip_band"),
         ("--abeam", "abeam_m"),
         ("--tip-ahead", "tip_ahead_m"),
+        ("--tip-turn", "tip_turn_deg"),
     ):
         if flag in sys.argv:
             at = sys.argv.index(flag)
             PLACES[key] = float(sys.argv[at + 1])
             if not PLACES[key] >= 0.0:
-                raise SystemExit(f"{flag} takes metres >= 0")
+                raise SystemExit(f"{flag} takes a number >= 0 (metres; --tip-turn degrees)")
             del sys.argv[at : at + 2]
     if "--forget-blank" in sys.argv:
         PLACES["forget_blank"] = 1.0
