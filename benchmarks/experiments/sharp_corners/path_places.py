@@ -276,7 +276,13 @@ class PassedTipMemory(PlacesMemory):
         self._tips = np.zeros((0, 2))  # each corridor: its start, then a point 1 m on along it
         self._tipped = False  # the last stretch has its corridor
 
-    def _carried(self, points: np.ndarray, command: int, measured=None) -> np.ndarray:  # noqa: ANN001
+    def _carried(
+        self,
+        points: np.ndarray,
+        command: int,
+        measured=None,  # noqa: ANN001 - PlanarMotion | None
+    ) -> np.ndarray:
+        """``points`` moved with the map by ``command`` (or the ``measured`` motion)."""
         return self._moved(points, command) if measured is None else measured.move_points(points)
 
     def _move(self, command: int, measured=None) -> None:  # noqa: ANN001 - PlanarMotion | None

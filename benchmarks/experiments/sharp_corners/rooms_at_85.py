@@ -1,5 +1,5 @@
 """Issue 41's bar, room by room: how many kept rooms lap at least 85 % of their loop laps, for
-the map-rule runs of parts 8-44 and the learners beside them (committed results only; it chooses
+the map-rule runs of parts 8-46 and the learners beside them (committed results only; it chooses
 nothing).
 
     .venv/bin/python benchmarks/experiments/sharp_corners/rooms_at_85.py
@@ -100,6 +100,8 @@ RUNS = {
     / "rooms_strip_band_fade/map-rule",
     "the map rule, fresh sight, a corner's tip passed by, by the rover's motion (part 44)": ORACLE
     / "rooms_tip_ahead/map-rule",
+    "the map rule, fresh sight, part 44's corridor from every stretch (part 46)": ORACLE
+    / "rooms_tip_every_stretch/map-rule",
     "the learner, round 27's winner": ROUNDS
     / "round27/results/balance/rooms.round20+visual+balance",
     "the learner, round 31 (strip)": ROUNDS / "round31/results/strip/rooms.round27+strip",

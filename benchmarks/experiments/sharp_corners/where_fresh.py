@@ -183,7 +183,8 @@ def show(path: Path) -> str:
         f"{sums['drawn_frames']} frames drawn behind (half their fresh weight or more), "
         f"{sums['drawn_after_blank']} of them after a blank frame",
         "",
-        "| where the behind felt lies | share of behind weight, all frames | ... in frames drawn behind |",
+        "| where the behind felt lies | share of behind weight, all frames "
+        "| ... in frames drawn behind |",
         "|---|---|---|",
     ]
     every, drawn = sum(sums["behind"]) or 1.0, sum(sums["drawn"]) or 1.0
