@@ -30,6 +30,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+import margins  # noqa: E402
 import oracle_visited  # noqa: E402
 import path_places  # noqa: E402
 
@@ -78,7 +79,23 @@ BEYOND_BINS = {
     "turn": (45.0, 90.0, 135.0),
     "along": (0.3, 0.6, 1.0),
     "across": (0.25, 0.5),
+    # part 47: how far behind the rover's progress the felt's centreline lies [m], how far the
+    # rover's progress is from the nearest corner's vertex [m], and that corner's turn [deg]
+    "track": (1.0, 2.0),
+    "vertex": (0.65,),
+    "corner": (100.0,),
 }
+UNITS = {"turn": "°", "along": " m", "across": " m", "track": " m", "vertex": " m", "corner": "°"}
+
+
+def track_behind(track: Any, floor: np.ndarray, progress_m: float) -> np.ndarray:
+    """(N,) [m]: how far behind ``progress_m`` the centreline nearest each floor point (N, 2)
+    lies along ``track`` (on a loop, taken round the way it is driven)."""
+    projected = track.project(floor)
+    nearest = np.argmin(projected[..., 1], axis=1)
+    s = projected[np.arange(len(floor)), nearest, 0]
+    gap = progress_m - s
+    return gap % track.length_m if track.closed else gap
 
 
 def beyond_end(points: np.ndarray, path: np.ndarray) -> dict[str, np.ndarray]:
@@ -154,6 +171,10 @@ def tally(memory: path_places.PlacesMemory, weights: np.ndarray, was_blank: bool
         if past.any():
             weight = weights[chosen[behind]][past]
             measured = beyond_end(memory._points[chosen[behind]][past], memory._path)
+            measured["track"] = track_behind(now["track"], floor[behind][past], now["progress_m"])
+            corner = margins.corner_near(now["track"], now["progress_m"])
+            measured["vertex"] = np.full(len(weight), abs(corner.get("from_vertex_m", 9.0)))
+            measured["corner"] = np.full(len(weight), abs(corner.get("turn_deg", 0.0)))
             for key in ("beyond", "beyond_drawn") if drawn else ("beyond",):
                 bins = state.setdefault(key, {})
                 for name, edges in BEYOND_BINS.items():
@@ -196,7 +217,9 @@ def show(path: Path) -> str:
             continue
         whole = sum(bins["turn"]) or 1.0
         lines += ["", f"Beyond the path's end, {title} (share of its weight):", ""]
-        for name, unit in (("turn", "°"), ("along", " m"), ("across", " m")):
+        for name, unit in UNITS.items():
+            if name not in bins:
+                continue
             edges = [0.0, *BEYOND_BINS[name]]
             labels = [f"{a:g}–{b:g}{unit}" for a, b in zip(edges, edges[1:], strict=False)]
             labels.append(f"{edges[-1]:g}{unit} or more")
