@@ -24,7 +24,10 @@ fade beyond it unchanged) from a frame that found no fresh felt until the next f
 disc of R round it, instead of the map's disc and fade; ``--abeam M`` reads the strip's edges
 from the map's points within M along the heading (0.1 m), ``--band-fade`` (part 42) keeps the
 map's fade beyond the band and the disc, and ``--bands FILE`` appends each band's width to
-FILE.<pid>.
+FILE.<pid>. ``--tip-ahead L`` (part 44; not with ``--strip-band``) keeps the path as the other
+options do and counts visited the felt straight on from a forward move the rover has since turned
+``--tip-turn`` degrees (90) or more from, up to L on (part 46: ``--tip-turn 0``, from every
+forward move).
 
     .venv/bin/python benchmarks/experiments/sharp_corners/path_places.py --place-m 0.05 --start-behind 0.4 --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --map fresh_sight_m=0.05 --out /tmp/path_places --workers 2
 """
@@ -48,7 +51,8 @@ from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
 #: ``--along-felt`` (part 37: the raster's cell; 0: off), ``--forget-blank`` (part 38: 1 on) and
 #: ``--blank-radius`` (part 39; 0: off), ``--along-felt-run`` (part 40: carpet samples in a row
 #: that cross; 1 as in part 37) and ``--strip-band`` (part 41: the radius kept round each place;
-#: 0: off). The path keeps as many places as the map's own (40).
+#: 0: off), ``--tip-ahead`` (part 44: metres on; 0: off) and ``--tip-turn`` (degrees). The
+#: path keeps as many places as the map's own (40).
 PLACES = {
     "place_m": 0.0,
     "start_behind_m": 0.0,
@@ -115,6 +119,15 @@ class PlacesMemory(FreshFeltMemory):
             steps = int(math.floor(behind / self._step + 1e-9))
             self._path = np.array([[-k * self._step, 0.0] for k in range(steps, 0, -1)])
 
+    def _carried(
+        self,
+        points: np.ndarray,
+        command: int,
+        measured=None,  # noqa: ANN001 - PlanarMotion | None
+    ) -> np.ndarray:
+        """``points`` moved with the map by ``command`` (or the ``measured`` motion)."""
+        return self._moved(points, command) if measured is None else measured.move_points(points)
+
     def _move(self, command: int, measured=None) -> None:  # noqa: ANN001 - PlanarMotion | None
         """The map's own move, but the place the rover stands on joins the path only when it
         lies at least ``--place-m`` from the last place in it."""
@@ -122,9 +135,7 @@ class PlacesMemory(FreshFeltMemory):
         kept = self._path
         super()._move(command, measured)
         if here_already:  # the path without the place the map's own move added, moved alike
-            self._path = (
-                self._moved(kept, command) if measured is None else measured.move_points(kept)
-            )
+            self._path = self._carried(kept, command, measured)
         if self._forward:
             self._narrow = False
 
@@ -223,9 +234,7 @@ class StripBandMemory(PlacesMemory):
         n = len(self._path)
         self._bands = self._bands[-n:]
         heads = self._heads[-n:]
-        self._heads = (
-            self._moved(heads, command) if measured is None else measured.move_points(heads)
-        )
+        self._heads = self._carried(heads, command, measured)
 
     def _away(self, chosen: np.ndarray, marks: np.ndarray, radius: float) -> np.ndarray:
         band_m = PLACES["strip_band"]
@@ -276,15 +285,6 @@ class PassedTipMemory(PlacesMemory):
         self._tips = np.zeros((0, 2))  # each corridor: its start, then a point 1 m on along it
         self._tipped = False  # the last stretch has its corridor
 
-    def _carried(
-        self,
-        points: np.ndarray,
-        command: int,
-        measured=None,  # noqa: ANN001 - PlanarMotion | None
-    ) -> np.ndarray:
-        """``points`` moved with the map by ``command`` (or the ``measured`` motion)."""
-        return self._moved(points, command) if measured is None else measured.move_points(points)
-
     def _move(self, command: int, measured=None) -> None:  # noqa: ANN001 - PlanarMotion | None
         if command == 0:  # forward: a new last stretch, from here one step on
             self._stretch, self._tipped = np.array([[0.0, 0.0], [self._step, 0.0]]), False
@@ -293,6 +293,8 @@ class PassedTipMemory(PlacesMemory):
         self._tips = self._carried(self._tips, command, measured)
 
     def place_before(self, command: int) -> None:  # type: ignore[override]
+        """The map's own; the stretch and the corridors are dropped, not carried (only a view
+        for teaching places a map before a command; the map rule never does)."""
         super().place_before(command)
         self._stretch, self._tips, self._tipped = np.zeros((0, 2)), np.zeros((0, 2)), False
 
