@@ -1,5 +1,5 @@
-"""Where the fresh felt lies that the track puts behind the rover, against the map's path (part
-43 of ``README.md``).
+"""Where the fresh felt lies that the track puts behind the rover, against the map's path (parts
+43, 45 and 47 of ``README.md``).
 
 Drives the map rule exactly as ``path_places.py`` does (its options and ``rules.py``'s arguments
 are passed on; with none of its options the map is the map as it is, part 27 (a)) and, at every
@@ -7,12 +7,16 @@ frame, carries the map's fresh felt to the floor by the rover's true pose and as
 part 12's oracle does, which of it lies 0.3 m or more of track behind the rover (``behind``).
 Each behind point is placed against the map's path, read as a line through its places from the
 oldest to the rover's axle (places the rover stood on twice counted once): **beyond the path's
-end** (it projects past the axle along the last stretch driven: a sharp corner's tip, felt the
-rover turned before reaching), **before its start**, or **beside it**, within the map's disc
+end** (it projects past the axle along the last stretch driven: felt ahead of wherever the
+rover has been), **before its start**, or **beside it**, within the map's disc
 (0.35 m), its fade (0.35–0.65 m) or further. The weights are summed over every frame, and again
 over the frames the behind felt draws (half or more of the frame's fresh weight), with how many
-of those frames follow a frame whose map held no fresh felt. The map's decisions are not
-changed; the track is read, never used.
+of those frames follow a frame whose map held no fresh felt. The behind felt beyond the path's
+end is binned too (:data:`BEYOND_BINS`): by the rover's turn from its last stretch, how far past
+the axle it lies along that stretch and how far from its line, and what share part 44's corridor
+would cover (part 45); by how far behind the rover's progress its centreline lies, how far the
+rover is from the nearest corner's vertex and that corner's turn (part 47). The map's decisions
+are not changed; the track is read, never used.
 
     .venv/bin/python benchmarks/experiments/sharp_corners/where_fresh.py --tally benchmarks/experiments/sharp_corners/results/oracle_visited/where_fresh/as_is.json --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --map fresh_sight_m=0.05 --out /tmp/where_fresh --workers 2
     .venv/bin/python benchmarks/experiments/sharp_corners/where_fresh.py --show benchmarks/experiments/sharp_corners/results/oracle_visited/where_fresh/as_is.json
