@@ -75,15 +75,21 @@ def step(self: LfDTrackEnv, action: int) -> Any:
     return out
 
 
+def centreline_at(track: Track, floor: np.ndarray) -> np.ndarray:
+    """(N,) [m]: the arc length along ``track`` of the centreline nearest each floor point
+    (N, 2)."""
+    projected = track.project(floor)  # (N, S, 2): each point's arc length and distance
+    nearest = np.argmin(projected[..., 1], axis=1)
+    return projected[np.arange(len(floor)), nearest, 0]
+
+
 def track_ahead(
     track: Track, floor: np.ndarray, progress_m: float, behind_m: float = 0.0
 ) -> np.ndarray:
     """(N,) bool: whether the centreline nearest each floor point (N, 2) lies ahead of
     ``progress_m`` along ``track`` (on a loop: within half its length ahead), or less than
     ``behind_m`` behind it."""
-    projected = track.project(floor)  # (N, S, 2): each point's arc length and distance
-    nearest = np.argmin(projected[..., 1], axis=1)
-    s = projected[np.arange(len(floor)), nearest, 0]
+    s = centreline_at(track, floor)
     if not track.closed:
         return s > progress_m - behind_m
     ahead = (s - progress_m + behind_m) % track.length_m

@@ -54,13 +54,19 @@ PLACES = (
 TALLY: dict[str, Any] = {"file": None}
 
 
-def against_path(points: np.ndarray, path: np.ndarray) -> np.ndarray:
-    """(N,) int: the index into :data:`PLACES` of where each of ``points`` (N, 2) lies against
-    the line through ``path``'s places (M, 2) and the axle (the origin)."""
+def path_line(path: np.ndarray) -> np.ndarray:
+    """(L, 2): the map's path (M, 2) and the axle (the origin) as a line, each place the rover
+    stood on again and again kept once."""
     line = np.vstack([path, np.zeros((1, 2))])
     keep = np.ones(len(line), dtype=bool)
     keep[1:] = np.hypot(*(line[1:] - line[:-1]).T) > 1e-6
-    line = line[keep]
+    return line[keep]
+
+
+def against_path(points: np.ndarray, path: np.ndarray) -> np.ndarray:
+    """(N,) int: the index into :data:`PLACES` of where each of ``points`` (N, 2) lies against
+    the line through ``path``'s places (M, 2) and the axle (the origin)."""
+    line = path_line(path)
     if len(line) == 1:  # the axle alone
         dist = np.hypot(points[:, 0], points[:, 1])
         return np.digitize(dist, [DISC_M, FADE_END_M]) + 2
@@ -95,10 +101,7 @@ UNITS = {"turn": "°", "along": " m", "across": " m", "track": " m", "vertex": "
 def track_behind(track: Any, floor: np.ndarray, progress_m: float) -> np.ndarray:
     """(N,) [m]: how far behind ``progress_m`` the centreline nearest each floor point (N, 2)
     lies along ``track`` (on a loop, taken round the way it is driven)."""
-    projected = track.project(floor)
-    nearest = np.argmin(projected[..., 1], axis=1)
-    s = projected[np.arange(len(floor)), nearest, 0]
-    gap = progress_m - s
+    gap = progress_m - oracle_visited.centreline_at(track, floor)
     return gap % track.length_m if track.closed else gap
 
 
@@ -106,10 +109,7 @@ def beyond_end(points: np.ndarray, path: np.ndarray) -> dict[str, np.ndarray]:
     """For ``points`` (N, 2) beyond the end of the line through ``path`` and the axle: the
     rover's turn from the last stretch [deg] (one value), and each point's distance past the
     axle along that stretch and from its line [m]."""
-    line = np.vstack([path, np.zeros((1, 2))])
-    keep = np.ones(len(line), dtype=bool)
-    keep[1:] = np.hypot(*(line[1:] - line[:-1]).T) > 1e-6
-    line = line[keep]
+    line = path_line(path)
     seg = line[-1] - line[-2]
     unit = seg / np.hypot(*seg)
     turn = abs(np.degrees(np.arctan2(unit[1], unit[0])))  # the rover faces +x
