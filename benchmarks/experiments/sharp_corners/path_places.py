@@ -27,7 +27,8 @@ map's fade beyond the band and the disc, and ``--bands FILE`` appends each band'
 FILE.<pid>. ``--tip-ahead L`` (part 44; not with ``--strip-band``) keeps the path as the other
 options do and counts visited the felt straight on from a forward move the rover has since turned
 ``--tip-turn`` degrees (90) or more from, up to L on (part 46: ``--tip-turn 0``, from every
-forward move).
+forward move); with ``--tip-on-blank`` (part 49) the corridor is laid instead once a frame
+since that move has found no fresh felt.
 
     .venv/bin/python benchmarks/experiments/sharp_corners/path_places.py --place-m 0.05 --start-behind 0.4 --study benchmarks/experiments/human_goal/round27/balance.toml --condition rooms.round20+visual+balance --rule map-rule --map branch_side=true --map branch_window=commands --map motion=visual --map colour_balance=safe_box --map fresh_sight_m=0.05 --out /tmp/path_places --workers 2
 """
@@ -51,7 +52,8 @@ from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
 #: ``--along-felt`` (part 37: the raster's cell; 0: off), ``--forget-blank`` (part 38: 1 on) and
 #: ``--blank-radius`` (part 39; 0: off), ``--along-felt-run`` (part 40: carpet samples in a row
 #: that cross; 1 as in part 37) and ``--strip-band`` (part 41: the radius kept round each place;
-#: 0: off), ``--tip-ahead`` (part 44: metres on; 0: off) and ``--tip-turn`` (degrees). The
+#: 0: off), ``--tip-ahead`` (part 44: metres on; 0: off), ``--tip-turn`` (degrees) and
+#: ``--tip-on-blank`` (part 49: 1 on). The
 #: path keeps as many places as the map's own (40).
 PLACES = {
     "place_m": 0.0,
@@ -65,6 +67,7 @@ PLACES = {
     "abeam_m": 0.1,
     "tip_ahead_m": 0.0,
     "tip_turn_deg": 90.0,
+    "tip_on_blank": 0.0,
 }
 
 
@@ -299,15 +302,25 @@ class PassedTipMemory(PlacesMemory):
         self._stretch, self._tips, self._tipped = np.zeros((0, 2)), np.zeros((0, 2)), False
 
     def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
-        if len(self._stretch) and not self._tipped:
-            start, end = self._stretch
-            along = end - start
-            length = math.hypot(*along)
-            if length > 0.0 and along[0] <= math.cos(math.radians(PLACES["tip_turn_deg"])) * length:
-                corridor = np.array([end, end + along / length])
-                self._tips = np.vstack([self._tips, corridor])[-2 * TIP_KEPT :]
-                self._tipped = True
+        if not PLACES["tip_on_blank"]:
+            self._lay_corridor(turned=True)
         super().see(values, levels)
+        if PLACES["tip_on_blank"] and float(self._inputs[1]) <= 0.0:
+            self._lay_corridor(turned=False)  # part 49: this frame found no fresh felt
+
+    def _lay_corridor(self, turned: bool) -> None:
+        """Lay the last stretch's corridor, once, if it has none; with ``turned``, only when the
+        rover has turned ``--tip-turn`` degrees or more from it."""
+        if not len(self._stretch) or self._tipped:
+            return
+        start, end = self._stretch
+        along = end - start
+        length = math.hypot(*along)
+        cos = math.cos(math.radians(PLACES["tip_turn_deg"]))
+        if length > 0.0 and (not turned or along[0] <= cos * length):
+            corridor = np.array([end, end + along / length])
+            self._tips = np.vstack([self._tips, corridor])[-2 * TIP_KEPT :]
+            self._tipped = True
 
     def _away(self, chosen: np.ndarray, marks: np.ndarray, radius: float) -> np.ndarray:
         away = super()._away(chosen, marks, radius)
@@ -351,6 +364,11 @@ def memory_from_args() -> type[PlacesMemory]:
         at = sys.argv.index("--bands")
         BANDS["file"] = sys.argv[at + 1]
         del sys.argv[at : at + 2]
+    if "--tip-on-blank" in sys.argv:
+        PLACES["tip_on_blank"] = 1.0
+        sys.argv.remove("--tip-on-blank")
+    if PLACES["tip_on_blank"] and not PLACES["tip_ahead_m"]:
+        raise SystemExit("--tip-on-blank takes --tip-ahead")
     if "--band-fade" in sys.argv:
         PLACES["band_fade"] = 1.0
         sys.argv.remove("--band-fade")
