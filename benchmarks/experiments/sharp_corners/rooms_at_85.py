@@ -1,5 +1,5 @@
 """Issue 41's bar, room by room: how many kept rooms lap at least 85 % of their loop laps, for
-the map-rule runs of parts 8-48 and the learners beside them (committed results only; it chooses
+the map-rule runs of parts 8-49 and the learners beside them (committed results only; it chooses
 nothing).
 
     .venv/bin/python benchmarks/experiments/sharp_corners/rooms_at_85.py
@@ -104,6 +104,8 @@ RUNS = {
     / "rooms_tip_every_stretch/map-rule",
     "the map rule, fresh sight, part 13's dead ends left out (part 48)": ORACLE
     / "rooms_sight_dead_ends/map-rule",
+    "the map rule, fresh sight, the tip's corridor laid when the map goes blank (part 49)": ORACLE
+    / "rooms_tip_on_blank/map-rule",
     "the learner, round 27's winner": ROUNDS
     / "round27/results/balance/rooms.round20+visual+balance",
     "the learner, round 31 (strip)": ROUNDS / "round31/results/strip/rooms.round27+strip",

@@ -1,10 +1,10 @@
-"""Lap by lap against the map rule as it is: how many loop laps each map-rule run of parts 8-48
+"""Lap by lap against the map rule as it is: how many loop laps each map-rule run of parts 8-49
 laps that the rule as it is does not (won) and the other way round (lost), on the same trials
 (committed results only; it chooses nothing). Part 16 reads its two runs aimed at nothing by it.
 
     .venv/bin/python benchmarks/experiments/sharp_corners/won_lost.py
 
-``--against NAME`` counts against another run of :data:`rooms_at_85.RUNS` instead (parts 28-48:
+``--against NAME`` counts against another run of :data:`rooms_at_85.RUNS` instead (parts 28-49:
 against part 27's (a), the rule with fresh sight).
 """
 
