@@ -148,12 +148,16 @@ class PlacesMemory(FreshFeltMemory):
         holds no fresh felt."""
         if not len(self._path) or math.hypot(*self._path[-1]) >= PLACES["place_m"]:
             return True
-        return bool(PLACES["forget_blank"]) and float(self._inputs[1]) <= 0.0
+        return bool(PLACES["forget_blank"]) and self._blank()
 
     def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
         super().see(values, levels)
-        if float(self._inputs[1]) <= 0.0:
+        if self._blank():
             self._narrow = True
+
+    def _blank(self) -> bool:
+        """Whether the last frame the map saw found no fresh felt."""
+        return float(self._inputs[1]) <= 0.0
 
     def _away(self, chosen: np.ndarray, marks: np.ndarray, radius: float) -> np.ndarray:
         """The map's own, but within ``--blank-radius`` from a blank frame to the next forward step,
@@ -305,7 +309,7 @@ class PassedTipMemory(PlacesMemory):
         if not PLACES["tip_on_blank"]:
             self._lay_corridor(turned=True)
         super().see(values, levels)
-        if PLACES["tip_on_blank"] and float(self._inputs[1]) <= 0.0:
+        if PLACES["tip_on_blank"] and self._blank():
             self._lay_corridor(turned=False)  # part 49: this frame found no fresh felt
 
     def _lay_corridor(self, turned: bool) -> None:

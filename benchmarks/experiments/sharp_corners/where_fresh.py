@@ -37,9 +37,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import margins  # noqa: E402
 import oracle_visited  # noqa: E402
 import path_places  # noqa: E402
+import tips  # noqa: E402
 
 #: [m] felt whose centreline lies this much track behind the rover or more is behind (part 12)
-BEHIND_M = 0.3
+BEHIND_M = tips.BEHIND_M
 #: [m] the map's disc round each place and the end of its fade (``path_radius_m``, plus
 #: ``visited_fade_m``), for the bins beside the path
 DISC_M, FADE_END_M = 0.35, 0.65
@@ -92,9 +93,11 @@ BEYOND_BINS = {
     # part 47: how far behind the rover's progress the felt's centreline lies [m], how far the
     # rover's progress is from the nearest corner's vertex [m], and that corner's turn [deg]
     "track": (1.0, 2.0),
-    "vertex": (0.65,),
+    "vertex": (margins.NEAR_VERTEX_M,),
     "corner": (100.0,),
 }
+#: part 44's corridor (``--tip-turn`` 90°, ``--tip-ahead`` 0.6 m), for the share part 45 reads
+PART_44 = (90.0, 0.6)
 UNITS = {"turn": "°", "along": " m", "across": " m", "track": " m", "vertex": " m", "corner": "°"}
 
 
@@ -132,7 +135,7 @@ def recording(base: type[path_places.PlacesMemory]) -> type[path_places.PlacesMe
             return weights
 
         def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
-            was_blank = len(self._path) > 0 and float(self._inputs[1]) <= 0.0
+            was_blank = len(self._path) > 0 and self._blank()
             self._last_weights = np.zeros(0)
             super().see(values, levels)
             tally(self, self._last_weights, was_blank)
@@ -165,12 +168,12 @@ def tally(memory: path_places.PlacesMemory, weights: np.ndarray, was_blank: bool
     if behind.any():
         where = against_path(memory._points[chosen[behind]], memory._path)
         mass = np.bincount(where, weights=weights[chosen[behind]], minlength=len(PLACES))
-        state["behind"] = [a + float(b) for a, b in zip(state["behind"], mass, strict=True)]
+        state["behind"] = merged(state["behind"], mass.tolist())
         drawn = float(mass.sum()) >= 0.5 * total
         if drawn:
             state["drawn_frames"] += 1
             state["drawn_after_blank"] += int(was_blank)
-            state["drawn"] = [a + float(b) for a, b in zip(state["drawn"], mass, strict=True)]
+            state["drawn"] = merged(state["drawn"], mass.tolist())
         past = where == 0
         if past.any():
             weight = weights[chosen[behind]][past]
@@ -185,14 +188,12 @@ def tally(memory: path_places.PlacesMemory, weights: np.ndarray, was_blank: bool
                     add = np.bincount(
                         np.digitize(measured[name], edges), weights=weight, minlength=len(edges) + 1
                     )
-                    bins[name] = [
-                        a + float(b)
-                        for a, b in zip(bins.get(name, [0.0] * len(add)), add, strict=True)
-                    ]
+                    bins[name] = merged(bins.get(name), add.tolist())
+                turn, ahead = PART_44  # a stand-in: the frame's own line, not the kept corridors
                 inside = (
-                    (measured["turn"] >= 90.0)
-                    & (measured["along"] <= 0.6)
-                    & (measured["across"] <= 0.25)
+                    (measured["turn"] >= turn)
+                    & (measured["along"] <= ahead)
+                    & (measured["across"] <= path_places.TIP_HALF_M)
                 )
                 bins["corridor"] = bins.get("corridor", 0.0) + float(weight[inside].sum())
     with open(f"{TALLY['file']}.{os.getpid()}", "w") as out:
