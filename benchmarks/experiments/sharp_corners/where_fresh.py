@@ -95,10 +95,25 @@ BEYOND_BINS = {
     "track": (1.0, 2.0),
     "vertex": (margins.NEAR_VERTEX_M,),
     "corner": (100.0,),
+    # part 50: whether the command just settled was a forward step (1) or a pivot (0), and how
+    # long the path's last segment is [m] (a pivot moved by the measured motion leaves a few mm)
+    "forward": (0.5,),
+    "segment": (0.05,),
 }
 #: part 44's corridor (``--tip-turn`` 90°, ``--tip-ahead`` 0.6 m), for the share part 45 reads
 PART_44 = (90.0, 0.6)
-UNITS = {"turn": "°", "along": " m", "across": " m", "track": " m", "vertex": " m", "corner": "°"}
+UNITS = {
+    "turn": "°",
+    "along": " m",
+    "across": " m",
+    "track": " m",
+    "vertex": " m",
+    "corner": "°",
+    "forward": "",
+    "segment": " m",
+}
+#: bins shown by name rather than by their edges
+NAMED = {"forward": ["after a pivot", "after a forward step"]}
 
 
 def track_behind(track: Any, floor: np.ndarray, progress_m: float) -> np.ndarray:
@@ -118,7 +133,12 @@ def beyond_end(points: np.ndarray, path: np.ndarray) -> dict[str, np.ndarray]:
     turn = abs(np.degrees(np.arctan2(unit[1], unit[0])))  # the rover faces +x
     along = points @ unit  # past the axle (the line's end)
     across = np.abs(unit[0] * points[:, 1] - unit[1] * points[:, 0])
-    return {"turn": np.full(len(points), turn), "along": along, "across": across}
+    return {
+        "turn": np.full(len(points), turn),
+        "along": along,
+        "across": across,
+        "segment": np.full(len(points), float(np.hypot(*seg))),
+    }
 
 
 def recording(base: type[path_places.PlacesMemory]) -> type[path_places.PlacesMemory]:
@@ -128,6 +148,11 @@ def recording(base: type[path_places.PlacesMemory]) -> type[path_places.PlacesMe
         def reset(self) -> None:
             super().reset()
             self._last_weights = np.zeros(0)
+            self._stepped = False  # the command settled last was a forward step
+
+        def _move(self, command: int, measured=None) -> None:  # noqa: ANN001 - PlanarMotion | None
+            self._stepped = command == 0
+            super()._move(command, measured)
 
         def _fresh(self, near: np.ndarray, ahead: np.ndarray) -> np.ndarray:
             weights = super()._fresh(near, ahead)
@@ -182,6 +207,7 @@ def tally(memory: path_places.PlacesMemory, weights: np.ndarray, was_blank: bool
             corner = margins.corner_near(now["track"], now["progress_m"])
             measured["vertex"] = np.full(len(weight), abs(corner.get("from_vertex_m", 9.0)))
             measured["corner"] = np.full(len(weight), abs(corner.get("turn_deg", 0.0)))
+            measured["forward"] = np.full(len(weight), float(getattr(memory, "_stepped", False)))
             for key in ("beyond", "beyond_drawn") if drawn else ("beyond",):
                 bins = state.setdefault(key, {})
                 for name, edges in BEYOND_BINS.items():
@@ -228,6 +254,7 @@ def show(path: Path) -> str:
             edges = [0.0, *BEYOND_BINS[name]]
             labels = [f"{a:g}–{b:g}{unit}" for a, b in zip(edges, edges[1:], strict=False)]
             labels.append(f"{edges[-1]:g}{unit} or more")
+            labels = NAMED.get(name, labels)
             cells = ", ".join(
                 f"{label} {v / whole:.1%}" for label, v in zip(labels, bins[name], strict=True)
             )
