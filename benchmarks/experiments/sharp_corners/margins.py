@@ -217,12 +217,7 @@ def main() -> None:
     if not NOW["margin_m"] >= EPISODE_MARGIN_M:
         raise SystemExit(f"--reverse-margin takes metres >= {EPISODE_MARGIN_M}")
     del sys.argv[at : at + 2]
-    at = sys.argv.index("--events")
-    events = NOW["events"] = Path(sys.argv[at + 1])
-    del sys.argv[at : at + 2]
-    events.parent.mkdir(parents=True, exist_ok=True)
-    for old in events.parent.glob(f"{events.name}.*"):
-        old.unlink()
+    events = NOW["events"] = oracle_visited.worker_file("--events")
     EpisodeTracker.update, EpisodeTracker.reset = update, reset  # type: ignore[method-assign]
     runner.teacher_lap = teacher_lap
     rules = oracle_visited.load_rules()

@@ -124,6 +124,18 @@ class TrackVisitedMemory(FreshFeltMemory):
         return np.maximum(own, kept) if NOW["combine"] == "unhide" else np.minimum(own, kept)
 
 
+def worker_file(flag: str) -> Path:
+    """The file named after ``flag`` on the command line (taken out of ``sys.argv``), whose
+    workers write their parts as ``FILE.<pid>``: its folder made, old parts removed."""
+    at = sys.argv.index(flag)
+    path = Path(sys.argv[at + 1])
+    del sys.argv[at : at + 2]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    for old in path.parent.glob(f"{path.name}.*"):
+        old.unlink()
+    return path
+
+
 def map_rule_with(memory_class: type[FreshFeltMemory]) -> None:
     """Run ``../generalization/rules.py`` (its arguments are this script's) with every
     ``fresh_felt`` map made as ``memory_class``."""

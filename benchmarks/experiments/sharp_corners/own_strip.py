@@ -245,12 +245,7 @@ def main() -> None:
         at = sys.argv.index("--carpet-clears")
         LAP["carpet_clears_m"] = float(sys.argv[at + 1])
         del sys.argv[at : at + 2]
-    at = sys.argv.index("--strip")
-    strip = LAP["file"] = Path(sys.argv[at + 1])
-    del sys.argv[at : at + 2]
-    strip.parent.mkdir(parents=True, exist_ok=True)
-    for old in strip.parent.glob(f"{strip.name}.*"):
-        old.unlink()
+    strip = LAP["file"] = oracle_visited.worker_file("--strip")
     LfDTrackEnv.reset, LfDTrackEnv.step = oracle_visited.reset, oracle_visited.step  # type: ignore[method-assign]
     oracle_visited.maps_made_as(StripMemory)
     margins.update, margins.reset = update, reset

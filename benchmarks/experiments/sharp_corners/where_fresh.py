@@ -279,12 +279,7 @@ def main() -> None:
     if "--show" in sys.argv:
         print(show(Path(sys.argv[sys.argv.index("--show") + 1])), end="")
         return
-    at = sys.argv.index("--tally")
-    out = TALLY["file"] = Path(sys.argv[at + 1])
-    del sys.argv[at : at + 2]
-    out.parent.mkdir(parents=True, exist_ok=True)
-    for old in out.parent.glob(f"{out.name}.*"):
-        old.unlink()
+    out = TALLY["file"] = oracle_visited.worker_file("--tally")
     oracle_visited.main(recording(path_places.memory_from_args()))
     total: dict[str, Any] = {}
     for part in sorted(out.parent.glob(f"{out.name}.*")):
