@@ -1,0 +1,128 @@
+"""Part 51 of ``README.md``: the every-room bar on the 30 rooms of ``rooms30.toml`` (seeds
+102-104, validation loops), for the map rule and the goal's learner, each on the goal's map and on
+part 12's oracle's map (committed results only; it chooses nothing).
+
+    .venv/bin/python benchmarks/experiments/sharp_corners/rooms30.py
+
+writes ``results/rooms30_summary.md``: per driver the loop laps by sharpest-turn bin, the rooms
+at 85 % of their loop laps against the rooms expected at the pooled rate if every room lapped at
+it (and the spread of the rooms' laps against the binomial's); every room's laps; and each lap
+an oracle run loses in a room it leaves under 85 % (its loop's sharpest turn, how it ended, and
+whether the drivers on the goal's map lapped it).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(HERE.parent / "human_goal"), str(HERE.parent / "human_goal" / "test_round20")]
+
+from room_measures import write_page  # noqa: E402
+from rooms_breakdown import BAR, at_least  # noqa: E402
+
+from lfd_track.benchmark.loops import loop_facts  # noqa: E402
+from lfd_track.world.loops import turn_bin  # noqa: E402
+
+RESULTS = HERE / "results"
+CONDITION = "rooms.round27+sight"
+#: driver: its results folder (a ``seed<N>/results.json`` per seed)
+DRIVERS = {
+    "(a) the map rule, the goal's map": RESULTS / "rooms30_rules" / "sight" / "map-rule",
+    "(b) the map rule, the oracle's map": RESULTS
+    / "rooms30_rules"
+    / "sight_cover_from_30cm"
+    / "map-rule",
+    "(c) the goal's learner": RESULTS / "rooms30" / CONDITION,
+    "(d) the goal's learner, the oracle's map": RESULTS
+    / "oracle_visited"
+    / "learner_rooms30"
+    / CONDITION,
+}
+ORACLES = ("(b) the map rule, the oracle's map", "(d) the goal's learner, the oracle's map")
+SEEDS = (102, 103, 104)
+BINS = ("<=60", "60-100", "100-135", ">135")
+OUT = RESULTS / "rooms30_summary.md"
+
+
+def loop_outcomes(folder: Path) -> dict[tuple, dict]:
+    """Each loop lap's outcome, keyed by (seed, repetition, loop, direction, trial)."""
+    out: dict[tuple, dict] = {}
+    for seed in SEEDS:
+        path = folder / f"seed{seed}" / "results.json"
+        if not path.is_file():
+            raise SystemExit(f"{path}: not run yet (README.md, part 51)")
+        for o in json.loads(path.read_text(encoding="utf-8"))["outcomes"]:
+            if o["track"] not in ("training", "testing"):
+                key = (seed, o["repetition"], o["track"], o["direction"], o.get("trial", 0))
+                out[key] = o
+    return out
+
+
+def main() -> None:
+    runs = {name: loop_outcomes(folder) for name, folder in DRIVERS.items()}
+    keys = runs[next(iter(runs))].keys()
+    for name, laps in runs.items():
+        if laps.keys() != keys:
+            raise SystemExit(f"{DRIVERS[name]}: not the trials of the other runs")
+    sharpest = {track: turn_bin(loop_facts(track)[0]) for track in {k[2] for k in keys}}
+    rooms = sorted({k[:2] for k in keys})
+    per_room = {
+        name: {room: [0, 0] for room in rooms} for name in runs
+    }  # driver: room: [lapped, laps]
+    for name, laps in runs.items():
+        for key, o in laps.items():
+            per_room[name][key[:2]][0] += bool(o["success"])
+            per_room[name][key[:2]][1] += 1
+    n = per_room[next(iter(runs))][rooms[0]][1]
+    need = math.ceil(BAR * n)
+    md = ["# Part 51: the every-room bar on 30 rooms nothing was chosen on (seeds 102-104)", ""]
+    md += [f"Validation loops, {n} loop laps a room; a room is at the bar with {need} or more.", ""]
+    md += ["| driver | loop laps | " + " | ".join(BINS) + " | rooms at 85 % | expected at p |"]
+    md[-1] += " laps' variance | binomial's |"
+    md += ["|---" * (4 + len(BINS) + 2) + "|"]
+    for name, laps in runs.items():
+        bins = {b: [0, 0] for b in BINS}
+        for key, o in laps.items():
+            bins[sharpest[key[2]]][0] += bool(o["success"])
+            bins[sharpest[key[2]]][1] += 1
+        done = np.array([per_room[name][room][0] for room in rooms])
+        p = float(done.sum()) / (n * len(rooms))
+        cells = " | ".join(f"{k}/{m}" if m else "–" for k, m in bins.values())
+        md += [
+            f"| {name} | {done.sum()}/{n * len(rooms)} = {p:.1%} | {cells} | "
+            f"{int((done >= need).sum())} of {len(rooms)} | "
+            f"{len(rooms) * at_least(need, n, p):.1f} | {done.var():.2f} | {n * p * (1 - p):.2f} |"
+        ]
+    md += ["", "Every room's loop laps (seed, repetition):", ""]
+    md += ["| room | " + " | ".join(name[:3] for name in runs) + " |"]
+    md += ["|---" * (1 + len(runs)) + "|"]
+    for room in rooms:
+        cells = " | ".join(
+            f"**{k}**" if k < need else str(k) for k, _ in (per_room[name][room] for name in runs)
+        )
+        md += [f"| {room[0]}, {room[1]} | {cells} |"]
+    md += ["", "(bold: under the bar)", ""]
+    md += ["## The laps an oracle run loses in the rooms it leaves under the bar", ""]
+    md += ["| driver | room | loop | direction | sharpest turn | ended | (a) | (c) |"]
+    md += ["|---|---|---|---|---|---|---|---|"]
+    goal_rule, goal_learner = (runs[name] for name in list(runs)[0::2])
+    for name in ORACLES:
+        for key, o in sorted(runs[name].items()):
+            if o["success"] or per_room[name][key[:2]][0] >= need:
+                continue
+            md += [
+                f"| {name[:3]} | {key[0]}, {key[1]} | {key[2]} | {key[3]} | {sharpest[key[2]]} | "
+                f"{o['failure']} | {'lapped' if goal_rule[key]['success'] else 'lost'} | "
+                f"{'lapped' if goal_learner[key]['success'] else 'lost'} |"
+            ]
+    write_page(OUT, md)
+
+
+if __name__ == "__main__":
+    main()
