@@ -69,19 +69,23 @@ def main() -> None:
     parser.add_argument("--combine", choices=oracle_visited.COMBINES, default="oracle")
     parser.add_argument("--cover-from", type=float, default=0.0, metavar="M")
     args = parser.parse_args()
-    if args.cover_from and (args.combine != "cover" or not args.cover_from >= 0.0):
+    use_oracle(args.combine, args.cover_from)
+    run_in_process(args.study, args.out, args.seed, tables=False)
+
+
+def use_oracle(combine: str, cover_from: float) -> None:
+    """From now on every ``fresh_felt`` map this process makes is the oracle's
+    (``oracle_visited.TrackVisitedMemory`` with ``combine`` and ``cover_from`` [m]), in the
+    demonstration, the fits and the trials alike (see the module docstring)."""
+    if cover_from and (combine != "cover" or not cover_from >= 0.0):
         raise SystemExit("--cover-from takes metres >= 0, with --combine cover")
-    oracle_visited.NOW["combine"], oracle_visited.NOW["cover_from_m"] = (
-        args.combine,
-        args.cover_from,
-    )
+    oracle_visited.NOW["combine"], oracle_visited.NOW["cover_from_m"] = combine, cover_from
     LfDTrackEnv.reset, LfDTrackEnv.step = (  # type: ignore[method-assign]
         oracle_visited.reset,
         oracle_visited.step,
     )
     ProtocolHuman.finished = leg_finished  # type: ignore[method-assign]
     oracle_visited.maps_made_as(oracle_visited.TrackVisitedMemory)
-    run_in_process(args.study, args.out, args.seed, tables=False)
 
 
 def run_in_process(study_file: str, out_folder: str, seed: int | None, tables: bool = True) -> None:
