@@ -6,7 +6,8 @@ A repetition's seed gives its room (``repetition_preset``) and three streams
 lapses and nudges), the learner's fits' and the trials'. This script replaces the first two by
 streams of their own, drawn from the repetition's seed under :data:`AGAIN` (no other stream of
 the repetition uses it), and keeps the room and the trials' stream: the same room and the same
-loops, lapped by a learner taught there once more. With ``--combine``/``--cover-from`` every
+loops, lapped by a learner taught there once more. With ``--keep-demonstration`` only the fits'
+stream is drawn again: the same demonstration, fitted again (part 53). With ``--combine``/``--cover-from`` every
 ``fresh_felt`` map is part 12's oracle's, as ``oracle_learner.py`` makes it. The study's jobs run
 in this process (``--seed N``: only seed N's, so that processes can share one output folder).
 The jobs' results record the study's configuration; the folder's name and the README say that
@@ -33,15 +34,18 @@ from lfd_track.benchmark import runner  # noqa: E402
 #: spawn key of the streams a repetition is taught again from ("again" in ASCII)
 AGAIN = 0x616761696E
 _streams = runner.repetition_streams
+#: ``--keep-demonstration``: only the fits' stream is drawn again (part 53)
+KEEP = {"demonstration": False}
 
 
 def streams_again(seed: int) -> tuple[int, int, int]:
     """(demonstration, learning, trials) seeds of the repetition with seed ``seed``, taught
-    again: the first two drawn under :data:`AGAIN`, the trials' the repetition's own."""
-    trial_seed = _streams(seed)[2]
+    again: the first two drawn under :data:`AGAIN` (with ``KEEP["demonstration"]`` the first
+    the repetition's own), the trials' the repetition's own."""
+    own_demo, _, trial_seed = _streams(seed)
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(AGAIN,)))
     demo_seed, ga_seed = (int(x) for x in rng.integers(0, 2**62, size=2))
-    return demo_seed, ga_seed, trial_seed
+    return own_demo if KEEP["demonstration"] else demo_seed, ga_seed, trial_seed
 
 
 def main() -> None:
@@ -51,7 +55,11 @@ def main() -> None:
     parser.add_argument("--seed", type=int, help="run only this seed's jobs")
     parser.add_argument("--combine", choices=oracle_visited.COMBINES, help="the oracle's map")
     parser.add_argument("--cover-from", type=float, default=0.0, metavar="M")
+    parser.add_argument(
+        "--keep-demonstration", action="store_true", help="draw only the fits' stream again"
+    )
     args = parser.parse_args()
+    KEEP["demonstration"] = args.keep_demonstration
     if args.combine is not None:
         oracle_learner.use_oracle(args.combine, args.cover_from)
     runner.repetition_streams = streams_again  # run_repetition looks it up at each call

@@ -8,7 +8,9 @@ writes ``results/rooms30_summary.md``: per driver the loop laps by sharpest-turn
 at 85 % of their loop laps against the rooms expected at the pooled rate if every room lapped at
 it (and the spread of the rooms' laps against the binomial's); every room's laps; and each lap
 an oracle run loses in a room it leaves under 85 % (its loop's sharpest turn, how it ended, and
-whether the drivers on the goal's map lapped it).
+whether the drivers on the goal's map lapped it). Part 52 adds the goal's learner taught again
+in every room (``reteach.py``), on each map: those runs' rows, and per map the rooms under the bar
+in either teaching and in both, and the two teachings' room laps ranked against each other.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path[:0] = [str(HERE.parent / "human_goal"), str(HERE.parent / "human_goal" / "test_round20")]
 
-from room_measures import write_page  # noqa: E402
+from room_measures import spearman, write_page  # noqa: E402
 from rooms_breakdown import BAR, at_least  # noqa: E402
 
 from lfd_track.benchmark.loops import loop_facts  # noqa: E402
@@ -43,8 +45,19 @@ DRIVERS = {
     / "oracle_visited"
     / "learner_rooms30"
     / CONDITION,
+    "(c') the goal's learner, taught again (part 52)": RESULTS / "rooms30_again" / CONDITION,
+    "(d') the goal's learner, the oracle's map, taught again (part 52)": RESULTS
+    / "oracle_visited"
+    / "learner_rooms30_again"
+    / CONDITION,
 }
-ORACLES = ("(b) the map rule, the oracle's map", "(d) the goal's learner, the oracle's map")
+RULE, ORACLE_RULE, LEARNER, ORACLE_LEARNER, LEARNER_AGAIN, ORACLE_AGAIN = DRIVERS
+ORACLES = (ORACLE_RULE, ORACLE_LEARNER)
+#: part 52: (the map, the learner taught first, the learner taught again)
+TAUGHT_AGAIN = (
+    ("the goal's map", LEARNER, LEARNER_AGAIN),
+    ("the oracle's map", ORACLE_LEARNER, ORACLE_AGAIN),
+)
 SEEDS = (102, 103, 104)
 BINS = ("<=60", "60-100", "100-135", ">135")
 OUT = RESULTS / "rooms30_summary.md"
@@ -100,7 +113,7 @@ def main() -> None:
             f"{len(rooms) * at_least(need, n, p):.1f} | {done.var():.2f} | {n * p * (1 - p):.2f} |"
         ]
     md += ["", "Every room's loop laps (seed, repetition):", ""]
-    md += ["| room | " + " | ".join(name[:3] for name in runs) + " |"]
+    md += ["| room | " + " | ".join(name.split()[0] for name in runs) + " |"]
     md += ["|---" * (1 + len(runs)) + "|"]
     for room in rooms:
         cells = " | ".join(
@@ -111,16 +124,32 @@ def main() -> None:
     md += ["## The laps an oracle run loses in the rooms it leaves under the bar", ""]
     md += ["| driver | room | loop | direction | sharpest turn | ended | (a) | (c) |"]
     md += ["|---|---|---|---|---|---|---|---|"]
-    goal_rule, goal_learner = (runs[name] for name in list(runs)[0::2])
+    goal_rule, goal_learner = runs[RULE], runs[LEARNER]
     for name in ORACLES:
         for key, o in sorted(runs[name].items()):
             if o["success"] or per_room[name][key[:2]][0] >= need:
                 continue
             md += [
-                f"| {name[:3]} | {key[0]}, {key[1]} | {key[2]} | {key[3]} | {sharpest[key[2]]} | "
+                f"| {name.split()[0]} | {key[0]}, {key[1]} | {key[2]} | {key[3]} | "
+                f"{sharpest[key[2]]} | "
                 f"{o['failure']} | {'lapped' if goal_rule[key]['success'] else 'lost'} | "
                 f"{'lapped' if goal_learner[key]['success'] else 'lost'} |"
             ]
+    md += ["", "## Part 52: the same rooms taught again", ""]
+    md += ["| map | under the bar taught first | taught again | at the bar when taught again |"]
+    md[-1] += " under in both | newly under | Spearman of the rooms' laps |"
+    md += ["|---" * 7 + "|"]
+    for label, first, again in TAUGHT_AGAIN:
+        under = {r for r in rooms if per_room[first][r][0] < need}
+        under_again = {r for r in rooms if per_room[again][r][0] < need}
+        rho = spearman(
+            np.array([per_room[first][r][0] for r in rooms], dtype=float),
+            np.array([per_room[again][r][0] for r in rooms], dtype=float),
+        )
+        md += [
+            f"| {label} | {len(under)} | {len(under_again)} | {len(under - under_again)} of "
+            f"{len(under)} | {len(under & under_again)} | {len(under_again - under)} | {rho:+.2f} |"
+        ]
     write_page(OUT, md)
 
 
