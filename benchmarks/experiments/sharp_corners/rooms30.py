@@ -9,8 +9,9 @@ at 85 % of their loop laps against the rooms expected at the pooled rate if ever
 it (and the spread of the rooms' laps against the binomial's); every room's laps; and each lap
 an oracle run loses in a room it leaves under 85 % (its loop's sharpest turn, how it ended, and
 whether the drivers on the goal's map lapped it). Part 52 adds the goal's learner taught again
-in every room (``reteach.py``), on each map: those runs' rows, and per map the rooms under the bar
-in either teaching and in both, and the two teachings' room laps ranked against each other.
+in every room (``reteach.py``), on each map, and part 53 the same demonstrations refitted: those
+runs' rows, and per pair the rooms under the bar in either teaching and in both, and the two
+teachings' room laps ranked against each other.
 """
 
 from __future__ import annotations
@@ -50,13 +51,17 @@ DRIVERS = {
     / "oracle_visited"
     / "learner_rooms30_again"
     / CONDITION,
+    "(c'') the goal's learner, the same demonstration refitted (part 53)": RESULTS
+    / "rooms30_refit"
+    / CONDITION,
 }
-RULE, ORACLE_RULE, LEARNER, ORACLE_LEARNER, LEARNER_AGAIN, ORACLE_AGAIN = DRIVERS
+RULE, ORACLE_RULE, LEARNER, ORACLE_LEARNER, LEARNER_AGAIN, ORACLE_AGAIN, LEARNER_REFIT = DRIVERS
 ORACLES = (ORACLE_RULE, ORACLE_LEARNER)
-#: part 52: (the map, the learner taught first, the learner taught again)
+#: parts 52-53: (what changed, the learner taught first, the learner taught again)
 TAUGHT_AGAIN = (
-    ("the goal's map", LEARNER, LEARNER_AGAIN),
-    ("the oracle's map", ORACLE_LEARNER, ORACLE_AGAIN),
+    ("the goal's map, taught again", LEARNER, LEARNER_AGAIN),
+    ("the oracle's map, taught again", ORACLE_LEARNER, ORACLE_AGAIN),
+    ("the goal's map, refitted (part 53)", LEARNER, LEARNER_REFIT),
 )
 SEEDS = (102, 103, 104)
 BINS = ("<=60", "60-100", "100-135", ">135")
@@ -135,8 +140,10 @@ def main() -> None:
                 f"{o['failure']} | {'lapped' if goal_rule[key]['success'] else 'lost'} | "
                 f"{'lapped' if goal_learner[key]['success'] else 'lost'} |"
             ]
-    md += ["", "## Part 52: the same rooms taught again", ""]
-    md += ["| map | under the bar taught first | taught again | at the bar when taught again |"]
+    md += ["", "## Parts 52-53: the same rooms taught again", ""]
+    md += [
+        "| taught again | under the bar taught first | taught again | at the bar when taught again |"
+    ]
     md[-1] += " under in both | newly under | Spearman of the rooms' laps |"
     md += ["|---" * 7 + "|"]
     for label, first, again in TAUGHT_AGAIN:
