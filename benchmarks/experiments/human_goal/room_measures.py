@@ -1,6 +1,7 @@
 """What the rooms rounds' scripts of this folder share (``round24/``, ``round25/``, ``round26/``,
-``test_round20/rooms_breakdown.py``): reading a results folder's laps, a rank correlation, the
-robustness study's ground-truth scoring of road values, and writing a result page.
+``test_round20/rooms_breakdown.py``, and ``../sharp_corners/rooms30.py``): reading a results
+folder's laps, a rank correlation, the robustness study's ground-truth scoring of road values,
+and writing a result page.
 
 A script puts this folder on ``sys.path`` (as for ``study_repetition.py``) and imports from here.
 """
@@ -24,16 +25,21 @@ HERE = Path(__file__).resolve().parent
 FELT_LEVELS_SCRIPT = HERE.parent / "robustness" / "felt_levels.py"
 
 
-def loop_laps(folder: Path) -> dict[tuple, bool]:
-    """Each loop lap's success under ``folder`` (every ``results.json`` in it, a study condition's
-    or a rules run's), keyed by (repetition, loop, direction, trial): the training track and the
-    testing track left out."""
-    out: dict[tuple, bool] = {}
+def loop_outcomes(folder: Path) -> dict[tuple, dict]:
+    """Each loop lap's outcome record under ``folder`` (every ``results.json`` in it, a study
+    condition's or a rules run's), keyed by (repetition, loop, direction, trial): the training
+    track and the testing track left out."""
+    out: dict[tuple, dict] = {}
     for path in sorted(folder.rglob("results.json")):
         for o in json.loads(path.read_text(encoding="utf-8"))["outcomes"]:
             if o["track"] not in ("training", "testing"):
-                out[(o["repetition"], o["track"], o["direction"], o.get("trial", 0))] = o["success"]
+                out[(o["repetition"], o["track"], o["direction"], o.get("trial", 0))] = o
     return out
+
+
+def loop_laps(folder: Path) -> dict[tuple, bool]:
+    """Each loop lap's success under ``folder``, keyed as :func:`loop_outcomes`."""
+    return {key: o["success"] for key, o in loop_outcomes(folder).items()}
 
 
 def repetition_laps(folder: Path) -> dict[int, tuple[int, int]]:

@@ -7,11 +7,13 @@ lapses and nudges), the learner's fits' and the trials'. This script replaces th
 streams of their own, drawn from the repetition's seed under :data:`AGAIN` (no other stream of
 the repetition uses it), and keeps the room and the trials' stream: the same room and the same
 loops, lapped by a learner taught there once more. With ``--keep-demonstration`` only the fits'
-stream is drawn again: the same demonstration, fitted again (part 53). With ``--combine``/``--cover-from`` every
-``fresh_felt`` map is part 12's oracle's, as ``oracle_learner.py`` makes it. The study's jobs run
-in this process (``--seed N``: only seed N's, so that processes can share one output folder).
-The jobs' results record the study's configuration; the folder's name and the README say that
-they were taught again.
+stream is drawn again: the same demonstration, fitted again (part 53); its fits' stream is the
+one a run without it uses, so the two differ only in the demonstration. With ``--combine`` (and
+``--cover-from``) every ``fresh_felt`` map is part 12's oracle's, as ``oracle_learner.py`` makes
+it. The study's jobs run in this process (``--seed N``: only seed N's, so that processes can
+share one output folder). The jobs' results record the study's configuration, not that they were
+taught again (the folder's name and the README say so): ``lfd-track study`` pointed at such a
+folder would take its jobs for the study's own and run none.
 
     .venv/bin/python benchmarks/experiments/sharp_corners/reteach.py --seed 102 --study benchmarks/experiments/sharp_corners/rooms30.toml --out benchmarks/experiments/sharp_corners/results/rooms30_again
 """
@@ -49,7 +51,9 @@ def streams_again(seed: int) -> tuple[int, int, int]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(
+        description="Teach every repetition of a study again in the same room on the same trials."
+    )
     parser.add_argument("--study", required=True, help="the study file")
     parser.add_argument("--out", required=True, help="the output folder")
     parser.add_argument("--seed", type=int, help="run only this seed's jobs")
@@ -62,6 +66,8 @@ def main() -> None:
     KEEP["demonstration"] = args.keep_demonstration
     if args.combine is not None:
         oracle_learner.use_oracle(args.combine, args.cover_from)
+    elif args.cover_from:
+        raise SystemExit("--cover-from takes metres >= 0, with --combine cover")
     runner.repetition_streams = streams_again  # run_repetition looks it up at each call
     oracle_learner.run_in_process(args.study, args.out, args.seed, tables=False)
 

@@ -10,13 +10,12 @@ it (and the spread of the rooms' laps against the binomial's); every room's laps
 an oracle run loses in a room it leaves under 85 % (its loop's sharpest turn, how it ended, and
 whether the drivers on the goal's map lapped it). Part 52 adds the goal's learner taught again
 in every room (``reteach.py``), on each map, and part 53 the same demonstrations refitted: those
-runs' rows, and per pair the rooms under the bar in either teaching and in both, and the two
-teachings' room laps ranked against each other.
+runs' rows, and per pair the rooms under the bar in either teaching and in both, the laps whose
+outcome differs, and the two teachings' room laps ranked against each other.
 """
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 from pathlib import Path
@@ -26,8 +25,8 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path[:0] = [str(HERE.parent / "human_goal"), str(HERE.parent / "human_goal" / "test_round20")]
 
-from room_measures import spearman, write_page  # noqa: E402
-from rooms_breakdown import BAR, at_least  # noqa: E402
+from room_measures import loop_outcomes, spearman, write_page  # noqa: E402
+from rooms_breakdown import BAR, against_chance  # noqa: E402
 
 from lfd_track.benchmark.loops import loop_facts  # noqa: E402
 from lfd_track.world.loops import turn_bin  # noqa: E402
@@ -68,22 +67,19 @@ BINS = ("<=60", "60-100", "100-135", ">135")
 OUT = RESULTS / "rooms30_summary.md"
 
 
-def loop_outcomes(folder: Path) -> dict[tuple, dict]:
-    """Each loop lap's outcome, keyed by (seed, repetition, loop, direction, trial)."""
+def seeds_outcomes(folder: Path) -> dict[tuple, dict]:
+    """Each loop lap's outcome under ``folder``, keyed by (seed, repetition, loop, direction,
+    trial)."""
     out: dict[tuple, dict] = {}
     for seed in SEEDS:
-        path = folder / f"seed{seed}" / "results.json"
-        if not path.is_file():
-            raise SystemExit(f"{path}: not run yet (README.md, part 51)")
-        for o in json.loads(path.read_text(encoding="utf-8"))["outcomes"]:
-            if o["track"] not in ("training", "testing"):
-                key = (seed, o["repetition"], o["track"], o["direction"], o.get("trial", 0))
-                out[key] = o
+        if not (folder / f"seed{seed}" / "results.json").is_file():
+            raise SystemExit(f"{folder / f'seed{seed}'}: not run yet (README.md, parts 51-53)")
+        out.update({(seed, *key): o for key, o in loop_outcomes(folder / f"seed{seed}").items()})
     return out
 
 
 def main() -> None:
-    runs = {name: loop_outcomes(folder) for name, folder in DRIVERS.items()}
+    runs = {name: seeds_outcomes(folder) for name, folder in DRIVERS.items()}
     keys = runs[next(iter(runs))].keys()
     for name, laps in runs.items():
         if laps.keys() != keys:
@@ -99,24 +95,20 @@ def main() -> None:
             per_room[name][key[:2]][1] += 1
     n = per_room[next(iter(runs))][rooms[0]][1]
     need = math.ceil(BAR * n)
-    md = ["# Part 51: the every-room bar on 30 rooms nothing was chosen on (seeds 102-104)", ""]
+    md = ["# Parts 51-53: the every-room bar on 30 rooms nothing was chosen on (seeds 102-104)"]
+    md += [""]
     md += [f"Validation loops, {n} loop laps a room; a room is at the bar with {need} or more.", ""]
-    md += ["| driver | loop laps | " + " | ".join(BINS) + " | rooms at 85 % | expected at p |"]
-    md[-1] += " laps' variance | binomial's |"
-    md += ["|---" * (4 + len(BINS) + 2) + "|"]
+    md += ["| driver | loop laps | " + " | ".join(BINS) + " | pooled p | rooms at 85 % |"]
+    md[-1] += " expected at p | laps' variance | binomial's |"
+    md += ["|---" * (7 + len(BINS)) + "|"]
     for name, laps in runs.items():
         bins = {b: [0, 0] for b in BINS}
         for key, o in laps.items():
             bins[sharpest[key[2]]][0] += bool(o["success"])
             bins[sharpest[key[2]]][1] += 1
         done = np.array([per_room[name][room][0] for room in rooms])
-        p = float(done.sum()) / (n * len(rooms))
         cells = " | ".join(f"{k}/{m}" if m else "–" for k, m in bins.values())
-        md += [
-            f"| {name} | {done.sum()}/{n * len(rooms)} = {p:.1%} | {cells} | "
-            f"{int((done >= need).sum())} of {len(rooms)} | "
-            f"{len(rooms) * at_least(need, n, p):.1f} | {done.var():.2f} | {n * p * (1 - p):.2f} |"
-        ]
+        md += [f"| {name} | {done.sum()}/{n * len(rooms)} | {cells} | {against_chance(done, n)}"]
     md += ["", "Every room's loop laps (seed, repetition):", ""]
     md += ["| room | " + " | ".join(name.split()[0] for name in runs) + " |"]
     md += ["|---" * (1 + len(runs)) + "|"]
@@ -141,11 +133,9 @@ def main() -> None:
                 f"{'lapped' if goal_learner[key]['success'] else 'lost'} |"
             ]
     md += ["", "## Parts 52-53: the same rooms taught again", ""]
-    md += [
-        "| taught again | under the bar taught first | taught again | at the bar when taught again |"
-    ]
-    md[-1] += " under in both | newly under | Spearman of the rooms' laps |"
-    md += ["|---" * 7 + "|"]
+    md += ["| the second teaching | rooms under the bar, first | second | first's at the bar in"]
+    md[-1] += " the second | under in both | newly under | laps that differ | Spearman of rooms |"
+    md += ["|---" * 8 + "|"]
     for label, first, again in TAUGHT_AGAIN:
         under = {r for r in rooms if per_room[first][r][0] < need}
         under_again = {r for r in rooms if per_room[again][r][0] < need}
@@ -153,9 +143,11 @@ def main() -> None:
             np.array([per_room[first][r][0] for r in rooms], dtype=float),
             np.array([per_room[again][r][0] for r in rooms], dtype=float),
         )
+        differ = sum(o["success"] != runs[again][key]["success"] for key, o in runs[first].items())
         md += [
             f"| {label} | {len(under)} | {len(under_again)} | {len(under - under_again)} of "
-            f"{len(under)} | {len(under & under_again)} | {len(under_again - under)} | {rho:+.2f} |"
+            f"{len(under)} | {len(under & under_again)} | {len(under_again - under)} | {differ} | "
+            f"{rho:+.2f} |"
         ]
     write_page(OUT, md)
 

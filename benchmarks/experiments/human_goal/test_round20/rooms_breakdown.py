@@ -115,6 +115,18 @@ def at_least(k: int, n: int, p: float) -> float:
     return sum(math.comb(n, i) * p**i * (1 - p) ** (n - i) for i in range(k, n + 1))
 
 
+def against_chance(done: np.ndarray, n: int) -> str:
+    """The cells after a driver's name in the against-chance table, for the rooms' lapped loop
+    laps ``done`` (rooms,) of ``n`` each: the pooled rate p, the rooms at 85 %, the rooms
+    expected there if every room lapped at p, the rooms' variance and the binomial's."""
+    p = float(done.sum()) / (n * len(done))
+    need = math.ceil(BAR * n)
+    return (
+        f"{p:.3f} | {int((done >= need).sum())} of {len(done)} |"
+        f" {len(done) * at_least(need, n, p):.1f} | {done.var():.2f} | {n * p * (1 - p):.2f} |"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--round", choices=sorted(ROUNDS), default="20")
@@ -182,11 +194,7 @@ def main() -> None:
     need = math.ceil(BAR * n)
     for driver, column in (("learned", 2), ("rule", 3)):
         done = np.array([r[column]["loops"][0] for r in rows])
-        p = float(done.sum()) / (n * len(rows))
-        md += [
-            f"| {driver} | {p:.3f} | {int((done >= need).sum())} of {len(rows)} |"
-            f" {len(rows) * at_least(need, n, p):.1f} | {done.var():.2f} | {n * p * (1 - p):.2f} |"
-        ]
+        md += [f"| {driver} | {against_chance(done, n)}"]
     reach = next(
         q / 1000 for q in range(850, 1000) if at_least(need, n, q / 1000) ** len(rows) >= 0.9
     )
