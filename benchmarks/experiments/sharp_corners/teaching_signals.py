@@ -20,9 +20,10 @@ from pathlib import Path
 from typing import Any
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE))
+sys.path[:0] = [str(HERE), str(HERE.parent / "human_goal")]
 
-from rooms30 import CONDITION, RESULTS, SEEDS, write_page  # noqa: E402
+from room_measures import write_page  # noqa: E402
+from rooms30 import CONDITION, RESULTS, SEEDS  # noqa: E402
 
 #: the teaching chosen on, and the two read on (parts 51-53)
 CHOSEN_ON = RESULTS / "rooms30" / CONDITION
