@@ -21,6 +21,7 @@ folder would take its jobs for the study's own and run none.
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 from pathlib import Path
 
@@ -36,18 +37,16 @@ from lfd_track.benchmark import runner  # noqa: E402
 #: spawn key of the streams a repetition is taught again from ("again" in ASCII)
 AGAIN = 0x616761696E
 _streams = runner.repetition_streams
-#: ``--keep-demonstration``: only the fits' stream is drawn again (part 53)
-KEEP = {"demonstration": False}
 
 
-def streams_again(seed: int) -> tuple[int, int, int]:
+def streams_again(seed: int, keep_demonstration: bool = False) -> tuple[int, int, int]:
     """(demonstration, learning, trials) seeds of the repetition with seed ``seed``, taught
-    again: the first two drawn under :data:`AGAIN` (with ``KEEP["demonstration"]`` the first
-    the repetition's own), the trials' the repetition's own."""
+    again: the first two drawn under :data:`AGAIN` (with ``keep_demonstration`` the first the
+    repetition's own), the trials' the repetition's own."""
     own_demo, _, trial_seed = _streams(seed)
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(AGAIN,)))
     demo_seed, ga_seed = (int(x) for x in rng.integers(0, 2**62, size=2))
-    return own_demo if KEEP["demonstration"] else demo_seed, ga_seed, trial_seed
+    return own_demo if keep_demonstration else demo_seed, ga_seed, trial_seed
 
 
 def main() -> None:
@@ -63,12 +62,14 @@ def main() -> None:
         "--keep-demonstration", action="store_true", help="draw only the fits' stream again"
     )
     args = parser.parse_args()
-    KEEP["demonstration"] = args.keep_demonstration
     if args.combine is not None:
         oracle_learner.use_oracle(args.combine, args.cover_from)
     elif args.cover_from:
         raise SystemExit("--cover-from takes metres >= 0, with --combine cover")
-    runner.repetition_streams = streams_again  # run_repetition looks it up at each call
+    # run_repetition looks the name up at each call
+    runner.repetition_streams = functools.partial(  # type: ignore[assignment]
+        streams_again, keep_demonstration=args.keep_demonstration
+    )
     oracle_learner.run_in_process(args.study, args.out, args.seed, tables=False)
 
 

@@ -14,6 +14,7 @@ Writes ``results/teaching_signals.md``.
 from __future__ import annotations
 
 import json
+import math
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -22,27 +23,27 @@ from typing import Any
 HERE = Path(__file__).resolve().parent
 sys.path[:0] = [str(HERE), str(HERE.parent / "human_goal")]
 
-from room_measures import write_page  # noqa: E402
+from room_measures import repetition_laps, write_page  # noqa: E402
 from rooms30 import CONDITION, RESULTS, SEEDS  # noqa: E402
+from rooms_breakdown import BAR  # noqa: E402
 
 #: the teaching chosen on, and the two read on (parts 51-53)
 CHOSEN_ON = RESULTS / "rooms30" / CONDITION
 READ_ON = (RESULTS / "rooms30_again" / CONDITION, RESULTS / "rooms30_refit" / CONDITION)
-BAR_LAPS = 17  # of a room's 20 loop laps: 85 %
+BAR_LAPS = math.ceil(BAR * 20)  # of a room's 20 loop laps
 OUT = RESULTS / "teaching_signals.md"
-#: signal: its value for one repetition from the job's record and the repetition's index
-SIGNALS: dict[str, Callable[[dict[str, Any], int], float]] = {
-    "training accuracy": lambda d, r: d["training_accuracy"][r],
-    "training-track runs lapped": lambda d, r: sum(
-        o["success"] for o in d["outcomes"] if o["track"] == "training" and o["repetition"] == r
-    ),
-    "human commands": lambda d, r: d["human_effort"]["repetitions"][r]["commands"],
-    "demonstration cases": lambda d, r: d["demonstrations"][r]["cases"],
-    "demonstration turns": lambda d, r: (
+#: signal: its value for one repetition from the job's record, the repetition's index and its
+#: (loop laps, training-track runs) lapped (``room_measures.repetition_laps``)
+SIGNALS: dict[str, Callable[[dict[str, Any], int, tuple[int, int]], float]] = {
+    "training accuracy": lambda d, r, laps: d["training_accuracy"][r],
+    "training-track runs lapped": lambda d, r, laps: laps[1],
+    "human commands": lambda d, r, laps: d["human_effort"]["repetitions"][r]["commands"],
+    "demonstration cases": lambda d, r, laps: d["demonstrations"][r]["cases"],
+    "demonstration turns": lambda d, r, laps: (
         d["demonstrations"][r]["counts"]["left"] + d["demonstrations"][r]["counts"]["right"]
     ),
-    "road library models": lambda d, r: d["demonstrations"][r]["library_models"],
-    "best fitness": lambda d, r: d["best_fitness"][r],
+    "road library models": lambda d, r, laps: d["demonstrations"][r]["library_models"],
+    "best fitness": lambda d, r, laps: d["best_fitness"][r],
 }
 
 
@@ -51,15 +52,10 @@ def teachings(folder: Path) -> list[tuple[bool, dict[str, float]]]:
     out = []
     for seed in SEEDS:
         data = json.loads((folder / f"seed{seed}" / "results.json").read_text(encoding="utf-8"))
+        laps = repetition_laps(folder / f"seed{seed}")
         for r in range(data["repetitions"]):
-            lapped = sum(
-                o["success"]
-                for o in data["outcomes"]
-                if o["repetition"] == r and o["track"] not in ("training", "testing")
-            )
-            out.append(
-                (lapped < BAR_LAPS, {name: float(f(data, r)) for name, f in SIGNALS.items()})
-            )
+            values = {name: float(f(data, r, laps[r])) for name, f in SIGNALS.items()}
+            out.append((laps[r][0] < BAR_LAPS, values))
     return out
 
 
