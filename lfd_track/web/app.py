@@ -21,7 +21,8 @@ loop is handed on (no page can hold it); a page may send :data:`MESSAGE_BURST` m
 and :data:`MESSAGE_RATE` a second after that, or it is closed with code 1008 (the page itself
 sends a heartbeat every :data:`~.contract.HEARTBEAT_S` and a press and release per button); at most :data:`MAX_PAGES`
 pages are open at once (more are refused with HTTP 503). A ``stop`` runs in a thread of its own
-(:class:`StopLine`), never behind other pages' work. Messages longer than
+(:class:`StopLine`), never behind other pages' work, and the loop waits for it briefly so a
+flooded loop cannot starve it of the interpreter. Messages longer than
 :data:`MAX_MESSAGE_CHARS`, nested too deeply, binary or not JSON objects get an error reply.
 """
 
@@ -36,7 +37,7 @@ import secrets
 import threading
 import time
 from collections.abc import Callable, Mapping
-from concurrent.futures import Future, ThreadPoolExecutor
+from concurrent.futures import Future, ThreadPoolExecutor, wait
 from dataclasses import dataclass
 from importlib import resources
 from typing import Any
@@ -226,9 +227,19 @@ class StopLine:
     link), so a stop never waits behind other work. A stop asked for while another one waits to
     start joins it: however many pages press stop, at most one runs and one waits. The stop that
     runs carries the reason of every request it answers (``"; "``-separated, each once), so a
-    stop button pressed while the controlling page's closing stop waited is named too."""
+    stop button pressed while the controlling page's closing stop waited is named too.
+
+    A stop that can start at once is handed the interpreter: the event loop waits for it,
+    blocked, for up to :data:`HAND_OVER_S` before it goes on. Otherwise a loop kept busy (a page
+    flooding frames that are parsed a slice per turn) holds the interpreter lock, and the stop's
+    thread gets it only between the loop's turns, a few milliseconds at a time: a tenth of a
+    second and more for a stop that takes a millisecond of work."""
 
     REASON_SEPARATOR = "; "
+    HAND_OVER_S = 0.02
+    """[s] the longest the event loop waits, blocked, for a stop that could start at once (a
+    stop that hangs, a serial link gone quiet, holds the loop no longer; a stop asked for while
+    another runs or waits does not block the loop at all)."""
 
     def __init__(self, stop: Callable[[str], None]) -> None:
         self._stop = stop
@@ -236,28 +247,45 @@ class StopLine:
         self._lock = threading.Lock()
         self._waiting: Future[None] | None = None
         self._reasons: list[str] = []  # of the waiting stop
+        self._running = False
 
     def request(self, reason: str) -> Future[None]:
         """Ask for a stop; the future is done once the robot was told to stop (by a stop that
         started after this request)."""
+        return self._ask(reason)[0]
+
+    def _ask(self, reason: str) -> tuple[Future[None], bool]:
+        """:meth:`request`, and whether the stop asked for can start at once (none runs or
+        waits)."""
         with self._lock:
             if self._waiting is None or self._waiting.done():
+                idle = not self._running
                 self._reasons = [reason]
                 self._waiting = self._executor.submit(self._run)
-            elif reason not in self._reasons:
+                return self._waiting, idle
+            if reason not in self._reasons:
                 self._reasons.append(reason)
-            return self._waiting
+            return self._waiting, False
 
     async def stop(self, reason: str) -> None:
-        """Stop, and wait until it is done (without holding up the event loop). Cancelling the
-        wait does not cancel the stop (other pages' stops may have joined it)."""
-        await asyncio.shield(asyncio.wrap_future(self.request(reason)))
+        """Stop, and wait until it is done (without holding up the event loop for longer than
+        :data:`HAND_OVER_S`). Cancelling the wait does not cancel the stop (other pages' stops
+        may have joined it)."""
+        done, idle = self._ask(reason)
+        if idle:
+            wait([done], timeout=self.HAND_OVER_S)  # releases the interpreter lock meanwhile
+        await asyncio.shield(asyncio.wrap_future(done))
 
     def _run(self) -> None:
         with self._lock:
             self._waiting = None  # a stop asked for from now on runs after this one
             reasons, self._reasons = self._reasons, []
-        self._stop(self.REASON_SEPARATOR.join(reasons))
+            self._running = True
+        try:
+            self._stop(self.REASON_SEPARATOR.join(reasons))
+        finally:
+            with self._lock:
+                self._running = False
 
 
 class ControlDesk:
