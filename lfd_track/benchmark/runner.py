@@ -162,7 +162,8 @@ def check_tracks(config: BenchmarkConfig) -> None:
     """Raise a one-line error unless every track the run drives works with its preset.
 
     Loads the preset, checks the test tracks (:func:`check_test_tracks`) and the demonstration
-    track (:func:`check_demo_track`), then builds, without painting its floor, the environment
+    track (:func:`check_demo_track`; and the track a method's rounds drive, when it has one of its
+    own), then builds, without painting its floor, the environment
     of every track the run drives (the demonstration track, the training track and each test
     loop, both ways): that applies the environment's own
     checks, among them that the ground texture the preset would paint around the track fits the
@@ -173,6 +174,10 @@ def check_tracks(config: BenchmarkConfig) -> None:
     check_test_tracks(config.test_tracks)
     check_demo_track(config.demo_track)
     drives = [(config.demo_track, False), (config.demo_track, True)]
+    round_track = getattr(config.settings_of(), "round_track", None)
+    if round_track is not None:  # hg-dagger's rounds on a track of their own
+        check_demo_track(round_track)
+        drives += [(round_track, False), (round_track, True)]
     drives += [(t, r) for t, r, _ in trial_directions(config.test_tracks)]
     for track, reverse in dict.fromkeys(drives):
         try:

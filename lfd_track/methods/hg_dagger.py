@@ -1,5 +1,5 @@
 """The ``hg-dagger`` method: the paper's demonstration and GA, then ``rounds`` rounds of
-autonomous runs on the demonstration track (one each way) with the human intervening by the
+autonomous runs on the demonstration track (or ``round_track``; one each way) with the human intervening by the
 intervention rule; the interventions of every round are aggregated and the GA re-run on all
 cases after each round. With ``learner = "bc"`` backprop (the benchmark's ``bc`` settings) takes
 the GA's place: the ``bc`` method's network after the demonstration, fitted again on all cases
@@ -52,12 +52,21 @@ class HGDaggerConfig(TakeoverConfig):
     ``benchmarks/experiments/human_goal/`` sets ``"bc"``: the map-only network learns by backprop,
     ``benchmarks/experiments/goal/learners_by_kind/``)."""
 
+    round_track: str | None = None
+    """The open track the rounds drive (once each way), when not the demonstration's: a second
+    track the person lays out to watch the taught robot on, e.g. a loop with a sharper corner
+    than the demonstrated one (a ``random:train:<i>`` loop: selection never teaches on another
+    split). None: the demonstration's track."""
+
     def to_dict(self) -> dict[str, Any]:
-        """The settings as a dict; ``learner`` only when it is not ``"ga"`` (what every run did
-        before the setting existed), so that files written before it still match theirs."""
+        """The settings as a dict; ``learner`` only when it is not ``"ga"`` and ``round_track``
+        only when set (what every run did before the settings existed), so that files written
+        before them still match theirs."""
         data = super().to_dict()
         if data["learner"] == "ga":
             del data["learner"]
+        if data["round_track"] is None:
+            del data["round_track"]
         return data
 
     def __post_init__(self) -> None:
@@ -67,13 +76,17 @@ class HGDaggerConfig(TakeoverConfig):
             raise ValueError(
                 f"hg-dagger learner must be one of {', '.join(DAGGER_LEARNERS)}, got {self.learner!r}"
             )
+        if self.round_track is not None and not (
+            isinstance(self.round_track, str) and self.round_track.strip()
+        ):
+            raise ValueError(f"hg-dagger round_track must name a track, got {self.round_track!r}")
 
 
 def learn(context: MethodContext) -> Learned:
     """The paper's demonstration and GA, then rounds of runs with interventions and re-evolving.
 
-    Each round drives the current controller once each way on ``context.track`` (library
-    frozen) with the scripted human watching; intervention cases of round r are written to
+    Each round drives the current controller once each way on ``context.track`` (or on
+    ``round_track``; library frozen) with the scripted human watching; intervention cases of round r are written to
     ``rep_dir/interventions_r<r>.lfdemo`` and added to the training set before the GA runs again
     (same settings, continuing the GA's random stream).
     """
@@ -90,6 +103,9 @@ def learn(context: MethodContext) -> Learned:
     ga_rng = np.random.default_rng([context.ga_seed, 1])
     round_rng = np.random.default_rng([context.demo_seed, 1])
     rounds_human = dataclasses.replace(context.human, legs=1, library_only_commands=0)
+    round_context = (
+        context if hg.round_track is None else dataclasses.replace(context, track=hg.round_track)
+    )
     totals = LoopCounts()
     per_round: list[dict[str, Any]] = []
     fitness_best, fitness_mean = list(first.fitness_best), list(first.fitness_mean)
@@ -126,7 +142,13 @@ def learn(context: MethodContext) -> Learned:
                 ]
 
             drive_both_ways(
-                context, controller, rounds_human, hg, (human_rng, round_rng), observers, tally
+                round_context,
+                controller,
+                rounds_human,
+                hg,
+                (human_rng, round_rng),
+                observers,
+                tally,
             )
             w.close({"round": r, "cases": len(buffer.commands)})
         add_counts(totals, tally.counts)

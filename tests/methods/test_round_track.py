@@ -1,0 +1,55 @@
+"""hg-dagger's rounds on a track of their own (``HGDaggerConfig.round_track``): a second track the
+person lays out to watch the taught robot on."""
+
+import numpy as np
+import pytest
+
+from lfd_track.benchmark.config import BenchmarkConfig
+from lfd_track.benchmark.runner import check_tracks, repetition_seeds
+from lfd_track.dataset import load_demonstration
+from lfd_track.demo.demonstrator import HumanConfig
+from lfd_track.errors import LfdTrackError
+from lfd_track.learning.ga import GAConfig
+from lfd_track.methods import learn_hg_dagger
+from lfd_track.methods.hg_dagger import HGDaggerConfig
+from lfd_track.world.track import load_track
+
+
+def _seeds() -> tuple[int, int]:
+    """(demo, ga) seeds of repetition 0 of benchmark seed 0, drawn as the runner draws them."""
+    rng = np.random.default_rng(repetition_seeds(0, 1)[0])
+    demo_seed, ga_seed, _ = (int(x) for x in rng.integers(0, 2**62, size=3))
+    return demo_seed, ga_seed
+
+
+def test_hg_dagger_rounds_drive_a_track_of_their_own(tmp_path):
+    """``round_track``: the demonstration on one track, the rounds' interventions on another
+    (every intervention case lies on the round track's felt, none is a demonstration case);
+    the setting is written only when set, and a name that is no track fails before anything
+    is learned."""
+    demo_seed, ga_seed = _seeds()
+    hg = HGDaggerConfig(rounds=1, round_track="testing")
+    learned = learn_hg_dagger(
+        tmp_path,
+        demo_seed=demo_seed,
+        ga_seed=ga_seed,
+        preset="paper",
+        human=HumanConfig(),
+        ga=GAConfig(generations=5),
+        hg=hg,
+    )
+    (r,) = learned.demo["rounds"]
+    assert r["intervention_cases"] > 0
+    poses = load_demonstration(tmp_path / "interventions_r1.lfdemo").poses[:, :2]
+    demo_poses = load_demonstration(tmp_path / "demonstration.lfdemo").poses[:, :2]
+    testing, training = load_track("testing"), load_track("training")
+    assert testing.on_felt(poses).all() and not training.on_felt(poses).all()
+    assert training.on_felt(demo_poses).all() and not testing.on_felt(demo_poses).all()
+    assert learned.controller.learner_config["round_track"] == "testing"
+    assert "round_track" not in HGDaggerConfig().to_dict()
+    assert HGDaggerConfig.from_dict(hg.to_dict()) == hg
+    with pytest.raises(ValueError, match="round_track must name a track"):
+        HGDaggerConfig(round_track=" ")
+    config = BenchmarkConfig(method="hg-dagger", hg_dagger=HGDaggerConfig(round_track="nowhere"))
+    with pytest.raises(LfdTrackError, match="unknown track 'nowhere'"):
+        check_tracks(config)
