@@ -1,0 +1,157 @@
+"""Round 37 (``README.md``): the candidate against the incumbent, room by room and lap by lap, on
+the 20 rooms of seeds 100-101 (committed results only; the rule in ``checked.toml`` decides).
+
+    .venv/bin/python benchmarks/experiments/human_goal/round37/compare.py
+
+writes ``results/compare.md``: per run the loop laps by sharpest-turn bin, the training-track
+runs, the rooms at 85 % of their loop laps, the human's commands and the round's takeovers per
+repetition; every room's loop laps, with the candidate's commands, corrections and intervention
+cases; the laps the candidate won and lost, and the rooms that
+reached the bar or fell under it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+sys.path[:0] = [str(HERE.parent), str(HERE.parent / "test_round20")]
+
+from room_measures import loop_outcomes, repetition_laps, write_page  # noqa: E402
+from rooms_breakdown import BAR  # noqa: E402
+
+from lfd_track.benchmark.loops import loop_facts  # noqa: E402
+from lfd_track.world.loops import turn_bin  # noqa: E402
+
+SEEDS = (100, 101)
+BINS = ("<=60", "60-100", "100-135", ">135")
+#: run: its condition's folder (a ``seed<N>/results.json`` per seed)
+RUNS = {
+    "incumbent (round 33's winner)": HERE.parent
+    / "round33"
+    / "results"
+    / "sight"
+    / "rooms.round27+sight",
+    "candidate (one HG-DAgger round on random:train:35)": HERE
+    / "results"
+    / "checked"
+    / "rooms.round33+checked",
+}
+INCUMBENT, CANDIDATE = RUNS
+OUT = HERE / "results" / "compare.md"
+
+
+def seed_folder(folder: Path, seed: int) -> Path:
+    path = folder / f"seed{seed}"
+    if not (path / "results.json").is_file():
+        raise SystemExit(f"{path}: not run yet (README.md)")
+    return path
+
+
+def effort(folder: Path) -> tuple[float, float]:
+    """Mean (human commands, takeovers) per repetition over the seeds."""
+    reps = []
+    for seed in SEEDS:
+        results = json.loads((seed_folder(folder, seed) / "results.json").read_text())
+        reps += results["human_effort"]["repetitions"]
+    return (
+        float(np.mean([r["commands"] for r in reps])),
+        float(np.mean([r["takeovers"] for r in reps])),
+    )
+
+
+def round_records(folder: Path) -> dict[tuple[int, int], tuple[int, int, int]]:
+    """Per room (seed, repetition): (human commands, corrections, the round's intervention
+    cases)."""
+    out = {}
+    for seed in SEEDS:
+        results = json.loads((seed_folder(folder, seed) / "results.json").read_text())
+        efforts = {r["repetition"]: r for r in results["human_effort"]["repetitions"]}
+        for demo in results["demonstrations"]:
+            rep = demo["repetition"]
+            cases = sum(r["intervention_cases"] for r in demo.get("rounds", []))
+            out[(seed, rep)] = (efforts[rep]["commands"], efforts[rep]["corrections"], cases)
+    return out
+
+
+def main() -> None:
+    laps = {
+        name: {
+            (seed, *key): o
+            for seed in SEEDS
+            for key, o in loop_outcomes(seed_folder(folder, seed)).items()
+        }
+        for name, folder in RUNS.items()
+    }
+    incumbent, candidate = laps.values()
+    if incumbent.keys() != candidate.keys():
+        raise SystemExit("the two runs did not drive the same trials")
+    sharpest = {track: turn_bin(loop_facts(track)[0]) for track in {k[2] for k in incumbent}}
+    rooms = sorted({k[:2] for k in incumbent})
+    per_room = {
+        name: {room: sum(o["success"] for k, o in run.items() if k[:2] == room) for room in rooms}
+        for name, run in laps.items()
+    }
+    n = sum(1 for k in incumbent if k[:2] == rooms[0])
+    need = math.ceil(BAR * n)
+    md = ["# Round 37: the candidate against the incumbent, room by room", ""]
+    md += [
+        f"20 rooms (seeds 100-101), {n} validation loop laps a room; at the bar with {need}.",
+        "",
+    ]
+    md += ["| run | loop laps | " + " | ".join(BINS) + " | training track | rooms at 85 % |"]
+    md[-1] += " human commands / rep. | takeovers / rep. |"
+    md += ["|---" * (6 + len(BINS)) + "|"]
+    for (name, run), folder in zip(laps.items(), RUNS.values(), strict=True):
+        bins = {b: [0, 0] for b in BINS}
+        for key, o in run.items():
+            bins[sharpest[key[2]]][0] += bool(o["success"])
+            bins[sharpest[key[2]]][1] += 1
+        training = sum(
+            t for seed in SEEDS for _, t in repetition_laps(seed_folder(folder, seed)).values()
+        )
+        at_bar = sum(per_room[name][room] >= need for room in rooms)
+        commands, takeovers = effort(folder)
+        cells = " | ".join(f"{k}/{m}" for k, m in bins.values())
+        md += [
+            f"| {name} | {sum(per_room[name].values())}/{n * len(rooms)} | {cells} | "
+            f"{training}/{6 * len(rooms)} | {at_bar} of {len(rooms)} | {commands:.0f} | "
+            f"{takeovers:.1f} |"
+        ]
+    won = sum(not o["success"] and candidate[k]["success"] for k, o in incumbent.items())
+    lost = sum(o["success"] and not candidate[k]["success"] for k, o in incumbent.items())
+    first, second = per_room.values()
+    reached = [r for r in rooms if first[r] < need <= second[r]]
+    fell = [r for r in rooms if second[r] < need <= first[r]]
+    md += ["", f"Lap by lap: the candidate won {won} laps and lost {lost}.", ""]
+    md += [
+        f"Rooms that reached the bar: {reached or 'none'}; rooms that fell under: {fell or 'none'}."
+    ]
+    records = round_records(RUNS[CANDIDATE])
+    md += ["", "| room (seed, repetition) | incumbent | candidate | the candidate's human commands"]
+    md[-1] += " | corrections | the round's intervention cases |"
+    md += ["|---" * 6 + "|"]
+    for room in rooms:
+        cells = [f"**{k}**" if k < need else str(k) for k in (first[room], second[room])]
+        commands, corrections, cases = records[room]
+        md += [
+            f"| {room[0]}, {room[1]} | {cells[0]} | {cells[1]} | {commands} | {corrections} | "
+            f"{cases} |"
+        ]
+    corrected = sum(records[r][1] > 0 for r in rooms)
+    over = sum(records[r][0] > 360 for r in rooms)
+    md += ["", "(bold: under the bar)", ""]
+    md += [
+        f"Rooms where the human took control back on the second loop: {corrected} of "
+        f"{len(rooms)}; repetitions over 360 human commands: {over} (the rule reads the mean)."
+    ]
+    write_page(OUT, md)
+
+
+if __name__ == "__main__":
+    main()
