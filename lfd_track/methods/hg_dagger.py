@@ -206,7 +206,7 @@ def learn_hg_dagger(rep_dir: str | Path, *, hg: HGDaggerConfig, **context: Any) 
 
 # ------------------------------------------------------------------------------- command line
 def add_flags(parser: argparse.ArgumentParser) -> None:
-    """The ``hg-dagger`` flag of ``lfd-track benchmark``."""
+    """The ``hg-dagger`` flags of ``lfd-track benchmark``."""
     parser.add_argument(
         "--hg-dagger-learner",
         choices=DAGGER_LEARNERS,
@@ -214,13 +214,26 @@ def add_flags(parser: argparse.ArgumentParser) -> None:
         help="with --method hg-dagger: what fits the network after the demonstration and after"
         " each round, the GA or backprop (the bc method's settings; default: ga)",
     )
+    parser.add_argument(
+        "--hg-dagger-round-track",
+        default=None,
+        metavar="TRACK",
+        help="with --method hg-dagger: the track the rounds drive, once each way (e.g."
+        " random:train:35, a loop with a sharper corner; default: the demonstration's track)",
+    )
 
 
 def flags_given(args: argparse.Namespace) -> list[str]:
     """The ``hg-dagger`` flags given on the command line."""
-    return ["--hg-dagger-learner"] if args.hg_dagger_learner is not None else []
+    given = {
+        "--hg-dagger-learner": args.hg_dagger_learner,
+        "--hg-dagger-round-track": args.hg_dagger_round_track,
+    }
+    return [flag for flag, value in given.items() if value is not None]
 
 
 def settings_from_flags(args: argparse.Namespace) -> HGDaggerConfig:
     """The ``hg-dagger`` settings of the command line's flags."""
-    return HGDaggerConfig(learner=args.hg_dagger_learner or "ga")
+    return HGDaggerConfig(
+        learner=args.hg_dagger_learner or "ga", round_track=args.hg_dagger_round_track
+    )

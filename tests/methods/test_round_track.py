@@ -53,3 +53,30 @@ def test_hg_dagger_rounds_drive_a_track_of_their_own(tmp_path):
     config = BenchmarkConfig(method="hg-dagger", hg_dagger=HGDaggerConfig(round_track="nowhere"))
     with pytest.raises(LfdTrackError, match="unknown track 'nowhere'"):
         check_tracks(config)
+
+
+def test_the_benchmark_flag_gives_the_round_track(tmp_path, capsys, monkeypatch):
+    """``--hg-dagger-round-track``: the rounds' track reaches the run's settings; without
+    ``--method hg-dagger`` it is refused, and a track that does not load fails in one line before
+    anything runs."""
+    from lfd_track.benchmark import runner
+    from lfd_track.cli import main
+
+    class Stop(Exception):
+        """The settings reached the run: stop before any work."""
+
+    def fake_run_benchmark(config, work, *, workers, progress):
+        raise Stop(config.settings_of())
+
+    monkeypatch.setattr(runner, "run_benchmark", fake_run_benchmark)
+    out = str(tmp_path / "out")
+    flags = ["--method", "hg-dagger", "--hg-dagger-round-track", "testing", "--out", out]
+    with pytest.raises(Stop) as stopped:
+        main(["--quiet", "benchmark", *flags])
+    assert stopped.value.args == (HGDaggerConfig(round_track="testing"),)
+    assert main(["benchmark", "--hg-dagger-round-track", "testing", "--out", out]) == 2
+    assert "--hg-dagger-round-track needs --method hg-dagger" in capsys.readouterr().err
+    flags[3] = "nowhere"
+    assert main(["benchmark", *flags]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "unknown track 'nowhere'" in err[0], err
