@@ -1,17 +1,21 @@
-"""Round 37 (``README.md``): the candidate against the incumbent, room by room and lap by lap, on
-the 20 rooms of seeds 100-101 (committed results only; the rule in ``checked.toml`` decides).
+"""A candidate of a rooms round against the incumbent (round 33's winner), room by room and lap
+by lap, on the 20 rooms of seeds 100-101 (committed results only; each round's rule decides).
 
-    .venv/bin/python benchmarks/experiments/human_goal/round37/compare.py
+    .venv/bin/python benchmarks/experiments/human_goal/against_incumbent.py CONDITION_FOLDER --label TEXT --out PAGE.md
 
-writes ``results/compare.md``: per run the loop laps by sharpest-turn bin, the training-track
-runs, the rooms at 85 % of their loop laps, the human's commands and the round's takeovers per
-repetition; every room's loop laps, with the candidate's commands, corrections and intervention
-cases; the laps the candidate won and lost, and the rooms that
-reached the bar or fell under it.
+e.g. round 37's (``round37/README.md``)::
+
+    .venv/bin/python benchmarks/experiments/human_goal/against_incumbent.py benchmarks/experiments/human_goal/round37/results/checked/rooms.round33+checked --label "one HG-DAgger round on random:train:35" --out benchmarks/experiments/human_goal/round37/results/compare.md
+
+writes the page: per run the loop laps by sharpest-turn bin, the training-track runs, the rooms at
+85 % of their loop laps, the human's commands and takeovers per repetition; every room's loop
+laps, with the candidate's commands, corrections and intervention cases; the laps the candidate
+won and lost, and the rooms that reached the bar or fell under it.
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import sys
@@ -20,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
-sys.path[:0] = [str(HERE.parent), str(HERE.parent / "test_round20")]
+sys.path[:0] = [str(HERE), str(HERE / "test_round20")]
 
 from room_measures import loop_outcomes, repetition_laps, write_page  # noqa: E402
 from rooms_breakdown import BAR  # noqa: E402
@@ -30,20 +34,8 @@ from lfd_track.world.loops import turn_bin  # noqa: E402
 
 SEEDS = (100, 101)
 BINS = ("<=60", "60-100", "100-135", ">135")
-#: run: its condition's folder (a ``seed<N>/results.json`` per seed)
-RUNS = {
-    "incumbent (round 33's winner)": HERE.parent
-    / "round33"
-    / "results"
-    / "sight"
-    / "rooms.round27+sight",
-    "candidate (one HG-DAgger round on random:train:35)": HERE
-    / "results"
-    / "checked"
-    / "rooms.round33+checked",
-}
-INCUMBENT, CANDIDATE = RUNS
-OUT = HERE / "results" / "compare.md"
+INCUMBENT = HERE / "round33" / "results" / "sight" / "rooms.round27+sight"
+"""Round 33's winner on these rooms: the incumbent of every rooms round since."""
 
 
 def seed_folder(folder: Path, seed: int) -> Path:
@@ -80,13 +72,19 @@ def round_records(folder: Path) -> dict[tuple[int, int], tuple[int, int, int]]:
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("candidate", type=Path, help="the candidate condition's results folder")
+    parser.add_argument("--label", required=True, help="the candidate's name in the tables")
+    parser.add_argument("--out", type=Path, required=True, help="the page to write")
+    args = parser.parse_args()
+    runs = {"incumbent (round 33's winner)": INCUMBENT, f"candidate ({args.label})": args.candidate}
     laps = {
         name: {
             (seed, *key): o
             for seed in SEEDS
             for key, o in loop_outcomes(seed_folder(folder, seed)).items()
         }
-        for name, folder in RUNS.items()
+        for name, folder in runs.items()
     }
     incumbent, candidate = laps.values()
     if incumbent.keys() != candidate.keys():
@@ -99,7 +97,7 @@ def main() -> None:
     }
     n = sum(1 for k in incumbent if k[:2] == rooms[0])
     need = math.ceil(BAR * n)
-    md = ["# Round 37: the candidate against the incumbent, room by room", ""]
+    md = ["# The candidate against the incumbent, room by room", ""]
     md += [
         f"20 rooms (seeds 100-101), {n} validation loop laps a room; at the bar with {need}.",
         "",
@@ -107,7 +105,7 @@ def main() -> None:
     md += ["| run | loop laps | " + " | ".join(BINS) + " | training track | rooms at 85 % |"]
     md[-1] += " human commands / rep. | takeovers / rep. |"
     md += ["|---" * (6 + len(BINS)) + "|"]
-    for (name, run), folder in zip(laps.items(), RUNS.values(), strict=True):
+    for (name, run), folder in zip(laps.items(), runs.values(), strict=True):
         bins = {b: [0, 0] for b in BINS}
         for key, o in run.items():
             bins[sharpest[key[2]]][0] += bool(o["success"])
@@ -132,7 +130,7 @@ def main() -> None:
     md += [
         f"Rooms that reached the bar: {reached or 'none'}; rooms that fell under: {fell or 'none'}."
     ]
-    records = round_records(RUNS[CANDIDATE])
+    records = round_records(args.candidate)
     md += ["", "| room (seed, repetition) | incumbent | candidate | the candidate's human commands"]
     md[-1] += " | corrections | the round's intervention cases |"
     md += ["|---" * 6 + "|"]
@@ -150,7 +148,7 @@ def main() -> None:
         f"Rooms where the human took control back on the second loop: {corrected} of "
         f"{len(rooms)}; repetitions over 360 human commands: {over} (the rule reads the mean)."
     ]
-    write_page(OUT, md)
+    write_page(args.out, md)
 
 
 if __name__ == "__main__":
