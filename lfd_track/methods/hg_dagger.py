@@ -1,7 +1,7 @@
 """The ``hg-dagger`` method: the paper's demonstration and GA, then ``rounds`` rounds of
-autonomous runs on the demonstration track (or ``round_track``; one each way) with the human intervening by the
-intervention rule; the interventions of every round are aggregated and the GA re-run on all
-cases after each round. With ``learner = "bc"`` backprop (the benchmark's ``bc`` settings) takes
+autonomous runs on the demonstration track (or ``round_track``; one each way) with the human
+intervening by the intervention rule; the interventions of every round are aggregated and the GA
+re-run on all cases after each round. With ``learner = "bc"`` backprop (the benchmark's ``bc`` settings) takes
 the GA's place: the ``bc`` method's network after the demonstration, fitted again on all cases
 after each round."""
 
@@ -53,7 +53,7 @@ class HGDaggerConfig(TakeoverConfig):
     ``benchmarks/experiments/goal/learners_by_kind/``)."""
 
     round_track: str | None = None
-    """The open track the rounds drive (once each way), when not the demonstration's: a second
+    """The track the rounds drive (once each way), when not the demonstration's: a second
     track the person lays out to watch the taught robot on, e.g. a loop with a sharper corner
     than the demonstrated one (a ``random:train:<i>`` loop: selection never teaches on another
     split). None: the demonstration's track."""
@@ -86,9 +86,9 @@ def learn(context: MethodContext) -> Learned:
     """The paper's demonstration and GA, then rounds of runs with interventions and re-evolving.
 
     Each round drives the current controller once each way on ``context.track`` (or on
-    ``round_track``; library frozen) with the scripted human watching; intervention cases of round r are written to
-    ``rep_dir/interventions_r<r>.lfdemo`` and added to the training set before the GA runs again
-    (same settings, continuing the GA's random stream).
+    ``round_track``; library frozen) with the scripted human watching; intervention cases of
+    round r are written to ``rep_dir/interventions_r<r>.lfdemo`` and added to the training set
+    before the GA runs again (same settings, continuing the GA's random stream).
     """
     hg: HGDaggerConfig = context.settings
     ga, features, rep_dir = context.ga, context.features, context.rep_dir

@@ -42,9 +42,9 @@ STOP_BOUND_S = 0.3
 carried out, however hard other pages flood.
 
 On the fixed server a stop waits for at most one message of each other page (the loop is handed
-on after each) plus a hop to the stop thread, which the loop hands the interpreter (``StopLine.HAND_OVER_S``):
-a few milliseconds of work, counted from when the stop left the page (:func:`send_stop`). 0.3 s leaves a margin
-of ten and more over that, and lies far below the seconds the unfixed server took (3.8-5.4 s in
+on after each) plus a hop to the stop thread, which the loop hands the interpreter
+(``StopLine.HAND_OVER_S``): a few milliseconds of work, counted from when the stop left the page
+(:func:`send_stop`). 0.3 s leaves a margin of ten and more over that, and lies far below the seconds the unfixed server took (3.8-5.4 s in
 the audit). It is counted in the process's CPU time (server, session and test threads), not on
 the wall clock: on a machine whose cores other jobs hold, the wall clock also counts the time the
 station waited for a core, which says nothing of its fairness. The wall clock keeps the safety
