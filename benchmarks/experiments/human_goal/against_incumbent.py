@@ -144,10 +144,9 @@ def main() -> None:
     corrected = sum(records[r][1] > 0 for r in rooms)
     over = sum(records[r][0] > 360 for r in rooms)
     md += ["", "(bold: under the bar)", ""]
-    md += [
-        f"Rooms where the human took control back on the second loop: {corrected} of "
-        f"{len(rooms)}; repetitions over 360 human commands: {over} (the rule reads the mean)."
-    ]
+    if any(records[r][2] for r in rooms):  # the candidate had rounds of interventions
+        md += [f"Rooms where the human took control back in a round: {corrected} of {len(rooms)}."]
+    md += [f"Repetitions over 360 human commands: {over} (the rule reads the mean)."]
     write_page(args.out, md)
 
 
