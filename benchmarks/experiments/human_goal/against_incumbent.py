@@ -1,5 +1,7 @@
 """A candidate of a rooms round against the incumbent (round 33's winner), room by room and lap
-by lap, on the 20 rooms of seeds 100-101 (committed results only; each round's rule decides).
+by lap, on the 20 validation rooms of seeds 100-101 or, with ``--incumbent`` and ``--seeds``, on
+other kept rooms (a frozen winner's test rooms against the goal's configuration's); committed
+results only: each round's rule decides.
 
     .venv/bin/python benchmarks/experiments/human_goal/against_incumbent.py CONDITION_FOLDER --label TEXT --out PAGE.md
 
@@ -39,16 +41,17 @@ INCUMBENT = HERE / "round33" / "results" / "sight" / "rooms.round27+sight"
 
 
 def seed_folder(folder: Path, seed: int) -> Path:
+    """``folder``'s job of ``seed`` (it must have run)."""
     path = folder / f"seed{seed}"
     if not (path / "results.json").is_file():
         raise SystemExit(f"{path}: not run yet (README.md)")
     return path
 
 
-def effort(folder: Path) -> tuple[float, float]:
-    """Mean (human commands, takeovers) per repetition over the seeds."""
+def effort(folder: Path, seeds: tuple[int, ...]) -> tuple[float, float]:
+    """Mean (human commands, takeovers) per repetition over ``seeds``."""
     reps = []
-    for seed in SEEDS:
+    for seed in seeds:
         results = json.loads((seed_folder(folder, seed) / "results.json").read_text())
         reps += results["human_effort"]["repetitions"]
     return (
@@ -57,11 +60,13 @@ def effort(folder: Path) -> tuple[float, float]:
     )
 
 
-def round_records(folder: Path) -> dict[tuple[int, int], tuple[int, int, int]]:
-    """Per room (seed, repetition): (human commands, corrections, the round's intervention
+def round_records(
+    folder: Path, seeds: tuple[int, ...]
+) -> dict[tuple[int, int], tuple[int, int, int]]:
+    """Per room (seed, repetition): (human commands, corrections, the rounds' intervention
     cases)."""
     out = {}
-    for seed in SEEDS:
+    for seed in seeds:
         results = json.loads((seed_folder(folder, seed) / "results.json").read_text())
         efforts = {r["repetition"]: r for r in results["human_effort"]["repetitions"]}
         for demo in results["demonstrations"]:
@@ -71,17 +76,43 @@ def round_records(folder: Path) -> dict[tuple[int, int], tuple[int, int, int]]:
     return out
 
 
+def testing_laps(folder: Path, seeds: tuple[int, ...]) -> tuple[int, int]:
+    """(laps lapped, laps driven) of the testing track over ``seeds`` (0, 0: none driven)."""
+    done = driven = 0
+    for seed in seeds:
+        results = json.loads((seed_folder(folder, seed) / "results.json").read_text())
+        for o in results["outcomes"]:
+            if o["track"] == "testing":
+                done, driven = done + bool(o["success"]), driven + 1
+    return done, driven
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("candidate", type=Path, help="the candidate condition's results folder")
     parser.add_argument("--label", required=True, help="the candidate's name in the tables")
     parser.add_argument("--out", type=Path, required=True, help="the page to write")
+    parser.add_argument(
+        "--incumbent",
+        type=Path,
+        default=INCUMBENT,
+        help="the incumbent condition's results folder (default: round 33's winner on the 20"
+        " validation rooms)",
+    )
+    parser.add_argument(
+        "--incumbent-label", default="round 33's winner", help="the incumbent's name in the tables"
+    )
+    parser.add_argument("--seeds", type=int, nargs="+", default=list(SEEDS), help="the seeds")
     args = parser.parse_args()
-    runs = {"incumbent (round 33's winner)": INCUMBENT, f"candidate ({args.label})": args.candidate}
+    seeds = tuple(args.seeds)
+    runs = {
+        f"incumbent ({args.incumbent_label})": args.incumbent,
+        f"candidate ({args.label})": args.candidate,
+    }
     laps = {
         name: {
             (seed, *key): o
-            for seed in SEEDS
+            for seed in seeds
             for key, o in loop_outcomes(seed_folder(folder, seed)).items()
         }
         for name, folder in runs.items()
@@ -98,28 +129,28 @@ def main() -> None:
     n = sum(1 for k in incumbent if k[:2] == rooms[0])
     need = math.ceil(BAR * n)
     md = ["# The candidate against the incumbent, room by room", ""]
-    md += [
-        f"20 rooms (seeds 100-101), {n} validation loop laps a room; at the bar with {need}.",
-        "",
-    ]
-    md += ["| run | loop laps | " + " | ".join(BINS) + " | training track | rooms at 85 % |"]
-    md[-1] += " human commands / rep. | takeovers / rep. |"
-    md += ["|---" * (6 + len(BINS)) + "|"]
+    seed_list = ", ".join(str(seed) for seed in seeds)
+    md += [f"{len(rooms)} rooms (seeds {seed_list}), {n} loop laps a room; at the bar with {need}."]
+    md += [""]
+    md += ["| run | loop laps | " + " | ".join(BINS) + " | training track | testing track |"]
+    md[-1] += " rooms at 85 % | human commands / rep. | takeovers / rep. |"
+    md += ["|---" * (7 + len(BINS)) + "|"]
     for (name, run), folder in zip(laps.items(), runs.values(), strict=True):
         bins = {b: [0, 0] for b in BINS}
         for key, o in run.items():
             bins[sharpest[key[2]]][0] += bool(o["success"])
             bins[sharpest[key[2]]][1] += 1
         training = sum(
-            t for seed in SEEDS for _, t in repetition_laps(seed_folder(folder, seed)).values()
+            t for seed in seeds for _, t in repetition_laps(seed_folder(folder, seed)).values()
         )
+        testing, driven = testing_laps(folder, seeds)
         at_bar = sum(per_room[name][room] >= need for room in rooms)
-        commands, takeovers = effort(folder)
+        commands, takeovers = effort(folder, seeds)
         cells = " | ".join(f"{k}/{m}" for k, m in bins.values())
         md += [
             f"| {name} | {sum(per_room[name].values())}/{n * len(rooms)} | {cells} | "
-            f"{training}/{6 * len(rooms)} | {at_bar} of {len(rooms)} | {commands:.0f} | "
-            f"{takeovers:.1f} |"
+            f"{training}/{6 * len(rooms)} | {f'{testing}/{driven}' if driven else '–'} | "
+            f"{at_bar} of {len(rooms)} | {commands:.2f} | {takeovers:.1f} |"
         ]
     won = sum(not o["success"] and candidate[k]["success"] for k, o in incumbent.items())
     lost = sum(o["success"] and not candidate[k]["success"] for k, o in incumbent.items())
@@ -130,7 +161,7 @@ def main() -> None:
     md += [
         f"Rooms that reached the bar: {reached or 'none'}; rooms that fell under: {fell or 'none'}."
     ]
-    records = round_records(args.candidate)
+    records = round_records(args.candidate, seeds)
     md += ["", "| room (seed, repetition) | incumbent | candidate | the candidate's human commands"]
     md[-1] += " | corrections | the round's intervention cases |"
     md += ["|---" * 6 + "|"]
