@@ -48,16 +48,17 @@ def seed_folder(folder: Path, seed: int) -> Path:
     return path
 
 
-def effort(folder: Path, seeds: tuple[int, ...]) -> tuple[float, float]:
-    """Mean (human commands, takeovers) per repetition over ``seeds``."""
+def effort(folder: Path, seeds: tuple[int, ...]) -> str:
+    """The table's cells of the mean human commands and takeovers per repetition over ``seeds``
+    ("–" for a rules run, which has no teaching of its own)."""
     reps = []
     for seed in seeds:
         results = json.loads((seed_folder(folder, seed) / "results.json").read_text())
+        if "human_effort" not in results:
+            return "– | –"
         reps += results["human_effort"]["repetitions"]
-    return (
-        float(np.mean([r["commands"] for r in reps])),
-        float(np.mean([r["takeovers"] for r in reps])),
-    )
+    commands = float(np.mean([r["commands"] for r in reps]))
+    return f"{commands:.2f} | {float(np.mean([r['takeovers'] for r in reps])):.1f}"
 
 
 def round_records(
@@ -68,6 +69,8 @@ def round_records(
     out = {}
     for seed in seeds:
         results = json.loads((seed_folder(folder, seed) / "results.json").read_text())
+        if "human_effort" not in results:
+            continue  # a rules run
         efforts = {r["repetition"]: r for r in results["human_effort"]["repetitions"]}
         for demo in results["demonstrations"]:
             rep = demo["repetition"]
@@ -145,12 +148,12 @@ def main() -> None:
         )
         testing, driven = testing_laps(folder, seeds)
         at_bar = sum(per_room[name][room] >= need for room in rooms)
-        commands, takeovers = effort(folder, seeds)
+
         cells = " | ".join(f"{k}/{m}" for k, m in bins.values())
         md += [
             f"| {name} | {sum(per_room[name].values())}/{n * len(rooms)} | {cells} | "
             f"{training}/{6 * len(rooms)} | {f'{testing}/{driven}' if driven else '–'} | "
-            f"{at_bar} of {len(rooms)} | {commands:.2f} | {takeovers:.1f} |"
+            f"{at_bar} of {len(rooms)} | {effort(folder, seeds)} |"
         ]
     won = sum(not o["success"] and candidate[k]["success"] for k, o in incumbent.items())
     lost = sum(o["success"] and not candidate[k]["success"] for k, o in incumbent.items())
@@ -167,17 +170,16 @@ def main() -> None:
     md += ["|---" * 6 + "|"]
     for room in rooms:
         cells = [f"**{k}**" if k < need else str(k) for k in (first[room], second[room])]
-        commands, corrections, cases = records[room]
-        md += [
-            f"| {room[0]}, {room[1]} | {cells[0]} | {cells[1]} | {commands} | {corrections} | "
-            f"{cases} |"
-        ]
-    corrected = sum(records[r][1] > 0 for r in rooms)
-    over = sum(records[r][0] > 360 for r in rooms)
+        taught = " | ".join(str(x) for x in records[room]) if room in records else "– | – | –"
+        md += [f"| {room[0]}, {room[1]} | {cells[0]} | {cells[1]} | {taught} |"]
     md += ["", "(bold: under the bar)", ""]
-    if any(records[r][2] for r in rooms):  # the candidate had rounds of interventions
-        md += [f"Rooms where the human took control back in a round: {corrected} of {len(rooms)}."]
-    md += [f"Repetitions over 360 human commands: {over} (the rule reads the mean)."]
+    if records:  # the candidate was taught (not a rules run)
+        corrected = sum(records[r][1] > 0 for r in rooms)
+        if any(records[r][2] for r in rooms):  # it had rounds of interventions
+            md += [f"Rooms where the human took control back in a round: {corrected} of"]
+            md[-1] += f" {len(rooms)}."
+        over = sum(records[r][0] > 360 for r in rooms)
+        md += [f"Repetitions over 360 human commands: {over} (the rule reads the mean)."]
     write_page(args.out, md)
 
 
