@@ -48,46 +48,47 @@ def seed_folder(folder: Path, seed: int) -> Path:
     return path
 
 
-def effort(folder: Path, seeds: tuple[int, ...]) -> str:
-    """The table's cells of the mean human commands and takeovers per repetition over ``seeds``
-    ("–" for a rules run, which has no teaching of its own)."""
-    reps = []
-    for seed in seeds:
-        results = json.loads((seed_folder(folder, seed) / "results.json").read_text())
-        if "human_effort" not in results:
-            return "– | –"
-        reps += results["human_effort"]["repetitions"]
+def jobs(folder: Path, seeds: tuple[int, ...]) -> dict[int, dict]:
+    """Each seed's ``results.json`` under ``folder``."""
+    return {
+        seed: json.loads((seed_folder(folder, seed) / "results.json").read_text()) for seed in seeds
+    }
+
+
+def effort(results: dict[int, dict]) -> str:
+    """The table's cells of the mean human commands and takeovers per repetition ("–" for a
+    rules run, which has no teaching of its own)."""
+    if any("human_effort" not in job for job in results.values()):
+        return "– | –"
+    reps = [r for job in results.values() for r in job["human_effort"]["repetitions"]]
     commands = float(np.mean([r["commands"] for r in reps]))
     return f"{commands:.2f} | {float(np.mean([r['takeovers'] for r in reps])):.1f}"
 
 
-def round_records(
-    folder: Path, seeds: tuple[int, ...]
-) -> dict[tuple[int, int], tuple[int, int, int]]:
+def round_records(results: dict[int, dict]) -> dict[tuple[int, int], tuple[int, int, int]]:
     """Per room (seed, repetition): (human commands, corrections, the rounds' intervention
-    cases)."""
+    cases); empty for a rules run."""
     out = {}
-    for seed in seeds:
-        results = json.loads((seed_folder(folder, seed) / "results.json").read_text())
-        if "human_effort" not in results:
+    for seed, job in results.items():
+        if "human_effort" not in job:
             continue  # a rules run
-        efforts = {r["repetition"]: r for r in results["human_effort"]["repetitions"]}
-        for demo in results["demonstrations"]:
+        efforts = {r["repetition"]: r for r in job["human_effort"]["repetitions"]}
+        for demo in job["demonstrations"]:
             rep = demo["repetition"]
             cases = sum(r["intervention_cases"] for r in demo.get("rounds", []))
             out[(seed, rep)] = (efforts[rep]["commands"], efforts[rep]["corrections"], cases)
     return out
 
 
-def testing_laps(folder: Path, seeds: tuple[int, ...]) -> tuple[int, int]:
-    """(laps lapped, laps driven) of the testing track over ``seeds`` (0, 0: none driven)."""
-    done = driven = 0
-    for seed in seeds:
-        results = json.loads((seed_folder(folder, seed) / "results.json").read_text())
-        for o in results["outcomes"]:
-            if o["track"] == "testing":
-                done, driven = done + bool(o["success"]), driven + 1
-    return done, driven
+def testing_laps(results: dict[int, dict]) -> tuple[int, int]:
+    """(laps lapped, laps driven) of the testing track (0, 0: none driven)."""
+    testing = [
+        bool(o["success"])
+        for job in results.values()
+        for o in job["outcomes"]
+        if o["track"] == "testing"
+    ]
+    return sum(testing), len(testing)
 
 
 def main() -> None:
@@ -146,14 +147,15 @@ def main() -> None:
         training = sum(
             t for seed in seeds for _, t in repetition_laps(seed_folder(folder, seed)).values()
         )
-        testing, driven = testing_laps(folder, seeds)
+        results = jobs(folder, seeds)
+        testing, driven = testing_laps(results)
         at_bar = sum(per_room[name][room] >= need for room in rooms)
 
         cells = " | ".join(f"{k}/{m}" for k, m in bins.values())
         md += [
             f"| {name} | {sum(per_room[name].values())}/{n * len(rooms)} | {cells} | "
             f"{training}/{6 * len(rooms)} | {f'{testing}/{driven}' if driven else '–'} | "
-            f"{at_bar} of {len(rooms)} | {effort(folder, seeds)} |"
+            f"{at_bar} of {len(rooms)} | {effort(results)} |"
         ]
     won = sum(not o["success"] and candidate[k]["success"] for k, o in incumbent.items())
     lost = sum(o["success"] and not candidate[k]["success"] for k, o in incumbent.items())
@@ -164,7 +166,7 @@ def main() -> None:
     md += [
         f"Rooms that reached the bar: {reached or 'none'}; rooms that fell under: {fell or 'none'}."
     ]
-    records = round_records(args.candidate, seeds)
+    records = round_records(jobs(args.candidate, seeds))
     md += ["", "| room (seed, repetition) | incumbent | candidate | the candidate's human commands"]
     md[-1] += " | corrections | the round's intervention cases |"
     md += ["|---" * 6 + "|"]
