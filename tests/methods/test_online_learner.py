@@ -6,7 +6,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from lfd_track.benchmark.runner import repetition_seeds
+from lfd_track.benchmark.runner import repetition_seeds, repetition_streams
 from lfd_track.cli import main
 from lfd_track.dataset import load_demonstration
 from lfd_track.demo.demonstrator import HumanConfig
@@ -26,9 +26,8 @@ ONLINE_BC = OnlineConfig(learner="bc")
 
 
 def _seeds() -> tuple[int, int]:
-    """(demo, ga) seeds of repetition 0 of benchmark seed 0, drawn as the runner draws them."""
-    rng = np.random.default_rng(repetition_seeds(0, 1)[0])
-    demo_seed, ga_seed, _ = (int(x) for x in rng.integers(0, 2**62, size=3))
+    """(demo, ga) seeds of repetition 0 of benchmark seed 0, as the runner draws them."""
+    demo_seed, ga_seed, _ = repetition_streams(repetition_seeds(0, 1)[0])
     return demo_seed, ga_seed
 
 

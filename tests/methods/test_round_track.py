@@ -1,11 +1,10 @@
 """hg-dagger's rounds on a track of their own (``HGDaggerConfig.round_track``): a second track the
 person lays out to watch the taught robot on."""
 
-import numpy as np
 import pytest
 
 from lfd_track.benchmark.config import BenchmarkConfig
-from lfd_track.benchmark.runner import check_tracks, repetition_seeds
+from lfd_track.benchmark.runner import check_tracks, repetition_seeds, repetition_streams
 from lfd_track.dataset import load_demonstration
 from lfd_track.demo.demonstrator import HumanConfig
 from lfd_track.errors import LfdTrackError
@@ -16,9 +15,8 @@ from lfd_track.world.track import load_track
 
 
 def _seeds() -> tuple[int, int]:
-    """(demo, ga) seeds of repetition 0 of benchmark seed 0, drawn as the runner draws them."""
-    rng = np.random.default_rng(repetition_seeds(0, 1)[0])
-    demo_seed, ga_seed, _ = (int(x) for x in rng.integers(0, 2**62, size=3))
+    """(demo, ga) seeds of repetition 0 of benchmark seed 0, as the runner draws them."""
+    demo_seed, ga_seed, _ = repetition_streams(repetition_seeds(0, 1)[0])
     return demo_seed, ga_seed
 
 

@@ -28,14 +28,17 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path[:0] = [str(HERE), str(HERE / "test_round20")]
 
-from room_measures import loop_outcomes, repetition_laps, write_page  # noqa: E402
+from room_measures import (  # noqa: E402
+    BINS,
+    laps_by_bin,
+    loop_bins,
+    repetition_laps,
+    seeds_loop_outcomes,
+    write_page,
+)
 from rooms_breakdown import BAR  # noqa: E402
 
-from lfd_track.benchmark.loops import loop_facts  # noqa: E402
-from lfd_track.world.loops import turn_bin  # noqa: E402
-
 SEEDS = (100, 101)
-BINS = ("<=60", "60-100", "100-135", ">135")
 INCUMBENT = HERE / "round33" / "results" / "sight" / "rooms.round27+sight"
 """Round 33's winner on these rooms: the incumbent of every rooms round since."""
 
@@ -113,18 +116,12 @@ def main() -> None:
         f"incumbent ({args.incumbent_label})": args.incumbent,
         f"candidate ({args.label})": args.candidate,
     }
-    laps = {
-        name: {
-            (seed, *key): o
-            for seed in seeds
-            for key, o in loop_outcomes(seed_folder(folder, seed)).items()
-        }
-        for name, folder in runs.items()
-    }
+    laps = {name: seeds_loop_outcomes(folder, seeds) for name, folder in runs.items()}
+    results = {name: jobs(folder, seeds) for name, folder in runs.items()}
     incumbent, candidate = laps.values()
     if incumbent.keys() != candidate.keys():
         raise SystemExit("the two runs did not drive the same trials")
-    sharpest = {track: turn_bin(loop_facts(track)[0]) for track in {k[2] for k in incumbent}}
+    sharpest = loop_bins(incumbent)
     rooms = sorted({k[:2] for k in incumbent})
     per_room = {
         name: {room: sum(o["success"] for k, o in run.items() if k[:2] == room) for room in rooms}
@@ -140,22 +137,17 @@ def main() -> None:
     md[-1] += " rooms at 85 % | human commands / rep. | takeovers / rep. |"
     md += ["|---" * (7 + len(BINS)) + "|"]
     for (name, run), folder in zip(laps.items(), runs.values(), strict=True):
-        bins = {b: [0, 0] for b in BINS}
-        for key, o in run.items():
-            bins[sharpest[key[2]]][0] += bool(o["success"])
-            bins[sharpest[key[2]]][1] += 1
+        bins = laps_by_bin(run, sharpest)
         training = sum(
             t for seed in seeds for _, t in repetition_laps(seed_folder(folder, seed)).values()
         )
-        results = jobs(folder, seeds)
-        testing, driven = testing_laps(results)
+        testing, driven = testing_laps(results[name])
         at_bar = sum(per_room[name][room] >= need for room in rooms)
-
         cells = " | ".join(f"{k}/{m}" for k, m in bins.values())
         md += [
             f"| {name} | {sum(per_room[name].values())}/{n * len(rooms)} | {cells} | "
             f"{training}/{6 * len(rooms)} | {f'{testing}/{driven}' if driven else '–'} | "
-            f"{at_bar} of {len(rooms)} | {effort(results)} |"
+            f"{at_bar} of {len(rooms)} | {effort(results[name])} |"
         ]
     won = sum(not o["success"] and candidate[k]["success"] for k, o in incumbent.items())
     lost = sum(o["success"] and not candidate[k]["success"] for k, o in incumbent.items())
@@ -166,7 +158,7 @@ def main() -> None:
     md += [
         f"Rooms that reached the bar: {reached or 'none'}; rooms that fell under: {fell or 'none'}."
     ]
-    records = round_records(jobs(args.candidate, seeds))
+    records = round_records(results[f"candidate ({args.label})"])
     md += ["", "| room (seed, repetition) | incumbent | candidate | the candidate's human commands"]
     md[-1] += " | corrections | the round's intervention cases |"
     md += ["|---" * 6 + "|"]

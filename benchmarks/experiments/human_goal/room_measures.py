@@ -17,9 +17,13 @@ from types import ModuleType
 
 import numpy as np
 
+from lfd_track.benchmark.loops import loop_facts
 from lfd_track.utils.atomic import atomic_write_text
+from lfd_track.world.loops import turn_bin
 
 HERE = Path(__file__).resolve().parent
+#: The sharpest-turn bins of the pages, in order.
+BINS = ("<=60", "60-100", "100-135", ">135")
 #: The robustness study's script whose ground truth (``felt_share``, ``felt_level``) and
 #: within-session score (``separation``) the rounds reuse.
 FELT_LEVELS_SCRIPT = HERE.parent / "robustness" / "felt_levels.py"
@@ -34,6 +38,33 @@ def loop_outcomes(folder: Path) -> dict[tuple, dict]:
         for o in json.loads(path.read_text(encoding="utf-8"))["outcomes"]:
             if o["track"] not in ("training", "testing"):
                 out[(o["repetition"], o["track"], o["direction"], o.get("trial", 0))] = o
+    return out
+
+
+def seeds_loop_outcomes(folder: Path, seeds: tuple[int, ...]) -> dict[tuple, dict]:
+    """:func:`loop_outcomes` of each seed's job under ``folder`` (``seed<N>/``, which must have
+    run), keyed by (seed, repetition, loop, direction, trial)."""
+    out: dict[tuple, dict] = {}
+    for seed in seeds:
+        job = folder / f"seed{seed}"
+        if not (job / "results.json").is_file():
+            raise SystemExit(f"{job}: not run yet (README.md)")
+        out.update({(seed, *key): o for key, o in loop_outcomes(job).items()})
+    return out
+
+
+def loop_bins(outcomes: dict[tuple, dict]) -> dict[str, str]:
+    """Each loop's sharpest-turn bin, for outcomes keyed as :func:`seeds_loop_outcomes`."""
+    return {track: turn_bin(loop_facts(track)[0]) for track in {key[2] for key in outcomes}}
+
+
+def laps_by_bin(outcomes: dict[tuple, dict], bins: dict[str, str]) -> dict[str, list[int]]:
+    """[lapped, driven] per sharpest-turn bin (:data:`BINS`) of ``outcomes`` (keyed as
+    :func:`seeds_loop_outcomes`), each loop's bin from ``bins`` (:func:`loop_bins`)."""
+    out = {b: [0, 0] for b in BINS}
+    for key, o in outcomes.items():
+        out[bins[key[2]]][0] += bool(o["success"])
+        out[bins[key[2]]][1] += 1
     return out
 
 

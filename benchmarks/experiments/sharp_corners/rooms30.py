@@ -25,11 +25,15 @@ import numpy as np
 HERE = Path(__file__).resolve().parent
 sys.path[:0] = [str(HERE.parent / "human_goal"), str(HERE.parent / "human_goal" / "test_round20")]
 
-from room_measures import loop_outcomes, spearman, write_page  # noqa: E402
+from room_measures import (  # noqa: E402
+    BINS,
+    laps_by_bin,
+    loop_bins,
+    seeds_loop_outcomes,
+    spearman,
+    write_page,
+)
 from rooms_breakdown import BAR, against_chance  # noqa: E402
-
-from lfd_track.benchmark.loops import loop_facts  # noqa: E402
-from lfd_track.world.loops import turn_bin  # noqa: E402
 
 RESULTS = HERE / "results"
 CONDITION = "rooms.round27+sight"
@@ -63,28 +67,16 @@ TAUGHT_AGAIN = (
     ("the goal's map, refitted (part 53)", LEARNER, LEARNER_REFIT),
 )
 SEEDS = (102, 103, 104)
-BINS = ("<=60", "60-100", "100-135", ">135")
 OUT = RESULTS / "rooms30_summary.md"
 
 
-def seeds_outcomes(folder: Path) -> dict[tuple, dict]:
-    """Each loop lap's outcome under ``folder``, keyed by (seed, repetition, loop, direction,
-    trial)."""
-    out: dict[tuple, dict] = {}
-    for seed in SEEDS:
-        if not (folder / f"seed{seed}" / "results.json").is_file():
-            raise SystemExit(f"{folder / f'seed{seed}'}: not run yet (README.md, parts 51-53)")
-        out.update({(seed, *key): o for key, o in loop_outcomes(folder / f"seed{seed}").items()})
-    return out
-
-
 def main() -> None:
-    runs = {name: seeds_outcomes(folder) for name, folder in DRIVERS.items()}
+    runs = {name: seeds_loop_outcomes(folder, SEEDS) for name, folder in DRIVERS.items()}
     keys = runs[next(iter(runs))].keys()
     for name, laps in runs.items():
         if laps.keys() != keys:
             raise SystemExit(f"{DRIVERS[name]}: not the trials of the other runs")
-    sharpest = {track: turn_bin(loop_facts(track)[0]) for track in {k[2] for k in keys}}
+    sharpest = loop_bins(runs[next(iter(runs))])
     rooms = sorted({k[:2] for k in keys})
     per_room = {
         name: {room: [0, 0] for room in rooms} for name in runs
@@ -102,10 +94,7 @@ def main() -> None:
     md[-1] += " expected at p | laps' variance | binomial's |"
     md += ["|---" * (7 + len(BINS)) + "|"]
     for name, laps in runs.items():
-        bins = {b: [0, 0] for b in BINS}
-        for key, o in laps.items():
-            bins[sharpest[key[2]]][0] += bool(o["success"])
-            bins[sharpest[key[2]]][1] += 1
+        bins = laps_by_bin(laps, sharpest)
         done = np.array([per_room[name][room][0] for room in rooms])
         cells = " | ".join(f"{k}/{m}" if m else "–" for k, m in bins.values())
         md += [f"| {name} | {done.sum()}/{n * len(rooms)} | {cells} | {against_chance(done, n)}"]
