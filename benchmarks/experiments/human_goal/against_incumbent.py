@@ -32,7 +32,6 @@ from room_measures import (  # noqa: E402
     BINS,
     laps_by_bin,
     loop_bins,
-    repetition_laps,
     seeds_loop_outcomes,
     write_page,
 )
@@ -83,15 +82,16 @@ def round_records(results: dict[int, dict]) -> dict[tuple[int, int], tuple[int, 
     return out
 
 
-def testing_laps(results: dict[int, dict]) -> tuple[int, int]:
-    """(laps lapped, laps driven) of the testing track (0, 0: none driven)."""
-    testing = [
+def track_laps(results: dict[int, dict], track: str) -> tuple[int, int]:
+    """(runs lapped, runs driven) of the named ``track`` ("training", "testing"; 0, 0: none
+    driven)."""
+    runs = [
         bool(o["success"])
         for job in results.values()
         for o in job["outcomes"]
-        if o["track"] == "testing"
+        if o["track"] == track
     ]
-    return sum(testing), len(testing)
+    return sum(runs), len(runs)
 
 
 def main() -> None:
@@ -136,12 +136,10 @@ def main() -> None:
     md += ["| run | loop laps | " + " | ".join(BINS) + " | training track | testing track |"]
     md[-1] += " rooms at 85 % | human commands / rep. | takeovers / rep. |"
     md += ["|---" * (7 + len(BINS)) + "|"]
-    for (name, run), folder in zip(laps.items(), runs.values(), strict=True):
+    for name, run in laps.items():
         bins = laps_by_bin(run, sharpest)
-        training = sum(
-            t for seed in seeds for _, t in repetition_laps(seed_folder(folder, seed)).values()
-        )
-        testing, driven = testing_laps(results[name])
+        training, _ = track_laps(results[name], "training")
+        testing, driven = track_laps(results[name], "testing")
         at_bar = sum(per_room[name][room] >= need for room in rooms)
         cells = " | ".join(f"{k}/{m}" for k, m in bins.values())
         md += [
