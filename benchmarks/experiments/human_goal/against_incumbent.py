@@ -18,7 +18,6 @@ won and lost, and the rooms that reached the bar or fell under it.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 from pathlib import Path
@@ -32,6 +31,7 @@ from room_measures import (  # noqa: E402
     BINS,
     laps_by_bin,
     loop_bins,
+    seed_jobs,
     seeds_loop_outcomes,
     write_page,
 )
@@ -40,21 +40,6 @@ from rooms_breakdown import BAR  # noqa: E402
 SEEDS = (100, 101)
 INCUMBENT = HERE / "round33" / "results" / "sight" / "rooms.round27+sight"
 """Round 33's winner on these rooms: the incumbent of every rooms round since."""
-
-
-def seed_folder(folder: Path, seed: int) -> Path:
-    """``folder``'s job of ``seed`` (it must have run)."""
-    path = folder / f"seed{seed}"
-    if not (path / "results.json").is_file():
-        raise SystemExit(f"{path}: not run yet (README.md)")
-    return path
-
-
-def jobs(folder: Path, seeds: tuple[int, ...]) -> dict[int, dict]:
-    """Each seed's ``results.json`` under ``folder``."""
-    return {
-        seed: json.loads((seed_folder(folder, seed) / "results.json").read_text()) for seed in seeds
-    }
 
 
 def effort(results: dict[int, dict]) -> str:
@@ -116,8 +101,8 @@ def main() -> None:
         f"incumbent ({args.incumbent_label})": args.incumbent,
         f"candidate ({args.label})": args.candidate,
     }
-    laps = {name: seeds_loop_outcomes(folder, seeds) for name, folder in runs.items()}
-    results = {name: jobs(folder, seeds) for name, folder in runs.items()}
+    results = {name: seed_jobs(folder, seeds) for name, folder in runs.items()}
+    laps = {name: seeds_loop_outcomes(jobs) for name, jobs in results.items()}
     incumbent, candidate = laps.values()
     if incumbent.keys() != candidate.keys():
         raise SystemExit("the two runs did not drive the same trials")

@@ -29,28 +29,42 @@ BINS = ("<=60", "60-100", "100-135", ">135")
 FELT_LEVELS_SCRIPT = HERE.parent / "robustness" / "felt_levels.py"
 
 
+def job_loop_outcomes(job: dict) -> dict[tuple, dict]:
+    """Each loop lap's outcome record of one read ``results.json`` (a study job's or a rules
+    run's), keyed by (repetition, loop, direction, trial): the training track and the testing
+    track left out."""
+    return {
+        (o["repetition"], o["track"], o["direction"], o.get("trial", 0)): o
+        for o in job["outcomes"]
+        if o["track"] not in ("training", "testing")
+    }
+
+
 def loop_outcomes(folder: Path) -> dict[tuple, dict]:
-    """Each loop lap's outcome record under ``folder`` (every ``results.json`` in it, a study
-    condition's or a rules run's), keyed by (repetition, loop, direction, trial): the training
-    track and the testing track left out."""
+    """:func:`job_loop_outcomes` of every ``results.json`` under ``folder``, keyed alike."""
     out: dict[tuple, dict] = {}
     for path in sorted(folder.rglob("results.json")):
-        for o in json.loads(path.read_text(encoding="utf-8"))["outcomes"]:
-            if o["track"] not in ("training", "testing"):
-                out[(o["repetition"], o["track"], o["direction"], o.get("trial", 0))] = o
+        out.update(job_loop_outcomes(json.loads(path.read_text(encoding="utf-8"))))
     return out
 
 
-def seeds_loop_outcomes(folder: Path, seeds: tuple[int, ...]) -> dict[tuple, dict]:
-    """:func:`loop_outcomes` of each seed's job under ``folder`` (``seed<N>/``, which must have
-    run), keyed by (seed, repetition, loop, direction, trial)."""
-    out: dict[tuple, dict] = {}
+def seed_jobs(folder: Path, seeds: tuple[int, ...]) -> dict[int, dict]:
+    """Each seed's ``results.json`` under ``folder`` (``seed<N>/``, which must have run), read."""
+    jobs = {}
     for seed in seeds:
-        job = folder / f"seed{seed}"
-        if not (job / "results.json").is_file():
-            raise SystemExit(f"{job}: not run yet (README.md)")
-        out.update({(seed, *key): o for key, o in loop_outcomes(job).items()})
-    return out
+        path = folder / f"seed{seed}" / "results.json"
+        if not path.is_file():
+            raise SystemExit(f"{path.parent}: not run yet (README.md)")
+        jobs[seed] = json.loads(path.read_text(encoding="utf-8"))
+    return jobs
+
+
+def seeds_loop_outcomes(jobs: dict[int, dict]) -> dict[tuple, dict]:
+    """:func:`job_loop_outcomes` of each seed's job (:func:`seed_jobs`), keyed by (seed,
+    repetition, loop, direction, trial)."""
+    return {
+        (seed, *key): o for seed, job in jobs.items() for key, o in job_loop_outcomes(job).items()
+    }
 
 
 def loop_bins(outcomes: dict[tuple, dict]) -> dict[str, str]:

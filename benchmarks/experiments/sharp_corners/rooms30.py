@@ -29,6 +29,7 @@ from room_measures import (  # noqa: E402
     BINS,
     laps_by_bin,
     loop_bins,
+    seed_jobs,
     seeds_loop_outcomes,
     spearman,
     write_page,
@@ -71,7 +72,7 @@ OUT = RESULTS / "rooms30_summary.md"
 
 
 def main() -> None:
-    runs = {name: seeds_loop_outcomes(folder, SEEDS) for name, folder in DRIVERS.items()}
+    runs = {name: seeds_loop_outcomes(seed_jobs(folder, SEEDS)) for name, folder in DRIVERS.items()}
     keys = runs[next(iter(runs))].keys()
     for name, laps in runs.items():
         if laps.keys() != keys:
