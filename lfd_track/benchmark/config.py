@@ -116,6 +116,13 @@ class BenchmarkConfig:
     # study (benchmarks/experiments/robustness/rooms.toml) uses it, and it
     # is how a user teaches and drives in one kept room.
     room: str = "per_episode"
+    # Saved cases the offline learners (the methods registered with takes_views: "paper", "bc",
+    # "cma-es") fit after the repetition's own: a .npz file or a folder of them, read in the order
+    # of the files' names (learning/extra_cases.py; checked when a study file is loaded, when the
+    # benchmark command starts and at the fit). The
+    # human goal's round 41 (benchmarks/experiments/human_goal/round41/) adds ten other rooms'
+    # demonstrations this way. Empty: the repetition's own cases alone.
+    extra_cases: str = ""
 
     def __post_init__(self) -> None:
         if isinstance(self.test_tracks, str) or not all(
@@ -150,6 +157,8 @@ class BenchmarkConfig:
                 f" {', '.join(m.name for m in methods() if m.takes_views)} (one simulated"
                 f" demonstration, then learning), not '{self.method}'"
             )
+        if self.extra_cases:
+            self._check_extra_cases(method)
         if self.policy_kind not in POLICY_KINDS:
             raise ValueError(
                 f"unknown policy_kind '{self.policy_kind}' (choose from {', '.join(POLICY_KINDS)})"
@@ -174,6 +183,24 @@ class BenchmarkConfig:
         if self.features == "none" and not self.memory.n_inputs:
             raise ValueError(
                 "features 'none' leave the policy only its memory inputs: set a memory kind"
+            )
+
+    def _check_extra_cases(self, method: Method) -> None:
+        """``extra_cases`` is a path, for a method that fits after one demonstration, and not for
+        an Elman network (its cases are a driven sequence). The files themselves are read and
+        checked where a configuration is about to run (a study file's load, the benchmark
+        command, the fit), not here: a results file read elsewhere still gives its settings."""
+        if not isinstance(self.extra_cases, str):
+            raise ValueError("extra_cases must be the path of saved cases (a .npz or a folder)")
+        if not method.takes_views:
+            raise ValueError(
+                "extra_cases apply to the methods"
+                f" {', '.join(m.name for m in methods() if m.takes_views)} (one simulated"
+                f" demonstration, then learning), not '{self.method}'"
+            )
+        if self.policy_kind == "elman-sigmoid":
+            raise ValueError(
+                "extra_cases have no place in the driven sequence an Elman network learns"
             )
 
     def _check_method_settings(self, method: Method) -> None:
@@ -268,13 +295,17 @@ def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
     under its table name). :meth:`BenchmarkConfig.from_dict` reads it back.
 
     ``room`` is written only when it is not ``"per_episode"``: a file without it means a new
-    room per episode, as every run did before the setting existed (so their files still match
+    room per episode, as every run did before the setting existed, and ``extra_cases`` only when
+    it names some (so their files still match
     the settings that produced them); the human's ``nudge_prob`` likewise only when it is not
     0, and its ``nudge_side`` only when it is not ``"random"``."""
     data: dict[str, Any] = {}
     for f in dataclasses.fields(config):
         value = getattr(config, f.name)
-        if f.name == "method_settings" or (f.name == "room" and value == "per_episode"):
+        if f.name == "method_settings" or (f.name, value) in (
+            ("room", "per_episode"),
+            ("extra_cases", ""),
+        ):
             continue
         if f.name == "memory":
             data[f.name] = config.memory.to_dict()

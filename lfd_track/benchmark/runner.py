@@ -441,6 +441,7 @@ def learn_repetition(
         bc=config.bc,
         cmaes=config.cmaes,
         settings=config.settings_of(method),
+        extra_cases=config.extra_cases,
         calibration=calibration,
     )
     return method.learn(context)

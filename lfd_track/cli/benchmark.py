@@ -15,6 +15,7 @@ from ..benchmark import runner
 from ..benchmark.config import MAX_RANDOM_LOOPS, ROOMS
 from ..demo.demonstrator import HumanConfig
 from ..learning.bc import MAX_WATCHED_FITS, BCConfig
+from ..learning.extra_cases import load_cases
 from ..methods import get_method, method_names, methods
 from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
 from ..policy.memory import MEMORY_KINDS
@@ -116,6 +117,13 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         metavar="TRACK",
         help="open track (name or .toml path) the human demonstrates on, and HG-DAgger's rounds"
         " drive (default: the paper's training track, which is also scored either way)",
+    )
+    bench.add_argument(
+        "--extra-cases",
+        default="",
+        metavar="PATH",
+        help="saved cases (a .npz or a folder of them) the offline learners fit after each"
+        " repetition's own demonstration's (default: none)",
     )
     described = (f"{m.name} ({m.summary})" if m.summary else m.name for m in methods())
     bench.add_argument(
@@ -299,6 +307,7 @@ def run(args: argparse.Namespace) -> int:
             shifted_views=args.shifted_views,
             policy_kind=args.policy_kind,
             demo_track=args.demo_track,
+            extra_cases=args.extra_cases,
             features=args.features,
             **backprop,
             **runner.settings_arguments(tables),
@@ -327,6 +336,8 @@ def run(args: argparse.Namespace) -> int:
     # A bad preset, a track that is not a loop with corners or whose ground texture would be too
     # big with this preset fails here, before anything is created.
     runner.check_tracks(config)
+    if config.extra_cases:
+        load_cases(config.extra_cases)  # a bad file fails here, naming it
     out = Path(args.out)
     # The run goes to a staging folder and replaces the previous output only once it has
     # succeeded: a failure at any point leaves the previous output as it was. SIGTERM stops it

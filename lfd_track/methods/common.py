@@ -191,6 +191,9 @@ class MethodContext:
     """CMA-ES's settings."""
     settings: Any = None
     """The method's own settings (an instance of its registered settings class, or None)."""
+    extra_cases: str = ""
+    """Saved cases the offline learners fit after the demonstration's own (a ``.npz`` or a folder
+    of them, :mod:`lfd_track.learning.extra_cases`); empty: none."""
     calibration: SimulatedCalibration | None = None
     """With ``geometry = "calibrated"``: the calibration the benchmark ran before teaching
     (:func:`simulated_calibration`); None: calibrated when first needed, with ``demo_seed`` as

@@ -12,6 +12,7 @@ from ..dataset import Demonstration
 from ..demo.demonstrator import DemonstrationSummary
 from ..demo.views import ViewCases
 from ..learning.elman import episode_starts, sequence_accuracy
+from ..learning.extra_cases import with_extra_cases
 from ..learning.fitness import training_accuracy
 from ..policy.controller import Controller
 from ..teaching.loop import LoopCounts
@@ -36,7 +37,8 @@ def offline_cases(
     tuple[np.ndarray, np.ndarray],
 ]:
     """Record the demonstration (with its views if ``context.shifted_views``) and make what an
-    offline learner fits from it: (summary, cases, library, views, (inputs, commands))."""
+    offline learner fits from it: (summary, cases, library, views, (inputs, commands)); with
+    ``context.extra_cases`` the saved cases follow the demonstration's own."""
     if context.policy_kind == "elman-sigmoid" and context.shifted_views:
         # An Elman network learns from cases in the order they were driven: views have none.
         raise ValueError(
@@ -44,6 +46,8 @@ def offline_cases(
         )
     summary, demo, library, views = demonstrate(context, shifted_views=context.shifted_views)
     cases = training_set(context, *demonstration_cases(demo, views, context.features))
+    if context.extra_cases:
+        cases = with_extra_cases(context.extra_cases, *cases)
     return summary, demo, library, views, cases
 
 

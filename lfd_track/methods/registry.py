@@ -54,7 +54,7 @@ class Method:
     """Name of its settings table (default: the name with '-' as '_')."""
     takes_views: bool = False
     """Learns after one simulated demonstration, so can learn from its shifted and turned views
-    (``shifted_views``)."""
+    (``shifted_views``) and from saved cases after its own (``extra_cases``)."""
     policy_kinds: tuple[str, ...] = POLICY_KINDS_MLP
     """The networks it trains (``policy_kind``)."""
     summary: str = ""

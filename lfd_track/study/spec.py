@@ -75,6 +75,7 @@ from typing import Any
 from ..benchmark.runner import BenchmarkConfig, check_tracks, settings_arguments
 from ..core.config import dataclass_from_table, read_toml
 from ..errors import FileFormatError, LfdTrackError
+from ..learning.extra_cases import load_cases
 from ..learning.result import shown_int
 from ..methods import method_names, method_of_table
 from ..policy.memory_config import (
@@ -347,6 +348,10 @@ def _condition(table: dict[str, Any], index: int, path: Path, check_names: bool)
     for key in ("preset", "test_tracks", "demo_track"):
         if key in settings:
             settings[key] = _relative_to(settings[key], path)
+    cases = settings.get("extra_cases")
+    if isinstance(cases, str) and cases and not Path(cases).is_absolute():
+        # saved cases are always a path, relative to the study file's folder
+        settings["extra_cases"] = os.path.normpath(path.parent / cases)
     config = dataclass_from_table(BenchmarkConfig, settings, name, path)
     _check_limits(config, where, path)
     method = getattr(config, "method", table.get("method", "paper"))
@@ -436,7 +441,8 @@ def available_methods() -> tuple[str, ...]:
 
 
 def check_condition_names(config: BenchmarkConfig, where: str, path: Path | str) -> None:
-    """Raise ``FileFormatError`` unless the method, preset and tracks named exist here."""
+    """Raise ``FileFormatError`` unless the method, preset, tracks and saved cases named exist
+    here."""
     from ..envs.presets import load_preset
     from ..world.track import load_track
 
@@ -455,6 +461,11 @@ def check_condition_names(config: BenchmarkConfig, where: str, path: Path | str)
             load_track(track)
         except LfdTrackError as exc:
             raise FileFormatError(path, f"{where}: test track: {_one_line(exc)}") from None
+    if config.extra_cases:
+        try:
+            load_cases(config.extra_cases)
+        except LfdTrackError as exc:
+            raise FileFormatError(path, f"{where}: extra_cases: {_one_line(exc)}") from None
     # What the benchmark checks before it runs (test tracks are loops with corners, every track
     # fits the preset's ground texture), here at load time, before any job runs.
     try:
