@@ -152,11 +152,7 @@ class BenchmarkConfig:
                 "human steers_by 'picture' reads the fresh_felt map: set memory kind 'fresh_felt'"
             )
         if self.shifted_views and not method.takes_views:
-            raise ValueError(
-                "shifted_views applies to the methods"
-                f" {', '.join(m.name for m in methods() if m.takes_views)} (one simulated"
-                f" demonstration, then learning), not '{self.method}'"
-            )
+            raise ValueError(_offline_only("shifted_views applies", self.method))
         if self.extra_cases:
             self._check_extra_cases(method)
         if self.policy_kind not in POLICY_KINDS:
@@ -193,11 +189,7 @@ class BenchmarkConfig:
         if not isinstance(self.extra_cases, str):
             raise ValueError("extra_cases must be the path of saved cases (a .npz or a folder)")
         if not method.takes_views:
-            raise ValueError(
-                "extra_cases apply to the methods"
-                f" {', '.join(m.name for m in methods() if m.takes_views)} (one simulated"
-                f" demonstration, then learning), not '{self.method}'"
-            )
+            raise ValueError(_offline_only("extra_cases apply", self.method))
         if self.policy_kind == "elman-sigmoid":
             raise ValueError(
                 "extra_cases have no place in the driven sequence an Elman network learns"
@@ -288,6 +280,13 @@ def settings_arguments(tables: Mapping[str, Any]) -> dict[str, Any]:
     return {**arguments, "method_settings": others} if others else arguments
 
 
+def _offline_only(what: str, method: str) -> str:
+    """The refusal of a setting only the methods that learn after one simulated demonstration
+    take (those registered with ``takes_views``), for ``method``."""
+    offline = ", ".join(m.name for m in methods() if m.takes_views)
+    return f"{what} to the methods {offline} (one simulated demonstration, then learning), not '{method}'"
+
+
 def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
     """JSON-friendly form of a benchmark config (stored in results.json), every setting written:
     each field (nested settings as tables), the memory by its ``to_dict``, and the settings
@@ -295,10 +294,10 @@ def config_dict(config: BenchmarkConfig) -> dict[str, Any]:
     under its table name). :meth:`BenchmarkConfig.from_dict` reads it back.
 
     ``room`` is written only when it is not ``"per_episode"``: a file without it means a new
-    room per episode, as every run did before the setting existed, and ``extra_cases`` only when
-    it names some (so their files still match
-    the settings that produced them); the human's ``nudge_prob`` likewise only when it is not
-    0, and its ``nudge_side`` only when it is not ``"random"``."""
+    room per episode, as every run did before the setting existed (so their files still match
+    the settings that produced them); ``extra_cases`` likewise only when it names saved cases,
+    the human's ``nudge_prob`` only when it is not 0, and its ``nudge_side`` only when it is not
+    ``"random"``."""
     data: dict[str, Any] = {}
     for f in dataclasses.fields(config):
         value = getattr(config, f.name)

@@ -22,8 +22,10 @@ Two steps, each one process per seed (the jobs run in this process,
 ``collect`` saves every repetition's cases (inputs and commands, mirror images included, as the
 learner fits them) as one ``.npz`` per repetition; ``fit`` adds all of them, in the order of
 their file names, after each repetition's own cases. The jobs' results record the study's
-configuration, not the added cases; the study's name and description say what it adds. A
-prototype: the product's learner has no such setting.
+configuration, not the added cases; the study's name and description say what it adds. This is
+the prototype the round and its test ran; the product's learners have since taken the added cases
+as the study key ``extra_cases`` (``lfd_track/learning/extra_cases.py``), which reads the files
+``collect`` writes and puts them after a repetition's own cases as ``fit`` does.
 """
 
 from __future__ import annotations
