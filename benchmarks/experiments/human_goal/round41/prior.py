@@ -24,8 +24,8 @@ learner fits them) as one ``.npz`` per repetition; ``fit`` adds all of them, in 
 their file names, after each repetition's own cases. The jobs' results record the study's
 configuration, not the added cases; the study's name and description say what it adds. This is
 the prototype the round and its test ran; the product's learners have since taken the added cases
-as the study key ``extra_cases`` (``lfd_track/learning/extra_cases.py``), which reads the files
-``collect`` writes and puts them after a repetition's own cases as ``fit`` does.
+as the study key ``extra_cases`` (``lfd_track/learning/extra_cases.py``), whose functions this
+script now calls to write and add the cases (the same files, the same order).
 """
 
 from __future__ import annotations
@@ -35,12 +35,11 @@ import sys
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "sharp_corners"))
 
 import oracle_learner  # noqa: E402
 
+from lfd_track.learning.extra_cases import load_cases, save_cases, with_extra_cases  # noqa: E402
 from lfd_track.methods import baseline  # noqa: E402
 
 _own_cases = baseline.offline_cases
@@ -48,51 +47,25 @@ _own_cases = baseline.offline_cases
 
 def collect_into(folder: Path) -> None:
     """From now on every offline demonstration's cases are also saved into ``folder``, one file
-    per repetition, named by its demonstration seed."""
+    per repetition, named by its demonstration seed (``save_cases``'s format)."""
     folder.mkdir(parents=True, exist_ok=True)
 
     def saving(context: Any) -> Any:
         made = _own_cases(context)
-        x, a = made[-1]
-        np.savez(folder / f"{context.demo_seed:020d}.npz", x=x, a=np.asarray(a, dtype=np.int64))
+        save_cases(folder / f"{context.demo_seed:020d}", *made[-1])
         return made
 
     baseline.offline_cases = saving
 
 
-def load_cases(folder: Path) -> tuple[np.ndarray, np.ndarray]:
-    """All the cases saved in ``folder`` (by :func:`collect_into`), in the order of the files'
-    names; a folder without any, or with files of other widths, is refused in one line."""
-    files = sorted(folder.glob("*.npz"))
-    if not files:
-        raise SystemExit(f"{folder}: no saved cases (*.npz)")
-    xs, actions = [], []
-    for f in files:
-        with np.load(f) as data:
-            xs.append(np.asarray(data["x"], dtype=np.float64))
-            actions.append(np.asarray(data["a"], dtype=np.int64))
-    if len({x.shape[1] for x in xs}) != 1:
-        raise SystemExit(f"{folder}: the saved cases have different numbers of inputs")
-    return np.concatenate(xs), np.concatenate(actions)
-
-
 def fit_with(folder: Path) -> None:
-    """From now on every offline learner fits its own cases followed by those in ``folder``."""
-    prior_x, prior_a = load_cases(folder)
-    print(f"{len(prior_a)} cases added from {folder}")
+    """From now on every offline learner fits its own cases followed by those in ``folder``
+    (what the product's ``extra_cases`` does)."""
+    print(f"{len(load_cases(folder)[1])} cases added from {folder}")
 
     def pooled(context: Any) -> Any:
-        summary, demo, library, views, (x, a) = _own_cases(context)
-        if x.shape[1] != prior_x.shape[1]:
-            raise SystemExit(
-                f"{folder}: the saved cases have {prior_x.shape[1]} inputs, the study's "
-                f"{x.shape[1]}"
-            )
-        cases = (
-            np.concatenate([x, prior_x]),
-            np.concatenate([np.asarray(a, dtype=np.int64), prior_a]),
-        )
-        return summary, demo, library, views, cases
+        summary, demo, library, views, cases = _own_cases(context)
+        return summary, demo, library, views, with_extra_cases(folder, *cases)
 
     baseline.offline_cases = pooled
 
