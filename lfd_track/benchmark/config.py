@@ -33,6 +33,7 @@ from ..methods import (
 from ..policy.controller import POLICY_KINDS
 from ..policy.features import DEFAULT_FEATURES, check_features
 from ..policy.memory import MemoryConfig, NoMemory
+from ..policy.mlp import N_HIDDEN
 from ..world.loops import SPLITS
 
 # Limits of the integer settings: generous (far beyond any run that finishes in days), but a typo
@@ -167,6 +168,12 @@ class BenchmarkConfig:
             )
         if self.policy_kind == "elman-sigmoid" and self.bc.ensemble != 1:
             raise ValueError("an Elman network is one network: backprop's ensemble must be 1")
+        if self.bc.hidden != N_HIDDEN and self.policy_kind == "elman-sigmoid":
+            raise ValueError(f"an Elman network has {N_HIDDEN} hidden nodes: bc hidden must be 5")
+        if self.bc.hidden != N_HIDDEN and self.method == "dagger":
+            raise ValueError(
+                "method 'dagger' takes its network's width from dagger hidden, not bc hidden"
+            )
         if self.bc.watched_fits != 1 and (self.method != "bc" or self.policy_kind != "mlp-sigmoid"):
             raise ValueError(
                 "bc watched_fits chooses among the 'bc' method's fits of an MLP by watching them"

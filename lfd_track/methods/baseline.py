@@ -15,6 +15,7 @@ from ..learning.elman import fit_bc_elman
 from ..learning.learners import learner_for
 from ..learning.result import LearnerFit
 from ..policy.controller import Controller
+from ..policy.mlp import N_HIDDEN
 from ..vision.road_library import RoadLibrary
 from .common import Learned, MethodContext
 from .offline import episodes, learned_offline, offline_cases, views_record
@@ -97,6 +98,7 @@ def controller_of_fit(
         policy_kind=context.policy_kind,
         frame_size=context.frame_size,
         map_geometry=context.map_geometry,
+        hidden=learner.hidden if isinstance(learner, BCConfig) else N_HIDDEN,
     )
 
 

@@ -191,7 +191,9 @@ def learn(context: MethodContext) -> Learned:
         demo=dict(first.demo, rounds=per_round, cases=int(len(all_a))),
         fitness_best=fitness_best,
         fitness_mean=fitness_mean,
-        training_accuracy=training_accuracy(controller.weights, all_x, all_a),
+        training_accuracy=training_accuracy(
+            controller.weights, all_x, all_a, hidden=controller.hidden
+        ),
         effort=effort_record(
             period, demonstration_commands=first.effort["commands"], counts=totals
         ),

@@ -85,7 +85,7 @@ def accuracy(controller: Controller, demo: Demonstration) -> float:
     if controller.policy_kind == "elman-sigmoid":
         starts = episode_starts(len(demo.commands))
         return sequence_accuracy(controller.weights, x, demo.commands, starts, bias=controller.bias)
-    return training_accuracy(controller.weights, x, demo.commands)
+    return training_accuracy(controller.weights, x, demo.commands, hidden=controller.hidden)
 
 
 def learned_offline(

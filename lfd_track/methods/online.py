@@ -235,7 +235,7 @@ def learn(context: MethodContext) -> Learned:
         },
         fitness_best=fitness_best,
         fitness_mean=fitness_mean,
-        training_accuracy=training_accuracy(controller.weights, x, a),
+        training_accuracy=training_accuracy(controller.weights, x, a, hidden=controller.hidden),
         effort=effort_record(float(env.preset.rover.control_period_s), counts=loop.counts),
     )
 
