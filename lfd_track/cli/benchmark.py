@@ -19,7 +19,7 @@ from ..learning.extra_cases import load_cases
 from ..methods import get_method, method_names, methods
 from ..policy.features import DEFAULT_FEATURES, FEATURE_SETS
 from ..policy.memory import MEMORY_KINDS
-from ..policy.mlp import MAX_MEMBERS
+from ..policy.mlp import MAX_HIDDEN, MAX_MEMBERS, N_HIDDEN
 from ..teaching.scripted import STEERING, TURNAROUND_RULES
 from ..utils.outputs import refuse_undecodable, refuse_unsafe_output, shown_path
 from ..utils.signals import Terminated, interrupted_exit_code, raise_terminated
@@ -214,6 +214,14 @@ def add_parser(subparsers: Any) -> argparse.ArgumentParser:
         f" {MAX_WATCHED_FITS})",
     )
     bench.add_argument(
+        "--bc-hidden",
+        type=whole_number_in(1, MAX_HIDDEN),
+        default=None,
+        metavar="N",
+        help="backprop's networks have N hidden nodes (the bc settings, as --bc-bias; default 5,"
+        f" the paper's; at most {MAX_HIDDEN}; with --method dagger its own --hidden)",
+    )
+    bench.add_argument(
         "--shifted-views",
         action="store_true",
         help="learn also from each case's views from a step behind and a pivot either way,"
@@ -261,16 +269,18 @@ def run(args: argparse.Namespace) -> int:
             return EXIT_USAGE
     repetitions = 1 if args.quick and args.repetitions is None else (args.repetitions or 10)
     trials = args.trials or (1 if args.quick else 3)
-    # --bc-bias, --bc-class-balance, --bc-ensemble, --bc-watched-fits: the backprop settings (a
-    # table of BenchmarkConfig, by name).
+    # --bc-bias, --bc-class-balance, --bc-ensemble, --bc-watched-fits, --bc-hidden: the backprop
+    # settings (a table of BenchmarkConfig, by name).
     balance = 1.0 if args.bc_class_balance is None else args.bc_class_balance
     ensemble = 1 if args.bc_ensemble is None else args.bc_ensemble
     watched = 1 if args.bc_watched_fits is None else args.bc_watched_fits
+    hidden = N_HIDDEN if args.bc_hidden is None else args.bc_hidden
     backprop_given = {
         "--bc-bias": args.bc_bias,
         "--bc-class-balance": args.bc_class_balance is not None,
         "--bc-ensemble": args.bc_ensemble is not None,
         "--bc-watched-fits": args.bc_watched_fits is not None,
+        "--bc-hidden": args.bc_hidden is not None,
     }
     backprop_flags = any(backprop_given.values())
     backprop: dict[str, Any] = (
@@ -280,6 +290,7 @@ def run(args: argparse.Namespace) -> int:
                 class_balance=balance,
                 ensemble=ensemble,
                 watched_fits=watched,
+                hidden=hidden,
             )
         }
         if backprop_flags

@@ -29,6 +29,7 @@ from ..learning.fitness import training_accuracy
 from ..learning.ga import ga_rescore, ga_result
 from ..learning.learners import learner_for
 from ..policy.controller import Controller
+from ..policy.mlp import N_HIDDEN
 from ..teaching.arbiter import Arbiter
 from ..teaching.commanders import PolicyCommander
 from ..teaching.learner_feed import BCLearnerFeed, GALearnerFeed
@@ -126,7 +127,7 @@ def learn(context: MethodContext) -> Learned:
         features,
         geometry=context.map_geometry,
     )
-    policy = PolicyCommander(None)
+    policy = PolicyCommander(None, hidden=context.bc.hidden if online.learner == "bc" else N_HIDDEN)
     feed: GALearnerFeed | BCLearnerFeed
     if online.learner == "ga":
         feed = GALearnerFeed(

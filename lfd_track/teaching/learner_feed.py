@@ -111,7 +111,7 @@ class BCLearnerFeed:
         self.cases = CaseBuffer(n_inputs)
         self.training_set = training_set or (lambda x, a: (x, a))
         """What backprop fits, made from all cases so far (e.g. with their mirror images)."""
-        self.weights = initial_weights(config.bias, config.init_range, rng, n_inputs)
+        self.weights = initial_weights(config.bias, config.init_range, rng, n_inputs, config.hidden)
         """The current weights, (W,) float64."""
         self._m = np.zeros_like(self.weights)
         self._v = np.zeros_like(self.weights)
@@ -136,11 +136,13 @@ class BCLearnerFeed:
         cases = checked_cases(inputs, actions)  # checked once for all the epochs
         weights, moments = self.weights, (self._m, self._v, self.generation)
         for _ in range(self.epochs_per_case):  # full-batch epochs, as fit_bc's default
-            weights, moments = adam_epoch(weights, moments, cases, cfg)
+            weights, moments = adam_epoch(weights, moments, cases, cfg, hidden=cfg.hidden)
         self._m, self._v, self.generation = moments
         self.weights = weights
         self.best_fitness = float(
-            population_fitness(weights[None], cases, cfg.threshold, bias=cfg.bias)[0]
+            population_fitness(
+                weights[None], cases, cfg.threshold, bias=cfg.bias, hidden=cfg.hidden
+            )[0]
         )
         self.policy.weights = weights.copy()
         return weights

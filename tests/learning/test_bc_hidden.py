@@ -7,14 +7,17 @@ import numpy as np
 import pytest
 
 from lfd_track.benchmark.config import BenchmarkConfig, config_dict
+from lfd_track.cli import main
 from lfd_track.dataset.reader import load_demonstration
 from lfd_track.demo.demonstrator import HumanConfig
 from lfd_track.learning.bc import BCConfig, fit_bc
 from lfd_track.learning.fitness import training_accuracy
-from lfd_track.methods import learn_baseline
+from lfd_track.methods import OnlineConfig, learn_baseline, learn_online
 from lfd_track.policy.controller import Controller
 from lfd_track.policy.mlp import n_weights
 from lfd_track.study.spec import load_study
+from lfd_track.teaching.commanders import PolicyCommander
+from lfd_track.teaching.learner_feed import BCLearnerFeed
 
 
 def _cases(n: int, inputs: int, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
@@ -89,3 +92,40 @@ def test_the_bc_method_writes_a_wider_controller_that_loads_and_drives(tmp_path)
     assert again.hidden == 10
     values = np.random.default_rng(3).uniform(0, 1, (5, controller.n_inputs))
     assert [again.act_on_values(v) for v in values] == [controller.act_on_values(v) for v in values]
+
+
+def test_the_benchmark_flag_is_refused_in_one_line_where_it_has_no_place(tmp_path, capsys):
+    out = str(tmp_path / "out")
+    assert main(["benchmark", "--method", "paper", "--bc-hidden", "10", "--out", out]) == 2
+    err = capsys.readouterr().err
+    assert "--bc-hidden" in err and len(err.splitlines()) == 1, err
+    argv = ["benchmark", "--method", "dagger", "--dagger-learner", "bc", "--bc-hidden", "10"]
+    assert main([*argv, "--out", out]) == 2
+    err = capsys.readouterr().err
+    assert "dagger hidden, not bc hidden" in err and len(err.splitlines()) == 1, err
+    for wrong, problem in (("0", "at least 1"), ("1001", "at most")):
+        with pytest.raises(SystemExit):
+            main(["benchmark", "--method", "bc", "--bc-hidden", wrong, "--out", out])
+        assert problem in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_online_learner_teaches_and_writes_a_network_of_that_width(tmp_path):
+    feed_policy = PolicyCommander(None, hidden=10)
+    feed = BCLearnerFeed(
+        BCConfig(bias=True, hidden=10), np.random.default_rng(0), 2, feed_policy, n_inputs=4
+    )
+    feed.update(*_cases(12, inputs=4))
+    assert feed.weights.shape == (n_weights(True, 4, 10),)
+    assert feed_policy.act_on_values(np.full(4, 0.5)) in (0, 1, 2)  # drives with the wide weights
+    learned = learn_online(
+        tmp_path / "rep",
+        online=OnlineConfig(learner="bc", epochs_per_case=2),
+        bc=BCConfig(epochs=20, bias=True, hidden=10),
+        demo_seed=11,
+        ga_seed=12,
+        preset="paper",
+        human=HumanConfig(),
+    )
+    assert learned.controller.hidden == 10
+    assert learned.controller.learner_config["bc"]["hidden"] == 10
