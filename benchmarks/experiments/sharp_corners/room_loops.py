@@ -14,31 +14,20 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
 
-from lfd_track.benchmark import runner
-from lfd_track.study.spec import load_study
-from lfd_track.world.loops import sharpest_turn_deg
-from lfd_track.world.track import load_track
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "human_goal"))
 
+from room_measures import spearman  # noqa: E402
 
-def ranks(values: list[float]) -> np.ndarray:
-    """Average ranks (ties share their mean rank)."""
-    v = np.asarray(values, dtype=float)
-    order = np.argsort(v, kind="stable")
-    r = np.empty(len(v))
-    r[order] = np.arange(len(v), dtype=float)
-    for value in np.unique(v):
-        same = v == value
-        r[same] = r[same].mean()
-    return r
-
-
-def spearman(a: list[float], b: list[float]) -> float:
-    return float(np.corrcoef(ranks(a), ranks(b))[0, 1])
+from lfd_track.benchmark import runner  # noqa: E402
+from lfd_track.study.spec import load_study  # noqa: E402
+from lfd_track.world.loops import sharpest_turn_deg  # noqa: E402
+from lfd_track.world.track import load_track  # noqa: E402
 
 
 def main() -> None:
@@ -99,7 +88,9 @@ def main() -> None:
         ("noise", "noise"),
         ("height", "camera height"),
     ):
-        lines.append(f"| {label} | {spearman(columns['laps'], columns[key]):+.2f} |")
+        lines.append(
+            f"| {label} | {spearman(np.asarray(columns['laps']), np.asarray(columns[key])):+.2f} |"
+        )
     Path(args.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
     print("\n".join(lines))
 

@@ -78,7 +78,6 @@ def run_one(job: tuple[str, int, int, tuple[str, ...], str]) -> dict[str, Any]:
     result = runner.run_repetition(repetition, rep_seed, config, work)
     loops = [o for o in result.outcomes if o.track.startswith("random")]
     training = [o for o in result.outcomes if not o.track.startswith("random")]
-    preset = pinned(drawn(config, rep_seed), fields)
     return {
         "loops": sum(o.success for o in loops),
         "n_loops": len(loops),
@@ -86,7 +85,6 @@ def run_one(job: tuple[str, int, int, tuple[str, ...], str]) -> dict[str, Any]:
         "n_training": len(training),
         "commands": result.effort.get("commands"),
         "accuracy": result.training_accuracy,
-        "cast": preset.sensor.white_balance_cast,
     }
 
 
