@@ -119,15 +119,25 @@ def run_with_more_inputs(
     mirror_more: Callable[[np.ndarray], np.ndarray],
     description: str,
 ) -> None:
-    """A prototype map's script: from now on every ``fresh_felt`` configuration has ``more``
-    inputs after the map's own (a mirror image mirrors the map's own as it does and the ``more``
-    by ``mirror_more``), every ``fresh_felt`` map is a ``memory_class``, and the study the
-    command line names (``--study``, ``--out``, ``--seed``) runs in this process."""
+    """A prototype map's script: :func:`use_more_inputs`, then the study the command line names
+    (``--study``, ``--out``, ``--seed``) runs in this process."""
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--study", required=True, help="the study file")
     parser.add_argument("--out", required=True, help="the study's output folder")
     parser.add_argument("--seed", type=int, help="run only this seed's jobs")
     args = parser.parse_args()
+    use_more_inputs(memory_class, more, mirror_more)
+    run_in_process(args.study, args.out, args.seed)
+
+
+def use_more_inputs(
+    memory_class: type[FreshFeltMemory],
+    more: int,
+    mirror_more: Callable[[np.ndarray], np.ndarray],
+) -> None:
+    """From now on every ``fresh_felt`` configuration has ``more`` inputs after the map's own (a
+    mirror image mirrors the map's own as it does and the ``more`` by ``mirror_more``), and
+    every ``fresh_felt`` map is a ``memory_class``."""
     post_init, mirror = FreshFeltConfig.__post_init__, FreshFeltConfig.mirror
 
     def with_more(self: FreshFeltConfig) -> None:
@@ -143,7 +153,6 @@ def run_with_more_inputs(
     FreshFeltConfig.__post_init__ = with_more  # type: ignore[method-assign]
     FreshFeltConfig.mirror = mirrored  # type: ignore[method-assign]
     oracle_visited.maps_made_as(memory_class)
-    run_in_process(args.study, args.out, args.seed)
 
 
 if __name__ == "__main__":

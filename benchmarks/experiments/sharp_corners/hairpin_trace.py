@@ -1,0 +1,273 @@
+"""Part 59 of ``README.md``: what the laps lost past 155 degrees do at the hairpin.
+
+Each repetition named (``--seed``, ``--repetition``) of a study like ``hairpins.toml`` is taught as
+its study teaches it (the same room and streams), and its laps of the loops whose sharpest turn is
+past ``--past`` degrees are driven again (the same worlds) with a record at every command: the
+rover's pose against that turn's vertex, the command, the map's inputs and the track's progress.
+Every failed lap is classed (:func:`classify`) and the classes tallied; with ``--rows`` each lap's
+last rows near the vertex follow: how far before or past the vertex along the incoming strip,
+how far to the turn's side of the incoming centreline and of the bisector between the two strips
+(where the track's progress may count the rover on the outgoing strip), its heading turned toward
+the corner, how far the progress lies below its most, the map's inputs and the command. Writes the
+markdown and a ``.json`` record per lap beside it. A measurement on validation loops and rooms
+only: nothing is chosen on it, and it drives no test loop.
+
+    .venv/bin/python benchmarks/experiments/sharp_corners/hairpin_trace.py --study benchmarks/experiments/sharp_corners/hairpins.toml --seed 100 101 --repetition 0 1 2 3 4 5 6 7 8 9 --workers 2 --out benchmarks/experiments/sharp_corners/results/hairpin_trace/own.md
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import dataclasses
+import json
+import math
+import multiprocessing
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from lfd_track.benchmark import runner
+from lfd_track.envs.track_env import LfDTrackEnv
+from lfd_track.study.spec import load_study
+from lfd_track.world.track import load_track, vertex_turns_rad
+
+#: the trace starts this far [m] of progress before the hairpin's vertex
+BEFORE_M = 1.2
+#: [m] a failed lap whose most progress lies further than this from its hairpin's vertex
+#: failed elsewhere
+NEAR_M = 1.5
+#: pivots on a blank map within 0.3 m of the vertex counted as spinning there
+SPIN_PIVOTS = 8
+#: rows shown per lap: the last of those within 1.5 m of the vertex
+SHOWN = 50
+
+
+def hairpin(track: Any) -> tuple[np.ndarray, np.ndarray, float, float]:
+    """(vertex (2,), incoming unit direction (2,), signed turn [rad], progress at the vertex [m])
+    of ``track``'s sharpest corner, in its driving order."""
+    vertices = np.asarray(track.vertices, dtype=np.float64)
+    turns = vertex_turns_rad(vertices, True)
+    k = int(np.argmax(np.abs(turns)))
+    before = vertices[k - 1]
+    a_in = vertices[k] - before
+    a_in = a_in / np.linalg.norm(a_in)
+    lengths = np.linalg.norm(np.diff(np.vstack([vertices, vertices[:1]]), axis=0), axis=1)
+    return vertices[k], a_in, float(turns[k]), float(lengths[:k].sum())
+
+
+def trace_lap(env: LfDTrackEnv, controller: Any, world: int) -> tuple[dict[str, Any], list[dict]]:
+    """Drive one lap; the last info and a row per command."""
+    rows: list[dict[str, Any]] = []
+
+    def seen(step: Any) -> None:
+        info = step.info_after or step.moment.info
+        inputs = step.moment.inputs
+        rows.append(
+            {
+                "pose": tuple(step.moment.info["pose"]),
+                "progress": float(step.moment.info["progress_m"]),
+                "command": None if step.command is None else int(step.command),
+                "inputs": None if inputs is None else [float(v) for v in inputs[-4:]],
+                "after": float(info.get("progress_m", math.nan)),
+            }
+        )
+
+    info, _, _ = runner.run_trial(env, controller, seed=world, on_loop_step=seen)
+    return info, rows
+
+
+def classify(
+    rows: list[dict[str, Any]], vertex: np.ndarray, s_vertex: float, length: float
+) -> dict[str, Any]:
+    """How a failed lap ended against its hairpin, from the track's progress: ``elsewhere`` (its
+    most progress more than :data:`NEAR_M` from the vertex's, along the loop), ``counted round``
+    (its progress had passed the vertex's: the track counted the rover on the outgoing strip,
+    and then fell back) or ``not round`` (it had not: turned back on the incoming side); with
+    the pivots it made within 0.3 m of the vertex on a blank map (amount 0) before the end."""
+    best = max(max(row["progress"], row["after"]) for row in rows)
+    blank_pivots = sum(
+        1
+        for row in rows
+        if row["command"] in (1, 2)
+        and row["inputs"] is not None
+        and row["inputs"][1] == 0.0
+        and float(np.hypot(row["pose"][0] - vertex[0], row["pose"][1] - vertex[1])) < 0.3
+    )
+    # the lap's copy of the vertex nearest its most progress
+    gap = best - s_vertex
+    gap -= length * round(gap / length)
+    if abs(gap) > NEAR_M:
+        kind = "elsewhere"
+    else:
+        kind = "counted round" if gap >= 0.0 else "not round"
+    return {"kind": kind, "past_vertex_m": gap, "blank_pivots": blank_pivots}
+
+
+def trace_repetition(job: tuple[str, int, int, float, bool]) -> tuple[list[str], list[dict]]:
+    """Teach repetition ``repetition`` of seed ``seed`` of ``study_file`` and drive its hairpin
+    laps past ``past`` degrees (with ``show``, the traces' rows); the markdown lines and a record
+    per lap."""
+    study_file, seed, repetition, past, show = job
+    study = load_study(study_file)
+    config = dataclasses.replace(study.conditions[0].config, repetitions=study.repetitions)
+    config = dataclasses.replace(config, seed=seed)
+    rep_seed = runner.repetition_seeds(seed, study.repetitions)[repetition]
+    demo_seed, ga_seed, trial_seed = runner.repetition_streams(rep_seed)
+    preset = runner.repetition_preset(config, rep_seed)
+    with tempfile.TemporaryDirectory() as tmp:
+        learned = runner.learn_repetition(
+            config, Path(tmp), demo_seed=demo_seed, ga_seed=ga_seed, preset=preset
+        )
+    controller = learned.controller
+    letter = {0: "F", 1: "L", 2: "R"}
+    lines: list[str] = []
+    laps: list[dict] = []
+    for track_name, reverse, direction, world in runner.trial_worlds(
+        trial_seed, config.test_tracks
+    ):
+        if not track_name.startswith("random"):
+            continue
+        if math.degrees(abs(hairpin(load_track(track_name))[2])) <= past:
+            continue
+        env = LfDTrackEnv(track=track_name, reverse=reverse, preset=preset)
+        info, rows = trace_lap(env, controller, world)
+        # the env's track: its vertices in driving order from the lap's start, where its
+        # progress counts from
+        track = env.track
+        vertex, a_in, turn, s_vertex = hairpin(track)
+        env.close()
+        lap = {"seed": seed, "repetition": repetition, "track": track_name}
+        lap |= {"direction": direction, "success": bool(info["success"])}
+        if not info["success"]:
+            lap |= classify(rows, vertex, s_vertex, track.length_m)
+        laps.append(lap)
+        if not show:
+            continue
+        sign = 1.0 if turn > 0 else -1.0
+        normal = sign * np.array([-a_in[1], a_in[0]])
+        half = (math.pi - abs(turn)) / 2.0  # the bisector's angle off the incoming line
+        outcome = "lapped" if info["success"] else f"failed: {info['failure'] or 'timeout'}"
+        if not info["success"]:
+            outcome += f" ({lap['kind']})"
+        lines += [
+            f"## {track_name} {direction} (seed {seed}, repetition {repetition}): turn"
+            f" {math.degrees(turn):+.1f} deg, width {track.width_m:.3f} m, {outcome}",
+            "",
+            "| step | along | side | bis | turned | drop | bearing | amount | distance | branch"
+            " | command |",
+            "|---|---|---|---|---|---|---|---|---|---|---|",
+        ]
+        best = -math.inf
+        shown: list[str] = []
+        for k, row in enumerate(rows):
+            x, y, theta = row["pose"]
+            rel = np.array([x, y]) - vertex
+            along = float(rel @ a_in)
+            side = float(rel @ normal)
+            # distance to the turn's side of the bisector through the vertex
+            bis = side * math.cos(half) + along * math.sin(half)
+            heading = np.array([math.cos(theta), math.sin(theta)])
+            turned = math.degrees(math.atan2(float(heading @ normal), float(heading @ a_in)))
+            best = max(best, row["progress"])
+            if along < -BEFORE_M or np.linalg.norm(rel) > 1.5:
+                continue
+            inputs = row["inputs"] or [math.nan] * 4
+            command = "-" if row["command"] is None else letter[row["command"]]
+            shown.append(
+                f"| {k} | {along:+.2f} | {side:+.2f} | {bis:+.2f} | {turned:+.0f} |"
+                f" {best - row['progress']:.2f} | {inputs[0]:.2f} | {inputs[1]:.2f} |"
+                f" {inputs[2]:.2f} | {inputs[3]:.2f} | {command} |"
+            )
+        # the last visit to the vertex decides the lap: its last SHOWN rows
+        lines += shown[-SHOWN:]
+        x, y, _ = rows[-1]["pose"]
+        end = np.array([x, y]) - vertex
+        lines += [
+            "",
+            f"{len(rows)} commands; the lap ends {float(np.linalg.norm(end)):.2f} m from the"
+            f" vertex, {best - rows[-1]['after']:.2f} m of progress below its most.",
+            "",
+        ]
+    return lines, laps
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--study", required=True)
+    parser.add_argument("--seed", type=int, nargs="+", required=True)
+    parser.add_argument("--repetition", type=int, nargs="+", required=True)
+    parser.add_argument("--past", type=float, default=155.0, help="[deg] sharpest turn past")
+    parser.add_argument("--workers", type=int, default=1)
+    parser.add_argument("--rows", action="store_true", help="each lap's trace after the tally")
+    parser.add_argument("--out", required=True, help="the markdown trace to write")
+    parser.add_argument(
+        "--way-back", action="store_true", help="taught and driven on way_back.py's map"
+    )
+    parser.add_argument("--side-m", type=float, help="with --way-back: its SIDE_M [m]")
+    parser.add_argument("--sides", choices=("branch", "both"), help="with --way-back: its SIDES")
+    args = parser.parse_args()
+    if args.way_back:
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        import oracle_visited
+        import way_back
+
+        oracle_visited.maps_made_as(way_back.WayBackMemory)
+        if args.side_m is not None:
+            way_back.SIDE_M = args.side_m
+        if args.sides is not None:
+            way_back.SIDES = args.sides
+    jobs = [
+        (args.study, seed, repetition, args.past, args.rows)
+        for seed in args.seed
+        for repetition in args.repetition
+    ]
+    with multiprocessing.get_context("fork").Pool(args.workers) as pool:
+        done = pool.map(trace_repetition, jobs, chunksize=1)
+    laps = [lap for _, some in done for lap in some]
+    failed = [lap for lap in laps if not lap["success"]]
+    table = collections.Counter((lap["kind"], lap["blank_pivots"] >= SPIN_PIVOTS) for lap in failed)
+    lines = [
+        f"# Hairpin laps of `{Path(args.study).name}` past {args.past:g} degrees",
+        "",
+        f"Seeds {args.seed}, repetitions {args.repetition}"
+        + (", on `way_back.py`'s map" if args.way_back else "")
+        + f": {sum(lap['success'] for lap in laps)} of {len(laps)} laps lapped. How the"
+        f" {len(failed)} others ended (`hairpin_trace.py`'s `classify`), and whether the rover"
+        f" had pivoted {SPIN_PIVOTS} times or more (a full turn is 16) within 0.3 m of the"
+        " vertex on a blank map before:",
+        "",
+        f"| how the lap ended | {SPIN_PIVOTS}+ blank pivots at the vertex | fewer | all |",
+        "|---|---|---|---|",
+        *(
+            f"| {kind} | {table[kind, True]} | {table[kind, False]} |"
+            f" {table[kind, True] + table[kind, False]} |"
+            for kind in ("not round", "counted round", "elsewhere")
+        ),
+        "",
+        "`not round`: the track never counted the rover past the vertex (it turned back on the"
+        " incoming side); `counted round`: the track had counted it on the outgoing strip, and"
+        f" its progress then fell back; `elsewhere`: its most progress lay more than {NEAR_M:g} m"
+        " from the vertex's.",
+        "",
+        "Columns of the traces: `along` is the rover's axle before (-) or past (+) the vertex"
+        " along the incoming strip [m]; `side` its offset to the turn's side of the incoming"
+        " centreline [m]; `bis` its offset to the turn's side of the bisector between the strips"
+        " (positive: the outgoing strip's half, where the track's progress may count it on that"
+        " strip) [m]; `turned` its heading turned toward the corner from the incoming direction"
+        " [deg]; `drop` how far the progress lies below its most so far [m]; the map's four"
+        " inputs (bearing, amount, distance, branch side); the command.",
+        "",
+    ]
+    for some, _ in done:
+        lines += some
+    Path(args.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
+    Path(args.out).with_suffix(".json").write_text(json.dumps(laps, indent=1), encoding="utf-8")
+    print("\n".join(lines[:16]))
+
+
+if __name__ == "__main__":
+    main()
