@@ -102,7 +102,9 @@ def main() -> None:
         if not args.cases:
             raise SystemExit("collect needs --cases")
         load_prior().collect_into(Path(args.cases))
-    oracle_learner.run_in_process(args.study, args.out, args.seed, tables=False)
+    # the study's tables once all of its jobs are there (run again to write them: it skips the
+    # jobs already there)
+    oracle_learner.run_in_process(args.study, args.out, args.seed, tables=args.step == "run")
 
 
 if __name__ == "__main__":
