@@ -208,6 +208,12 @@ def main() -> None:
         "--way-back", action="store_true", help="taught and driven on way_back.py's map"
     )
     parser.add_argument("--side-m", type=float, help="with --way-back: its SIDE_M [m]")
+    parser.add_argument(
+        "--oracle", action="store_true", help="taught and driven on part 12's oracle map (cover)"
+    )
+    parser.add_argument(
+        "--turned-ahead", action="store_true", help="taught and driven on turned_ahead.py's map"
+    )
     parser.add_argument("--sides", choices=("branch", "both"), help="with --way-back: its SIDES")
     args = parser.parse_args()
     if args.way_back:
@@ -220,6 +226,17 @@ def main() -> None:
             way_back.SIDE_M = args.side_m
         if args.sides is not None:
             way_back.SIDES = args.sides
+    if args.oracle:
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        import oracle_learner
+
+        oracle_learner.use_oracle("cover", 0.3)
+    if args.turned_ahead:
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        import oracle_visited
+        import turned_ahead
+
+        oracle_visited.maps_made_as(turned_ahead.TurnedAheadMemory)
     jobs = [
         (args.study, seed, repetition, args.past, args.rows)
         for seed in args.seed
@@ -235,6 +252,8 @@ def main() -> None:
         "",
         f"Seeds {args.seed}, repetitions {args.repetition}"
         + (", on `way_back.py`'s map" if args.way_back else "")
+        + (", on `turned_ahead.py`'s map" if args.turned_ahead else "")
+        + (", on part 12's oracle map (`--combine cover --cover-from 0.3`)" if args.oracle else "")
         + f": {sum(lap['success'] for lap in laps)} of {len(laps)} laps lapped. How the"
         f" {len(failed)} others ended (`hairpin_trace.py`'s `classify`), and whether the rover"
         f" had pivoted {SPIN_PIVOTS} times or more (a full turn is 16) within 0.3 m of the"
