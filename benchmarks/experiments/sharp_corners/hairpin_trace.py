@@ -80,16 +80,9 @@ def trace_lap(env: LfDTrackEnv, controller: Any, world: int) -> tuple[dict[str, 
     return info, rows
 
 
-def classify(
-    rows: list[dict[str, Any]], vertex: np.ndarray, s_vertex: float, length: float
-) -> dict[str, Any]:
-    """How a failed lap ended against its hairpin, from the track's progress: ``elsewhere`` (its
-    most progress more than :data:`NEAR_M` from the vertex's, along the loop), ``counted round``
-    (its progress had passed the vertex's: the track counted the rover on the outgoing strip,
-    and then fell back) or ``not round`` (it had not: turned back on the incoming side); with
-    the pivots it made within 0.3 m of the vertex on a blank map (amount 0) before the end."""
-    best = max(max(row["progress"], row["after"]) for row in rows)
-    blank_pivots = sum(
+def blank_pivots(rows: list[dict[str, Any]], vertex: np.ndarray) -> int:
+    """The pivots a lap made within 0.3 m of the hairpin's vertex on a blank map (amount 0)."""
+    return sum(
         1
         for row in rows
         if row["command"] in (1, 2)
@@ -97,6 +90,14 @@ def classify(
         and row["inputs"][1] == 0.0
         and float(np.hypot(row["pose"][0] - vertex[0], row["pose"][1] - vertex[1])) < 0.3
     )
+
+
+def classify(rows: list[dict[str, Any]], s_vertex: float, length: float) -> dict[str, Any]:
+    """How a failed lap ended against its hairpin, from the track's progress: ``elsewhere`` (its
+    most progress more than :data:`NEAR_M` from the vertex's, along the loop), ``counted round``
+    (its progress had passed the vertex's: the track counted the rover on the outgoing strip,
+    and then fell back) or ``not round`` (it had not: turned back on the incoming side)."""
+    best = max(max(row["progress"], row["after"]) for row in rows)
     # the lap's copy of the vertex nearest its most progress
     gap = best - s_vertex
     gap -= length * round(gap / length)
@@ -104,7 +105,7 @@ def classify(
         kind = "elsewhere"
     else:
         kind = "counted round" if gap >= 0.0 else "not round"
-    return {"kind": kind, "past_vertex_m": gap, "blank_pivots": blank_pivots}
+    return {"kind": kind, "past_vertex_m": gap}
 
 
 def trace_repetition(job: tuple[str, int, int, float, bool]) -> tuple[list[str], list[dict]]:
@@ -142,8 +143,9 @@ def trace_repetition(job: tuple[str, int, int, float, bool]) -> tuple[list[str],
         env.close()
         lap = {"seed": seed, "repetition": repetition, "track": track_name}
         lap |= {"direction": direction, "success": bool(info["success"])}
+        lap["blank_pivots"] = blank_pivots(rows, vertex)
         if not info["success"]:
-            lap |= classify(rows, vertex, s_vertex, track.length_m)
+            lap |= classify(rows, s_vertex, track.length_m)
         laps.append(lap)
         if not show:
             continue
@@ -266,6 +268,10 @@ def main() -> None:
             f" {table[kind, True] + table[kind, False]} |"
             for kind in ("not round", "counted round", "elsewhere")
         ),
+        "",
+        f"Of the {len(laps) - len(failed)} laps lapped,"
+        f" {sum(1 for lap in laps if lap['success'] and lap['blank_pivots'] >= SPIN_PIVOTS)}"
+        f" had pivoted {SPIN_PIVOTS} times or more there on a blank map too.",
         "",
         "`not round`: the track never counted the rover past the vertex (it turned back on the"
         " incoming side); `counted round`: the track had counted it on the outgoing strip, and"
