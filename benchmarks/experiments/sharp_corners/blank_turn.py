@@ -1,10 +1,11 @@
 """Part 60 of ``README.md``: how far the rover has turned on a blank map, as one more input (a
 prototype map).
 
-Part 59's traces (``hairpin_trace.py``) find that most of the laps lost past 155° end after the
-rover pivoted round and round at the hairpin's vertex with no fresh felt on the map: the
-outgoing strip lies within the path's radius of the incoming one, so facing it shows nothing
-fresh, and nothing tells the learner that it faces the way on. The human model turns there by
+Part 59's traces (``hairpin_trace.py``) find the rover spinning at hairpins past 155°: the map
+goes blank at the vertex and it pivots round and round, passing the heading of the outgoing strip
+with nothing fresh ahead, since that strip lies within the path's radius of the incoming one, and
+nothing tells the learner that it faces the way on. (Written on the lost laps' spins; counted over
+every lap, part 59 later found the spin as common in laps lapped.) The human model turns there by
 the track; what its turn looks like to the map is a blank map and a heading turned. This map
 gives the learner that: one input after the map's own, the heading the rover has turned since
 the map last held fresh felt (left positive), ``0.5 + turn / 360°`` clipped to [0, 1], and 0.5

@@ -3,10 +3,10 @@
 Part 39 ended on a design it did not build: a map that knows which way the rover came, so that
 at a hairpin's vertex the felt back along the incoming direction stays visited while the
 outgoing strip beside it, within the path's radius of the incoming places, comes back as fresh.
-Part 59's traces (``hairpin_trace.py``) show the laps lost past 155°: the rover reaches the
+Part 59's traces (``hairpin_trace.py``) show the rover at hairpins past 155°: it reaches the
 vertex, the map goes blank, it pivots round and round with nothing fresh (facing the outgoing
-strip included) until its path of 40 commands has forgotten the incoming strip, which then comes
-back as fresh felt, and it drives back along it.
+strip included) until its path of 40 commands has forgotten the incoming strip; then both strips
+come back as fresh felt, and it drives out along one of them, often the one it came by.
 
 :class:`WayBackMemory` is the ``fresh_felt`` map with one thing added. It remembers the place
 where the last forward command ended and the direction it came from (moved with the map). When
@@ -17,11 +17,15 @@ branch side of that line by :data:`SIDE_M` or more counts fresh however near the
 outgoing strip of a corner sharp enough to run back beside the incoming one), until the rover
 is more than :data:`ALONG_M`'s far end from ``P`` or :data:`KEEP_COMMANDS` commands have passed.
 Everything else is the map's own: what counts as ahead, on the rover's strip, within reach and
-in sight. The numbers come from the loops' geometry, set before any run: strips are at most
+in sight. :data:`SIDES` = ``"both"`` takes either side of the line, without the branch side.
+The numbers come from the loops' geometry, set before any probe: strips are at most
 0.45 m wide, so the incoming strip's felt lies within 0.225 m of its centreline and within about
 0.3 m of a line the rover drove off its centre; a hairpin of 155-165 degrees puts its outgoing
 strip's centreline 0.17-0.51 m to the side of the incoming one 0.4-1.2 m back from the vertex; the
 map looks for the rover's own strip within 1.2 m of the axle.
+
+Part 59 probed it through ``hairpin_trace.py --way-back`` (``--sides``, ``--side-m``; the
+README's commands); this script's own study run, below, was not made.
 
     .venv/bin/python benchmarks/experiments/sharp_corners/way_back.py --seed N --study benchmarks/experiments/sharp_corners/hairpins.toml --out benchmarks/experiments/sharp_corners/results/way_back/hairpins
 """
