@@ -20,7 +20,7 @@ rooms' demonstrations add (``extra_cases``) must be collected on this map too (`
 setting.
 
     .venv/bin/python benchmarks/experiments/sharp_corners/blank_turn.py collect --cases benchmarks/experiments/sharp_corners/results/blank_turn/prior_cases --study benchmarks/experiments/human_goal/round42/prior_rooms.toml --out /tmp/blank_turn_rooms
-    .venv/bin/python benchmarks/experiments/sharp_corners/blank_turn.py run --seed 100 --study benchmarks/experiments/sharp_corners/trials/hairpins_blank_turn.toml --out benchmarks/experiments/sharp_corners/results/blank_turn/hairpins
+    .venv/bin/python benchmarks/experiments/sharp_corners/blank_turn.py run --study benchmarks/experiments/sharp_corners/hairpins_blank_turn.toml --out benchmarks/experiments/sharp_corners/results/hairpins_blank_turn
 """
 
 from __future__ import annotations
