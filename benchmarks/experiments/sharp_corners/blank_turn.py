@@ -25,7 +25,6 @@ setting.
 
 from __future__ import annotations
 
-import argparse
 import importlib.util
 import sys
 from pathlib import Path
@@ -38,18 +37,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import oracle_learner  # noqa: E402
 
 from lfd_track.core.commands import Command  # noqa: E402
-from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
 
 PRIOR_PY = Path(__file__).resolve().parents[1] / "human_goal" / "round41" / "prior.py"
 
 
-class BlankTurnMemory(FreshFeltMemory):
-    """The ``fresh_felt`` map with the turn since it last held fresh felt as one more input."""
-
-    def __copy__(self) -> BlankTurnMemory:
-        twin = super().__copy__()
-        twin.__class__ = type(self)
-        return twin  # type: ignore[return-value]
+class TurnOnBlank(oracle_learner.PrototypeMemory):
+    """The ``fresh_felt`` map counting the heading turned since it last held fresh felt
+    (``_blank_turn`` [deg], left positive), summed from the motions it moves by; its inputs are
+    the map's own (:class:`BlankTurnMemory` adds the count as one, ``turned_ahead.py`` lays a
+    corridor by it)."""
 
     def reset(self) -> None:
         super().reset()
@@ -67,6 +63,10 @@ class BlankTurnMemory(FreshFeltMemory):
         super().see(values, levels)
         if self.bearing_deg is not None:  # fresh felt: the count starts again
             self._blank_turn = 0.0
+
+
+class BlankTurnMemory(TurnOnBlank):
+    """The ``fresh_felt`` map with the turn since it last held fresh felt as one more input."""
 
     def inputs(self) -> np.ndarray:
         if self.bearing_deg is not None:
@@ -91,12 +91,9 @@ def load_prior() -> Any:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = oracle_learner.study_parser(__doc__.splitlines()[0])
     parser.add_argument("step", choices=("collect", "run"))
     parser.add_argument("--cases", help="collect: the folder the cases are saved into")
-    parser.add_argument("--study", required=True, help="the study file")
-    parser.add_argument("--out", required=True, help="the study's output folder")
-    parser.add_argument("--seed", type=int, help="run only this seed's jobs")
     args = parser.parse_args()
     use_blank_turn()
     if args.step == "collect":

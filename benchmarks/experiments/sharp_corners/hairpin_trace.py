@@ -30,10 +30,17 @@ from typing import Any
 
 import numpy as np
 
-from lfd_track.benchmark import runner
-from lfd_track.envs.track_env import LfDTrackEnv
-from lfd_track.study.spec import load_study
-from lfd_track.world.track import load_track, vertex_turns_rad
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import oracle_learner  # noqa: E402
+import oracle_visited  # noqa: E402
+import turned_ahead  # noqa: E402
+import way_back  # noqa: E402
+
+from lfd_track.benchmark import runner  # noqa: E402
+from lfd_track.envs.track_env import LfDTrackEnv  # noqa: E402
+from lfd_track.study.spec import load_study  # noqa: E402
+from lfd_track.world.track import load_track, vertex_turns_rad  # noqa: E402
 
 #: the trace starts this far [m] of progress before the hairpin's vertex
 BEFORE_M = 1.2
@@ -219,25 +226,14 @@ def main() -> None:
     parser.add_argument("--sides", choices=("branch", "both"), help="with --way-back: its SIDES")
     args = parser.parse_args()
     if args.way_back:
-        sys.path.insert(0, str(Path(__file__).resolve().parent))
-        import oracle_visited
-        import way_back
-
         oracle_visited.maps_made_as(way_back.WayBackMemory)
         if args.side_m is not None:
             way_back.SIDE_M = args.side_m
         if args.sides is not None:
             way_back.SIDES = args.sides
     if args.oracle:
-        sys.path.insert(0, str(Path(__file__).resolve().parent))
-        import oracle_learner
-
         oracle_learner.use_oracle("cover", 0.3)
     if args.turned_ahead:
-        sys.path.insert(0, str(Path(__file__).resolve().parent))
-        import oracle_visited
-        import turned_ahead
-
         oracle_visited.maps_made_as(turned_ahead.TurnedAheadMemory)
     jobs = [
         (args.study, seed, repetition, args.past, args.rows)

@@ -61,11 +61,28 @@ def leg_finished(self: ProtocolHuman, info: dict[str, Any]) -> bool:
     return done
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def study_parser(description: str) -> argparse.ArgumentParser:
+    """The command line of a script that runs a study in this process: ``--study``, ``--out``
+    and ``--seed`` (a script adds its own arguments)."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--study", required=True, help="the study file")
     parser.add_argument("--out", required=True, help="the study's output folder")
     parser.add_argument("--seed", type=int, help="run only this seed's jobs")
+    return parser
+
+
+class PrototypeMemory(FreshFeltMemory):
+    """A prototype map's base: the ``fresh_felt`` map whose snapshots (``copy.copy``, which the
+    perception takes before each frame) stay of the prototype's class, with its state."""
+
+    def __copy__(self) -> PrototypeMemory:
+        twin = super().__copy__()
+        twin.__class__ = type(self)
+        return twin  # type: ignore[return-value]
+
+
+def main() -> None:
+    parser = study_parser(__doc__.splitlines()[0])
     parser.add_argument("--combine", choices=oracle_visited.COMBINES, default="oracle")
     parser.add_argument("--cover-from", type=float, default=0.0, metavar="M")
     args = parser.parse_args()
@@ -121,13 +138,18 @@ def run_with_more_inputs(
 ) -> None:
     """A prototype map's script: :func:`use_more_inputs`, then the study the command line names
     (``--study``, ``--out``, ``--seed``) runs in this process."""
-    parser = argparse.ArgumentParser(description=description)
-    parser.add_argument("--study", required=True, help="the study file")
-    parser.add_argument("--out", required=True, help="the study's output folder")
-    parser.add_argument("--seed", type=int, help="run only this seed's jobs")
-    args = parser.parse_args()
+    args = study_parser(description).parse_args()
     use_more_inputs(memory_class, more, mirror_more)
     run_in_process(args.study, args.out, args.seed)
+
+
+def run_with_map(memory_class: type[FreshFeltMemory], description: str) -> None:
+    """A prototype map's script with the map's own inputs: every ``fresh_felt`` map is a
+    ``memory_class``, and the study the command line names runs in this process (its tables
+    written when it runs every seed)."""
+    args = study_parser(description).parse_args()
+    oracle_visited.maps_made_as(memory_class)
+    run_in_process(args.study, args.out, args.seed, tables=args.seed is None)
 
 
 def use_more_inputs(

@@ -22,7 +22,6 @@ before any run: a 22.9° pivot turns 160° in seven, the window takes that one p
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 from typing import Any
@@ -31,11 +30,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+import blank_turn  # noqa: E402
 import oracle_learner  # noqa: E402
-import oracle_visited  # noqa: E402
 
 from lfd_track.core.commands import Command  # noqa: E402
-from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
 
 #: [deg] the turn since the map last held fresh felt (either way) that lays a corridor
 TURN_DEG = (145.0, 175.0)
@@ -47,17 +45,11 @@ HALF_WIDTH_M = 0.1
 KEEP_COMMANDS = 20
 
 
-class TurnedAheadMemory(FreshFeltMemory):
+class TurnedAheadMemory(blank_turn.TurnOnBlank):
     """The ``fresh_felt`` map with the way on after a hairpin's turn (see the module docstring)."""
-
-    def __copy__(self) -> TurnedAheadMemory:
-        twin = super().__copy__()
-        twin.__class__ = type(self)
-        return twin  # type: ignore[return-value]
 
     def reset(self) -> None:
         super().reset()
-        self._blank_turn = 0.0  # [deg] turned since the map last held fresh felt
         # (2, 2): the corridor's start (the axle where it was laid) and a point 1 m ahead of it,
         # in the rover's frame; None without one
         self._corridor: np.ndarray | None = None
@@ -65,12 +57,7 @@ class TurnedAheadMemory(FreshFeltMemory):
         self._was_blank = False  # the last frame left the map blank
 
     def _move(self, command: int, measured: Any = None) -> None:
-        super()._move(command, measured)
-        if measured is not None:
-            self._blank_turn += float(measured.turn_deg)
-        elif command != Command.FORWARD:
-            pivot = self.geometry.pivot_deg
-            self._blank_turn += pivot if command == Command.LEFT else -pivot
+        super()._move(command, measured)  # the turn counted
         if self._corridor is None:
             return
         if measured is None:
@@ -100,10 +87,8 @@ class TurnedAheadMemory(FreshFeltMemory):
         if self._was_blank and self._corridor is None and TURN_DEG[0] <= turned <= TURN_DEG[1]:
             self._corridor = np.array([[0.0, 0.0], [1.0, 0.0]])
             self._corridor_age = 0
-        super().see(values, levels)
+        super().see(values, levels)  # fresh felt starts the count again
         self._was_blank = self.bearing_deg is None
-        if not self._was_blank:  # fresh felt: the count starts again
-            self._blank_turn = 0.0
 
     def _kept(self, where: np.ndarray) -> np.ndarray | None:
         kept = super()._kept(where)
@@ -121,13 +106,7 @@ class TurnedAheadMemory(FreshFeltMemory):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--study", required=True, help="the study file")
-    parser.add_argument("--out", required=True, help="the study's output folder")
-    parser.add_argument("--seed", type=int, help="run only this seed's jobs")
-    args = parser.parse_args()
-    oracle_visited.maps_made_as(TurnedAheadMemory)
-    oracle_learner.run_in_process(args.study, args.out, args.seed, tables=args.seed is None)
+    oracle_learner.run_with_map(TurnedAheadMemory, __doc__.splitlines()[0])
 
 
 if __name__ == "__main__":

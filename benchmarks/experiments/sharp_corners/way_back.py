@@ -32,7 +32,6 @@ README's commands); this script's own study run, below, was not made.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 from typing import Any
@@ -42,10 +41,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import oracle_learner  # noqa: E402
-import oracle_visited  # noqa: E402
 
 from lfd_track.core.commands import Command  # noqa: E402
-from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
 
 #: [m] how far back along the incoming direction from P the felt may come back as fresh
 ALONG_M = (0.4, 1.2)
@@ -60,13 +57,8 @@ LEFT, RIGHT = 1.0, 0.0
 SIDES = "branch"
 
 
-class WayBackMemory(FreshFeltMemory):
+class WayBackMemory(oracle_learner.PrototypeMemory):
     """The ``fresh_felt`` map with the way back at a hairpin (see the module docstring)."""
-
-    def __copy__(self) -> WayBackMemory:
-        twin = super().__copy__()
-        twin.__class__ = type(self)
-        return twin  # type: ignore[return-value]
 
     def reset(self) -> None:
         super().reset()
@@ -142,13 +134,7 @@ class WayBackMemory(FreshFeltMemory):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--study", required=True, help="the study file")
-    parser.add_argument("--out", required=True, help="the study's output folder")
-    parser.add_argument("--seed", type=int, help="run only this seed's jobs")
-    args = parser.parse_args()
-    oracle_visited.maps_made_as(WayBackMemory)
-    oracle_learner.run_in_process(args.study, args.out, args.seed, tables=False)
+    oracle_learner.run_with_map(WayBackMemory, __doc__.splitlines()[0])
 
 
 if __name__ == "__main__":
