@@ -34,6 +34,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import oracle_learner  # noqa: E402
 import oracle_visited  # noqa: E402
+import spin_side  # noqa: E402
+import track_branch  # noqa: E402
 import turned_ahead  # noqa: E402
 import way_back  # noqa: E402
 
@@ -51,6 +53,10 @@ NEAR_M = 1.5
 SPIN_PIVOTS = 8
 #: rows shown per lap: the last of those within 1.5 m of the vertex
 SHOWN = 50
+
+
+#: ``--visited-from``: the condition's map's ``visited_from`` replaced by this ("": as it is)
+VISITED_FROM = ""
 
 
 def hairpin(track: Any) -> tuple[np.ndarray, np.ndarray, float, float]:
@@ -99,6 +105,35 @@ def blank_pivots(rows: list[dict[str, Any]], vertex: np.ndarray) -> int:
     )
 
 
+def first_blank_pivot(
+    rows: list[dict[str, Any]], vertex: np.ndarray, turn: float
+) -> tuple[str, str]:
+    """Which way the lap's first pivot on a blank map within 0.3 m of the vertex turned, and
+    which side the branch side input named there: each ``toward`` (the corner's way), ``away``
+    or, for the branch side, ``none`` (0.5); ``-`` without such a pivot."""
+    for row in rows:
+        if (
+            row["command"] in (1, 2)
+            and row["inputs"] is not None
+            and row["inputs"][1] == 0.0
+            and float(np.hypot(row["pose"][0] - vertex[0], row["pose"][1] - vertex[1])) < 0.3
+        ):
+            left = turn > 0.0
+            pivot = "toward" if (row["command"] == 1) == left else "away"
+            branch = row["inputs"][3]
+            named = "none" if branch == 0.5 else ("toward" if (branch > 0.5) == left else "away")
+            return pivot, named
+    return "-", "-"
+
+
+def by_pivot(laps: list[dict[str, Any]]) -> dict[tuple[str, str], list[dict[str, Any]]]:
+    """The laps by (first blank pivot at the vertex, the side the branch side named there)."""
+    groups: dict[tuple[str, str], list[dict[str, Any]]] = collections.defaultdict(list)
+    for lap in laps:
+        groups[lap["first_pivot"], lap["branch_named"]].append(lap)
+    return dict(groups)
+
+
 def classify(rows: list[dict[str, Any]], s_vertex: float, length: float) -> dict[str, Any]:
     """How a failed lap ended against its hairpin, from the track's progress: ``elsewhere`` (its
     most progress more than :data:`NEAR_M` from the vertex's, along the loop), ``counted round``
@@ -123,6 +158,9 @@ def trace_repetition(job: tuple[str, int, int, float, bool]) -> tuple[list[str],
     study = load_study(study_file)
     config = dataclasses.replace(study.conditions[0].config, repetitions=study.repetitions)
     config = dataclasses.replace(config, seed=seed)
+    if VISITED_FROM:
+        memory = dataclasses.replace(config.memory, visited_from=VISITED_FROM)
+        config = dataclasses.replace(config, memory=memory)
     rep_seed = runner.repetition_seeds(seed, study.repetitions)[repetition]
     demo_seed, ga_seed, trial_seed = runner.repetition_streams(rep_seed)
     preset = runner.repetition_preset(config, rep_seed)
@@ -151,6 +189,7 @@ def trace_repetition(job: tuple[str, int, int, float, bool]) -> tuple[list[str],
         lap = {"seed": seed, "repetition": repetition, "track": track_name}
         lap |= {"direction": direction, "success": bool(info["success"])}
         lap["blank_pivots"] = blank_pivots(rows, vertex)
+        lap["first_pivot"], lap["branch_named"] = first_blank_pivot(rows, vertex, turn)
         if not info["success"]:
             lap |= classify(rows, s_vertex, track.length_m)
         laps.append(lap)
@@ -205,6 +244,7 @@ def trace_repetition(job: tuple[str, int, int, float, bool]) -> tuple[list[str],
 
 
 def main() -> None:
+    global VISITED_FROM
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--study", required=True)
     parser.add_argument("--seed", type=int, nargs="+", required=True)
@@ -223,6 +263,25 @@ def main() -> None:
     parser.add_argument(
         "--turned-ahead", action="store_true", help="taught and driven on turned_ahead.py's map"
     )
+    parser.add_argument(
+        "--spin-side", action="store_true", help="taught and driven on spin_side.py's map"
+    )
+    parser.add_argument(
+        "--spin-hold", type=float, metavar="DEG", help="with --spin-side: its HOLD_DEG [deg]"
+    )
+    parser.add_argument(
+        "--spin-centres",
+        action="store_true",
+        help="taught and driven on spin_side.py's --centres map",
+    )
+    parser.add_argument(
+        "--visited-from", default="", help="the condition's map's visited_from replaced by this"
+    )
+    parser.add_argument(
+        "--track-branch",
+        action="store_true",
+        help="taught and driven on track_branch.py's map (the track's side as the branch side)",
+    )
     parser.add_argument("--sides", choices=("branch", "both"), help="with --way-back: its SIDES")
     args = parser.parse_args()
     if args.way_back:
@@ -235,6 +294,15 @@ def main() -> None:
         oracle_learner.use_oracle("cover", 0.3)
     if args.turned_ahead:
         oracle_visited.maps_made_as(turned_ahead.TurnedAheadMemory)
+    VISITED_FROM = args.visited_from
+    if args.track_branch:
+        track_branch.use_track_branch()
+    if args.spin_centres:
+        oracle_visited.maps_made_as(spin_side.SpinCentresMemory)
+    if args.spin_side:
+        oracle_visited.maps_made_as(spin_side.SpinSideMemory)
+        if args.spin_hold is not None:
+            spin_side.HOLD_DEG = args.spin_hold
     jobs = [
         (args.study, seed, repetition, args.past, args.rows)
         for seed in args.seed
@@ -251,6 +319,10 @@ def main() -> None:
         f"Seeds {args.seed}, repetitions {args.repetition}"
         + (", on `way_back.py`'s map" if args.way_back else "")
         + (", on `turned_ahead.py`'s map" if args.turned_ahead else "")
+        + (", on `spin_side.py`'s map" if args.spin_side else "")
+        + (", on `spin_side.py`'s `--centres` map" if args.spin_centres else "")
+        + (", on `track_branch.py`'s map" if args.track_branch else "")
+        + (f", with `visited_from = {args.visited_from!r}`" if args.visited_from else "")
         + (", on part 12's oracle map (`--combine cover --cover-from 0.3`)" if args.oracle else "")
         + f": {sum(lap['success'] for lap in laps)} of {len(laps)} laps lapped. How the"
         f" {len(failed)} others ended (`hairpin_trace.py`'s `classify`), and whether the rover"
@@ -268,6 +340,17 @@ def main() -> None:
         f"Of the {len(laps) - len(failed)} laps lapped,"
         f" {sum(1 for lap in laps if lap['success'] and lap['blank_pivots'] >= SPIN_PIVOTS)}"
         f" had pivoted {SPIN_PIVOTS} times or more there on a blank map too.",
+        "",
+        "The first pivot each lap made on a blank map within 0.3 m of the vertex: the corner's"
+        " way (`toward`) or not (`away`), and the side the branch side input named there"
+        " (`none`: 0.5); `-`: no such pivot.",
+        "",
+        "| first blank pivot | branch side named | laps | lapped |",
+        "|---|---|---|---|",
+        *(
+            f"| {pivot} | {named} | {len(some)} | {sum(lap['success'] for lap in some)} |"
+            for (pivot, named), some in sorted(by_pivot(laps).items())
+        ),
         "",
         "`not round`: the track never counted the rover past the vertex (it turned back on the"
         " incoming side); `counted round`: the track had counted it on the outgoing strip, and"
