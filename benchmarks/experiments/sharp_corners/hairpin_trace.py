@@ -278,6 +278,9 @@ def main() -> None:
         "--visited-from", default="", help="the condition's map's visited_from replaced by this"
     )
     parser.add_argument(
+        "--spin-band", action="store_true", help="taught and driven on spin_side.py's band map"
+    )
+    parser.add_argument(
         "--track-branch",
         action="store_true",
         help="taught and driven on track_branch.py's map (the track's side as the branch side)",
@@ -297,6 +300,8 @@ def main() -> None:
     VISITED_FROM = args.visited_from
     if args.track_branch:
         track_branch.use_track_branch()
+    if args.spin_band:
+        oracle_visited.maps_made_as(spin_side.SpinBandMemory)
     if args.spin_centres:
         oracle_visited.maps_made_as(spin_side.SpinCentresMemory)
     if args.spin_side:
@@ -321,6 +326,7 @@ def main() -> None:
         + (", on `turned_ahead.py`'s map" if args.turned_ahead else "")
         + (", on `spin_side.py`'s map" if args.spin_side else "")
         + (", on `spin_side.py`'s `--centres` map" if args.spin_centres else "")
+        + (", on `spin_side.py`'s `--spin-band` map" if args.spin_band else "")
         + (", on `track_branch.py`'s map" if args.track_branch else "")
         + (f", with `visited_from = {args.visited_from!r}`" if args.visited_from else "")
         + (", on part 12's oracle map (`--combine cover --cover-from 0.3`)" if args.oracle else "")

@@ -233,3 +233,23 @@ class SpinCentresMemory(SpinSideMemory):
         kept = np.zeros(len(self._points))
         kept[where] = near
         return kept
+
+
+class SpinBandMemory(SpinCentresMemory):
+    """``--spin-band``: in a spin, the map as it is, and also the felt within
+    :data:`CENTRE_BAND_M` of the strip's centres visited. The path still forgets its places as the
+    rover pivots; the centres do not, so once a long spin has flushed the incoming places from
+    the path, the band still covers the incoming strip, as part 12's oracle covers the felt the
+    track puts behind, while the places at the vertex keep the felt round it visited."""
+
+    def _kept(self, where: np.ndarray) -> np.ndarray | None:
+        own = FreshFeltMemory._kept(self, where)
+        if own is None or not self._spin or not len(self._centres):
+            return own
+        chosen = self._points[where]
+        gap_x = chosen[:, 0, None] - self._centres[None, :, 0]
+        gap_y = chosen[:, 1, None] - self._centres[None, :, 1]
+        band = ((gap_x * gap_x + gap_y * gap_y).min(axis=1) > CENTRE_BAND_M**2).astype(float)
+        own = own.copy()
+        own[where] = np.minimum(own[where], band)
+        return own
