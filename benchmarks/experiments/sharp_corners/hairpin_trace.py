@@ -32,6 +32,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+import cover_near  # noqa: E402
 import oracle_learner  # noqa: E402
 import oracle_visited  # noqa: E402
 import spin_side  # noqa: E402
@@ -278,6 +279,14 @@ def main() -> None:
         "--visited-from", default="", help="the condition's map's visited_from replaced by this"
     )
     parser.add_argument(
+        "--cover-to", type=float, metavar="M", help="with --oracle: cover_near.py's cover, to M"
+    )
+    parser.add_argument(
+        "--cover-leg",
+        choices=("incoming", "others"),
+        help="with --oracle: cover_near.py's cover only on (or off) the hairpin's incoming leg",
+    )
+    parser.add_argument(
         "--spin-band", action="store_true", help="taught and driven on spin_side.py's band map"
     )
     parser.add_argument(
@@ -295,6 +304,10 @@ def main() -> None:
             way_back.SIDES = args.sides
     if args.oracle:
         oracle_learner.use_oracle("cover", 0.3)
+        if args.cover_to is not None or args.cover_leg:
+            cover_near.COVER_TO_M = math.inf if args.cover_to is None else args.cover_to
+            cover_near.LEG = args.cover_leg or ""
+            oracle_visited.maps_made_as(cover_near.CoverNearMemory)
     if args.turned_ahead:
         oracle_visited.maps_made_as(turned_ahead.TurnedAheadMemory)
     VISITED_FROM = args.visited_from
@@ -330,6 +343,8 @@ def main() -> None:
         + (", on `track_branch.py`'s map" if args.track_branch else "")
         + (f", with `visited_from = {args.visited_from!r}`" if args.visited_from else "")
         + (", on part 12's oracle map (`--combine cover --cover-from 0.3`)" if args.oracle else "")
+        + (f", its cover cut at {args.cover_to:g} m behind" if args.cover_to is not None else "")
+        + (f", its cover only on the {args.cover_leg} leg(s)" if args.cover_leg else "")
         + f": {sum(lap['success'] for lap in laps)} of {len(laps)} laps lapped. How the"
         f" {len(failed)} others ended (`hairpin_trace.py`'s `classify`), and whether the rover"
         f" had pivoted {SPIN_PIVOTS} times or more (a full turn is 16) within 0.3 m of the"

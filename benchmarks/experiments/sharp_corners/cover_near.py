@@ -1,0 +1,72 @@
+"""Part 65 of ``README.md``: part 12's oracle cover, only as far behind as the hairpin's own legs.
+
+Part 64 found that at a hairpin's vertex much of the felt part 12's oracle covers (the map's fresh
+felt whose centreline the track puts 0.3 m or more behind the rover, up to half the loop) lies on
+other legs of the loop in sight of the vertex, not on the incoming strip. :class:`CoverNearMemory`
+is that oracle with its cover cut at :data:`COVER_TO_M` behind the rover along the track: felt
+further behind (other legs) keeps the map's own state. It is an oracle (it reads the track), a
+controlled experiment on which felt carries the oracle's hairpin laps, not a design.
+
+    .venv/bin/python benchmarks/experiments/sharp_corners/hairpin_trace.py --oracle --cover-to 2.0 --study benchmarks/experiments/sharp_corners/hairpins.toml --seed 100 101 --repetition 0 1 2 3 4 5 6 7 8 9 --workers 2 --out benchmarks/experiments/sharp_corners/results/hairpin_trace/oracle_cover_to_2.md
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import oracle_visited  # noqa: E402
+
+from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
+
+#: [m] how far behind the rover along the track the cover reaches
+COVER_TO_M = 2.0
+#: ``--cover-leg``: the cover only on the leg that ends at the track's sharpest vertex
+#: (``"incoming"``) or only off it (``"others"``); "": wherever it lies
+LEG = ""
+
+
+def incoming_leg(track: Any) -> tuple[float, float]:
+    """The arc lengths [m] along ``track`` (in driving order) where the leg ending at its
+    sharpest vertex starts and ends."""
+    vertices = np.asarray(track.vertices, dtype=np.float64)
+    turns = np.abs(np.asarray(track.vertex_turns_rad))
+    k = int(np.argmax(turns))
+    legs = np.linalg.norm(np.diff(np.vstack([vertices, vertices[:1]]), axis=0), axis=1)
+    at = np.concatenate([[0.0], np.cumsum(legs)[:-1]])
+    end = float(at[k]) if k else float(track.length_m)
+    return end - float(legs[k - 1]), end
+
+
+class CoverNearMemory(oracle_visited.TrackVisitedMemory):
+    """Part 12's oracle (``combine cover``, ``cover_from 0.3``) covering only felt whose
+    centreline lies at most :data:`COVER_TO_M` behind the rover along the track."""
+
+    def _kept(self, where: np.ndarray) -> np.ndarray | None:
+        now = oracle_visited.NOW
+        if now["track"] is None or not where.any():
+            return FreshFeltMemory._kept(self, where)
+        own = FreshFeltMemory._kept(self, where)
+        if own is None:
+            own = np.where(where, 1.0, 0.0)
+        track = now["track"]
+        floor = oracle_visited.to_floor(self._points[where], now["pose"])
+        s = oracle_visited.centreline_at(track, floor)
+        if track.closed:
+            behind = (now["progress_m"] - s) % track.length_m
+            reach = min(COVER_TO_M, 0.5 * track.length_m)
+        else:
+            behind, reach = now["progress_m"] - s, COVER_TO_M
+        covered = (behind >= now["cover_from_m"]) & (behind <= reach)
+        if LEG:
+            start, end = incoming_leg(track)
+            on_leg = (s >= start) & (s <= end)
+            covered &= on_leg if LEG == "incoming" else ~on_leg
+        own = own.copy()
+        own[where] = np.where(covered, 0.0, own[where])
+        return own
