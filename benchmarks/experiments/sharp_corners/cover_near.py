@@ -21,6 +21,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import oracle_visited  # noqa: E402
+import track_branch  # noqa: E402
 
 from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
 
@@ -34,11 +35,8 @@ LEG = ""
 def incoming_leg(track: Any) -> tuple[float, float]:
     """The arc lengths [m] along ``track`` (in driving order) where the leg ending at its
     sharpest vertex starts and ends."""
-    vertices = np.asarray(track.vertices, dtype=np.float64)
-    turns = np.abs(np.asarray(track.vertex_turns_rad))
-    k = int(np.argmax(turns))
-    legs = np.linalg.norm(np.diff(np.vstack([vertices, vertices[:1]]), axis=0), axis=1)
-    at = np.concatenate([[0.0], np.cumsum(legs)[:-1]])
+    k = int(np.argmax(np.abs(np.asarray(track.vertex_turns_rad))))
+    at, legs = track_branch.vertex_arcs(track)
     end = float(at[k]) if k else float(track.length_m)
     return end - float(legs[k - 1]), end
 

@@ -344,7 +344,13 @@ def main() -> None:
         + (f", with `visited_from = {args.visited_from!r}`" if args.visited_from else "")
         + (", on part 12's oracle map (`--combine cover --cover-from 0.3`)" if args.oracle else "")
         + (f", its cover cut at {args.cover_to:g} m behind" if args.cover_to is not None else "")
-        + (f", its cover only on the {args.cover_leg} leg(s)" if args.cover_leg else "")
+        + (
+            ", its cover only "
+            + ("on" if args.cover_leg == "incoming" else "off")
+            + " the hairpin's incoming leg"
+            if args.cover_leg
+            else ""
+        )
         + f": {sum(lap['success'] for lap in laps)} of {len(laps)} laps lapped. How the"
         f" {len(failed)} others ended (`hairpin_trace.py`'s `classify`), and whether the rover"
         f" had pivoted {SPIN_PIVOTS} times or more (a full turn is 16) within 0.3 m of the"

@@ -39,14 +39,20 @@ BEHIND_M = 0.3
 MIN_TURN_DEG = 90.0
 
 
+def vertex_arcs(track: Track) -> tuple[np.ndarray, np.ndarray]:
+    """(V,) each vertex's arc length along ``track`` [m], and (V,) the length of the leg that
+    starts at it (a loop's last leg closing it)."""
+    vertices = np.asarray(track.vertices, dtype=np.float64)
+    legs = np.linalg.norm(np.diff(np.vstack([vertices, vertices[:1]]), axis=0), axis=1)
+    return np.concatenate([[0.0], np.cumsum(legs)[:-1]]), legs
+
+
 def track_side(track: Track, progress_m: float) -> int:
     """+1 (left) or -1 (right): the side of the nearest vertex of ``track`` turning
     :data:`MIN_TURN_DEG` or more within :data:`AHEAD_M` ahead of ``progress_m`` or
     :data:`BEHIND_M` past it; 0 without one."""
-    vertices = np.asarray(track.vertices, dtype=np.float64)
     turns = np.asarray(track.vertex_turns_rad)
-    legs = np.linalg.norm(np.diff(np.vstack([vertices, vertices[:1]]), axis=0), axis=1)
-    at = np.concatenate([[0.0], np.cumsum(legs)[:-1]])  # each vertex's arc length
+    at, _ = vertex_arcs(track)
     ahead = at - progress_m
     if track.closed:
         ahead = (ahead + BEHIND_M) % track.length_m - BEHIND_M
