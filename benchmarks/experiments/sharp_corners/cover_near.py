@@ -28,8 +28,22 @@ from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
 #: [m] how far behind the rover along the track the cover reaches
 COVER_TO_M = 2.0
 #: ``--cover-leg``: the cover only on the leg that ends at the track's sharpest vertex
-#: (``"incoming"``) or only off it (``"others"``); "": wherever it lies
+#: (``"incoming"``; ``"incoming-outer"``, ``"incoming-inner"``: only on the outer side of its
+#: centreline, or only the turn's side) or only off it (``"others"``); "": wherever it lies
 LEG = ""
+
+
+def turn_side_offset(track: Any, floor: np.ndarray) -> np.ndarray:
+    """(N,) [m]: how far each floor point (N, 2) lies to the turn's side of the centreline of the
+    leg that ends at ``track``'s sharpest vertex (negative: its outer side)."""
+    vertices = np.asarray(track.vertices, dtype=np.float64)
+    turns = np.asarray(track.vertex_turns_rad)
+    k = int(np.argmax(np.abs(turns)))
+    u = vertices[k] - vertices[k - 1]
+    u = u / np.linalg.norm(u)
+    rel = floor - vertices[k]
+    left = u[0] * rel[:, 1] - u[1] * rel[:, 0]
+    return np.sign(turns[k]) * left
 
 
 def incoming_leg(track: Any) -> tuple[float, float]:
@@ -64,7 +78,10 @@ class CoverNearMemory(oracle_visited.TrackVisitedMemory):
         if LEG:
             start, end = incoming_leg(track)
             on_leg = (s >= start) & (s <= end)
-            covered &= on_leg if LEG == "incoming" else ~on_leg
+            covered &= ~on_leg if LEG == "others" else on_leg
+            if LEG in ("incoming-outer", "incoming-inner"):
+                toward = turn_side_offset(track, floor)
+                covered &= (toward <= 0.0) if LEG == "incoming-outer" else (toward > 0.0)
         own = own.copy()
         own[where] = np.where(covered, 0.0, own[where])
         return own

@@ -283,7 +283,7 @@ def main() -> None:
     )
     parser.add_argument(
         "--cover-leg",
-        choices=("incoming", "others"),
+        choices=("incoming", "incoming-outer", "incoming-inner", "others"),
         help="with --oracle: cover_near.py's cover only on (or off) the hairpin's incoming leg",
     )
     parser.add_argument(
@@ -346,8 +346,12 @@ def main() -> None:
         + (f", its cover cut at {args.cover_to:g} m behind" if args.cover_to is not None else "")
         + (
             ", its cover only "
-            + ("on" if args.cover_leg == "incoming" else "off")
-            + " the hairpin's incoming leg"
+            + {
+                "incoming": "on the hairpin's incoming leg",
+                "others": "off the hairpin's incoming leg",
+                "incoming-outer": "on the hairpin's incoming leg, outside its centreline",
+                "incoming-inner": "on the hairpin's incoming leg, on its centreline's turn side",
+            }[args.cover_leg]
             if args.cover_leg
             else ""
         )
