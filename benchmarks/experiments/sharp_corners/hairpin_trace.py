@@ -35,6 +35,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import cover_near  # noqa: E402
 import oracle_learner  # noqa: E402
 import oracle_visited  # noqa: E402
+import outer_cover  # noqa: E402
 import spin_side  # noqa: E402
 import track_branch  # noqa: E402
 import turned_ahead  # noqa: E402
@@ -287,6 +288,9 @@ def main() -> None:
         help="with --oracle: cover_near.py's cover only on (or off) the hairpin's incoming leg",
     )
     parser.add_argument(
+        "--outer-cover", action="store_true", help="taught and driven on outer_cover.py's map"
+    )
+    parser.add_argument(
         "--spin-band", action="store_true", help="taught and driven on spin_side.py's band map"
     )
     parser.add_argument(
@@ -313,6 +317,8 @@ def main() -> None:
     VISITED_FROM = args.visited_from
     if args.track_branch:
         track_branch.use_track_branch()
+    if args.outer_cover:
+        oracle_visited.maps_made_as(outer_cover.OuterCoverMemory)
     if args.spin_band:
         oracle_visited.maps_made_as(spin_side.SpinBandMemory)
     if args.spin_centres:
@@ -340,6 +346,7 @@ def main() -> None:
         + (", on `spin_side.py`'s map" if args.spin_side else "")
         + (", on `spin_side.py`'s `--centres` map" if args.spin_centres else "")
         + (", on `spin_side.py`'s `--spin-band` map" if args.spin_band else "")
+        + (", on `outer_cover.py`'s map" if args.outer_cover else "")
         + (", on `track_branch.py`'s map" if args.track_branch else "")
         + (f", with `visited_from = {args.visited_from!r}`" if args.visited_from else "")
         + (", on part 12's oracle map (`--combine cover --cover-from 0.3`)" if args.oracle else "")
