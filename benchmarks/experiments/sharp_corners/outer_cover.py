@@ -40,7 +40,7 @@ TRAIL = 40
 #: [deg] the net turn since the last forward command that makes a blank map's pivots a spin
 MIN_TURN_DEG = 10.0
 #: [m] the cover starts this far of travel before the spin (part 12's oracle: 0.3 m)
-COVER_FROM_M = 0.3
+COVER_FROM_M = 0.7
 #: [m] how far from its nearest place outer felt is covered
 REACH_M = 0.6
 #: [m] the side test's band off the places, and how far back before the spin it looks
@@ -126,7 +126,7 @@ class OuterCoverMemory(oracle_learner.PrototypeMemory):
         if not near.any():
             return 0
         on = self._felt >= 0.5
-        lateral, dist = self._offsets(self._points[on], near)
+        lateral, dist, _ = self._offsets(self._points[on], near)
         band = (np.abs(lateral) >= SIDE_BAND_M[0]) & (dist <= SIDE_BAND_M[1])
         felt = self._felt[on]
         left = float(felt[band & (lateral > 0)].sum())
@@ -139,16 +139,20 @@ class OuterCoverMemory(oracle_learner.PrototypeMemory):
             return -1
         return 0
 
-    def _offsets(self, points: np.ndarray, chosen: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _offsets(
+        self, points: np.ndarray, chosen: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Each of ``points`` (N, 2): its offset to the left of the way travelled at its nearest
-        place among the ``chosen`` ones, and its distance to that place."""
+        place among the ``chosen`` ones, its distance to that place, and that place's travel
+        before the spin."""
         marks, ways = self._trail[chosen], self._ways[chosen]
         gap = points[:, None, :] - marks[None, :, :]
         dist = np.hypot(gap[..., 0], gap[..., 1])
         nearest = np.argmin(dist, axis=1)
         rows = np.arange(len(points))
         g, w = gap[rows, nearest], ways[nearest]
-        return w[:, 0] * g[:, 1] - w[:, 1] * g[:, 0], dist[rows, nearest]
+        lateral = w[:, 0] * g[:, 1] - w[:, 1] * g[:, 0]
+        return lateral, dist[rows, nearest], self._back[chosen][nearest]
 
     def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
         self._settle_without_frame()  # every command before this frame moved the map
@@ -162,11 +166,11 @@ class OuterCoverMemory(oracle_learner.PrototypeMemory):
 
     def _kept(self, where: np.ndarray) -> np.ndarray | None:
         kept = super()._kept(where)
-        chosen = (self._back >= COVER_FROM_M) & np.isfinite(self._back)
-        if kept is None or not self._side or not chosen.any() or not where.any():
+        before = np.isfinite(self._back)
+        if kept is None or not self._side or not before.any() or not where.any():
             return kept
-        lateral, dist = self._offsets(self._points[where], chosen)
-        covered = (self._side * lateral <= 0.0) & (dist <= REACH_M)
+        lateral, dist, back = self._offsets(self._points[where], before)
+        covered = (self._side * lateral <= 0.0) & (dist <= REACH_M) & (back >= COVER_FROM_M)
         kept = kept.copy()
         kept[where] = np.where(covered, 0.0, kept[where])
         return kept
