@@ -9,16 +9,19 @@ blank and the rover has since pivoted, as ``spin_side.py`` enters one) it reads 
 from the felt beside the way it came: felt lying :data:`SIDE_BAND_M` off the places laid up to
 :data:`SIDE_BACK_M` before the spin, on one side at least :data:`SIDE_RATIO` times the other and
 :data:`MIN_SIDE_FELT` in all (an outgoing strip diverging beside the incoming one); until it has
-a side it covers nothing. With a side, felt whose nearest such place lies :data:`COVER_FROM_M`
-or more of travel before the spin, within :data:`REACH_M` of it and on the outer side of the
-way it went (away from the turn), counts visited; the turn's side keeps the map's own state. The
-cover ends after :data:`END_M` of forward travel since the spin. The numbers come from the
-loops' geometry and part 12's oracle, set before any run: the oracle covers from 0.3 m behind;
-strips are at most 0.45 m wide and the rover rides within about 0.075 m of a strip's centre, so
-the incoming strip's outer felt lies within 0.6 m of its places; a 155–175° hairpin's outgoing
-strip lies 0.3–0.8 m to the turn's side of the incoming places 1–1.5 m back from the vertex.
+a side it covers nothing. With a side, felt whose nearest place laid before the spin lies
+:data:`COVER_FROM_M` or more of travel before it, within :data:`REACH_M` of that place and on the
+outer side of the way it went (away from the turn), counts visited; the turn's side keeps the
+map's own state. The cover ends after :data:`END_M` of forward travel since the spin. The
+numbers come from the loops' geometry, set before the probes: strips are at most 0.45 m wide and
+the rover rides within about 0.075 m of a strip's centre, so the incoming strip's outer felt lies
+within 0.6 m of its places; a 155–175° hairpin's outgoing strip lies 0.3–0.8 m to the turn's side
+of the incoming places 1–1.5 m back from the vertex, and at 160° no longer reaches the outer side
+of a path ridden 0.06 m to the turn's side 0.7 m from the vertex (:data:`COVER_FROM_M`). Part 67's
+first probe covered instead from 0.3 m of travel before the spin (part 12's oracle covers from
+0.3 m behind), taking the nearest place among those only; the README has both probes.
 
-    .venv/bin/python benchmarks/experiments/sharp_corners/hairpin_trace.py --outer-cover --study benchmarks/experiments/sharp_corners/hairpins.toml --seed 100 101 --repetition 0 1 --workers 2 --out benchmarks/experiments/sharp_corners/results/outer_cover/probe.md
+    .venv/bin/python benchmarks/experiments/sharp_corners/hairpin_trace.py --outer-cover --study benchmarks/experiments/sharp_corners/hairpins.toml --seed 100 101 --repetition 0 1 --workers 2 --out benchmarks/experiments/sharp_corners/results/outer_cover/probe_0.7.md
 """
 
 from __future__ import annotations
