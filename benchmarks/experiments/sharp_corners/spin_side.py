@@ -5,8 +5,8 @@ the incoming strip, the map goes blank (the outgoing strip lies within the path'
 of the incoming places for its first 1.9 m at 160°), and the rover pivots (the corner's way, it
 was assumed when this was written; part 62 then counted the first such pivot the other way at
 120 of 206 vertices) until its path of 40 commands has forgotten the incoming strip; then the
-incoming strip's
-far part comes back as fresh with the outgoing strip, and pulls the bearing back along it (room
+incoming strip's far part comes back as fresh with the outgoing strip, and pulls the bearing
+back along it (room
 100's repetition 4 on ``random:validation:71``: facing the outgoing strip at 151°, the bearing
 input 0.82 where the oracle's is 0.63). The rover knows two things there that the map does not
 use: the way it came along each place of its path, and which way it is turning on a blank map.
