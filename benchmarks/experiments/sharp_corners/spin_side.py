@@ -1,18 +1,17 @@
 """Part 62 of ``README.md``: the spin's side of the way it came, narrowed (a prototype map).
 
-Part 59's traces: at a hairpin past 155° the rover reaches the vertex riding the turn's side of
-the incoming strip, the map goes blank (the outgoing strip lies within the path's radius and fade
-of the incoming places for its first 1.9 m at 160°), and the rover pivots (the corner's way, it
-was assumed when this was written; part 62 then counted the first such pivot the other way at
-120 of 206 vertices) until its path of 40 commands has forgotten the incoming strip; then the
-incoming strip's far part comes back as fresh with the outgoing strip, and pulls the bearing
-back along it (room
-100's repetition 4 on ``random:validation:71``: facing the outgoing strip at 151°, the bearing
-input 0.82 where the oracle's is 0.63). The rover knows two things there that the map does not
-use: the way it came along each place of its path, and which way it is turning on a blank map.
-At a hairpin turned the corner's way, the outgoing strip lies on the turn's side of the incoming
-places; the incoming strip's felt on that side lies within half its width of the centreline, and
-the rover, riding the turn's side, is nearer to it still.
+Part 59's traces: at a hairpin past 155° the rover reaches the vertex riding the turn's side of the
+incoming strip, the map goes blank (the outgoing strip lies within the path's radius and fade of the
+incoming places for its first 1.9 m at 160°), and the rover pivots (the corner's way, it was assumed
+when this was written; part 62 then counted the first such pivot the other way at 120 of 206
+vertices) until its path of 40 commands has forgotten the incoming strip; then the incoming strip's
+far part comes back as fresh with the outgoing strip, and pulls the bearing back along it (room
+100's repetition 4 on ``random:validation:71``: facing the outgoing strip at 151°, the bearing input
+0.82 where the oracle's is 0.63). The rover knows two things there that the map does not use: the
+way it came along each place of its path, and which way it is turning on a blank map. At a hairpin
+turned the corner's way, the outgoing strip lies on the turn's side of the incoming places; the
+incoming strip's felt on that side lies within half its width of the centreline, and the rover,
+riding the turn's side, is nearer to it still.
 
 :class:`SpinSideMemory` is the ``fresh_felt`` map with three things added. Each place of the path
 keeps the way the rover was travelling there (the heading of the forward command from it; a pivot
