@@ -28,8 +28,6 @@ import oracle_visited  # noqa: E402
 import spin_side  # noqa: E402
 import track_branch  # noqa: E402
 
-from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
-
 #: [m] the distance bins to the nearest centre
 BIN_M = 0.05
 #: felt-weighted sums: (the track puts it behind, distance bin) -> felt
@@ -50,7 +48,7 @@ class BandCoverMemory(spin_side.SpinBandMemory):
         now = oracle_visited.NOW
         if not self._spin or not len(self._centres) or now["track"] is None or not where.any():
             return kept
-        own = FreshFeltMemory._kept(self, where)
+        own = super(spin_side.SpinSideMemory, self)._kept(where)
         if own is None:
             return kept
         chosen = self._points[where]

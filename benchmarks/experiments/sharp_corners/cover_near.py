@@ -23,8 +23,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import oracle_visited  # noqa: E402
 import track_branch  # noqa: E402
 
-from lfd_track.policy.memory import FreshFeltMemory  # noqa: E402
-
 #: [m] how far behind the rover along the track the cover reaches
 COVER_TO_M = 2.0
 #: ``--cover-leg``: the cover only on the leg that ends at the track's sharpest vertex
@@ -62,8 +60,8 @@ class CoverNearMemory(oracle_visited.TrackVisitedMemory):
     def _kept(self, where: np.ndarray) -> np.ndarray | None:
         now = oracle_visited.NOW
         if now["track"] is None or not where.any():
-            return FreshFeltMemory._kept(self, where)
-        own = FreshFeltMemory._kept(self, where)
+            return super(oracle_visited.TrackVisitedMemory, self)._kept(where)
+        own = super(oracle_visited.TrackVisitedMemory, self)._kept(where)
         if own is None:
             own = np.where(where, 1.0, 0.0)
         track = now["track"]

@@ -47,7 +47,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import oracle_learner  # noqa: E402
 
 from lfd_track.core.commands import Command  # noqa: E402
-from lfd_track.policy.memory import BEHIND_M, MIN_FRESH, FreshFeltMemory  # noqa: E402
+from lfd_track.policy.memory import BEHIND_M, MIN_FRESH  # noqa: E402
 
 #: [m] in a spin, the radius within which a place laid before it visits felt on the spin's side
 SIDE_RADIUS_M = 0.3
@@ -221,7 +221,7 @@ class SpinCentresMemory(SpinSideMemory):
 
     def _kept(self, where: np.ndarray) -> np.ndarray | None:
         if not self._spin or not len(self._centres):
-            return FreshFeltMemory._kept(self, where)
+            return super(SpinSideMemory, self)._kept(where)
         chosen = self._points[where]
         gap_x = chosen[:, 0, None] - self._centres[None, :, 0]
         gap_y = chosen[:, 1, None] - self._centres[None, :, 1]
@@ -244,7 +244,7 @@ class SpinBandMemory(SpinCentresMemory):
     track puts behind, while the places at the vertex keep the felt round it visited."""
 
     def _kept(self, where: np.ndarray) -> np.ndarray | None:
-        own = FreshFeltMemory._kept(self, where)
+        own = super(SpinSideMemory, self)._kept(where)
         if own is None or not self._spin or not len(self._centres):
             return own
         chosen = self._points[where]
