@@ -13,11 +13,9 @@ would hold the felt behind and little of the felt ahead. A measurement; it choos
 
 from __future__ import annotations
 
-import argparse
 import collections
 import sys
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -72,18 +70,10 @@ class BandCoverMemory(spin_side.SpinBandMemory):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--study", required=True)
-    parser.add_argument("--seed", type=int, required=True)
-    parser.add_argument("--repetition", type=int, nargs="+", required=True)
-    parser.add_argument("--out", required=True)
-    args = parser.parse_args()
+    args = hairpin_trace.measure_parser(__doc__.splitlines()[0]).parse_args()
     track_branch.use_track_branch()  # the episode's track and progress for the tally
     oracle_visited.maps_made_as(BandCoverMemory)
-    laps: list[dict[str, Any]] = []
-    for repetition in args.repetition:
-        _, some = hairpin_trace.trace_repetition((args.study, args.seed, repetition, 155.0, False))
-        laps += some
+    laps = hairpin_trace.drive_repetitions(args.study, args.seed, args.repetition)
     behind = sum(v for (b, _), v in TALLY.items() if b)
     ahead = sum(v for (b, _), v in TALLY.items() if not b)
     top = max((k for _, k in TALLY), default=0)
@@ -103,8 +93,6 @@ def main() -> None:
             f" {TALLY[False, k]:.0f} |"
             for k in range(top + 1)
         ),
-    ]
-    lines += [
         "",
         f"The felt behind lying more than {FAR_M:g} m from every centre, by how far behind the"
         " rover's progress the track puts it:",
@@ -116,9 +104,7 @@ def main() -> None:
             for k in range(max(BACK, default=-1) + 1)
         ),
     ]
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
-    print("\n".join(lines))
+    hairpin_trace.write_page(args.out, lines)
 
 
 if __name__ == "__main__":

@@ -36,8 +36,6 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import oracle_learner  # noqa: E402
 
-from lfd_track.core.commands import Command  # noqa: E402
-
 PRIOR_PY = Path(__file__).resolve().parents[1] / "human_goal" / "round41" / "prior.py"
 
 
@@ -53,11 +51,7 @@ class TurnOnBlank(oracle_learner.PrototypeMemory):
 
     def _move(self, command: int, measured: Any = None) -> None:
         super()._move(command, measured)
-        if measured is not None:
-            self._blank_turn += float(measured.turn_deg)
-        elif command != Command.FORWARD:
-            pivot = self.geometry.pivot_deg
-            self._blank_turn += pivot if command == Command.LEFT else -pivot
+        self._blank_turn += self._command_motion(command, measured)[1]
 
     def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
         super().see(values, levels)

@@ -61,6 +61,48 @@ SHOWN = 50
 VISITED_FROM = ""
 
 
+#: the prototype maps a flag teaches and drives on: (flag, the map's class, its page's words)
+PROTOTYPE_MAPS: tuple[tuple[str, type, str], ...] = (
+    ("--turned-ahead", turned_ahead.TurnedAheadMemory, "on `turned_ahead.py`'s map"),
+    ("--spin-side", spin_side.SpinSideMemory, "on `spin_side.py`'s map"),
+    ("--spin-centres", spin_side.SpinCentresMemory, "on `spin_side.py`'s `--centres` map"),
+    ("--spin-band", spin_side.SpinBandMemory, "on `spin_side.py`'s `--spin-band` map"),
+    ("--outer-cover", outer_cover.OuterCoverMemory, "on `outer_cover.py`'s map"),
+)
+
+
+def _dest(flag: str) -> str:
+    """The attribute argparse gives ``flag``."""
+    return flag[2:].replace("-", "_")
+
+
+def measure_parser(description: str) -> argparse.ArgumentParser:
+    """The command line of a script that measures on some repetitions' hairpin laps:
+    ``--study``, ``--seed``, ``--repetition`` and ``--out`` (the markdown page)."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--study", required=True)
+    parser.add_argument("--seed", type=int, required=True)
+    parser.add_argument("--repetition", type=int, nargs="+", required=True)
+    parser.add_argument("--out", required=True)
+    return parser
+
+
+def drive_repetitions(study_file: str, seed: int, repetitions: list[int]) -> list[dict[str, Any]]:
+    """Teach and drive ``repetitions`` of ``seed`` in this process (:func:`trace_repetition`, laps
+    past 155°, no rows); the laps' records."""
+    laps: list[dict[str, Any]] = []
+    for repetition in repetitions:
+        laps += trace_repetition((study_file, seed, repetition, 155.0, False))[1]
+    return laps
+
+
+def write_page(out: str, lines: list[str]) -> None:
+    """Write a measurement's markdown ``lines`` to ``out`` (its folder made) and print them."""
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
+    Path(out).write_text("\n".join(lines) + "\n", encoding="utf-8")
+    print("\n".join(lines))
+
+
 def hairpin(track: Any) -> tuple[np.ndarray, np.ndarray, float, float]:
     """(vertex (2,), incoming unit direction (2,), signed turn [rad], progress at the vertex [m])
     of ``track``'s sharpest corner, in its driving order."""
@@ -263,18 +305,7 @@ def main() -> None:
         "--oracle", action="store_true", help="taught and driven on part 12's oracle map (cover)"
     )
     parser.add_argument(
-        "--turned-ahead", action="store_true", help="taught and driven on turned_ahead.py's map"
-    )
-    parser.add_argument(
-        "--spin-side", action="store_true", help="taught and driven on spin_side.py's map"
-    )
-    parser.add_argument(
         "--spin-hold", type=float, metavar="DEG", help="with --spin-side: its HOLD_DEG [deg]"
-    )
-    parser.add_argument(
-        "--spin-centres",
-        action="store_true",
-        help="taught and driven on spin_side.py's --centres map",
     )
     parser.add_argument(
         "--visited-from", default="", help="the condition's map's visited_from replaced by this"
@@ -288,17 +319,13 @@ def main() -> None:
         help="with --oracle: cover_near.py's cover only on (or off) the hairpin's incoming leg",
     )
     parser.add_argument(
-        "--outer-cover", action="store_true", help="taught and driven on outer_cover.py's map"
-    )
-    parser.add_argument(
-        "--spin-band", action="store_true", help="taught and driven on spin_side.py's band map"
-    )
-    parser.add_argument(
         "--track-branch",
         action="store_true",
         help="taught and driven on track_branch.py's map (the track's side as the branch side)",
     )
     parser.add_argument("--sides", choices=("branch", "both"), help="with --way-back: its SIDES")
+    for flag, _, phrase in PROTOTYPE_MAPS:
+        parser.add_argument(flag, action="store_true", help=f"taught and driven {phrase}")
     args = parser.parse_args()
     if args.way_back:
         oracle_visited.maps_made_as(way_back.WayBackMemory)
@@ -312,21 +339,14 @@ def main() -> None:
             cover_near.COVER_TO_M = math.inf if args.cover_to is None else args.cover_to
             cover_near.LEG = args.cover_leg or ""
             oracle_visited.maps_made_as(cover_near.CoverNearMemory)
-    if args.turned_ahead:
-        oracle_visited.maps_made_as(turned_ahead.TurnedAheadMemory)
     VISITED_FROM = args.visited_from
     if args.track_branch:
         track_branch.use_track_branch()
-    if args.outer_cover:
-        oracle_visited.maps_made_as(outer_cover.OuterCoverMemory)
-    if args.spin_band:
-        oracle_visited.maps_made_as(spin_side.SpinBandMemory)
-    if args.spin_centres:
-        oracle_visited.maps_made_as(spin_side.SpinCentresMemory)
-    if args.spin_side:
-        oracle_visited.maps_made_as(spin_side.SpinSideMemory)
-        if args.spin_hold is not None:
-            spin_side.HOLD_DEG = args.spin_hold
+    for flag, memory_class, _ in PROTOTYPE_MAPS:
+        if getattr(args, _dest(flag)):
+            oracle_visited.maps_made_as(memory_class)
+    if args.spin_hold is not None:
+        spin_side.HOLD_DEG = args.spin_hold
     jobs = [
         (args.study, seed, repetition, args.past, args.rows)
         for seed in args.seed
@@ -342,11 +362,7 @@ def main() -> None:
         "",
         f"Seeds {args.seed}, repetitions {args.repetition}"
         + (", on `way_back.py`'s map" if args.way_back else "")
-        + (", on `turned_ahead.py`'s map" if args.turned_ahead else "")
-        + (", on `spin_side.py`'s map" if args.spin_side else "")
-        + (", on `spin_side.py`'s `--centres` map" if args.spin_centres else "")
-        + (", on `spin_side.py`'s `--spin-band` map" if args.spin_band else "")
-        + (", on `outer_cover.py`'s map" if args.outer_cover else "")
+        + "".join(f", {phrase}" for flag, _, phrase in PROTOTYPE_MAPS if getattr(args, _dest(flag)))
         + (", on `track_branch.py`'s map" if args.track_branch else "")
         + (f", with `visited_from = {args.visited_from!r}`" if args.visited_from else "")
         + (", on part 12's oracle map (`--combine cover --cover-from 0.3`)" if args.oracle else "")

@@ -41,6 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import oracle_visited  # noqa: E402
 
+from lfd_track.core.commands import Command  # noqa: E402
 from lfd_track.envs.track_env import LfDTrackEnv  # noqa: E402
 from lfd_track.policy.memory import FreshFeltConfig, FreshFeltMemory  # noqa: E402
 from lfd_track.study.run import load_finished, run_study  # noqa: E402
@@ -79,6 +80,35 @@ class PrototypeMemory(FreshFeltMemory):
         twin = super().__copy__()
         twin.__class__ = type(self)
         return twin  # type: ignore[return-value]
+
+    def _command_motion(self, command: int, measured: Any) -> tuple[float, float]:
+        """(advance [m], turn [deg, left positive]) the map moves by for ``command``: the
+        ``measured`` motion, or without one the command's nominal step or pivot."""
+        if measured is not None:
+            return float(measured.forward_m), float(measured.turn_deg)
+        if command == Command.FORWARD:
+            return self._step, 0.0
+        pivot = self.geometry.pivot_deg
+        return 0.0, pivot if command == Command.LEFT else -pivot
+
+    def _placed_before(
+        self, points: np.ndarray, command: Command | int, directions: bool = False
+    ) -> np.ndarray:
+        """``points`` (N, 2) moved as :meth:`place_before` moves the map for ``command``: one
+        step back for a forward command, turned one pivot the other way for a pivot (with
+        ``directions``, directions: turned only)."""
+        cmd = int(command)
+        if cmd == Command.FORWARD:
+            return points if directions else points + np.array([self._step, 0.0])
+        return self._moved(points, Command.RIGHT if cmd == Command.LEFT else Command.LEFT)
+
+    def _turned_dirs(self, dirs: np.ndarray, command: int, measured: Any) -> np.ndarray:
+        """Directions ``dirs`` (N, 2) in the rover frame after ``command`` (rotation only)."""
+        if measured is not None:
+            return measured.move_points(dirs) - measured.move_points(np.zeros((1, 2)))
+        if command == Command.FORWARD:
+            return dirs
+        return self._moved(dirs, command)
 
 
 def main() -> None:

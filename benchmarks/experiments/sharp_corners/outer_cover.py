@@ -81,33 +81,24 @@ class OuterCoverMemory(oracle_learner.PrototypeMemory):
         super()._move(command, measured)
         if measured is not None:
             self._trail = measured.move_points(trail)
-            self._ways = measured.move_points(ways) - measured.move_points(np.zeros((1, 2)))
         else:
             self._trail = self._moved(trail, command)
-            self._ways = ways if forward else self._moved(ways, command)
+        self._ways = self._turned_dirs(ways, command, measured)
         self._back = back
-        if forward:
-            self._turned = 0.0
-            if self._spin:
-                step = self._step if measured is None else float(measured.forward_m)
-                self._driven += abs(step)
-                if self._driven > END_M:
-                    self._end()
-        elif measured is not None:
-            self._turned += float(measured.turn_deg)
-        else:
-            pivot = self.geometry.pivot_deg
-            self._turned += pivot if command == Command.LEFT else -pivot
+        advance, turn = self._command_motion(command, measured)
+        if not forward:
+            self._turned += turn
+            return
+        self._turned = 0.0
+        if self._spin:
+            self._driven += abs(advance)
+            if self._driven > END_M:
+                self._end()
 
     def place_before(self, command: Command | int) -> None:
         super().place_before(command)
-        cmd = int(command)
-        if cmd == Command.FORWARD:
-            self._trail = self._trail + np.array([self._step, 0.0])
-            return
-        undo = Command.RIGHT if cmd == Command.LEFT else Command.LEFT
-        self._trail = self._moved(self._trail, undo)
-        self._ways = self._moved(self._ways, undo)
+        self._trail = self._placed_before(self._trail, command)
+        self._ways = self._placed_before(self._ways, command, directions=True)
 
     def _end(self) -> None:
         self._spin, self._side, self._driven = False, 0, 0.0

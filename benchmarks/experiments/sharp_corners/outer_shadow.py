@@ -13,7 +13,6 @@ outgoing strip and the other legs). A measurement; it chooses nothing.
 
 from __future__ import annotations
 
-import argparse
 import collections
 import sys
 from pathlib import Path
@@ -77,19 +76,11 @@ class ShadowedMemory(cover_near.CoverNearMemory):
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--study", required=True)
-    parser.add_argument("--seed", type=int, required=True)
-    parser.add_argument("--repetition", type=int, nargs="+", required=True)
-    parser.add_argument("--out", required=True)
-    args = parser.parse_args()
+    args = hairpin_trace.measure_parser(__doc__.splitlines()[0]).parse_args()
     oracle_learner.use_oracle("cover", 0.3)
     cover_near.COVER_TO_M, cover_near.LEG = float("inf"), "incoming-outer"
     oracle_visited.maps_made_as(ShadowedMemory)
-    laps: list[dict[str, Any]] = []
-    for repetition in args.repetition:
-        _, some = hairpin_trace.trace_repetition((args.study, args.seed, repetition, 155.0, False))
-        laps += some
+    laps = hairpin_trace.drive_repetitions(args.study, args.seed, args.repetition)
     lines = [
         f"# `outer_cover.py` beside the oracle it imitates (`{Path(args.study).name}`)",
         "",
@@ -106,9 +97,7 @@ def main() -> None:
             for place in PLACES
         ),
     ]
-    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
-    print("\n".join(lines))
+    hairpin_trace.write_page(args.out, lines)
 
 
 if __name__ == "__main__":

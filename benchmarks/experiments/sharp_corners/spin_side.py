@@ -77,14 +77,6 @@ class SpinSideMemory(oracle_learner.PrototypeMemory):
         self.spins = 0
         """Spins entered this episode."""
 
-    def _turn_dirs(self, dirs: np.ndarray, command: int, measured: Any) -> np.ndarray:
-        """Directions ``dirs`` (N, 2) in the rover frame after ``command`` (rotation only)."""
-        if measured is not None:
-            return measured.move_points(dirs) - measured.move_points(np.zeros((1, 2)))
-        if command == Command.FORWARD:
-            return dirs
-        return self._moved(dirs, command)
-
     def _move(self, command: int, measured: Any = None) -> None:
         forward = command == Command.FORWARD
         if self._spin and not self._spin_forward and not forward and self._held < HOLD_DEG:
@@ -93,11 +85,10 @@ class SpinSideMemory(oracle_learner.PrototypeMemory):
             super()._move(command, measured)
             if measured is None:
                 self._path = self._moved(path, command)
-                self._held += self.geometry.pivot_deg
             else:
                 self._path = measured.move_points(path)
-                self._held += abs(float(measured.turn_deg))
-            self._heads = self._turn_dirs(heads, command, measured)
+            self._held += abs(self._command_motion(command, measured)[1])
+            self._heads = self._turned_dirs(heads, command, measured)
             return
         if forward or not len(self._heads):
             head = np.array([[1.0, 0.0]])
@@ -108,28 +99,22 @@ class SpinSideMemory(oracle_learner.PrototypeMemory):
         flags = np.append(self._narrow, narrow)[-len(self._path) - 1 :]
         super()._move(command, measured)
         keep = len(self._path)
-        self._heads = self._turn_dirs(heads[-keep:], command, measured)
+        self._heads = self._turned_dirs(heads[-keep:], command, measured)
         self._narrow = flags[-keep:]
-        if forward:
-            self._turned = 0.0
-            if self._spin:
-                self._spin_forward = True
-                step = self._step if measured is None else float(measured.forward_m)
-                self._spin_driven += abs(step)
-                if self._spin_driven > END_M:
-                    self._end_spin()
-        elif measured is not None:
-            self._turned += float(measured.turn_deg)
-        else:
-            pivot = self.geometry.pivot_deg
-            self._turned += pivot if command == Command.LEFT else -pivot
+        advance, turn = self._command_motion(command, measured)
+        if not forward:
+            self._turned += turn
+            return
+        self._turned = 0.0
+        if self._spin:
+            self._spin_forward = True
+            self._spin_driven += abs(advance)
+            if self._spin_driven > END_M:
+                self._end_spin()
 
     def place_before(self, command: Command | int) -> None:
         super().place_before(command)
-        cmd = int(command)
-        if cmd != Command.FORWARD and len(self._heads):
-            undo = Command.RIGHT if cmd == Command.LEFT else Command.LEFT
-            self._heads = self._moved(self._heads, undo)
+        self._heads = self._placed_before(self._heads, command, directions=True)
 
     def _end_spin(self) -> None:
         self._spin, self._spin_driven, self._spin_forward = 0, 0.0, False

@@ -72,14 +72,8 @@ class TurnedAheadMemory(blank_turn.TurnOnBlank):
 
     def place_before(self, command: Command | int) -> None:
         super().place_before(command)
-        if self._corridor is None:
-            return
-        cmd = int(command)
-        if cmd == Command.FORWARD:
-            self._corridor = self._corridor + np.array([self._step, 0.0])
-            return
-        undo = Command.RIGHT if cmd == Command.LEFT else Command.LEFT
-        self._corridor = self._moved(self._corridor, undo)
+        if self._corridor is not None:
+            self._corridor = self._placed_before(self._corridor, command)
 
     def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
         self._settle_without_frame()  # the turn counts every command before this frame

@@ -104,13 +104,7 @@ class WayBackMemory(oracle_learner.PrototypeMemory):
 
     def place_before(self, command: Command | int) -> None:
         super().place_before(command)
-        cmd = int(command)
-        if cmd == Command.FORWARD:
-            back = np.array([self._step, 0.0])
-            self._carry(lambda p: p + back)
-            return
-        undo = Command.RIGHT if cmd == Command.LEFT else Command.LEFT
-        self._carry(lambda p: self._moved(p, undo))
+        self._carry(lambda p: self._placed_before(p, command))
 
     def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
         super().see(values, levels)
