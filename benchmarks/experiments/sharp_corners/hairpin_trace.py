@@ -33,6 +33,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import cover_near  # noqa: E402
+import edge_cover  # noqa: E402
 import oracle_learner  # noqa: E402
 import oracle_visited  # noqa: E402
 import outer_cover  # noqa: E402
@@ -43,7 +44,9 @@ import way_back  # noqa: E402
 
 from lfd_track.benchmark import runner  # noqa: E402
 from lfd_track.envs.track_env import LfDTrackEnv  # noqa: E402
+from lfd_track.policy.memory import memory_for  # noqa: E402
 from lfd_track.study.spec import load_study  # noqa: E402
+from lfd_track.teaching import perception as perception_module  # noqa: E402
 from lfd_track.world.track import load_track, vertex_turns_rad  # noqa: E402
 
 #: the trace starts this far [m] of progress before the hairpin's vertex
@@ -57,6 +60,9 @@ SPIN_PIVOTS = 8
 SHOWN = 50
 
 
+#: ``--taught-on-own``: the learner taught on the product's map, driven on the prototype's
+TAUGHT_ON_OWN = False
+
 #: ``--visited-from``: the condition's map's ``visited_from`` replaced by this ("": as it is)
 VISITED_FROM = ""
 
@@ -68,7 +74,27 @@ PROTOTYPE_MAPS: tuple[tuple[str, type, str], ...] = (
     ("--spin-centres", spin_side.SpinCentresMemory, "on `spin_side.py`'s `--centres` map"),
     ("--spin-band", spin_side.SpinBandMemory, "on `spin_side.py`'s `--spin-band` map"),
     ("--outer-cover", outer_cover.OuterCoverMemory, "on `outer_cover.py`'s map"),
+    ("--edge-cover", edge_cover.EdgeCoverMemory, "on `edge_cover.py`'s map"),
+    ("--strip-cover", edge_cover.StripCoverMemory, "on `edge_cover.py`'s `--strip-cover` map"),
+    ("--turn-cover", edge_cover.TurnCoverMemory, "on `edge_cover.py`'s `--turn-cover` map"),
 )
+
+
+#: the prototype scripts whose constants ``--set`` may change
+SETTABLE = {"edge_cover": edge_cover, "outer_cover": outer_cover}
+
+
+def set_constant(setting: str) -> None:
+    """``--set MODULE.NAME=NUMBER``: a prototype script's existing numeric constant replaced."""
+    name, _, value = setting.partition("=")
+    module_name, _, constant = name.partition(".")
+    module = SETTABLE.get(module_name)
+    if module is None or not isinstance(getattr(module, constant, None), float):
+        raise SystemExit(f"--set {setting}: no numeric constant {name} in {sorted(SETTABLE)}")
+    try:
+        setattr(module, constant, float(value))
+    except ValueError:
+        raise SystemExit(f"--set {setting}: {value!r} is not a number") from None
 
 
 def _dest(flag: str) -> str:
@@ -208,10 +234,16 @@ def trace_repetition(job: tuple[str, int, int, float, bool]) -> tuple[list[str],
     rep_seed = runner.repetition_seeds(seed, study.repetitions)[repetition]
     demo_seed, ga_seed, trial_seed = runner.repetition_streams(rep_seed)
     preset = runner.repetition_preset(config, rep_seed)
-    with tempfile.TemporaryDirectory() as tmp:
-        learned = runner.learn_repetition(
-            config, Path(tmp), demo_seed=demo_seed, ga_seed=ga_seed, preset=preset
-        )
+    driving_maps = perception_module.memory_for
+    if TAUGHT_ON_OWN:  # the demonstration records the product's map; the prototype drives
+        perception_module.memory_for = memory_for
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            learned = runner.learn_repetition(
+                config, Path(tmp), demo_seed=demo_seed, ga_seed=ga_seed, preset=preset
+            )
+    finally:
+        perception_module.memory_for = driving_maps
     controller = learned.controller
     letter = {0: "F", 1: "L", 2: "R"}
     lines: list[str] = []
@@ -288,7 +320,7 @@ def trace_repetition(job: tuple[str, int, int, float, bool]) -> tuple[list[str],
 
 
 def main() -> None:
-    global VISITED_FROM
+    global VISITED_FROM, TAUGHT_ON_OWN
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--study", required=True)
     parser.add_argument("--seed", type=int, nargs="+", required=True)
@@ -319,9 +351,36 @@ def main() -> None:
         help="with --oracle: cover_near.py's cover only on (or off) the hairpin's incoming leg",
     )
     parser.add_argument(
+        "--edge-mask",
+        choices=("leg", "outer", "leg-outer"),
+        help="with --edge-cover-track-side: its cover cut by the track (edge_cover.EDGE_MASK)",
+    )
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="MODULE.NAME=NUMBER",
+        help="set a prototype script's constant, e.g. edge_cover.GAP_M=0.2 (repeatable)",
+    )
+    parser.add_argument(
+        "--taught-on-own",
+        action="store_true",
+        help="the learner taught on the product's own map, driven on the map the flags name",
+    )
+    parser.add_argument(
+        "--in-spins",
+        action="store_true",
+        help="with --oracle --cover-leg: the cover only in outer_cover.py's spins (edge_cover.py)",
+    )
+    parser.add_argument(
         "--track-branch",
         action="store_true",
         help="taught and driven on track_branch.py's map (the track's side as the branch side)",
+    )
+    parser.add_argument(
+        "--edge-cover-track-side",
+        action="store_true",
+        help="taught and driven on edge_cover.py's map with the track's turn side (an oracle)",
     )
     parser.add_argument("--sides", choices=("branch", "both"), help="with --way-back: its SIDES")
     for flag, _, phrase in PROTOTYPE_MAPS:
@@ -339,9 +398,17 @@ def main() -> None:
             cover_near.COVER_TO_M = math.inf if args.cover_to is None else args.cover_to
             cover_near.LEG = args.cover_leg or ""
             oracle_visited.maps_made_as(cover_near.CoverNearMemory)
+            if args.in_spins:
+                oracle_visited.maps_made_as(edge_cover.SpinOracleMemory)
     VISITED_FROM = args.visited_from
+    TAUGHT_ON_OWN = args.taught_on_own
     if args.track_branch:
         track_branch.use_track_branch()
+    for setting in args.set:
+        set_constant(setting)
+    if args.edge_cover_track_side:
+        track_branch.use_track_branch(edge_cover.TrackSideEdgeCoverMemory)
+        edge_cover.EDGE_MASK = args.edge_mask or ""
     for flag, memory_class, _ in PROTOTYPE_MAPS:
         if getattr(args, _dest(flag)):
             oracle_visited.maps_made_as(memory_class)
@@ -364,6 +431,12 @@ def main() -> None:
         + (", on `way_back.py`'s map" if args.way_back else "")
         + "".join(f", {phrase}" for flag, _, phrase in PROTOTYPE_MAPS if getattr(args, _dest(flag)))
         + (", on `track_branch.py`'s map" if args.track_branch else "")
+        + (
+            ", on `edge_cover.py`'s map with the track's turn side (an oracle)"
+            + (f", its cover cut by the track (`{args.edge_mask}`)" if args.edge_mask else "")
+            if args.edge_cover_track_side
+            else ""
+        )
         + (f", with `visited_from = {args.visited_from!r}`" if args.visited_from else "")
         + (", on part 12's oracle map (`--combine cover --cover-from 0.3`)" if args.oracle else "")
         + (f", its cover cut at {args.cover_to:g} m behind" if args.cover_to is not None else "")
@@ -378,6 +451,9 @@ def main() -> None:
             if args.cover_leg
             else ""
         )
+        + (", and only in `outer_cover.py`'s spins (`edge_cover.py`)" if args.in_spins else "")
+        + "".join(f", `{setting}`" for setting in args.set)
+        + (", taught on the product's own map" if args.taught_on_own else "")
         + f": {sum(lap['success'] for lap in laps)} of {len(laps)} laps lapped. How the"
         f" {len(failed)} others ended (`hairpin_trace.py`'s `classify`), and whether the rover"
         f" had pivoted {SPIN_PIVOTS} times or more (a full turn is 16) within 0.3 m of the"

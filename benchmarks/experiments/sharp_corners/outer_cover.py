@@ -53,6 +53,9 @@ SIDE_BACK_M = 1.5
 SIDE_RATIO, MIN_SIDE_FELT = 2.0, 3.0
 #: [m] forward travel after which the cover ends
 END_M = 2.0
+#: 1: a blank frame and a pivot during a spin start it again (its places' travel, its side and
+#: its forward travel counted afresh from there); 0: a spin runs its :data:`END_M` from its first
+REANCHOR = 0.0
 
 
 class OuterCoverMemory(oracle_learner.PrototypeMemory):
@@ -66,7 +69,7 @@ class OuterCoverMemory(oracle_learner.PrototypeMemory):
         self._turned = 0.0  # [deg] net turn since the last forward command, left positive
         self._was_blank = False
         self._spin = False  # in a spin (the cover's places are fixed)
-        self._side = 0  # the turn's side read in the spin: +1 left, -1 right, 0 not yet
+        self._turn_side = 0  # the turn's side read in the spin: +1 left, -1 right, 0 not yet
         self._driven = 0.0  # [m] forward travel since the spin began
         self.covers = 0
         """Spins in which a side was read this episode."""
@@ -100,13 +103,17 @@ class OuterCoverMemory(oracle_learner.PrototypeMemory):
         self._trail = self._placed_before(self._trail, command)
         self._ways = self._placed_before(self._ways, command, directions=True)
 
+    def _reanchors(self) -> bool:
+        """Whether a blank frame and a pivot during a spin start it again (:data:`REANCHOR`)."""
+        return bool(REANCHOR)
+
     def _end(self) -> None:
-        self._spin, self._side, self._driven = False, 0, 0.0
+        self._spin, self._turn_side, self._driven = False, 0, 0.0
         self._back = np.full(len(self._trail), np.inf)
 
     def _start(self) -> None:
         """A spin begins: each place's travel to the rover's place now."""
-        self._spin, self._side, self._driven = True, 0, 0.0
+        self._spin, self._turn_side, self._driven = True, 0, 0.0
         if not len(self._trail):
             self._back = np.zeros(0)
             return
@@ -150,21 +157,22 @@ class OuterCoverMemory(oracle_learner.PrototypeMemory):
 
     def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
         self._settle_without_frame()  # every command before this frame moved the map
-        if not self._spin and self._was_blank and abs(self._turned) >= MIN_TURN_DEG:
-            self._start()
-        if self._spin and not self._side:
-            self._side = self._read_side()
-            self.covers += bool(self._side)
+        if (not self._spin or self._reanchors()) and self._was_blank:
+            if abs(self._turned) >= MIN_TURN_DEG:
+                self._start()
+        if self._spin and not self._turn_side:
+            self._turn_side = self._read_side()
+            self.covers += bool(self._turn_side)
         super().see(values, levels)
         self._was_blank = self.bearing_deg is None
 
     def _kept(self, where: np.ndarray) -> np.ndarray | None:
         kept = super()._kept(where)
         before = np.isfinite(self._back)
-        if kept is None or not self._side or not before.any() or not where.any():
+        if kept is None or not self._turn_side or not before.any() or not where.any():
             return kept
         lateral, dist, back = self._offsets(self._points[where], before)
-        covered = (self._side * lateral <= 0.0) & (dist <= REACH_M) & (back >= COVER_FROM_M)
+        covered = (self._turn_side * lateral <= 0.0) & (dist <= REACH_M) & (back >= COVER_FROM_M)
         kept = kept.copy()
         kept[where] = np.where(covered, 0.0, kept[where])
         return kept

@@ -23,6 +23,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import cover_near  # noqa: E402
+import edge_cover  # noqa: E402
 import hairpin_trace  # noqa: E402
 import oracle_learner  # noqa: E402
 import oracle_visited  # noqa: E402
@@ -33,6 +34,15 @@ from lfd_track.policy.memory import BEHIND_M  # noqa: E402
 #: felt-weighted sums: (which map counts it fresh, where the track puts it) -> felt
 TALLY: collections.Counter[tuple[str, str]] = collections.Counter()
 PLACES = ("incoming leg, outside", "incoming leg, turn's side", "elsewhere")
+#: ``--shadow``: the prototype maps that can be fed beside the oracle
+SHADOWS: dict[str, type[outer_cover.OuterCoverMemory]] = {
+    "outer_cover": outer_cover.OuterCoverMemory,
+    "edge_cover": edge_cover.EdgeCoverMemory,
+    "strip_cover": edge_cover.StripCoverMemory,
+    "edge_cover_track_side": edge_cover.TrackSideEdgeCoverMemory,
+}
+#: the shadow's class (``--shadow``)
+SHADOW: list[type[outer_cover.OuterCoverMemory]] = [outer_cover.OuterCoverMemory]
 
 
 class ShadowedMemory(cover_near.CoverNearMemory):
@@ -40,7 +50,7 @@ class ShadowedMemory(cover_near.CoverNearMemory):
 
     def reset(self) -> None:
         super().reset()
-        self.shadow = outer_cover.OuterCoverMemory(self.config, self.geometry)
+        self.shadow = SHADOW[0](self.config, self.geometry)
 
     def note(self, command: Any) -> None:
         super().note(command)
@@ -58,7 +68,7 @@ class ShadowedMemory(cover_near.CoverNearMemory):
         super().see(values, levels)
         self.shadow.see(values, levels)
         track = oracle_visited.NOW["track"]
-        if not self.shadow._side or track is None:
+        if not self.shadow._turn_side or track is None:
             return
         points = self._points
         near = np.hypot(points[:, 0], points[:, 1]) < (self.config.blank_reach_m or 1.0)
@@ -76,19 +86,24 @@ class ShadowedMemory(cover_near.CoverNearMemory):
 
 
 def main() -> None:
-    args = hairpin_trace.measure_parser(__doc__.splitlines()[0]).parse_args()
+    parser = hairpin_trace.measure_parser(__doc__.splitlines()[0])
+    parser.add_argument("--shadow", choices=tuple(SHADOWS), default="outer_cover")
+    args = parser.parse_args()
+    SHADOW[0] = SHADOWS[args.shadow]
+    name = f"{args.shadow.removesuffix('_track_side')}.py"
     oracle_learner.use_oracle("cover", 0.3)
     cover_near.COVER_TO_M, cover_near.LEG = float("inf"), "incoming-outer"
     oracle_visited.maps_made_as(ShadowedMemory)
     laps = hairpin_trace.drive_repetitions(args.study, args.seed, args.repetition)
     lines = [
-        f"# `outer_cover.py` beside the oracle it imitates (`{Path(args.study).name}`)",
+        f"# `{name}` beside the oracle it imitates (`{Path(args.study).name}`)",
         "",
         f"Seed {args.seed}, repetitions {args.repetition}, driven on part 66's oracle (the track's"
         " cover of the hairpin's incoming leg outside its centreline):"
         f" {sum(lap['success'] for lap in laps)} of {len(laps)} laps past 155° lapped. Felt one"
         " map counts fresh and the other not, summed over the frames where the shadow"
-        f" (`outer_cover.py`, `COVER_FROM_M` {outer_cover.COVER_FROM_M:g} m) has read a side:",
+        f" (`{name}`, `COVER_FROM_M` {sys.modules[SHADOW[0].__module__].COVER_FROM_M:g} m)"
+        " has read a side:",
         "",
         "| where the track puts it | fresh only on the shadow | fresh only on the oracle |",
         "|---|---|---|",

@@ -77,12 +77,13 @@ class TrackBranchMemory(oracle_learner.PrototypeMemory):
             self._side = 1.0 if side > 0 else 0.0
 
 
-def use_track_branch() -> None:
-    """From now on every ``fresh_felt`` map this process makes is a :class:`TrackBranchMemory`
-    that reads the episode (or the demonstration's leg) being driven."""
+def use_track_branch(memory_class: type[oracle_learner.PrototypeMemory] | None = None) -> None:
+    """From now on every ``fresh_felt`` map this process makes is a ``memory_class`` (by
+    default a :class:`TrackBranchMemory`) that can read the episode (or the demonstration's
+    leg) being driven in ``oracle_visited.NOW``."""
     LfDTrackEnv.reset, LfDTrackEnv.step = (  # type: ignore[method-assign]
         oracle_visited.reset,
         oracle_visited.step,
     )
     ProtocolHuman.finished = oracle_learner.leg_finished  # type: ignore[method-assign]
-    oracle_visited.maps_made_as(TrackBranchMemory)
+    oracle_visited.maps_made_as(memory_class or TrackBranchMemory)
