@@ -2,21 +2,27 @@
 through a spin (a prototype map).
 
 Part 67's ``outer_cover.py`` covered the felt within a fixed reach of each place laid before a
-spin, on the outer side of the way the rover went from that place; ``outer_shadow.py`` found it
-leaving fresh much of the outer felt part 66's oracle covers, and covering some of the way on.
-:class:`EdgeCoverMemory` keeps ``outer_cover.py``'s trail of forward places, its spin and its
-turn's side, and covers by a line instead: the line fitted through the places laid
-:data:`FIT_FROM_M` to :data:`FIT_TO_M` of travel before the spin (the incoming strip's direction, which the rover's
-last steps before the vertex, often turned, do not set), and on its outer side (away from the
-turn) the felt out to the strip's outer edge as the felt itself shows it there: going out from
-the line across the felt beside the fitted places, the first gap of carpet wider than
-:data:`GAP_M` (plus :data:`EDGE_MARGIN_M`; where no felt lies beside them, :data:`NO_EDGE_M`).
-Felt on that side of the line, within that edge, from :data:`COVER_BACK_M` to
-:data:`COVER_FROM_M` before the spin's place along the line, counts visited; the turn's side and
-the last :data:`COVER_FROM_M` keep the map's own state. As in ``outer_cover.py`` the cover waits
-for a side and ends after ``outer_cover.END_M`` of forward travel since the spin. The numbers were
-set before the probes from the loops' geometry (``outer_cover.py``'s docstring) and the map's
-region spacing (about 0.1 m across the near floor).
+spin, on the outer side of the way the rover went from that place; ``outer_shadow.py`` found it (on
+a map whose side the branch side input overwrote, part 68) leaving fresh much of the outer felt
+part 66's oracle covers, and covering some of the way on. :class:`EdgeCoverMemory` keeps
+``outer_cover.py``'s trail of forward places, its spin and its turn's side, and covers by a line
+instead: the line fitted through the places laid :data:`FIT_FROM_M` to :data:`FIT_TO_M` of travel
+before the spin (the incoming strip's direction, which the rover's last steps before the vertex,
+often turned, do not set), and on its outer side (away from the turn) the felt out to the strip's
+outer edge as the felt itself shows it there: going out from the line across the felt beside the
+fitted places, the first gap of carpet wider than :data:`GAP_M` (plus :data:`EDGE_MARGIN_M`; where
+no felt lies beside them, :data:`NO_EDGE_M`). Felt on that side of the line, within that edge, from
+:data:`COVER_BACK_M` to :data:`COVER_FROM_M` before the spin's place along the line, counts
+visited; the turn's side and the last :data:`COVER_FROM_M` keep the map's own state. As in
+``outer_cover.py`` the cover waits for a side and ends after ``outer_cover.END_M`` of forward
+travel since the spin; unlike ``outer_cover.py``'s, the spin starts again (its line, side and
+travel afresh) at every blank frame and pivot in it (:data:`REANCHOR`), since counted from its
+first blank pivot the cover often ran out before the vertex (part 68). The numbers were set before
+the probes from the loops' geometry (``outer_cover.py``'s docstring) and the map's region spacing
+(about 0.1 m across the near floor). The other classes here are part 68's probes and oracles:
+:class:`StripCoverMemory`, :class:`TurnCoverMemory`, :class:`TrackSideEdgeCoverMemory` (the track's
+side) and :class:`SpinOracleMemory` (part 66's cover, only in such spins). Run as a script it runs
+a study with every ``fresh_felt`` map this map (round 44 of ``../human_goal/``).
 
     .venv/bin/python benchmarks/experiments/sharp_corners/hairpin_trace.py --edge-cover --study benchmarks/experiments/sharp_corners/hairpins.toml --seed 100 101 --repetition 0 1 --workers 2 --out benchmarks/experiments/sharp_corners/results/edge_cover/probe.md
 """

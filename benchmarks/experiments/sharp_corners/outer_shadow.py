@@ -6,7 +6,8 @@ map an ``outer_cover.py`` map is fed the same frames and commands (a shadow: it 
 At every frame where the shadow has read a turn's side, the felt one map counts fresh and the
 other does not is summed (felt-weighted, within the blank reach and ahead) by where the track puts
 it: the hairpin's incoming leg outside its centreline, on its turn's side, or elsewhere (the
-outgoing strip and the other legs). A measurement; it chooses nothing.
+outgoing strip and the other legs). A measurement; it chooses nothing. ``--shadow`` feeds one
+of ``edge_cover.py``'s maps beside instead (part 68).
 
     .venv/bin/python benchmarks/experiments/sharp_corners/outer_shadow.py --study benchmarks/experiments/sharp_corners/hairpins.toml --seed 100 --repetition 4 --out benchmarks/experiments/sharp_corners/results/outer_cover/shadow_100_4.md
 """
