@@ -66,6 +66,10 @@ COVER_BACK_M = 2.0
 COVER_FROM_M = 0.3
 
 
+#: 1: :class:`EdgeCoverMemory`'s spin starts again at every blank frame and pivot in it (its
+#: line, side and travel afresh; ``outer_cover.REANCHOR``); 0: as ``outer_cover.py``'s
+REANCHOR = 1.0
+
 #: 1: the cover's near end follows the rover, :data:`COVER_FROM_M` before the furthest its axle
 #: has come along the line since the spin (if past the spin's place), as part 12's oracle covers
 #: from behind the rover's progress; 0: fixed at the spin's place
@@ -181,10 +185,6 @@ class StripCoverMemory(EdgeCoverMemory):
         return self._spin
 
 
-#: 1: :class:`EdgeCoverMemory`'s spin starts again at every blank frame and pivot in it (its
-#: line, side and travel afresh; ``outer_cover.REANCHOR``); 0: as ``outer_cover.py``'s
-REANCHOR = 1.0
-
 #: [deg] :class:`TurnCoverMemory`: the heading turned off the incoming line that turns the
 #: cover on ...
 TRIGGER_DEG = 100.0
@@ -265,11 +265,6 @@ class TrackSideEdgeCoverMemory(EdgeCoverMemory):
         return kept
 
 
-#: ``hairpin_trace.py --set edge_cover.WITH_BAND=1``: :class:`SpinOracleMemory` covers also
-#: :class:`TrackSideEdgeCoverMemory`'s band (the union of the two covers)
-WITH_BAND = 0.0
-
-
 class SpinOracleMemory(TrackSideEdgeCoverMemory, cover_near.CoverNearMemory):
     """``cover_near.py``'s oracle cover (``hairpin_trace.py --oracle --cover-leg ...
     --in-spins``), on only while :class:`TrackSideEdgeCoverMemory` would cover: from a spin's
@@ -280,11 +275,7 @@ class SpinOracleMemory(TrackSideEdgeCoverMemory, cover_near.CoverNearMemory):
     def _kept(self, where: np.ndarray) -> np.ndarray | None:
         if not self._covering():
             return super(oracle_visited.TrackVisitedMemory, self)._kept(where)
-        oracle = cover_near.CoverNearMemory._kept(self, where)
-        if not WITH_BAND or oracle is None:
-            return oracle
-        band = TrackSideEdgeCoverMemory._kept(self, where)
-        return oracle if band is None else np.minimum(oracle, band)
+        return cover_near.CoverNearMemory._kept(self, where)
 
 
 def main() -> None:

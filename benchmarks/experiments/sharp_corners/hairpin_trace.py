@@ -386,6 +386,10 @@ def main() -> None:
     for flag, _, phrase in PROTOTYPE_MAPS:
         parser.add_argument(flag, action="store_true", help=f"taught and driven {phrase}")
     args = parser.parse_args()
+    if args.in_spins and not (args.oracle and (args.cover_leg or args.cover_to is not None)):
+        parser.error("--in-spins needs --oracle with --cover-leg or --cover-to")
+    if args.edge_mask and not args.edge_cover_track_side:
+        parser.error("--edge-mask needs --edge-cover-track-side")
     if args.way_back:
         oracle_visited.maps_made_as(way_back.WayBackMemory)
         if args.side_m is not None:
