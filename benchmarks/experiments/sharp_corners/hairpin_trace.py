@@ -320,7 +320,7 @@ def trace_repetition(job: tuple[str, int, int, float, bool]) -> tuple[list[str],
 
 
 def main() -> None:
-    global VISITED_FROM, TAUGHT_ON_OWN
+    global VISITED_FROM, TAUGHT_ON_OWN, SHOWN
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--study", required=True)
     parser.add_argument("--seed", type=int, nargs="+", required=True)
@@ -328,6 +328,9 @@ def main() -> None:
     parser.add_argument("--past", type=float, default=155.0, help="[deg] sharpest turn past")
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--rows", action="store_true", help="each lap's trace after the tally")
+    parser.add_argument(
+        "--shown", type=int, default=SHOWN, help="with --rows: the last N rows near the vertex"
+    )
     parser.add_argument("--out", required=True, help="the markdown trace to write")
     parser.add_argument(
         "--way-back", action="store_true", help="taught and driven on way_back.py's map"
@@ -406,6 +409,7 @@ def main() -> None:
                 oracle_visited.maps_made_as(edge_cover.SpinOracleMemory)
     VISITED_FROM = args.visited_from
     TAUGHT_ON_OWN = args.taught_on_own
+    SHOWN = args.shown
     if args.track_branch:
         track_branch.use_track_branch()
     for setting in args.set:
