@@ -81,6 +81,21 @@ class PrototypeMemory(FreshFeltMemory):
         twin.__class__ = type(self)
         return twin  # type: ignore[return-value]
 
+    def reset(self) -> None:
+        super().reset()
+        self._turned = 0.0  # [deg] net turn since the last forward command, left positive
+
+    def _turn_or_advance(self, command: int, measured: Any) -> float | None:
+        """Count ``command``'s motion: a pivot's turn adds to the net turn since the last forward
+        command (``_turned``) and gives None; a forward command sets that turn to 0 and gives
+        its advance [m] (unsigned)."""
+        advance, turn = self._command_motion(command, measured)
+        if command != Command.FORWARD:
+            self._turned += turn
+            return None
+        self._turned = 0.0
+        return abs(advance)
+
     def _command_motion(self, command: int, measured: Any) -> tuple[float, float]:
         """(advance [m], turn [deg, left positive]) the map moves by for ``command``: the
         ``measured`` motion, or without one the command's nominal step or pivot."""

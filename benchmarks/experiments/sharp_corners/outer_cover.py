@@ -66,7 +66,6 @@ class OuterCoverMemory(oracle_learner.PrototypeMemory):
         self._trail = np.zeros((0, 2))  # forward places, oldest first (rover frame)
         self._ways = np.zeros((0, 2))  # the way travelled from each (unit)
         self._back = np.zeros(0)  # [m] travel from each place to the spin (inf: after it)
-        self._turned = 0.0  # [deg] net turn since the last forward command, left positive
         self._was_blank = False
         self._spin = False  # in a spin (the cover's places are fixed)
         self._turn_side = 0  # the turn's side read in the spin: +1 left, -1 right, 0 not yet
@@ -88,13 +87,9 @@ class OuterCoverMemory(oracle_learner.PrototypeMemory):
             self._trail = self._moved(trail, command)
         self._ways = self._turned_dirs(ways, command, measured)
         self._back = back
-        advance, turn = self._command_motion(command, measured)
-        if not forward:
-            self._turned += turn
-            return
-        self._turned = 0.0
-        if self._spin:
-            self._driven += abs(advance)
+        advance = self._turn_or_advance(command, measured)
+        if advance is not None and self._spin:
+            self._driven += advance
             if self._driven > END_M:
                 self._end()
 

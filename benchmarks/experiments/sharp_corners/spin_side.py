@@ -68,7 +68,6 @@ class SpinSideMemory(oracle_learner.PrototypeMemory):
         super().reset()
         self._heads = np.zeros((0, 2))  # each place's way of travel (unit, rover frame)
         self._narrow = np.zeros(0, dtype=bool)  # places laid before the spin's first forward
-        self._turned = 0.0  # [deg] net turn since the last forward command, left positive
         self._spin = 0  # +1 left, -1 right, 0 no spin
         self._spin_driven = 0.0  # [m] forward travel since the spin began
         self._spin_forward = False  # the rover has driven forward since the spin began
@@ -101,14 +100,10 @@ class SpinSideMemory(oracle_learner.PrototypeMemory):
         keep = len(self._path)
         self._heads = self._turned_dirs(heads[-keep:], command, measured)
         self._narrow = flags[-keep:]
-        advance, turn = self._command_motion(command, measured)
-        if not forward:
-            self._turned += turn
-            return
-        self._turned = 0.0
-        if self._spin:
+        advance = self._turn_or_advance(command, measured)
+        if advance is not None and self._spin:
             self._spin_forward = True
-            self._spin_driven += abs(advance)
+            self._spin_driven += advance
             if self._spin_driven > END_M:
                 self._end_spin()
 
