@@ -32,7 +32,7 @@ import oracle_visited  # noqa: E402
 from lfd_track.policy.memory import BEHIND_M  # noqa: E402
 
 #: the lap looked at, and how far before the vertex (set from the command line)
-LAP: dict[str, Any] = {"track": "", "direction": "", "before_m": 1.0, "episode": 0}
+LAP: dict[str, Any] = {"track": "", "direction": "", "before_m": 1.0}
 LINES: list[str] = []
 
 
@@ -41,7 +41,6 @@ class TipAheadMemory(cover_near.CoverNearMemory):
 
     def reset(self) -> None:
         super().reset()
-        LAP["episode"] += 1
         self.frames = 0
 
     def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
