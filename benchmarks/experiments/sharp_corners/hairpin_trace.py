@@ -38,11 +38,13 @@ import oracle_learner  # noqa: E402
 import oracle_visited  # noqa: E402
 import outer_cover  # noqa: E402
 import spin_side  # noqa: E402
+import tip_cover  # noqa: E402
 import track_branch  # noqa: E402
 import turned_ahead  # noqa: E402
 import way_back  # noqa: E402
 
 from lfd_track.benchmark import runner  # noqa: E402
+from lfd_track.benchmark.loops import loop_draws  # noqa: E402
 from lfd_track.envs.track_env import LfDTrackEnv  # noqa: E402
 from lfd_track.policy.memory import memory_for  # noqa: E402
 from lfd_track.study.spec import load_study  # noqa: E402
@@ -66,6 +68,41 @@ TAUGHT_ON_OWN = False
 #: ``--visited-from``: the condition's map's ``visited_from`` replaced by this ("": as it is)
 VISITED_FROM = ""
 
+#: ``--loops-from``: a committed condition folder whose repetitions' procedural loop laps are
+#: driven (in the worlds the repetition drew them in), not the study's ``test_tracks`` ("": those)
+LOOPS_FROM = ""
+
+
+def committed_loop_worlds(
+    folder: str, seed: int, repetition: int, trial_seed: int, split: str
+) -> list[tuple[str, bool, str, int]]:
+    """(track, reverse, direction, world seed) of the procedural loop laps repetition
+    ``repetition`` of seed ``seed`` drove in the committed ``folder`` (its ``seed*/results.json``),
+    each in the world its repetition's draw gave it (``loop_draws``), in the order driven."""
+    path = Path(folder) / f"seed{seed}" / "results.json"
+    try:
+        outcomes = json.loads(path.read_text(encoding="utf-8"))["outcomes"]
+    except (OSError, ValueError, KeyError) as exc:
+        raise SystemExit(f"{path}: not a study job's results ({exc})") from None
+    names = list(
+        dict.fromkeys(
+            o["track"]
+            for o in outcomes
+            if o["repetition"] == repetition and o["track"].startswith("random:")
+        )
+    )
+    worlds: dict[str, tuple[int, int]] = {}
+    for name, pair in loop_draws(trial_seed, split):
+        if name in names:
+            worlds[name] = pair
+            if len(worlds) == len(names):
+                break
+    return [
+        (name, reverse, direction, worlds[name][index])
+        for name in names
+        for index, (reverse, direction) in enumerate(((False, "ccw"), (True, "cw")))
+    ]
+
 
 #: the prototype maps a flag teaches and drives on: (flag, the map's class, its page's words)
 PROTOTYPE_MAPS: tuple[tuple[str, type, str], ...] = (
@@ -77,11 +114,13 @@ PROTOTYPE_MAPS: tuple[tuple[str, type, str], ...] = (
     ("--edge-cover", edge_cover.EdgeCoverMemory, "on `edge_cover.py`'s map"),
     ("--strip-cover", edge_cover.StripCoverMemory, "on `edge_cover.py`'s `--strip-cover` map"),
     ("--turn-cover", edge_cover.TurnCoverMemory, "on `edge_cover.py`'s `--turn-cover` map"),
+    ("--tip-cover", tip_cover.TipCoverMemory, "on `tip_cover.py`'s map"),
+    ("--tip-edge-cover", tip_cover.TipEdgeCoverMemory, "on `tip_cover.py`'s `--edge` map"),
 )
 
 
 #: the prototype scripts whose constants ``--set`` may change
-SETTABLE = {"edge_cover": edge_cover, "outer_cover": outer_cover}
+SETTABLE = {"edge_cover": edge_cover, "outer_cover": outer_cover, "tip_cover": tip_cover}
 
 
 def set_constant(setting: str) -> None:
@@ -248,9 +287,10 @@ def trace_repetition(job: tuple[str, int, int, float, bool]) -> tuple[list[str],
     letter = {0: "F", 1: "L", 2: "R"}
     lines: list[str] = []
     laps: list[dict] = []
-    for track_name, reverse, direction, world in runner.trial_worlds(
-        trial_seed, config.test_tracks
-    ):
+    trials = runner.trial_worlds(trial_seed, config.test_tracks)
+    if LOOPS_FROM:
+        trials = committed_loop_worlds(LOOPS_FROM, seed, repetition, trial_seed, config.random_split)
+    for track_name, reverse, direction, world in trials:
         if not track_name.startswith("random"):
             continue
         if math.degrees(abs(hairpin(load_track(track_name))[2])) <= past:
@@ -320,7 +360,7 @@ def trace_repetition(job: tuple[str, int, int, float, bool]) -> tuple[list[str],
 
 
 def main() -> None:
-    global VISITED_FROM, TAUGHT_ON_OWN, SHOWN
+    global VISITED_FROM, TAUGHT_ON_OWN, SHOWN, LOOPS_FROM
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--study", required=True)
     parser.add_argument("--seed", type=int, nargs="+", required=True)
@@ -332,6 +372,13 @@ def main() -> None:
         "--shown", type=int, default=SHOWN, help="with --rows: the last N rows near the vertex"
     )
     parser.add_argument("--out", required=True, help="the markdown trace to write")
+    parser.add_argument(
+        "--loops-from",
+        default="",
+        metavar="FOLDER",
+        help="drive the procedural loop laps each repetition drove in this committed condition"
+        " folder (seed*/results.json), not the study's test_tracks",
+    )
     parser.add_argument(
         "--way-back", action="store_true", help="taught and driven on way_back.py's map"
     )
@@ -410,6 +457,7 @@ def main() -> None:
     VISITED_FROM = args.visited_from
     TAUGHT_ON_OWN = args.taught_on_own
     SHOWN = args.shown
+    LOOPS_FROM = args.loops_from
     if args.track_branch:
         track_branch.use_track_branch()
     for setting in args.set:
