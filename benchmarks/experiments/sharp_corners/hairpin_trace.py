@@ -289,7 +289,9 @@ def trace_repetition(job: tuple[str, int, int, float, bool]) -> tuple[list[str],
     laps: list[dict] = []
     trials = runner.trial_worlds(trial_seed, config.test_tracks)
     if LOOPS_FROM:
-        trials = committed_loop_worlds(LOOPS_FROM, seed, repetition, trial_seed, config.random_split)
+        trials = committed_loop_worlds(
+            LOOPS_FROM, seed, repetition, trial_seed, config.random_split
+        )
     for track_name, reverse, direction, world in trials:
         if not track_name.startswith("random"):
             continue
