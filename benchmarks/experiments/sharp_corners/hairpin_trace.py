@@ -9,8 +9,11 @@ last rows near the vertex follow: how far before or past the vertex along the in
 how far to the turn's side of the incoming centreline and of the bisector between the two strips
 (where the track's progress may count the rover on the outgoing strip), its heading turned toward
 the corner, how far the progress lies below its most, the map's inputs and the command. Writes the
-markdown and a ``.json`` record per lap beside it. A measurement on validation loops and rooms
-only: nothing is chosen on it, and it drives no test loop.
+markdown and a ``.json`` record per lap beside it. With ``--loops-from FOLDER`` (part 69) the laps
+are instead the procedural loop laps each repetition drove in that committed condition folder, in
+the worlds its draw gave them (``--past 0``: all of them), so a round's rooms are driven again on
+another map without the teacher's laps or the training track. A measurement on validation loops
+and rooms only: nothing is chosen on it, and it drives no test loop.
 
     .venv/bin/python benchmarks/experiments/sharp_corners/hairpin_trace.py --study benchmarks/experiments/sharp_corners/hairpins.toml --seed 100 101 --repetition 0 1 2 3 4 5 6 7 8 9 --workers 2 --out benchmarks/experiments/sharp_corners/results/hairpin_trace/own.md
 """
@@ -79,6 +82,8 @@ def committed_loop_worlds(
     """(track, reverse, direction, world seed) of the procedural loop laps repetition
     ``repetition`` of seed ``seed`` drove in the committed ``folder`` (its ``seed*/results.json``),
     each in the world its repetition's draw gave it (``loop_draws``), in the order driven."""
+    if split == "test":
+        raise SystemExit(f"--loops-from {folder}: its study draws test loops; this drives none")
     path = Path(folder) / f"seed{seed}" / "results.json"
     try:
         outcomes = json.loads(path.read_text(encoding="utf-8"))["outcomes"]
@@ -97,6 +102,8 @@ def committed_loop_worlds(
             worlds[name] = pair
             if len(worlds) == len(names):
                 break
+    if len(worlds) < len(names):
+        raise SystemExit(f"{path}: repetition {repetition}'s loops are not this study's draw")
     return [
         (name, reverse, direction, worlds[name][index])
         for name in names
