@@ -123,6 +123,7 @@ PROTOTYPE_MAPS: tuple[tuple[str, type, str], ...] = (
     ("--turn-cover", edge_cover.TurnCoverMemory, "on `edge_cover.py`'s `--turn-cover` map"),
     ("--tip-cover", tip_cover.TipCoverMemory, "on `tip_cover.py`'s map"),
     ("--tip-edge-cover", tip_cover.TipEdgeCoverMemory, "on `tip_cover.py`'s `--edge` map"),
+    ("--turn-tip", tip_cover.TurnTipMemory, "on `tip_cover.py`'s `--turn-tip` map"),
 )
 
 

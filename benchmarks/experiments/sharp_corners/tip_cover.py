@@ -18,8 +18,10 @@ the outer side of the incoming centreline) and the loops' geometry (strips at mo
 so a second strip's felt lies 0.3 m or more off a rover riding near its own strip's centre).
 
 :class:`TipCoverMemory` is the goal's map with the tip cover; :class:`TipEdgeCoverMemory` adds it
-to ``edge_cover.py``'s spin cover. Run as a script it runs a study with every ``fresh_felt`` map a
-:class:`TipCoverMemory` (``--edge`` a :class:`TipEdgeCoverMemory`). It drives no test loop unless
+to ``edge_cover.py``'s spin cover; :class:`TurnTipMemory` is part 71's design, the tip held in the
+strip's frame instead. Run as a script it runs a study with every ``fresh_felt`` map a
+:class:`TipCoverMemory` (``--edge`` a :class:`TipEdgeCoverMemory`, ``--turn-tip`` a
+:class:`TurnTipMemory`). It drives no test loop unless
 the study named does.
 
     .venv/bin/python benchmarks/experiments/sharp_corners/hairpin_trace.py --tip-cover --study benchmarks/experiments/sharp_corners/hairpins.toml --seed 100 101 --repetition 0 1 --workers 2 --out benchmarks/experiments/sharp_corners/results/tip_cover/probe.md
@@ -27,8 +29,10 @@ the study named does.
 
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -36,6 +40,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import edge_cover  # noqa: E402
 import oracle_learner  # noqa: E402
+
+from lfd_track.core.commands import Command  # noqa: E402
 
 #: [m] the tip cover ahead of the axle: from ...
 TIP_FROM_M = 0.0
@@ -111,11 +117,105 @@ class TipEdgeCoverMemory(TipCover, edge_cover.EdgeCoverMemory):
     cover."""
 
 
+#: :class:`TurnTipMemory`: forward places kept (2 m of the paper's steps)
+TIP_TRAIL = 20
+#: [m] travel back from the rover of the places the line is fitted through: from ...
+LINE_FROM_M = 0.3
+#: [m] ... to
+LINE_TO_M = 1.5
+#: places needed in that range
+LINE_PLACES = 4
+#: [deg] the heading turned off the line that turns the cover on, and up to which it stays on
+TURN_FROM_DEG, TURN_TO_DEG = 45.0, 170.0
+#: [m] the cover along the line, from this far behind the rover's foot on it ...
+LINE_BACK_M = 0.1
+#: [m] ... to this far past it
+LINE_AHEAD_M = 0.8
+#: [m] off the line: to the outer side (away from the turn) ...
+LINE_OUTER_M = 0.3
+#: [m] ... and to the turn's side
+LINE_INNER_M = 0.1
+
+
+class TurnTipMemory(oracle_learner.PrototypeMemory):
+    """Part 71's design: the incoming strip's continuation past where the rover leaves it,
+    covered in the strip's frame. The line through the forward places laid :data:`LINE_FROM_M`
+    to :data:`LINE_TO_M` of travel back stands for the strip the rover came along; while the
+    rover's heading lies :data:`TURN_FROM_DEG` to :data:`TURN_TO_DEG` off it (turned off that
+    strip toward the side the heading turned to), the felt along the line from
+    :data:`LINE_BACK_M` behind the rover's foot on it to :data:`LINE_AHEAD_M` past it, from
+    :data:`LINE_OUTER_M` on the outer side to :data:`LINE_INNER_M` on the turn's side, counts
+    visited: the tip, which the rover never crossed. It is held by the places, not the heading,
+    and reads no branch side (part 69's cover followed both and flipped)."""
+
+    def reset(self) -> None:
+        super().reset()
+        self._tip_trail = np.zeros((0, 2))  # forward places, oldest first (rover frame)
+
+    def _move(self, command: int, measured: Any = None) -> None:
+        trail = self._tip_trail
+        if command == Command.FORWARD:
+            trail = np.vstack([trail, np.zeros((1, 2))])[-TIP_TRAIL:]
+        super()._move(command, measured)
+        if measured is not None:
+            self._tip_trail = measured.move_points(trail)
+        else:
+            self._tip_trail = self._moved(trail, command)
+
+    def place_before(self, command: Command | int) -> None:
+        super().place_before(command)
+        self._tip_trail = self._placed_before(self._tip_trail, command)
+
+    def _tip_line(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(a point on the line, its unit direction the rover travelled) in the rover frame, or
+        None without places enough."""
+        trail = self._tip_trail
+        if len(trail) < LINE_PLACES:
+            return None
+        places = np.vstack([trail, np.zeros((1, 2))])
+        steps = np.hypot(*np.diff(places, axis=0).T)
+        back = np.cumsum(steps[::-1])[::-1]  # travel from each place to the rover's
+        fit = (back >= LINE_FROM_M) & (back <= LINE_TO_M)
+        if int(fit.sum()) < LINE_PLACES:
+            return None
+        chosen = trail[fit]
+        centre = chosen.mean(axis=0)
+        _, _, rows = np.linalg.svd(chosen - centre, full_matrices=False)
+        way = rows[0]
+        if float(np.dot(chosen[-1] - chosen[0], way)) < 0.0:
+            way = -way
+        return centre, way
+
+    def _kept(self, where: np.ndarray) -> np.ndarray | None:
+        kept = super()._kept(where)
+        if kept is None or not where.any():
+            return kept
+        line = self._tip_line()
+        if line is None:
+            return kept
+        centre, way = line
+        off = -math.degrees(math.atan2(float(way[1]), float(way[0])))  # heading off the line
+        if not TURN_FROM_DEG <= abs(off) <= TURN_TO_DEG:
+            return kept
+        turn = 1.0 if off > 0 else -1.0
+        gap = self._points - centre
+        along = gap @ way - float(-centre @ way)  # from the rover's foot on the line
+        side = turn * (way[0] * gap[:, 1] - way[1] * gap[:, 0])
+        covered = where & (along >= -LINE_BACK_M) & (along <= LINE_AHEAD_M)
+        covered &= (side >= -LINE_OUTER_M) & (side <= LINE_INNER_M)
+        if not covered.any():
+            return kept
+        kept = kept.copy()
+        kept[covered] = 0.0
+        return kept
+
+
 def main() -> None:
-    edge = "--edge" in sys.argv
-    if edge:
-        sys.argv.remove("--edge")
-    memory_class = TipEdgeCoverMemory if edge else TipCoverMemory
+    memory_class: type = TipCoverMemory
+    for flag, chosen in (("--edge", TipEdgeCoverMemory), ("--turn-tip", TurnTipMemory)):
+        if flag in sys.argv:
+            sys.argv.remove(flag)
+            memory_class = chosen
     oracle_learner.run_with_map(memory_class, __doc__.splitlines()[0])
 
 
