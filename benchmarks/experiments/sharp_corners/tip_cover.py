@@ -68,12 +68,6 @@ class TipCover:
     _points: np.ndarray
     _felt: np.ndarray
     _side: float
-    tip_frames: int
-
-    def reset(self) -> None:
-        super().reset()  # type: ignore[misc]
-        self.tip_frames = 0
-        """Calls of the map's cover this episode at which the tip cover took some felt."""
 
     def _tip_side(self) -> int:
         """+1 (left) or -1 (right): the branch side, when the input names one and, with
@@ -102,7 +96,6 @@ class TipCover:
         covered &= (y <= INNER_M) & (y >= -TIP_WIDE_M)
         if not covered.any():
             return kept
-        self.tip_frames += 1
         kept = kept.copy()
         kept[covered] = 0.0
         return kept
