@@ -12,7 +12,9 @@ progress past the corner's vertex, [m]), the two commands, and the felt the orac
 that the goal's map keeps fresh (within the map's reach, ahead of the axle; summed felt levels):
 in the rover's frame (ahead, left [m]), along the track from that vertex (negative: the incoming
 leg), to the corner's turn side of the centreline (negative: its outer side), and how far behind
-the rover's progress the track puts it. A measurement on validation loops and rooms only; it
+the rover's progress the track puts it. With ``--windows N ...`` each lap is also driven on the goal's
+map with the oracle's cover only for N frames from the one at which the two drives part (part 73):
+whether that one decision decides the lap. A measurement on validation loops and rooms only; it
 chooses nothing and drives no test loop.
 
     .venv/bin/python benchmarks/experiments/sharp_corners/oracle_acts.py --study benchmarks/experiments/human_goal/round44/edge_cover.toml --loops-from benchmarks/experiments/human_goal/round41/results/prior/rooms.round39+prior --lost benchmarks/experiments/sharp_corners/results/tip_cover/rooms_own.json --workers 2 --out benchmarks/experiments/sharp_corners/results/tip_cover/oracle_acts.md
@@ -77,6 +79,28 @@ class ShadowMemory(oracle_visited.TrackVisitedMemory):
             )
 
 
+#: ``--windows``: the oracle's cover used only for this many frames, from the frame at which the
+#: two drives first part (``start``, counted from the lap's first frame)
+WINDOW = {"start": -1, "frames": 0}
+
+
+class WindowMemory(oracle_visited.TrackVisitedMemory):
+    """The goal's map, with part 12's oracle cover only in :data:`WINDOW`'s frames."""
+
+    def reset(self) -> None:
+        super().reset()
+        self._frame = -1  # the frame being seen, counted from the lap's first
+
+    def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
+        self._frame += 1
+        super().see(values, levels)
+
+    def _kept(self, where: np.ndarray) -> np.ndarray | None:
+        if WINDOW["start"] <= self._frame < WINDOW["start"] + WINDOW["frames"]:
+            return super()._kept(where)
+        return super(oracle_visited.TrackVisitedMemory, self)._kept(where)
+
+
 def corners(track: Any) -> list[tuple[float, float]]:
     """(arc length of the vertex [m], signed turn [deg]) of ``track``'s corners of
     :data:`CORNER_DEG` or more, in its driving order."""
@@ -126,19 +150,24 @@ def describe(track: Any, record: dict[str, Any], progress: float) -> dict[str, A
     return out
 
 
-def drive(env: LfDTrackEnv, controller: Any, world: int, shadow: bool) -> tuple[Any, list]:
-    """One lap on the goal's own map or (``shadow``) the oracle's; (last info, rows)."""
+def drive(env: LfDTrackEnv, controller: Any, world: int, shadow: bool | type) -> tuple[Any, list]:
+    """One lap on the goal's own map, (``shadow``) the oracle's, or a map class given; (last
+    info, rows)."""
     FRAMES.clear()
-    if shadow:
+    if isinstance(shadow, type):
+        oracle_visited.maps_made_as(shadow)
+    elif shadow:
         oracle_visited.maps_made_as(ShadowMemory)
     else:
         perception_module.memory_for = memory_for
     return hairpin_trace.trace_lap(env, controller, world)
 
 
-def room(job: tuple[str, str, int, int, list[tuple[str, str]]]) -> list[dict[str, Any]]:
-    """Teach one room on the goal's map and drive its ``lost`` laps on both maps."""
-    study_file, folder, seed, repetition, lost = job
+def room(job: tuple[str, str, int, int, list[tuple[str, str]], list[int]]) -> list[dict[str, Any]]:
+    """Teach one room on the goal's map and drive its ``lost`` laps on both maps (and, for each
+    of ``windows``, on the goal's map with the oracle's cover for that many frames from where the
+    two drives first part)."""
+    study_file, folder, seed, repetition, lost, windows = job
     study = load_study(study_file)
     config = dataclasses.replace(study.conditions[0].config, repetitions=study.repetitions)
     config = dataclasses.replace(config, seed=seed)
@@ -182,6 +211,14 @@ def room(job: tuple[str, str, int, int, list[tuple[str, str]]]) -> list[dict[str
             row |= {"same_pose": same, "commands": (own_rows[first]["command"],)}
             row["commands"] += (or_rows[first]["command"],)
             row |= describe(track, record, float(or_rows[first]["progress"]))
+            start = next((i for i, f in enumerate(frames) if f["pose"] == pose), None)
+            row["windows"] = {}
+            for frames_on in windows if start is not None else []:
+                WINDOW.update(start=start, frames=frames_on)
+                env = LfDTrackEnv(track=track_name, reverse=reverse, preset=preset)
+                info, _ = drive(env, learned.controller, world, WindowMemory)
+                env.close()
+                row["windows"][frames_on] = bool(info["success"])
         rows_out.append(row)
     return rows_out
 
@@ -192,6 +229,15 @@ def main() -> None:
     parser.add_argument("--loops-from", required=True, metavar="FOLDER")
     parser.add_argument("--lost", required=True, help="hairpin_trace.py record whose lost laps")
     parser.add_argument("--workers", type=int, default=1)
+    parser.add_argument(
+        "--windows",
+        type=int,
+        nargs="*",
+        default=[],
+        metavar="N",
+        help="also drive each lap on the goal's map with the oracle's cover for N frames from"
+        " where the two drives first part",
+    )
     parser.add_argument("--out", required=True)
     args = parser.parse_args()
     try:
@@ -205,7 +251,7 @@ def main() -> None:
         raise SystemExit(f"{args.lost}: not a hairpin_trace.py record ({exc})") from None
     oracle_learner.use_oracle("cover", 0.3)
     jobs = [
-        (args.study, args.loops_from, seed, repetition, lost)
+        (args.study, args.loops_from, seed, repetition, lost, args.windows)
         for (seed, repetition), lost in sorted(lost_by_room.items())
     ]
     with multiprocessing.get_context("fork").Pool(args.workers) as pool:
@@ -244,6 +290,35 @@ def main() -> None:
             f" {span(r.get('ahead'))} | {span(r.get('left'))} | {span(r.get('along'))} |"
             f" {span(r.get('side'))} | {span(r.get('behind'))} |"
         )
+    if args.windows:
+        lines += [
+            "",
+            "Each lap again on the goal's map with the oracle's cover only for N frames from the"
+            " one at which the two drives first part (`--windows`):",
+            "",
+            "| room | loop | dir. | " + " | ".join(f"{n} frames" for n in args.windows) + " |",
+            "|---|---|---|" + "---|" * len(args.windows),
+        ]
+        for r in rows:
+            done = r.get("windows", {})
+            cells = " | ".join(
+                "–" if n not in done else ("lapped" if done[n] else "lost") for n in args.windows
+            )
+            lines.append(
+                f"| {r['seed']}/{r['repetition']} | `{r['track']}` | {r['direction']} | {cells} |"
+            )
+        lines += [
+            "",
+            "| lapped | " + " | ".join(f"{n} frames" for n in args.windows) + " |",
+            "|---|" + "---|" * len(args.windows),
+            "| of "
+            + str(len(rows))
+            + " | "
+            + " | ".join(
+                str(sum(bool(r.get("windows", {}).get(n)) for r in rows)) for n in args.windows
+            )
+            + " |",
+        ]
     hairpin_trace.write_page(args.out, lines)
     Path(args.out).with_suffix(".json").write_text(json.dumps(rows, indent=1), encoding="utf-8")
 
