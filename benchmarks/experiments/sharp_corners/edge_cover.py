@@ -76,6 +76,19 @@ REANCHOR = 1.0
 FOLLOW_ROVER = 0.0
 
 
+def fitted_line(
+    places: np.ndarray, first: np.ndarray, last: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """The line through ``places`` (N, 2) by least squares: (their mean, the unit direction),
+    the direction pointing from the place ``first`` toward ``last`` (the way the rover went)."""
+    centre = places.mean(axis=0)
+    _, _, rows = np.linalg.svd(places - centre, full_matrices=False)
+    way = rows[0]
+    if float(np.dot(last - first, way)) < 0.0:
+        way = -way
+    return centre, way
+
+
 class EdgeCoverMemory(outer_cover.OuterCoverMemory):
     """``outer_cover.py``'s map with the cover set by a fitted line and the felt's own edge."""
 
@@ -105,13 +118,8 @@ class EdgeCoverMemory(outer_cover.OuterCoverMemory):
         fit = np.isfinite(back) & (back >= FIT_FROM_M) & (back <= FIT_TO_M)
         if int(fit.sum()) < MIN_PLACES:
             return None
-        places = self._trail[fit]
-        centre = places.mean(axis=0)
-        _, _, rows = np.linalg.svd(places - centre, full_matrices=False)
-        way = rows[0]
-        order = back[fit]
-        if float(np.dot(places[np.argmin(order)] - places[np.argmax(order)], way)) < 0.0:
-            way = -way
+        places, order = self._trail[fit], back[fit]
+        centre, way = fitted_line(places, places[np.argmax(order)], places[np.argmin(order)])
         spin = self._trail[np.isfinite(back)][np.argmin(back[np.isfinite(back)])]
         return centre, way, spin
 

@@ -39,6 +39,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import hairpin_trace  # noqa: E402
 import oracle_learner  # noqa: E402
 import oracle_visited  # noqa: E402
+import trace_rooms  # noqa: E402
 
 from lfd_track.benchmark import runner  # noqa: E402
 from lfd_track.envs.track_env import LfDTrackEnv  # noqa: E402
@@ -150,17 +151,24 @@ def describe(track: Any, record: dict[str, Any], progress: float) -> dict[str, A
     return out
 
 
-def drive(env: LfDTrackEnv, controller: Any, world: int, shadow: bool | type) -> tuple[Any, list]:
-    """One lap on the goal's own map, (``shadow``) the oracle's, or a map class given; (last
-    info, rows)."""
+def drive(
+    lap: tuple[str, bool, str, int], preset: Any, controller: Any, memory_class: type | None
+) -> tuple[Any, list, list[dict[str, Any]], Any]:
+    """Drive ``lap`` (track, reverse, direction, world seed) once on ``memory_class``'s maps
+    (None: the goal's own); (last info, rows, the frames :class:`ShadowMemory` noted, the env's
+    track)."""
     FRAMES.clear()
-    if isinstance(shadow, type):
-        oracle_visited.maps_made_as(shadow)
-    elif shadow:
-        oracle_visited.maps_made_as(ShadowMemory)
-    else:
+    if memory_class is None:
         perception_module.memory_for = memory_for
-    return hairpin_trace.trace_lap(env, controller, world)
+    else:
+        oracle_visited.maps_made_as(memory_class)
+    track_name, reverse, _, world = lap
+    env = LfDTrackEnv(track=track_name, reverse=reverse, preset=preset)
+    try:
+        info, rows = hairpin_trace.trace_lap(env, controller, world)
+        return info, rows, list(FRAMES), env.track
+    finally:
+        env.close()
 
 
 def room(job: tuple[str, str, int, int, list[tuple[str, str]], list[int]]) -> list[dict[str, Any]]:
@@ -183,16 +191,12 @@ def room(job: tuple[str, str, int, int, list[tuple[str, str]], list[int]]) -> li
     worlds = hairpin_trace.committed_loop_worlds(
         folder, seed, repetition, trial_seed, config.random_split
     )
-    for track_name, reverse, direction, world in worlds:
+    for lap in worlds:
+        track_name, _, direction, _ = lap
         if (track_name, direction) not in lost:
             continue
-        runs = []
-        for shadow in (False, True):
-            env = LfDTrackEnv(track=track_name, reverse=reverse, preset=preset)
-            info, rows = drive(env, learned.controller, world, shadow)
-            runs.append((info, rows, list(FRAMES), env.track))
-            env.close()
-        (own_info, own_rows, _, _), (or_info, or_rows, frames, track) = runs
+        own_info, own_rows, _, _ = drive(lap, preset, learned.controller, None)
+        or_info, or_rows, frames, track = drive(lap, preset, learned.controller, ShadowMemory)
         first = next(
             (
                 k
@@ -215,9 +219,7 @@ def room(job: tuple[str, str, int, int, list[tuple[str, str]], list[int]]) -> li
             row["windows"] = {}
             for frames_on in windows if start is not None else []:
                 WINDOW.update(start=start, frames=frames_on)
-                env = LfDTrackEnv(track=track_name, reverse=reverse, preset=preset)
-                info, _ = drive(env, learned.controller, world, WindowMemory)
-                env.close()
+                info = drive(lap, preset, learned.controller, WindowMemory)[0]
                 row["windows"][frames_on] = bool(info["success"])
         rows_out.append(row)
     return rows_out
@@ -240,15 +242,10 @@ def main() -> None:
     )
     parser.add_argument("--out", required=True)
     args = parser.parse_args()
-    try:
-        laps = json.loads(Path(args.lost).read_text(encoding="utf-8"))
-        lost_by_room: dict[tuple[int, int], list[tuple[str, str]]] = {}
-        for lap in laps:
-            if not lap["success"]:
-                key = (lap["seed"], lap["repetition"])
-                lost_by_room.setdefault(key, []).append((lap["track"], lap["direction"]))
-    except (OSError, ValueError, KeyError, TypeError) as exc:
-        raise SystemExit(f"{args.lost}: not a hairpin_trace.py record ({exc})") from None
+    lost_by_room: dict[tuple[int, int], list[tuple[str, str]]] = {}
+    for (seed, repetition, track_name, direction), lapped in trace_rooms.load(args.lost).items():
+        if not lapped:
+            lost_by_room.setdefault((seed, repetition), []).append((track_name, direction))
     oracle_learner.use_oracle("cover", 0.3)
     jobs = [
         (args.study, args.loops_from, seed, repetition, lost, args.windows)

@@ -58,6 +58,14 @@ END_M = 2.0
 REANCHOR = 0.0
 
 
+def travel_back(trail: np.ndarray) -> np.ndarray:
+    """(N,) [m]: the travel from each of the places ``trail`` (N, 2), oldest first in the rover
+    frame, through the newer ones to the rover's place (the origin)."""
+    places = np.vstack([trail, np.zeros((1, 2))])
+    steps = np.hypot(*np.diff(places, axis=0).T)
+    return np.cumsum(steps[::-1])[::-1]
+
+
 class OuterCoverMemory(oracle_learner.PrototypeMemory):
     """The ``fresh_felt`` map with the incoming strip's outer half covered in a spin."""
 
@@ -112,9 +120,7 @@ class OuterCoverMemory(oracle_learner.PrototypeMemory):
         if not len(self._trail):
             self._back = np.zeros(0)
             return
-        places = np.vstack([self._trail, np.zeros((1, 2))])
-        steps = np.hypot(*np.diff(places, axis=0).T)
-        self._back = np.cumsum(steps[::-1])[::-1]
+        self._back = travel_back(self._trail)
 
     def _read_side(self) -> int:
         """The turn's side from the felt beside the places before the spin (module docstring)."""

@@ -40,6 +40,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import edge_cover  # noqa: E402
 import oracle_learner  # noqa: E402
+import outer_cover  # noqa: E402
 
 from lfd_track.core.commands import Command  # noqa: E402
 
@@ -165,19 +166,12 @@ class TurnTipMemory(oracle_learner.PrototypeMemory):
         trail = self._tip_trail
         if len(trail) < LINE_PLACES:
             return None
-        places = np.vstack([trail, np.zeros((1, 2))])
-        steps = np.hypot(*np.diff(places, axis=0).T)
-        back = np.cumsum(steps[::-1])[::-1]  # travel from each place to the rover's
+        back = outer_cover.travel_back(trail)
         fit = (back >= LINE_FROM_M) & (back <= LINE_TO_M)
         if int(fit.sum()) < LINE_PLACES:
             return None
         chosen = trail[fit]
-        centre = chosen.mean(axis=0)
-        _, _, rows = np.linalg.svd(chosen - centre, full_matrices=False)
-        way = rows[0]
-        if float(np.dot(chosen[-1] - chosen[0], way)) < 0.0:
-            way = -way
-        return centre, way
+        return edge_cover.fitted_line(chosen, chosen[0], chosen[-1])
 
     def _kept(self, where: np.ndarray) -> np.ndarray | None:
         kept = super()._kept(where)

@@ -48,6 +48,15 @@ def load(path: str) -> dict[tuple[int, int, str, str], bool]:
         raise SystemExit(f"{path}: not a hairpin_trace.py record ({exc})") from None
 
 
+def by_room(run: dict[tuple[int, int, str, str], bool]) -> dict[tuple[int, int], list[int]]:
+    """A record's laps per room (seed, repetition): [lapped, driven]."""
+    rooms: dict[tuple[int, int], list[int]] = collections.defaultdict(lambda: [0, 0])
+    for key, lapped in run.items():
+        rooms[key[:2]][0] += lapped
+        rooms[key[:2]][1] += 1
+    return rooms
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
@@ -69,12 +78,10 @@ def main() -> None:
     first = runs[0]
     for path, run in zip(args.records, runs, strict=True):
         by_band: dict[str, list[int]] = collections.defaultdict(lambda: [0, 0])
-        rooms: dict[tuple[int, int], list[int]] = collections.defaultdict(lambda: [0, 0])
         for key, lapped in run.items():
             by_band[band(turns[key[2]])][0] += lapped
             by_band[band(turns[key[2]])][1] += 1
-            rooms[key[:2]][0] += lapped
-            rooms[key[:2]][1] += 1
+        rooms = by_room(run)
         at_bar = sum(1 for done, all_ in rooms.values() if done >= BAR * all_)
         won = sum(1 for key, lapped in run.items() if lapped and not first[key])
         lost = sum(1 for key, lapped in run.items() if not lapped and first[key])
@@ -92,13 +99,9 @@ def main() -> None:
             print(
                 f"- {what}: room {seed}/{repetition}, {track} {direction}, {turns[track]:.1f} deg"
             )
-        rooms: dict[tuple[int, int], list[int]] = collections.defaultdict(lambda: [0, 0])
-        for key, lapped in run.items():
-            rooms[key[:2]][0] += lapped
-            rooms[key[:2]][1] += 1
         low = [
             f"{s}/{r} ({done} of {all_})"
-            for (s, r), (done, all_) in sorted(rooms.items())
+            for (s, r), (done, all_) in sorted(by_room(run).items())
             if done < BAR * all_
         ]
         print(f"- rooms under the bar: {', '.join(low) or 'none'}")
