@@ -35,6 +35,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+import corner_model  # noqa: E402
 import cover_near  # noqa: E402
 import edge_cover  # noqa: E402
 import oracle_learner  # noqa: E402
@@ -124,11 +125,17 @@ PROTOTYPE_MAPS: tuple[tuple[str, type, str], ...] = (
     ("--tip-cover", tip_cover.TipCoverMemory, "on `tip_cover.py`'s map"),
     ("--tip-edge-cover", tip_cover.TipEdgeCoverMemory, "on `tip_cover.py`'s `--edge` map"),
     ("--turn-tip", tip_cover.TurnTipMemory, "on `tip_cover.py`'s `--turn-tip` map"),
+    ("--corner-model", corner_model.CornerModelMemory, "on `corner_model.py`'s map"),
 )
 
 
 #: the prototype scripts whose constants ``--set`` may change
-SETTABLE = {"edge_cover": edge_cover, "outer_cover": outer_cover, "tip_cover": tip_cover}
+SETTABLE = {
+    "corner_model": corner_model,
+    "edge_cover": edge_cover,
+    "outer_cover": outer_cover,
+    "tip_cover": tip_cover,
+}
 
 
 def set_constant(setting: str) -> None:
