@@ -29,6 +29,9 @@ COVER_TO_M = 2.0
 #: (``"incoming"``; ``"incoming-outer"``, ``"incoming-inner"``: only on the outer side of its
 #: centreline, or only the turn's side) or only off it (``"others"``); "": wherever it lies
 LEG = ""
+#: ``--cover-start`` (part 75) [m]: the cover only of felt behind the lap's start (its centreline
+#: in the loop's second half) and only while the rover's progress is below this; 0: off
+START_M = 0.0
 
 
 def turn_side_offset(track: Any, floor: np.ndarray) -> np.ndarray:
@@ -80,6 +83,9 @@ class CoverNearMemory(oracle_visited.TrackVisitedMemory):
             if LEG in ("incoming-outer", "incoming-inner"):
                 toward = turn_side_offset(track, floor)
                 covered &= (toward <= 0.0) if LEG == "incoming-outer" else (toward > 0.0)
+        if START_M:
+            early = 0.0 <= now["progress_m"] < START_M
+            covered &= (s > 0.5 * track.length_m) & early
         own = own.copy()
         own[where] = np.where(covered, 0.0, own[where])
         return own

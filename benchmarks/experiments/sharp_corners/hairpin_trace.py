@@ -449,6 +449,12 @@ def main() -> None:
         action="store_true",
         help="taught and driven on edge_cover.py's map with the track's turn side (an oracle)",
     )
+    parser.add_argument(
+        "--cover-start",
+        type=float,
+        metavar="M",
+        help="with --oracle: the cover only behind the lap's start, while the progress is below M",
+    )
     parser.add_argument("--sides", choices=("branch", "both"), help="with --way-back: its SIDES")
     for flag, _, phrase in PROTOTYPE_MAPS:
         parser.add_argument(flag, action="store_true", help=f"taught and driven {phrase}")
@@ -465,9 +471,10 @@ def main() -> None:
             way_back.SIDES = args.sides
     if args.oracle:
         oracle_learner.use_oracle("cover", 0.3)
-        if args.cover_to is not None or args.cover_leg:
+        if args.cover_to is not None or args.cover_leg or args.cover_start:
             cover_near.COVER_TO_M = math.inf if args.cover_to is None else args.cover_to
             cover_near.LEG = args.cover_leg or ""
+            cover_near.START_M = args.cover_start or 0.0
             oracle_visited.maps_made_as(cover_near.CoverNearMemory)
             if args.in_spins:
                 oracle_visited.maps_made_as(edge_cover.SpinOracleMemory)
@@ -513,6 +520,12 @@ def main() -> None:
         + (f", with `visited_from = {args.visited_from!r}`" if args.visited_from else "")
         + (", on part 12's oracle map (`--combine cover --cover-from 0.3`)" if args.oracle else "")
         + (f", its cover cut at {args.cover_to:g} m behind" if args.cover_to is not None else "")
+        + (
+            f", its cover only behind the lap's start while the progress is below"
+            f" {args.cover_start:g} m"
+            if args.cover_start
+            else ""
+        )
         + (
             ", its cover only "
             + {
