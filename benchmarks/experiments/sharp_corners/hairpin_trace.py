@@ -42,6 +42,7 @@ import oracle_learner  # noqa: E402
 import oracle_visited  # noqa: E402
 import outer_cover  # noqa: E402
 import spin_side  # noqa: E402
+import start_prior  # noqa: E402
 import tip_cover  # noqa: E402
 import track_branch  # noqa: E402
 import turned_ahead  # noqa: E402
@@ -126,6 +127,7 @@ PROTOTYPE_MAPS: tuple[tuple[str, type, str], ...] = (
     ("--tip-edge-cover", tip_cover.TipEdgeCoverMemory, "on `tip_cover.py`'s `--edge` map"),
     ("--turn-tip", tip_cover.TurnTipMemory, "on `tip_cover.py`'s `--turn-tip` map"),
     ("--corner-model", corner_model.CornerModelMemory, "on `corner_model.py`'s map"),
+    ("--start-prior", start_prior.StartPriorMemory, "on `start_prior.py`'s map"),
 )
 
 
@@ -134,6 +136,7 @@ SETTABLE = {
     "corner_model": corner_model,
     "edge_cover": edge_cover,
     "outer_cover": outer_cover,
+    "start_prior": start_prior,
     "tip_cover": tip_cover,
 }
 
