@@ -44,7 +44,6 @@ from __future__ import annotations
 import math
 import sys
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -53,20 +52,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import edge_cover  # noqa: E402
 import oracle_learner  # noqa: E402
 import outer_cover  # noqa: E402
+import tip_cover  # noqa: E402
+from tip_cover import LINE_FROM_M, LINE_PLACES, LINE_TO_M  # noqa: E402
 
-from lfd_track.core.commands import Command  # noqa: E402
+# The forward places kept, and the travel back of those the incoming line is fitted through
+# (LINE_FROM_M to LINE_TO_M, at least LINE_PLACES of them), are tip_cover.py's.
 
-#: forward places kept (2 m of the paper's steps)
-TRAIL = 20
-#: [m] travel back from the rover of the places the incoming line is fitted through: from ...
-LINE_FROM_M = 0.3
-#: [m] ... to
-LINE_TO_M = 1.5
 #: [deg] the places the line is fitted through end where the trail turns this far off its newest
 #: step (the corner before)
 STRAIGHT_DEG = 25.0
-#: places needed in that range
-LINE_PLACES = 4
 #: [m] felt this far either side of the line is the incoming strip's (half the widest strip)
 STRIP_HALF_M = 0.25
 #: felt (summed levels) the incoming strip's line needs
@@ -143,34 +137,19 @@ def progress(points: np.ndarray, vertex: np.ndarray, way_in: np.ndarray, way_out
     return np.where(to_in <= to_out, np.minimum(s, 0.0), np.maximum(t, 0.0))
 
 
-class CornerModelMemory(oracle_learner.PrototypeMemory):
+class CornerModelMemory(tip_cover.ForwardTrailMemory):
     """The goal's ``fresh_felt`` map with the track's progress rule on a corner it places
     itself (module docstring)."""
 
     def reset(self) -> None:
         super().reset()
-        self._corner_trail = np.zeros((0, 2))  # forward places, oldest first (rover frame)
         self.corners = 0
         """Frames at which a corner was placed this episode."""
-
-    def _move(self, command: int, measured: Any = None) -> None:
-        trail = self._corner_trail
-        if command == Command.FORWARD:
-            trail = np.vstack([trail, np.zeros((1, 2))])[-TRAIL:]
-        super()._move(command, measured)
-        if measured is not None:
-            self._corner_trail = measured.move_points(trail)
-        else:
-            self._corner_trail = self._moved(trail, command)
-
-    def place_before(self, command: Command | int) -> None:
-        super().place_before(command)
-        self._corner_trail = self._placed_before(self._corner_trail, command)
 
     def _incoming(self) -> tuple[np.ndarray, np.ndarray, float] | None:
         """The incoming strip's line (a point on it, its unit direction the rover travelled)
         in the rover frame and the strip's width [m], or None."""
-        trail = self._corner_trail
+        trail = self._tip_trail
         if len(trail) < LINE_PLACES:
             return None
         back = outer_cover.travel_back(trail)

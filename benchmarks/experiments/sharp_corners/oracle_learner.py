@@ -117,6 +117,13 @@ class PrototypeMemory(FreshFeltMemory):
             return points if directions else points + np.array([self._step, 0.0])
         return self._moved(points, Command.RIGHT if cmd == Command.LEFT else Command.LEFT)
 
+    def _carried(self, points: np.ndarray, command: int, measured: Any) -> np.ndarray:
+        """``points`` (N, 2) in the rover frame after ``command``: moved by its ``measured``
+        motion, or without one by its nominal one (as the map moves)."""
+        if measured is not None:
+            return measured.move_points(points)
+        return self._moved(points, command)
+
     def _turned_dirs(self, dirs: np.ndarray, command: int, measured: Any) -> np.ndarray:
         """Directions ``dirs`` (N, 2) in the rover frame after ``command`` (rotation only)."""
         if measured is not None:

@@ -92,12 +92,6 @@ class StartPriorMemory(oracle_learner.PrototypeMemory):
         if self._last_leg is not None:
             self._last_leg = self._turned_dirs(self._last_leg, command, measured)
 
-    def _carried(self, points: np.ndarray, command: int, measured: Any) -> np.ndarray:
-        """``points`` (N, 2) in the rover frame after ``command``."""
-        if measured is not None:
-            return measured.move_points(points)
-        return self._moved(points, command)
-
     def place_before(self, command: Command | int) -> None:
         super().place_before(command)
         self._start_at = self._placed_before(self._start_at, command)

@@ -131,7 +131,27 @@ LINE_OUTER_M = 0.3
 LINE_INNER_M = 0.1
 
 
-class TurnTipMemory(oracle_learner.PrototypeMemory):
+class ForwardTrailMemory(oracle_learner.PrototypeMemory):
+    """The goal's ``fresh_felt`` map that keeps the places of its last :data:`TIP_TRAIL` forward
+    commands (``_tip_trail``, oldest first, in the rover frame), moved with the map."""
+
+    def reset(self) -> None:
+        super().reset()
+        self._tip_trail = np.zeros((0, 2))
+
+    def _move(self, command: int, measured: Any = None) -> None:
+        trail = self._tip_trail
+        if command == Command.FORWARD:
+            trail = np.vstack([trail, np.zeros((1, 2))])[-TIP_TRAIL:]
+        super()._move(command, measured)
+        self._tip_trail = self._carried(trail, command, measured)
+
+    def place_before(self, command: Command | int) -> None:
+        super().place_before(command)
+        self._tip_trail = self._placed_before(self._tip_trail, command)
+
+
+class TurnTipMemory(ForwardTrailMemory):
     """Part 71's design: the incoming strip's continuation past where the rover leaves it,
     covered in the strip's frame. The line through the forward places laid :data:`LINE_FROM_M`
     to :data:`LINE_TO_M` of travel back stands for the strip the rover came along; while the
@@ -141,24 +161,6 @@ class TurnTipMemory(oracle_learner.PrototypeMemory):
     :data:`LINE_OUTER_M` on the outer side to :data:`LINE_INNER_M` on the turn's side, counts
     visited: the tip, which the rover never crossed. It is held by the places, not the heading,
     and reads no branch side (part 69's cover followed both and flipped)."""
-
-    def reset(self) -> None:
-        super().reset()
-        self._tip_trail = np.zeros((0, 2))  # forward places, oldest first (rover frame)
-
-    def _move(self, command: int, measured: Any = None) -> None:
-        trail = self._tip_trail
-        if command == Command.FORWARD:
-            trail = np.vstack([trail, np.zeros((1, 2))])[-TIP_TRAIL:]
-        super()._move(command, measured)
-        if measured is not None:
-            self._tip_trail = measured.move_points(trail)
-        else:
-            self._tip_trail = self._moved(trail, command)
-
-    def place_before(self, command: Command | int) -> None:
-        super().place_before(command)
-        self._tip_trail = self._placed_before(self._tip_trail, command)
 
     def _tip_line(self) -> tuple[np.ndarray, np.ndarray] | None:
         """(a point on the line, its unit direction the rover travelled) in the rover frame, or
