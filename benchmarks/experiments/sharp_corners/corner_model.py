@@ -122,7 +122,9 @@ def _straight_run(trail: np.ndarray) -> np.ndarray:
     return run
 
 
-def progress(points: np.ndarray, vertex: np.ndarray, way_in: np.ndarray, way_out: np.ndarray):
+def progress(
+    points: np.ndarray, vertex: np.ndarray, way_in: np.ndarray, way_out: np.ndarray
+) -> np.ndarray:
     """(N,) [m]: each of ``points``' progress along the corner's two strips, 0 at the vertex:
     along the incoming line (negative, up to the vertex) where that one is the nearer, else
     along the outgoing one (positive, from the vertex)."""

@@ -78,6 +78,7 @@ class StartPriorMemory(oracle_learner.PrototypeMemory):
         self._start_at = np.zeros((1, 2))  # the start place (rover frame)
         self._start_way = np.array([[1.0, 0.0]])  # the start heading (unit, rover frame)
         self._start_travel = 0.0  # [m] forward travel since the start
+        self._start_over = False  # the prior has ended (driven PRIOR_M or turned END_TURN_DEG)
         self._last_leg: np.ndarray | None = None  # the held ray's unit direction (rover frame)
         self.start_rays = 0
         """Laps (0 or 1 this episode) in which a last leg was found."""
@@ -133,11 +134,11 @@ class StartPriorMemory(oracle_learner.PrototypeMemory):
 
     def _kept(self, where: np.ndarray) -> np.ndarray | None:
         kept = super()._kept(where)
-        if self._start_travel >= PRIOR_M or not where.any():
-            return kept
-        way = self._start_way[0]
-        if abs(math.degrees(math.atan2(float(way[1]), float(way[0])))) >= END_TURN_DEG:
-            self._start_travel = PRIOR_M  # turned at a corner: the prior is over
+        if not self._start_over:
+            way = self._start_way[0]
+            turned = abs(math.degrees(math.atan2(float(way[1]), float(way[0]))))
+            self._start_over = self._start_travel >= PRIOR_M or turned >= END_TURN_DEG
+        if self._start_over or not where.any():
             return kept
         if self._last_leg is None:
             self._find_last_leg()
