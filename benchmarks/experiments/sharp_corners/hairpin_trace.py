@@ -45,6 +45,7 @@ import spin_side  # noqa: E402
 import start_prior  # noqa: E402
 import tip_cover  # noqa: E402
 import track_branch  # noqa: E402
+import true_senses  # noqa: E402
 import turned_ahead  # noqa: E402
 import way_back  # noqa: E402
 
@@ -128,7 +129,17 @@ PROTOTYPE_MAPS: tuple[tuple[str, type, str], ...] = (
     ("--turn-tip", tip_cover.TurnTipMemory, "on `tip_cover.py`'s `--turn-tip` map"),
     ("--corner-model", corner_model.CornerModelMemory, "on `corner_model.py`'s map"),
     ("--start-prior", start_prior.StartPriorMemory, "on `start_prior.py`'s map"),
+    ("--true-felt", true_senses.TrueFeltMemory, "on the true felt at the regions (an oracle)"),
+    ("--true-motion", true_senses.TrueMotionMemory, "moved by the true motion (an oracle)"),
+    (
+        "--true-senses",
+        true_senses.TrueSensesMemory,
+        "on the true felt, moved by the true motion (an oracle)",
+    ),
 )
+
+#: the prototype maps that read the rover's true pose (the env keeps it for them)
+TRUE_POSE_FLAGS = ("--true-felt", "--true-motion", "--true-senses")
 
 
 #: the prototype scripts whose constants ``--set`` may change
@@ -495,6 +506,8 @@ def main() -> None:
     for flag, memory_class, _ in PROTOTYPE_MAPS:
         if getattr(args, _dest(flag)):
             oracle_visited.maps_made_as(memory_class)
+            if flag in TRUE_POSE_FLAGS:
+                true_senses.use_true_pose()
     if args.spin_hold is not None:
         spin_side.HOLD_DEG = args.spin_hold
     jobs = [
