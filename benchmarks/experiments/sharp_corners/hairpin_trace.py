@@ -38,6 +38,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import corner_model  # noqa: E402
 import cover_near  # noqa: E402
 import edge_cover  # noqa: E402
+import felt_window  # noqa: E402
 import oracle_learner  # noqa: E402
 import oracle_visited  # noqa: E402
 import outer_cover  # noqa: E402
@@ -136,10 +137,27 @@ PROTOTYPE_MAPS: tuple[tuple[str, type, str], ...] = (
         true_senses.TrueSensesMemory,
         "on the true felt, moved by the true motion (an oracle)",
     ),
+    (
+        "--centre-window",
+        felt_window.CentreWindowMemory,
+        "on `felt_window.py`'s map (felt read from each region's middle)",
+    ),
+    (
+        "--hue-sat",
+        felt_window.HueSatMemory,
+        "on `felt_window.py`'s `--hue-sat` map (felt read from hue and saturation)",
+    ),
 )
 
-#: the prototype maps that read the rover's true pose (the env keeps it for them)
-TRUE_POSE_FLAGS = ("--true-felt", "--true-motion", "--true-senses")
+#: what a prototype map needs made ready before it runs: the rover's true pose kept by the env,
+#: or the frame being perceived kept for the map
+PROTOTYPE_SETUP = {
+    "--true-felt": true_senses.use_true_pose,
+    "--true-motion": true_senses.use_true_pose,
+    "--true-senses": true_senses.use_true_pose,
+    "--centre-window": felt_window.use_frames,
+    "--hue-sat": felt_window.use_frames,
+}
 
 
 #: the prototype scripts whose constants ``--set`` may change
@@ -506,8 +524,8 @@ def main() -> None:
     for flag, memory_class, _ in PROTOTYPE_MAPS:
         if getattr(args, _dest(flag)):
             oracle_visited.maps_made_as(memory_class)
-            if flag in TRUE_POSE_FLAGS:
-                true_senses.use_true_pose()
+            if flag in PROTOTYPE_SETUP:
+                PROTOTYPE_SETUP[flag]()
     if args.spin_hold is not None:
         spin_side.HOLD_DEG = args.spin_hold
     jobs = [
