@@ -31,32 +31,31 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import oracle_learner  # noqa: E402
 
-from lfd_track.teaching import perception as perception_module  # noqa: E402
 from lfd_track.vision.grid import FRAME_HEIGHT, FRAME_WIDTH, GRID_COLUMNS, GRID_ROWS  # noqa: E402
 from lfd_track.vision.histograms import centred_unit  # noqa: E402
+from lfd_track.vision.road_library import RoadLibrary  # noqa: E402
 
 #: the share of a region's width and height its middle window spans
 WINDOW = 0.5
 #: the channels :class:`HueSatMemory` reads (of R, G, B, H, S)
 HUE_SAT = (3, 4)
 
-#: the perception perceiving now and the frame it was given (set by the patched ``perceive``)
-NOW: dict[str, Any] = {"perception": None, "frame": None}
+#: the library that last read a frame's regions and that frame (colour balanced as the perception
+#: balances it), set by the patched ``RoadLibrary.region_histograms``: the perception reads the
+#: frame's regions just before the map sees its road values
+NOW: dict[str, Any] = {"library": None, "frame": None}
 
-_perceive = perception_module.Perception.perceive
+_region_histograms = RoadLibrary.region_histograms
 
 
-def _perceive_remembered(self: Any, frame: np.ndarray, box_on_felt: bool | None = None) -> Any:
-    NOW["perception"], NOW["frame"] = self, frame
-    try:
-        return _perceive(self, frame, box_on_felt)
-    finally:
-        NOW["perception"] = NOW["frame"] = None
+def _region_histograms_remembered(self: RoadLibrary, frame: np.ndarray) -> np.ndarray:
+    NOW["library"], NOW["frame"] = self, frame
+    return _region_histograms(self, frame)
 
 
 def use_frames() -> None:
-    """From now on the maps can read the frame the perception is reading."""
-    perception_module.Perception.perceive = _perceive_remembered  # type: ignore[method-assign]
+    """From now on the maps can read the frame the perception read its road values from."""
+    RoadLibrary.region_histograms = _region_histograms_remembered  # type: ignore[method-assign]
 
 
 def centre_windows(frame: np.ndarray) -> np.ndarray:
@@ -77,37 +76,51 @@ class _FrameReadingMemory(oracle_learner.PrototypeMemory):
     """A map that reads its felt from the frame being perceived (:meth:`_values`)."""
 
     def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
-        perception, frame = NOW["perception"], NOW["frame"]
+        library, frame = NOW["library"], NOW["frame"]
+        NOW["library"] = NOW["frame"] = None  # the map's own readings below are not the frame's
         if (
-            perception is None
+            library is None
             or frame is None
             or frame.shape[:2] != (FRAME_HEIGHT, FRAME_WIDTH)
-            or not perception.library.n_models
+            or not library.n_models
         ):
             super().see(values, levels)
             return
-        super().see(self._values(perception, perception._balanced(frame)), levels)
+        super().see(self._values(library, frame), levels)
 
-    def _values(self, perception: Any, seen: np.ndarray) -> np.ndarray:
+    def _values(self, library: RoadLibrary, seen: np.ndarray) -> np.ndarray:
         raise NotImplementedError
 
 
 class CentreWindowMemory(_FrameReadingMemory):
     """The goal's map reading each region's felt from its middle (see the module docstring)."""
 
-    def _values(self, perception: Any, seen: np.ndarray) -> np.ndarray:
-        library = perception.library
-        histograms = library.region_histograms(centre_windows(seen))
+    def _values(self, library: RoadLibrary, seen: np.ndarray) -> np.ndarray:
+        histograms = _region_histograms(library, centre_windows(seen))
         return library.road_values_from_histograms(histograms, update_statistics=False)
 
 
 class HueSatMemory(_FrameReadingMemory):
     """The goal's map reading each region's felt from its hue and saturation alone."""
 
-    def _values(self, perception: Any, seen: np.ndarray) -> np.ndarray:
-        library = perception.library
-        histograms = library.region_histograms(seen)
+    def _values(self, library: RoadLibrary, seen: np.ndarray) -> np.ndarray:
+        histograms = _region_histograms(library, seen)
         unit, _ = centred_unit(histograms)
         models, _ = centred_unit(library.models())
         corr = np.matmul(unit[list(HUE_SAT)], models[list(HUE_SAT)].transpose(0, 2, 1))
         return np.max(corr.mean(axis=0), axis=1)
+
+
+def main() -> None:
+    """Run a study (``--study``, ``--out``, ``--seed``) with every ``fresh_felt`` map a
+    :class:`CentreWindowMemory`, or with ``--hue-sat`` a :class:`HueSatMemory`."""
+    memory_class: type[_FrameReadingMemory] = CentreWindowMemory
+    if "--hue-sat" in sys.argv:
+        sys.argv.remove("--hue-sat")
+        memory_class = HueSatMemory
+    use_frames()
+    oracle_learner.run_with_map(memory_class, __doc__.splitlines()[0])
+
+
+if __name__ == "__main__":
+    main()
