@@ -75,6 +75,9 @@ TAUGHT_ON_OWN = False
 #: ``--visited-from``: the condition's map's ``visited_from`` replaced by this ("": as it is)
 VISITED_FROM = ""
 
+#: ``--felt-levels``: the condition's map's ``felt_levels`` replaced by this ("": as it is)
+FELT_LEVELS = ""
+
 #: ``--loops-from``: a committed condition folder whose repetitions' procedural loop laps are
 #: driven (in the worlds the repetition drew them in), not the study's ``test_tracks`` ("": those)
 LOOPS_FROM = ""
@@ -317,6 +320,9 @@ def trace_repetition(job: tuple[str, int, int, float, bool]) -> tuple[list[str],
     if VISITED_FROM:
         memory = dataclasses.replace(config.memory, visited_from=VISITED_FROM)
         config = dataclasses.replace(config, memory=memory)
+    if FELT_LEVELS:
+        memory = dataclasses.replace(config.memory, felt_levels=FELT_LEVELS)
+        config = dataclasses.replace(config, memory=memory)
     rep_seed = runner.repetition_seeds(seed, study.repetitions)[repetition]
     demo_seed, ga_seed, trial_seed = runner.repetition_streams(rep_seed)
     preset = runner.repetition_preset(config, rep_seed)
@@ -409,7 +415,7 @@ def trace_repetition(job: tuple[str, int, int, float, bool]) -> tuple[list[str],
 
 
 def main() -> None:
-    global VISITED_FROM, TAUGHT_ON_OWN, SHOWN, LOOPS_FROM
+    global VISITED_FROM, FELT_LEVELS, TAUGHT_ON_OWN, SHOWN, LOOPS_FROM
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--study", required=True)
     parser.add_argument("--seed", type=int, nargs="+", required=True)
@@ -440,6 +446,12 @@ def main() -> None:
     )
     parser.add_argument(
         "--visited-from", default="", help="the condition's map's visited_from replaced by this"
+    )
+    parser.add_argument(
+        "--felt-levels",
+        default="",
+        choices=("", "fixed", "library"),
+        help="the condition's map's felt_levels replaced by this",
     )
     parser.add_argument(
         "--cover-to", type=float, metavar="M", help="with --oracle: cover_near.py's cover, to M"
@@ -511,6 +523,7 @@ def main() -> None:
             if args.in_spins:
                 oracle_visited.maps_made_as(edge_cover.SpinOracleMemory)
     VISITED_FROM = args.visited_from
+    FELT_LEVELS = args.felt_levels
     TAUGHT_ON_OWN = args.taught_on_own
     SHOWN = args.shown
     LOOPS_FROM = args.loops_from
@@ -552,6 +565,7 @@ def main() -> None:
             else ""
         )
         + (f", with `visited_from = {args.visited_from!r}`" if args.visited_from else "")
+        + (f", with `felt_levels = {args.felt_levels!r}`" if args.felt_levels else "")
         + (", on part 12's oracle map (`--combine cover --cover-from 0.3`)" if args.oracle else "")
         + (f", its cover cut at {args.cover_to:g} m behind" if args.cover_to is not None else "")
         + (
