@@ -43,9 +43,15 @@ SEEN: list[tuple[np.ndarray, np.ndarray, np.ndarray]] = []
 LIGHT_EDGES = (0.7, 0.9, 1.1)
 
 
+#: the env the lap is driven in (set by the patched reset)
+ENV: dict[str, Any] = {}
+_reset = oracle_visited.reset
+
+
 def floor_light(env: Any, floor: np.ndarray) -> np.ndarray:
     """(N,) the baked light the room's floor gets at ``floor`` points (N, 2) [m], relative to
     its ambient light (NaN where the env has no ground to read)."""
+    # the env keeps its room's floor to itself (no public accessor): a measurement reads it
     ground = getattr(env, "_ground", None)
     if ground is None:
         return np.full(len(floor), np.nan)
@@ -64,11 +70,6 @@ class ReadingMemory(oracle_learner.PrototypeMemory):
             light = floor_light(ENV.get("env"), floor)
             SEEN.append((np.array(values, dtype=np.float64), truth, light))
         super().see(values, levels)
-
-
-#: the env the lap is driven in (set by the patched reset)
-ENV: dict[str, Any] = {}
-_reset = oracle_visited.reset
 
 
 def _remember_env(self: Any, **kw: Any) -> Any:

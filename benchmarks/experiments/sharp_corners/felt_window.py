@@ -1,5 +1,6 @@
-"""Part 79 of ``README.md``: the map's felt read otherwise than from the whole region's road value
-(prototype maps).
+"""Part 79 of ``README.md``: the map's felt read from a region's middle, or from hue and saturation.
+
+Prototype maps that read felt otherwise than from the whole region's road value.
 
 Part 78 measured where the goal's map reads felt against the floor's true felt. Two readings a
 robot can make from the same frame and the same library, each a prototype map that leaves the
