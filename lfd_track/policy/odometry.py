@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import functools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import cv2
@@ -130,6 +131,19 @@ class PlanarMotion:
     """[m] its shift to the left of the first heading."""
     turn_deg: float
     """[deg] the turn, counter-clockwise (left) positive."""
+
+    @classmethod
+    def from_poses(
+        cls, before: Sequence[float] | np.ndarray, after: Sequence[float] | np.ndarray
+    ) -> PlanarMotion:
+        """The motion from pose ``before`` to pose ``after`` (x, y, heading [m, m, rad]), in the
+        rover's frame at ``before`` (the turn taken the short way round)."""
+        x0, y0, h0 = (float(v) for v in before[:3])
+        x1, y1, h1 = (float(v) for v in after[:3])
+        dx, dy = x1 - x0, y1 - y0
+        cos, sin = math.cos(h0), math.sin(h0)
+        turn = math.remainder(h1 - h0, 2.0 * math.pi)
+        return cls(cos * dx + sin * dy, -sin * dx + cos * dy, math.degrees(turn))
 
     def matrix(self) -> np.ndarray:
         """(3, 3) float64: a point's rover coordinates after the motion -> before it."""

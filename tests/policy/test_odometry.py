@@ -29,14 +29,6 @@ def _preset_path(preset: str) -> str:
     return str(ROOT / preset) if preset.endswith(".toml") else preset
 
 
-def _true_motion(before: tuple[float, ...], after: tuple[float, ...]) -> PlanarMotion:
-    """The rover's motion from pose ``before`` to pose ``after``, in its frame at ``before``."""
-    dx, dy = after[0] - before[0], after[1] - before[1]
-    cos, sin = math.cos(before[2]), math.sin(before[2])
-    turn = math.remainder(after[2] - before[2], 2.0 * math.pi)
-    return PlanarMotion(cos * dx + sin * dy, -sin * dx + cos * dy, math.degrees(turn))
-
-
 @cache
 def _drive(preset: str) -> list[tuple[np.ndarray, np.ndarray, int, PlanarMotion]]:
     """Frames before and after each of six commands on the training track's first strip (two
@@ -46,7 +38,9 @@ def _drive(preset: str) -> list[tuple[np.ndarray, np.ndarray, int, PlanarMotion]
     out = []
     for command in (0, 0, 1, 2, 0, 0):
         after, _, _, _, after_info = env.step(command)
-        out.append((frame, after, command, _true_motion(info["pose"], after_info["pose"])))
+        out.append(
+            (frame, after, command, PlanarMotion.from_poses(info["pose"], after_info["pose"]))
+        )
         frame, info = after, after_info
     env.close()
     return out

@@ -78,13 +78,6 @@ def _nominal(geometry: MapGeometry) -> dict[int, PlanarMotion]:
     }
 
 
-def _true_motion(before: np.ndarray, after: np.ndarray) -> PlanarMotion:
-    dx, dy = after[0] - before[0], after[1] - before[1]
-    cos, sin = math.cos(before[2]), math.sin(before[2])
-    turn = math.remainder(after[2] - before[2], 2.0 * math.pi)
-    return PlanarMotion(cos * dx + sin * dy, -sin * dx + cos * dy, math.degrees(turn))
-
-
 def _drive(
     world: Preset, track: str, commands: int, odometry: FloorOdometry, nominal: dict
 ) -> list[dict[str, Any]]:
@@ -111,7 +104,7 @@ def _drive(
         found = odometry.motion(view, after, nominal[command])
         end = time.perf_counter()
         view_s.append(middle - start)
-        truth = _true_motion(pose, np.array(info["pose"]))
+        truth = PlanarMotion.from_poses(pose, np.array(info["pose"]))
         records.append(
             {
                 "episode": episode,

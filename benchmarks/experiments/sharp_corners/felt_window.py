@@ -41,17 +41,18 @@ WINDOW = 0.5
 #: the channels :class:`HueSatMemory` reads (of R, G, B, H, S)
 HUE_SAT = (3, 4)
 
-#: the library that last read a frame's regions and that frame (colour balanced as the perception
-#: balances it), set by the patched ``RoadLibrary.region_histograms``: the perception reads the
-#: frame's regions just before the map sees its road values
-NOW: dict[str, Any] = {"library": None, "frame": None}
+#: the library that last read a frame's regions, that frame (colour balanced as the perception
+#: balances it) and its region histograms, set by the patched ``RoadLibrary.region_histograms``:
+#: the perception reads the frame's regions just before the map sees its road values
+NOW: dict[str, Any] = {"library": None, "frame": None, "histograms": None}
 
 _region_histograms = RoadLibrary.region_histograms
 
 
 def _region_histograms_remembered(self: RoadLibrary, frame: np.ndarray) -> np.ndarray:
-    NOW["library"], NOW["frame"] = self, frame
-    return _region_histograms(self, frame)
+    histograms = _region_histograms(self, frame)
+    NOW["library"], NOW["frame"], NOW["histograms"] = self, frame, histograms
+    return histograms
 
 
 def use_frames() -> None:
@@ -77,8 +78,8 @@ class _FrameReadingMemory(oracle_learner.PrototypeMemory):
     """A map that reads its felt from the frame being perceived (:meth:`_values`)."""
 
     def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
-        library, frame = NOW["library"], NOW["frame"]
-        NOW["library"] = NOW["frame"] = None  # the map's own readings below are not the frame's
+        library, frame, histograms = NOW["library"], NOW["frame"], NOW["histograms"]
+        NOW["library"] = NOW["frame"] = NOW["histograms"] = None  # read once, by this frame
         if (
             library is None
             or frame is None
@@ -87,25 +88,31 @@ class _FrameReadingMemory(oracle_learner.PrototypeMemory):
         ):
             super().see(values, levels)
             return
-        super().see(self._values(library, frame), levels)
+        super().see(self._values(library, frame, histograms), levels)
 
-    def _values(self, library: RoadLibrary, seen: np.ndarray) -> np.ndarray:
+    @staticmethod
+    def prepare() -> None:
+        """What the map needs before it runs (``hairpin_trace.py`` calls it): the frames."""
+        use_frames()
+
+    def _values(self, library: RoadLibrary, seen: np.ndarray, histograms: np.ndarray) -> np.ndarray:
+        """The 40 road values the map reads felt from: of the frame ``seen``, whose region
+        histograms ``library`` read as ``histograms``."""
         raise NotImplementedError
 
 
 class CentreWindowMemory(_FrameReadingMemory):
     """The goal's map reading each region's felt from its middle (see the module docstring)."""
 
-    def _values(self, library: RoadLibrary, seen: np.ndarray) -> np.ndarray:
-        histograms = _region_histograms(library, centre_windows(seen))
-        return library.road_values_from_histograms(histograms, update_statistics=False)
+    def _values(self, library: RoadLibrary, seen: np.ndarray, histograms: np.ndarray) -> np.ndarray:
+        middles = _region_histograms(library, centre_windows(seen))
+        return library.road_values_from_histograms(middles, update_statistics=False)
 
 
 class HueSatMemory(_FrameReadingMemory):
     """The goal's map reading each region's felt from its hue and saturation alone."""
 
-    def _values(self, library: RoadLibrary, seen: np.ndarray) -> np.ndarray:
-        histograms = _region_histograms(library, seen)
+    def _values(self, library: RoadLibrary, seen: np.ndarray, histograms: np.ndarray) -> np.ndarray:
         unit, _ = centred_unit(histograms)
         models, _ = centred_unit(library.models())
         corr = np.matmul(unit[list(HUE_SAT)], models[list(HUE_SAT)].transpose(0, 2, 1))
@@ -119,7 +126,7 @@ def main() -> None:
     if "--hue-sat" in sys.argv:
         sys.argv.remove("--hue-sat")
         memory_class = HueSatMemory
-    use_frames()
+    memory_class.prepare()
     oracle_learner.run_with_map(memory_class, __doc__.splitlines()[0])
 
 

@@ -72,11 +72,9 @@ SHOWN = 50
 #: ``--taught-on-own``: the learner taught on the product's map, driven on the prototype's
 TAUGHT_ON_OWN = False
 
-#: ``--visited-from``: the condition's map's ``visited_from`` replaced by this ("": as it is)
-VISITED_FROM = ""
-
-#: ``--felt-levels``: the condition's map's ``felt_levels`` replaced by this ("": as it is)
-FELT_LEVELS = ""
+#: ``--visited-from``, ``--felt-levels``: the condition's map's settings replaced by these
+#: (none given: as they are)
+MEMORY_SETTINGS: dict[str, str] = {}
 
 #: ``--loops-from``: a committed condition folder whose repetitions' procedural loop laps are
 #: driven (in the worlds the repetition drew them in), not the study's ``test_tracks`` ("": those)
@@ -151,16 +149,6 @@ PROTOTYPE_MAPS: tuple[tuple[str, type, str], ...] = (
         "on `felt_window.py`'s `--hue-sat` map (felt read from hue and saturation)",
     ),
 )
-
-#: what a prototype map needs made ready before it runs: the rover's true pose kept by the env,
-#: or the frame being perceived kept for the map
-PROTOTYPE_SETUP = {
-    "--true-felt": true_senses.use_true_pose,
-    "--true-motion": true_senses.use_true_pose,
-    "--true-senses": true_senses.use_true_pose,
-    "--centre-window": felt_window.use_frames,
-    "--hue-sat": felt_window.use_frames,
-}
 
 
 #: the prototype scripts whose constants ``--set`` may change
@@ -317,11 +305,8 @@ def trace_repetition(job: tuple[str, int, int, float, bool]) -> tuple[list[str],
     study = load_study(study_file)
     config = dataclasses.replace(study.conditions[0].config, repetitions=study.repetitions)
     config = dataclasses.replace(config, seed=seed)
-    if VISITED_FROM:
-        memory = dataclasses.replace(config.memory, visited_from=VISITED_FROM)
-        config = dataclasses.replace(config, memory=memory)
-    if FELT_LEVELS:
-        memory = dataclasses.replace(config.memory, felt_levels=FELT_LEVELS)
+    if MEMORY_SETTINGS:
+        memory = dataclasses.replace(config.memory, **MEMORY_SETTINGS)
         config = dataclasses.replace(config, memory=memory)
     rep_seed = runner.repetition_seeds(seed, study.repetitions)[repetition]
     demo_seed, ga_seed, trial_seed = runner.repetition_streams(rep_seed)
@@ -415,7 +400,7 @@ def trace_repetition(job: tuple[str, int, int, float, bool]) -> tuple[list[str],
 
 
 def main() -> None:
-    global VISITED_FROM, FELT_LEVELS, TAUGHT_ON_OWN, SHOWN, LOOPS_FROM
+    global TAUGHT_ON_OWN, SHOWN, LOOPS_FROM
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--study", required=True)
     parser.add_argument("--seed", type=int, nargs="+", required=True)
@@ -522,8 +507,8 @@ def main() -> None:
             oracle_visited.maps_made_as(cover_near.CoverNearMemory)
             if args.in_spins:
                 oracle_visited.maps_made_as(edge_cover.SpinOracleMemory)
-    VISITED_FROM = args.visited_from
-    FELT_LEVELS = args.felt_levels
+    settings = {"visited_from": args.visited_from, "felt_levels": args.felt_levels}
+    MEMORY_SETTINGS.update({name: value for name, value in settings.items() if value})
     TAUGHT_ON_OWN = args.taught_on_own
     SHOWN = args.shown
     LOOPS_FROM = args.loops_from
@@ -537,8 +522,9 @@ def main() -> None:
     for flag, memory_class, _ in PROTOTYPE_MAPS:
         if getattr(args, _dest(flag)):
             oracle_visited.maps_made_as(memory_class)
-            if flag in PROTOTYPE_SETUP:
-                PROTOTYPE_SETUP[flag]()
+            prepare = getattr(memory_class, "prepare", None)  # e.g. the true pose kept
+            if prepare is not None:
+                prepare()
     if args.spin_hold is not None:
         spin_side.HOLD_DEG = args.spin_hold
     jobs = [

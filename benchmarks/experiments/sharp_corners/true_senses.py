@@ -25,10 +25,8 @@ the validation rooms' laps only (``hairpin_trace.py --true-felt`` / ``--true-mot
 
 from __future__ import annotations
 
-import math
 import sys
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -50,18 +48,16 @@ def use_true_pose() -> None:
     )
 
 
-def true_motion(before: Any, after: Any) -> PlanarMotion:
-    """The rigid motion from pose ``before`` to pose ``after`` (x, y, heading [rad]), in the
-    rover's frame before it."""
-    x0, y0, h0 = (float(v) for v in before)
-    x1, y1, h1 = (float(v) for v in after)
-    dx, dy = x1 - x0, y1 - y0
-    cos, sin = math.cos(h0), math.sin(h0)
-    turn = (h1 - h0 + math.pi) % (2.0 * math.pi) - math.pi
-    return PlanarMotion(cos * dx + sin * dy, -sin * dx + cos * dy, math.degrees(turn))
+class _TruePoseMemory(oracle_learner.PrototypeMemory):
+    """A map that reads the rover's true pose (``oracle_visited.NOW``)."""
+
+    @staticmethod
+    def prepare() -> None:
+        """What the map needs before it runs (``hairpin_trace.py`` calls it): the true pose."""
+        use_true_pose()
 
 
-class TrueFeltMemory(oracle_learner.PrototypeMemory):
+class TrueFeltMemory(_TruePoseMemory):
     """The goal's map whose regions read the floor's true felt (see the module docstring)."""
 
     def see(self, values: np.ndarray, levels: tuple[float, float] | None = None) -> None:
@@ -73,7 +69,7 @@ class TrueFeltMemory(oracle_learner.PrototypeMemory):
         super().see(now["track"].on_felt(floor).astype(np.float64), (0.0, 1.0))
 
 
-class TrueMotionMemory(oracle_learner.PrototypeMemory):
+class TrueMotionMemory(_TruePoseMemory):
     """The goal's map moved by the rover's true motion (see the module docstring)."""
 
     def reset(self) -> None:
@@ -87,7 +83,7 @@ class TrueMotionMemory(oracle_learner.PrototypeMemory):
             return
         if self._pending is not None:
             before = self._true_pose
-            self._settle(None if before is None else true_motion(before, pose))
+            self._settle(None if before is None else PlanarMotion.from_poses(before, pose))
         self._view = None  # the camera's registration is not used
         self._true_pose = tuple(float(v) for v in pose)  # type: ignore[assignment]
 
