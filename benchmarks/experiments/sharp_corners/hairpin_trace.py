@@ -45,6 +45,7 @@ import outer_cover  # noqa: E402
 import spin_side  # noqa: E402
 import start_prior  # noqa: E402
 import tip_cover  # noqa: E402
+import tip_latch  # noqa: E402
 import track_branch  # noqa: E402
 import true_senses  # noqa: E402
 import turned_ahead  # noqa: E402
@@ -131,6 +132,12 @@ PROTOTYPE_MAPS: tuple[tuple[str, type, str], ...] = (
     ("--turn-tip", tip_cover.TurnTipMemory, "on `tip_cover.py`'s `--turn-tip` map"),
     ("--corner-model", corner_model.CornerModelMemory, "on `corner_model.py`'s map"),
     ("--start-prior", start_prior.StartPriorMemory, "on `start_prior.py`'s map"),
+    ("--tip-latch", tip_latch.TipLatchMemory, "on `tip_latch.py`'s map"),
+    (
+        "--dead-end-points",
+        tip_latch.DeadEndPointsMemory,
+        "on `tip_latch.py`'s `--dead-end-points` map (part 13's test)",
+    ),
     ("--true-felt", true_senses.TrueFeltMemory, "on the true felt at the regions (an oracle)"),
     ("--true-motion", true_senses.TrueMotionMemory, "moved by the true motion (an oracle)"),
     (
@@ -158,6 +165,7 @@ SETTABLE = {
     "outer_cover": outer_cover,
     "start_prior": start_prior,
     "tip_cover": tip_cover,
+    "tip_latch": tip_latch,
 }
 
 
