@@ -54,7 +54,7 @@ import way_back  # noqa: E402
 from lfd_track.benchmark import runner  # noqa: E402
 from lfd_track.benchmark.loops import loop_draws  # noqa: E402
 from lfd_track.envs.track_env import LfDTrackEnv  # noqa: E402
-from lfd_track.policy.memory import memory_for  # noqa: E402
+from lfd_track.policy.memory import FreshFeltConfig, memory_for  # noqa: E402
 from lfd_track.study.spec import load_study  # noqa: E402
 from lfd_track.teaching import perception as perception_module  # noqa: E402
 from lfd_track.world.track import load_track, vertex_turns_rad  # noqa: E402
@@ -75,7 +75,7 @@ TAUGHT_ON_OWN = False
 
 #: ``--visited-from``, ``--felt-levels``: the condition's map's settings replaced by these
 #: (none given: as they are)
-MEMORY_SETTINGS: dict[str, str] = {}
+MEMORY_SETTINGS: dict[str, Any] = {}
 
 #: ``--loops-from``: a committed condition folder whose repetitions' procedural loop laps are
 #: driven (in the worlds the repetition drew them in), not the study's ``test_tracks`` ("": those)
@@ -180,6 +180,26 @@ def set_constant(setting: str) -> None:
         setattr(module, constant, float(value))
     except ValueError:
         raise SystemExit(f"--set {setting}: {value!r} is not a number") from None
+
+
+def map_numbers(settings: list[str]) -> dict[str, float]:
+    """``--map NAME=NUMBER``: the map's numeric settings to replace, checked against the
+    ``fresh_felt`` map's own (a bad one exits naming it)."""
+    known = {
+        field.name
+        for field in dataclasses.fields(FreshFeltConfig)
+        if field.type in (float, "float")
+    }
+    numbers: dict[str, float] = {}
+    for setting in settings:
+        name, _, value = setting.partition("=")
+        if name not in known:
+            raise SystemExit(f"--map {setting}: no numeric map setting {name!r}")
+        try:
+            numbers[name] = float(value)
+        except ValueError:
+            raise SystemExit(f"--map {setting}: {value!r} is not a number") from None
+    return numbers
 
 
 def _dest(flag: str) -> str:
@@ -447,6 +467,13 @@ def main() -> None:
         help="the condition's map's felt_levels replaced by this",
     )
     parser.add_argument(
+        "--map",
+        action="append",
+        default=[],
+        metavar="NAME=NUMBER",
+        help="the condition's map's numeric setting NAME replaced by NUMBER (repeatable)",
+    )
+    parser.add_argument(
         "--cover-to", type=float, metavar="M", help="with --oracle: cover_near.py's cover, to M"
     )
     parser.add_argument(
@@ -517,6 +544,7 @@ def main() -> None:
                 oracle_visited.maps_made_as(edge_cover.SpinOracleMemory)
     settings = {"visited_from": args.visited_from, "felt_levels": args.felt_levels}
     MEMORY_SETTINGS.update({name: value for name, value in settings.items() if value})
+    MEMORY_SETTINGS.update(map_numbers(args.map))
     TAUGHT_ON_OWN = args.taught_on_own
     SHOWN = args.shown
     LOOPS_FROM = args.loops_from
@@ -560,6 +588,7 @@ def main() -> None:
         )
         + (f", with `visited_from = {args.visited_from!r}`" if args.visited_from else "")
         + (f", with `felt_levels = {args.felt_levels!r}`" if args.felt_levels else "")
+        + "".join(f", with `{setting}`" for setting in args.map)
         + (", on part 12's oracle map (`--combine cover --cover-from 0.3`)" if args.oracle else "")
         + (f", its cover cut at {args.cover_to:g} m behind" if args.cover_to is not None else "")
         + (
