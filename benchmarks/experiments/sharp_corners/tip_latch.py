@@ -55,7 +55,7 @@ HALF_M = 0.2
 PAST_END_M = 0.1
 #: [deg] the way on's fresh felt must lie at least this far off the heading
 SIDE_DEG = 20.0
-#: corridors kept (the newest)
+#: corridors kept (the newest; a float, as ``hairpin_trace.py --set`` sets only floats)
 KEPT = 4.0
 
 
