@@ -73,8 +73,8 @@ SHOWN = 50
 #: ``--taught-on-own``: the learner taught on the product's map, driven on the prototype's
 TAUGHT_ON_OWN = False
 
-#: ``--visited-from``, ``--felt-levels``: the condition's map's settings replaced by these
-#: (none given: as they are)
+#: ``--visited-from``, ``--felt-levels``, ``--map``: the condition's map's settings replaced by
+#: these (none given: as they are)
 MEMORY_SETTINGS: dict[str, Any] = {}
 
 #: ``--loops-from``: a committed condition folder whose repetitions' procedural loop laps are
@@ -176,10 +176,7 @@ def set_constant(setting: str) -> None:
     module = SETTABLE.get(module_name)
     if module is None or not isinstance(getattr(module, constant, None), float):
         raise SystemExit(f"--set {setting}: no numeric constant {name} in {sorted(SETTABLE)}")
-    try:
-        setattr(module, constant, float(value))
-    except ValueError:
-        raise SystemExit(f"--set {setting}: {value!r} is not a number") from None
+    setattr(module, constant, _number("--set", setting))
 
 
 def map_numbers(settings: list[str]) -> dict[str, float]:
@@ -192,14 +189,20 @@ def map_numbers(settings: list[str]) -> dict[str, float]:
     }
     numbers: dict[str, float] = {}
     for setting in settings:
-        name, _, value = setting.partition("=")
+        name = setting.partition("=")[0]
         if name not in known:
             raise SystemExit(f"--map {setting}: no numeric map setting {name!r}")
-        try:
-            numbers[name] = float(value)
-        except ValueError:
-            raise SystemExit(f"--map {setting}: {value!r} is not a number") from None
+        numbers[name] = _number("--map", setting)
     return numbers
+
+
+def _number(flag: str, setting: str) -> float:
+    """The number after the ``=`` of ``flag``'s ``setting`` (a bad one exits naming it)."""
+    value = setting.partition("=")[2]
+    try:
+        return float(value)
+    except ValueError:
+        raise SystemExit(f"{flag} {setting}: {value!r} is not a number") from None
 
 
 def _dest(flag: str) -> str:

@@ -131,16 +131,9 @@ class TipLatchMemory(oracle_learner.PrototypeMemory):
         return left
 
 
-class DeadEndPointsMemory(oracle_learner.PrototypeMemory):
-    """The goal's ``fresh_felt`` map whose fresh felt leaves out felt that leads nowhere (part
-    13's test, ``dead_ends.leads_nowhere``, unchanged)."""
-
-    def _fresh(self, near: np.ndarray, ahead: np.ndarray) -> np.ndarray:
-        weights = super()._fresh(near, ahead)
-        chosen = np.flatnonzero(weights > 0.0)
-        if len(chosen):
-            weights[chosen[dead_ends.leads_nowhere(self._points, self._felt, chosen)]] = 0.0
-        return weights
+class DeadEndPointsMemory(dead_ends.DeadEndMemory, oracle_learner.PrototypeMemory):
+    """The goal's ``fresh_felt`` map whose fresh felt leaves out felt that leads nowhere: part
+    13's ``dead_ends.DeadEndMemory``, unchanged, as a prototype map the learner is taught on."""
 
 
 def main() -> None:
