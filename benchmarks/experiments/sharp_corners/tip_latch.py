@@ -59,6 +59,21 @@ SIDE_DEG = 20.0
 KEPT = 4.0
 
 
+#: the rover's axle and heading in its own frame: where a corridor laid now starts, and its way
+_AXLE, _HEADING = np.zeros(2), np.array([1.0, 0.0])
+
+
+def in_corridor(
+    points: np.ndarray, start: np.ndarray, way: np.ndarray, length: float
+) -> np.ndarray:
+    """(N,) bool: which of ``points`` (N, 2) lie in the corridor from ``start`` (2,) along the unit
+    ``way`` (2,) for ``length`` [m], :data:`HALF_M` either side."""
+    gap = points - start
+    along = gap[:, 0] * way[0] + gap[:, 1] * way[1]
+    across = gap[:, 1] * way[0] - gap[:, 0] * way[1]
+    return (along >= 0.0) & (along <= length) & (np.abs(across) <= HALF_M)
+
+
 class TipLatchMemory(oracle_learner.PrototypeMemory):
     """The goal's ``fresh_felt`` map with the strip's end latched (module docstring)."""
 
@@ -89,10 +104,7 @@ class TipLatchMemory(oracle_learner.PrototypeMemory):
         for start, way, length in zip(
             self._latch_from, self._latch_way, self._latch_length, strict=True
         ):
-            gap = points - start
-            along = gap[:, 0] * way[0] + gap[:, 1] * way[1]
-            across = gap[:, 1] * way[0] - gap[:, 0] * way[1]
-            inside |= (along >= 0.0) & (along <= length) & (np.abs(across) <= HALF_M)
+            inside |= in_corridor(points, start, way, length)
         return inside
 
     def _kept(self, where: np.ndarray) -> np.ndarray | None:
@@ -115,18 +127,19 @@ class TipLatchMemory(oracle_learner.PrototypeMemory):
         if end is None:
             return weights
         length = end + PAST_END_M
-        x, y = self._points[:, 0], self._points[:, 1]
-        corridor = (x >= 0.0) & (x <= length) & (np.abs(y) <= HALF_M)
+        corridor = in_corridor(self._points, _AXLE, _HEADING, length)
         left = np.where(corridor, 0.0, weights)
         mass = float(left.sum())
         if mass < MIN_FRESH:
             return weights
-        bearing = math.degrees(math.atan2(float(left @ y) / mass, float(left @ x) / mass))
+        centre_x = float((left * self._points[:, 0]).sum()) / mass  # as the map sums (no BLAS)
+        centre_y = float((left * self._points[:, 1]).sum()) / mass
+        bearing = math.degrees(math.atan2(centre_y, centre_x))
         if abs(bearing) < SIDE_DEG:
             return weights
         kept = int(KEPT)
-        self._latch_from = np.vstack([self._latch_from, np.zeros((1, 2))])[-kept:]
-        self._latch_way = np.vstack([self._latch_way, np.array([[1.0, 0.0]])])[-kept:]
+        self._latch_from = np.vstack([self._latch_from, _AXLE])[-kept:]
+        self._latch_way = np.vstack([self._latch_way, _HEADING])[-kept:]
         self._latch_length = np.append(self._latch_length, length)[-kept:]
         return left
 
