@@ -81,6 +81,17 @@ MEMORY_SETTINGS: dict[str, Any] = {}
 #: driven (in the worlds the repetition drew them in), not the study's ``test_tracks`` ("": those)
 LOOPS_FROM = ""
 
+#: ``--refit K`` (part 85): the repetition's fits drawn from the K-th other learning stream (its
+#: starting weights), everything else as the study has it (0: the study's own stream)
+REFIT = 0
+#: a spawn key no stream of a repetition uses: the refits' streams are children of the
+#: repetition's learning seed under it
+REFIT_STREAM = 0x7265666974
+
+#: ``--ensemble N`` (part 86): backprop's ensemble of the condition replaced by N networks (0: as
+#: the study has it)
+ENSEMBLE = 0
+
 
 def committed_loop_worlds(
     folder: str, seed: int, repetition: int, trial_seed: int, split: str
@@ -328,6 +339,14 @@ def classify(rows: list[dict[str, Any]], s_vertex: float, length: float) -> dict
     return {"kind": kind, "past_vertex_m": gap}
 
 
+def refit_seed(ga_seed: int, refit: int) -> int:
+    """The learning seed of ``--refit refit``: a 62-bit seed drawn from the repetition's own
+    learning seed and :data:`REFIT_STREAM`, so each refit's starting weights are other than the
+    study's and than every other refit's, and the same on every run."""
+    rng = np.random.default_rng([ga_seed, REFIT_STREAM, refit])
+    return int(rng.integers(0, 2**62))
+
+
 def trace_repetition(job: tuple[str, int, int, float, bool]) -> tuple[list[str], list[dict]]:
     """Teach repetition ``repetition`` of seed ``seed`` of ``study_file`` and drive its hairpin
     laps past ``past`` degrees (with ``show``, the traces' rows); the markdown lines and a record
@@ -341,6 +360,10 @@ def trace_repetition(job: tuple[str, int, int, float, bool]) -> tuple[list[str],
         config = dataclasses.replace(config, memory=memory)
     rep_seed = runner.repetition_seeds(seed, study.repetitions)[repetition]
     demo_seed, ga_seed, trial_seed = runner.repetition_streams(rep_seed)
+    if REFIT:
+        ga_seed = refit_seed(ga_seed, REFIT)
+    if ENSEMBLE:
+        config = dataclasses.replace(config, bc=dataclasses.replace(config.bc, ensemble=ENSEMBLE))
     preset = runner.repetition_preset(config, rep_seed)
     driving_maps = perception_module.memory_for
     if TAUGHT_ON_OWN:  # the demonstration records the product's map; the prototype drives
@@ -431,7 +454,7 @@ def trace_repetition(job: tuple[str, int, int, float, bool]) -> tuple[list[str],
 
 
 def main() -> None:
-    global TAUGHT_ON_OWN, SHOWN, LOOPS_FROM
+    global TAUGHT_ON_OWN, SHOWN, LOOPS_FROM, REFIT, ENSEMBLE
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--study", required=True)
     parser.add_argument("--seed", type=int, nargs="+", required=True)
@@ -523,6 +546,16 @@ def main() -> None:
         help="with --oracle: the cover only behind the lap's start, while the progress is below M",
     )
     parser.add_argument("--sides", choices=("branch", "both"), help="with --way-back: its SIDES")
+    parser.add_argument(
+        "--refit",
+        type=int,
+        default=0,
+        metavar="K",
+        help="the fits drawn from the K-th other learning stream (their starting weights)",
+    )
+    parser.add_argument(
+        "--ensemble", type=int, default=0, metavar="N", help="backprop's ensemble replaced by N"
+    )
     for flag, _, phrase in PROTOTYPE_MAPS:
         parser.add_argument(flag, action="store_true", help=f"taught and driven {phrase}")
     args = parser.parse_args()
@@ -551,6 +584,9 @@ def main() -> None:
     TAUGHT_ON_OWN = args.taught_on_own
     SHOWN = args.shown
     LOOPS_FROM = args.loops_from
+    if args.refit < 0 or args.ensemble < 0:
+        parser.error("--refit and --ensemble take a whole number of 1 or more")
+    REFIT, ENSEMBLE = args.refit, args.ensemble
     if args.track_branch:
         track_branch.use_track_branch()
     for setting in args.set:
@@ -614,6 +650,8 @@ def main() -> None:
         + (", and only in `outer_cover.py`'s spins (`edge_cover.py`)" if args.in_spins else "")
         + "".join(f", `{setting}`" for setting in args.set)
         + (", taught on the product's own map" if args.taught_on_own else "")
+        + (f", the fits from learning stream {args.refit} of the refits" if args.refit else "")
+        + (f", an ensemble of {args.ensemble} networks" if args.ensemble else "")
         + f": {sum(lap['success'] for lap in laps)} of {len(laps)} laps lapped. How the"
         f" {len(failed)} others ended (`hairpin_trace.py`'s `classify`), and whether the rover"
         f" had pivoted {SPIN_PIVOTS} times or more (a full turn is 16) within 0.3 m of the"
