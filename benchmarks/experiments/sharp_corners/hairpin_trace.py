@@ -585,7 +585,7 @@ def main() -> None:
     SHOWN = args.shown
     LOOPS_FROM = args.loops_from
     if args.refit < 0 or args.ensemble < 0:
-        parser.error("--refit and --ensemble take a whole number of 1 or more")
+        parser.error("--refit and --ensemble take 0 (as the study has it) or more")
     REFIT, ENSEMBLE = args.refit, args.ensemble
     if args.track_branch:
         track_branch.use_track_branch()
