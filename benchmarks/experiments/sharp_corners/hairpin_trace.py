@@ -563,6 +563,8 @@ def main() -> None:
         parser.error("--in-spins needs --oracle with --cover-leg or --cover-to")
     if args.edge_mask and not args.edge_cover_track_side:
         parser.error("--edge-mask needs --edge-cover-track-side")
+    if args.refit < 0 or args.ensemble < 0:
+        parser.error("--refit and --ensemble take 0 (as the study has it) or more")
     if args.way_back:
         oracle_visited.maps_made_as(way_back.WayBackMemory)
         if args.side_m is not None:
@@ -584,8 +586,6 @@ def main() -> None:
     TAUGHT_ON_OWN = args.taught_on_own
     SHOWN = args.shown
     LOOPS_FROM = args.loops_from
-    if args.refit < 0 or args.ensemble < 0:
-        parser.error("--refit and --ensemble take 0 (as the study has it) or more")
     REFIT, ENSEMBLE = args.refit, args.ensemble
     if args.track_branch:
         track_branch.use_track_branch()
